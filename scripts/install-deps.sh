@@ -1,0 +1,39 @@
+#!/usr/bin/env bash
+# Installs the Debian packages hfrt needs to build and test. Idempotent and quiet when
+# everything is present; never prompts (CI runs it with no standard input).
+# Usage: scripts/install-deps.sh [--bench]   (--bench adds the optional benchmark peers)
+set -euo pipefail
+
+packages=(
+  build-essential cmake ninja-build pkg-config
+  llvm-19-dev
+  libcli11-dev
+  libopenimageio-dev openimageio-tools libopencv-core-dev
+  libgtest-dev libgmock-dev
+  libboost-dev
+  libtbb-dev
+  libedit-dev
+  libbenchmark-dev
+  libassimp-dev
+  zlib1g-dev libzstd-dev
+)
+if [[ "${1:-}" == "--bench" ]]; then
+  packages+=(povray)
+fi
+
+missing=()
+for p in "${packages[@]}"; do
+  if ! dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed"; then
+    missing+=("$p")
+  fi
+done
+[[ ${#missing[@]} -eq 0 ]] && exit 0
+
+echo "install-deps: installing ${missing[*]}" >&2
+SUDO=""
+if [[ $(id -u) -ne 0 ]]; then
+  SUDO="sudo"
+fi
+export DEBIAN_FRONTEND=noninteractive
+$SUDO apt-get update -qq
+$SUDO apt-get install -y -qq --no-install-recommends "${missing[@]}" >/dev/null

@@ -1,0 +1,42 @@
+#pragma once
+// The HyperFun FRep library (../shared/spec/library.md), written once as IR-building code, so
+// every evaluator (interpreter, scalar JIT, interval, gradient, polynomial) gets every function.
+
+#include <span>
+
+#include "jit/ir.h"
+#include "lang/diagnostics.h"
+#include "lang/library_table.h"
+
+namespace hfrt::stdlib {
+
+/// One argument of a library call, as the lowering hands it over.
+struct LibArg {
+  bool is_array = false;
+  jit::ValueId value = jit::kNoValue;  ///< real argument, already evaluated
+  int base_slot = -1;                  ///< array argument: slots base_slot .. base_slot+size-1
+  int size = 0;                        ///< array argument: its declared size
+  lang::SourceRange range;             ///< the argument's text, for warnings
+};
+
+/// Per-compilation state shared by the calls of one model (e.g. which Perlin table each
+/// noise function owns: the original builds them from one random stream in first-call order).
+struct LibState {
+  int perlin_table_noisep = -1;
+  int perlin_table_turbulence = -1;
+  int perlin_tables_built = 0;
+};
+
+struct LibContext {
+  jit::IrBuilder& b;
+  lang::DiagnosticSink* diags = nullptr;  ///< located warnings (array size mismatches); may be null
+  lang::SourceRange call_range;
+  LibState& state;
+};
+
+/// Emits the IR of one library call and returns its value. Array arguments are read and
+/// written through their slots (transformations write the moved point back, attribute
+/// functions write s). Arity and argument kinds were checked by the front end.
+jit::ValueId lower_library_call(lang::LibraryFn fn, LibContext& ctx, std::span<const LibArg> args);
+
+}  // namespace hfrt::stdlib

@@ -1,0 +1,22 @@
+#pragma once
+// Each subcommand registers itself on the CLI11 app and returns the exit code through `run`.
+
+#include <functional>
+
+namespace CLI {
+class App;
+}
+
+namespace hfrt::tools {
+
+/// A registered subcommand: `run` is called when the user picked it and returns the exit code.
+using CommandRunner = std::function<int()>;
+
+CommandRunner register_check(CLI::App& app);
+CommandRunner register_ir(CLI::App& app);
+CommandRunner register_eval(CLI::App& app);
+
+/// True when the stream is a terminal and colour is not disabled (NO_COLOR, TERM=dumb).
+bool use_color(int fd);
+
+}  // namespace hfrt::tools

@@ -1,0 +1,40 @@
+// hfrt — compile and render HyperFun models.
+#include <unistd.h>
+
+#include <CLI/CLI.hpp>
+#include <cstdlib>
+#include <utility>
+#include <vector>
+
+#include "tools/hfrt/commands.h"
+
+namespace hfrt::tools {
+
+bool use_color(int fd) {
+  if (std::getenv("NO_COLOR")) return false;
+  const char* term = std::getenv("TERM");
+  if (term && std::string(term) == "dumb") return false;
+  return isatty(fd);
+}
+
+}  // namespace hfrt::tools
+
+int main(int argc, char** argv) {
+  CLI::App app{"hfrt: a compiler and ray tracer for the HyperFun FRep modelling language"};
+  app.require_subcommand(1);
+  std::vector<std::pair<CLI::App*, hfrt::tools::CommandRunner>> commands;
+  auto add = [&](hfrt::tools::CommandRunner (*reg)(CLI::App&)) {
+    size_t before = app.get_subcommands({}).size();
+    auto runner = reg(app);
+    auto subs = app.get_subcommands({});
+    if (subs.size() > before) commands.emplace_back(subs.back(), std::move(runner));
+  };
+  add(hfrt::tools::register_check);
+  add(hfrt::tools::register_ir);
+  add(hfrt::tools::register_eval);
+  CLI11_PARSE(app, argc, argv);
+  for (auto& [sub, run] : commands) {
+    if (sub->parsed()) return run();
+  }
+  return 2;
+}
