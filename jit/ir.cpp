@@ -1,1 +1,289 @@
-// Placeholder: implemented by the jit/ work.
+// The IR's op table, verifier and printer (see ir.h, ir_ops.h).
+#include "jit/ir.h"
+
+#include <array>
+#include <cmath>
+#include <cstdio>
+#include <sstream>
+
+namespace hfrt::jit {
+
+namespace {
+
+using namespace op_flags;
+
+struct OpInfo {
+  std::string_view camel;  // as written in the X-macro, e.g. "LoadSlot"
+  int num_args;
+  unsigned flags;
+};
+
+constexpr std::array<OpInfo, kOpCount> kOpInfo = {{
+#define HFRT_X(name, n, f) {#name, n, f},
+    HFRT_IR_OPS(HFRT_X)
+#undef HFRT_X
+}};
+
+constexpr std::array<std::string_view, 0
+#define HFRT_X(name, msg) +1
+                                           HFRT_IR_ERRORS(HFRT_X)
+#undef HFRT_X
+                                       >
+    kErrorMessages = {{
+#define HFRT_X(name, msg) msg,
+        HFRT_IR_ERRORS(HFRT_X)
+#undef HFRT_X
+    }};
+
+constexpr std::array<std::string_view, kErrorMessages.size()> kErrorNames = {{
+#define HFRT_X(name, msg) #name,
+    HFRT_IR_ERRORS(HFRT_X)
+#undef HFRT_X
+}};
+
+// snake_case names for the printer, derived once from the X-macro spelling so that the op
+// list stays the only place an op is named ("LoadSlot" -> "load_slot", "PowHF" -> "pow_hf").
+const std::array<std::string, kOpCount>& snake_names() {
+  static const std::array<std::string, kOpCount> names = [] {
+    std::array<std::string, kOpCount> out;
+    for (int i = 0; i < kOpCount; ++i) {
+      std::string_view camel = kOpInfo[i].camel;
+      std::string s;
+      for (size_t j = 0; j < camel.size(); ++j) {
+        char c = camel[j];
+        bool upper = c >= 'A' && c <= 'Z';
+        if (upper && j > 0 && camel[j - 1] >= 'a' && camel[j - 1] <= 'z') s += '_';
+        s += upper ? static_cast<char>(c - 'A' + 'a') : c;
+      }
+      out[i] = std::move(s);
+    }
+    return out;
+  }();
+  return names;
+}
+
+std::string format_double(double v) {
+  char buf[64];
+  std::snprintf(buf, sizeof buf, "%.17g", v);
+  return buf;
+}
+
+}  // namespace
+
+std::string_view op_name(Op op) { return snake_names()[static_cast<int>(op)]; }
+int op_num_args(Op op) { return kOpInfo[static_cast<int>(op)].num_args; }
+unsigned op_flags_of(Op op) { return kOpInfo[static_cast<int>(op)].flags; }
+
+std::string_view error_message(ErrorKind kind) {
+  size_t i = static_cast<size_t>(kind);
+  return i < kErrorMessages.size() ? kErrorMessages[i] : std::string_view("Unknown run-time error");
+}
+
+std::string_view error_kind_name(ErrorKind kind) {
+  size_t i = static_cast<size_t>(kind);
+  return i < kErrorNames.size() ? kErrorNames[i] : std::string_view("Unknown");
+}
+
+int error_kind_count() { return static_cast<int>(kErrorMessages.size()); }
+
+std::string verify(const Function& fn) {
+  std::ostringstream err;
+  auto fail = [&](size_t i, const std::string& what) {
+    err << "instruction %" << i;
+    if (i < fn.insts.size()) err << " (" << op_name(fn.insts[i].op) << ")";
+    err << ": " << what;
+    return err.str();
+  };
+
+  if (fn.num_slots < 0 || fn.num_inputs < 0 || fn.num_params < 0) return "negative size in function header";
+  if (fn.slot_init.size() != static_cast<size_t>(fn.num_slots)) {
+    return "slot_init has " + std::to_string(fn.slot_init.size()) + " entries for " +
+           std::to_string(fn.num_slots) + " slots";
+  }
+  for (int32_t s : fn.s_slots) {
+    if (s < 0 || s >= fn.num_slots) return "s slot " + std::to_string(s) + " out of range";
+  }
+
+  // Regions: 0 is the function body; every kIf/kElse/kLoop opens one. A value may be used
+  // while the region that defined it is still open (it then encloses the use).
+  struct Open {
+    int region;
+    Op kind;             // kIf (then-part), kElse, kLoop
+    bool seen_test = false;
+  };
+  std::vector<Open> stack = {{0, Op::kLoop, true}};
+  std::vector<bool> region_open = {true};
+  std::vector<int> region_of(fn.insts.size(), 0);
+  bool control_flow = false;
+
+  for (size_t i = 0; i < fn.insts.size(); ++i) {
+    const Inst& in = fn.insts[i];
+    if (static_cast<int>(in.op) >= kOpCount) return fail(i, "unknown op");
+    const int n = op_num_args(in.op);
+    for (int k = 0; k < 3; ++k) {
+      ValueId a = in.args[k];
+      if (k >= n) {
+        if (a != kNoValue) return fail(i, "unused argument " + std::to_string(k) + " is set");
+        continue;
+      }
+      if (a == kNoValue) return fail(i, "missing argument " + std::to_string(k));
+      if (a >= i) return fail(i, "argument %" + std::to_string(a) + " is not defined before use");
+      if (!op_has_value(fn.insts[a].op)) {
+        return fail(i, "argument %" + std::to_string(a) + " is not a value");
+      }
+      if (!region_open[region_of[a]]) {
+        return fail(i, "argument %" + std::to_string(a) + " is used outside the region that defines it");
+      }
+    }
+    region_of[i] = stack.back().region;
+
+    auto check_slot = [&](int32_t s) { return s >= 0 && s < fn.num_slots; };
+    switch (in.op) {
+      case Op::kInput:
+        if (in.aux < 0 || in.aux >= fn.num_inputs) return fail(i, "input index out of range");
+        break;
+      case Op::kParam:
+        if (in.aux < 0 || in.aux >= fn.num_params) return fail(i, "param index out of range");
+        break;
+      case Op::kLoadSlot:
+      case Op::kStoreSlot:
+        if (!check_slot(in.aux)) return fail(i, "slot " + std::to_string(in.aux) + " out of range");
+        break;
+      case Op::kLoadIdx:
+      case Op::kStoreIdx: {
+        double size = in.imm;
+        if (!(size >= 1) || size != std::floor(size) || !check_slot(in.aux) ||
+            in.aux + size > fn.num_slots) {
+          return fail(i, "indexed array [" + std::to_string(in.aux) + ", +" + format_double(size) +
+                             ") out of the slot range");
+        }
+        break;
+      }
+      case Op::kTableLoad:
+        if (in.aux < 0 || in.aux >= static_cast<int32_t>(fn.tables.size()) || fn.tables[in.aux].empty()) {
+          return fail(i, "table " + std::to_string(in.aux) + " does not exist");
+        }
+        break;
+      case Op::kCheck:
+        if (in.aux < 0 || in.aux >= error_kind_count()) return fail(i, "unknown error kind");
+        break;
+      case Op::kIf: {
+        control_flow = true;
+        int r = static_cast<int>(region_open.size());
+        region_open.push_back(true);
+        stack.push_back({r, Op::kIf});
+        break;
+      }
+      case Op::kElse: {
+        if (stack.size() < 2 || stack.back().kind != Op::kIf) return fail(i, "else without if");
+        region_open[stack.back().region] = false;
+        int r = static_cast<int>(region_open.size());
+        region_open.push_back(true);
+        stack.back() = {r, Op::kElse};
+        break;
+      }
+      case Op::kEndIf:
+        if (stack.size() < 2 || (stack.back().kind != Op::kIf && stack.back().kind != Op::kElse)) {
+          return fail(i, "endif without if");
+        }
+        region_open[stack.back().region] = false;
+        stack.pop_back();
+        break;
+      case Op::kLoop: {
+        control_flow = true;
+        int r = static_cast<int>(region_open.size());
+        region_open.push_back(true);
+        stack.push_back({r, Op::kLoop});
+        region_of[i] = stack[stack.size() - 2].region;
+        break;
+      }
+      case Op::kLoopTest:
+        if (stack.size() < 2 || stack.back().kind != Op::kLoop) {
+          return fail(i, "loop_test not directly inside a loop");
+        }
+        if (stack.back().seen_test) return fail(i, "second loop_test in one loop");
+        stack.back().seen_test = true;
+        break;
+      case Op::kEndLoop:
+        if (stack.size() < 2 || stack.back().kind != Op::kLoop) return fail(i, "endloop without loop");
+        if (!stack.back().seen_test) return fail(i, "loop without loop_test");
+        region_open[stack.back().region] = false;
+        stack.pop_back();
+        break;
+      default:
+        break;
+    }
+    // The markers that close a region belong to the enclosing one.
+    if (in.op == Op::kEndIf || in.op == Op::kEndLoop) region_of[i] = stack.back().region;
+  }
+  if (stack.size() != 1) return "unterminated if or loop at the end of the function";
+  if (fn.result == kNoValue) return "no result";
+  if (fn.result >= fn.insts.size()) return "result %" + std::to_string(fn.result) + " does not exist";
+  if (!op_has_value(fn.insts[fn.result].op)) return "result is not a value";
+  if (region_of[fn.result] != 0) return "result is not defined at the outermost level";
+  if (fn.has_control_flow != control_flow) return "has_control_flow does not match the instructions";
+  return {};
+}
+
+std::string print(const Function& fn) {
+  std::ostringstream out;
+  out << "function " << (fn.name.empty() ? "<anonymous>" : fn.name) << "(x[" << fn.num_inputs
+      << "], a[" << fn.num_params << "]) slots=" << fn.num_slots;
+  if (!fn.s_slots.empty()) {
+    out << " s=[";
+    for (size_t i = 0; i < fn.s_slots.size(); ++i) out << (i ? ", $" : "$") << fn.s_slots[i];
+    out << "]";
+  }
+  out << "\n";
+  // Slot initial values other than "undefined" (NaN), compactly.
+  bool any_init = false;
+  for (int s = 0; s < fn.num_slots && s < static_cast<int>(fn.slot_init.size()); ++s) {
+    if (std::isnan(fn.slot_init[s])) continue;
+    out << (any_init ? ", " : "  init ") << "$" << s << "=" << format_double(fn.slot_init[s]);
+    any_init = true;
+  }
+  if (any_init) out << "\n";
+  for (size_t t = 0; t < fn.tables.size(); ++t) {
+    out << "  table T" << t << " [" << fn.tables[t].size() << " entries]\n";
+  }
+
+  int depth = 1;
+  for (size_t i = 0; i < fn.insts.size(); ++i) {
+    const Inst& in = fn.insts[i];
+    if (in.op == Op::kElse || in.op == Op::kEndIf || in.op == Op::kEndLoop) depth = std::max(1, depth - 1);
+    std::string line(static_cast<size_t>(depth) * 2, ' ');
+    if (op_has_value(in.op)) line += "%" + std::to_string(i) + " = ";
+    line += op_name(in.op);
+    auto arg = [&](int k) { return "%" + (in.args[k] == kNoValue ? std::string("?") : std::to_string(in.args[k])); };
+    switch (in.op) {
+      case Op::kConst: line += " " + format_double(in.imm); break;
+      case Op::kInput: line += " x[" + std::to_string(in.aux + 1) + "]"; break;
+      case Op::kParam: line += " a[" + std::to_string(in.aux + 1) + "]"; break;
+      case Op::kLoadSlot: line += " $" + std::to_string(in.aux); break;
+      case Op::kStoreSlot: line += " $" + std::to_string(in.aux) + ", " + arg(0); break;
+      case Op::kLoadIdx:
+        line += " $" + std::to_string(in.aux) + "[" + format_double(in.imm) + "], " + arg(0);
+        break;
+      case Op::kStoreIdx:
+        line += " $" + std::to_string(in.aux) + "[" + format_double(in.imm) + "], " + arg(0) + ", " + arg(1);
+        break;
+      case Op::kTableLoad: line += " T" + std::to_string(in.aux) + ", " + arg(0); break;
+      case Op::kCheck:
+        line += " " + arg(0) + ", " + std::string(error_kind_name(static_cast<ErrorKind>(in.aux)));
+        break;
+      default:
+        for (int k = 0; k < op_num_args(in.op); ++k) line += (k ? ", " : " ") + arg(k);
+        break;
+    }
+    if (in.loc.valid()) {
+      if (line.size() < 40) line.resize(40, ' ');
+      line += "  ; " + std::to_string(in.loc.line) + ":" + std::to_string(in.loc.col);
+    }
+    out << line << "\n";
+    if (in.op == Op::kIf || in.op == Op::kElse || in.op == Op::kLoop) ++depth;
+  }
+  out << "  return %" << (fn.result == kNoValue ? std::string("?") : std::to_string(fn.result)) << "\n";
+  return out.str();
+}
+
+}  // namespace hfrt::jit

@@ -44,6 +44,10 @@ unsigned op_flags_of(Op op);
 inline bool op_is_pure(Op op) { return op_flags_of(op) & op_flags::kPure; }
 inline bool op_has_value(Op op) { return op_flags_of(op) & op_flags::kValue; }
 std::string_view error_message(ErrorKind kind);
+/// The enum spelling without the k, e.g. "DivisionByZero" (printer, tests, tools).
+std::string_view error_kind_name(ErrorKind kind);
+/// Number of ErrorKind values.
+int error_kind_count();
 
 /// A value is the index of the instruction that defines it.
 using ValueId = uint32_t;

@@ -1,1 +1,21 @@
-// Placeholder: implemented by the lang/ work.
+// Program-level queries on the AST.
+#include "lang/ast.h"
+
+#include "lang/names.h"
+
+namespace hfrt::lang {
+
+int Program::default_object() const {
+  if (objects.empty()) return -1;
+  int model = find_object("my_model");
+  return model >= 0 ? model : 0;
+}
+
+int Program::find_object(std::string_view name) const {
+  for (size_t i = 0; i < objects.size(); ++i) {
+    if (same_name(objects[i].name, name)) return static_cast<int>(i);
+  }
+  return -1;
+}
+
+}  // namespace hfrt::lang

@@ -114,6 +114,9 @@ struct Object {
   std::vector<StmtPtr> body;         ///< statements before the model assignment
   ExprPtr result;                    ///< the right side of the final `name = expr;`
   SourceRange result_range;          ///< the final assignment statement
+  /// Set by the parser when this object's text had syntax errors: its AST is a partial
+  /// recovery, so the semantic checks skip its body (they would only report follow-ups).
+  bool had_syntax_errors = false;
 };
 
 /// A parsed file. Keeps its source alive so that every SourceRange stays meaningful.

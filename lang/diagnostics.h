@@ -26,6 +26,9 @@ struct Diagnostic {
 class DiagnosticSink {
  public:
   static constexpr int kMaxErrors = 20;
+  /// Warnings beyond this many are dropped silently (a generated file can repeat one
+  /// warning thousands of times; the first ones say all there is to say).
+  static constexpr int kMaxWarnings = 100;
 
   explicit DiagnosticSink(std::shared_ptr<const SourceFile> file) : file_(std::move(file)) {}
 
@@ -35,6 +38,7 @@ class DiagnosticSink {
 
   bool has_errors() const { return error_count_ > 0; }
   int error_count() const { return error_count_; }
+  int warning_count() const { return warning_count_; }
   /// True once the error limit is reached: the parser uses it to stop early.
   bool saturated() const { return error_count_ >= kMaxErrors; }
   const std::vector<Diagnostic>& diagnostics() const { return diags_; }
@@ -48,6 +52,7 @@ class DiagnosticSink {
   std::shared_ptr<const SourceFile> file_;
   std::vector<Diagnostic> diags_;
   int error_count_ = 0;
+  int warning_count_ = 0;
   bool truncated_ = false;
 };
 

@@ -22,9 +22,14 @@ struct LibArg {
 /// Per-compilation state shared by the calls of one model (e.g. which Perlin table each
 /// noise function owns: the original builds them from one random stream in first-call order).
 struct LibState {
-  int perlin_table_noisep = -1;
-  int perlin_table_turbulence = -1;
-  int perlin_tables_built = 0;
+  int perlin_table_noisep = -1;      ///< Function::tables id of hfA_NoiseP's table (-1: none yet)
+  int perlin_table_turbulence = -1;  ///< same for hfA_Turbulence
+  int perlin_tables_built = 0;       ///< how many 1791-number blocks of the stream are taken
+  /// Which block of the shared rand() stream each function's table comes from (-1: not yet
+  /// called). Kept apart from the table ids so that one LibState may serve several Functions:
+  /// a Function that lacks the table gets it re-added with the same content.
+  int perlin_block_noisep = -1;
+  int perlin_block_turbulence = -1;
 };
 
 struct LibContext {

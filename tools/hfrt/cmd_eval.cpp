@@ -1,6 +1,241 @@
-// Placeholder: the `hfrt eval` subcommand is implemented by its issue.
+// `hfrt eval MODEL.hf [--object NAME] [-a v1,v2,...] [--backend jit|interp]
+//                     [--precision f64|f32] [--stats]`
+//
+// Reads points from stdin, one per line: whitespace-separated coordinates x[1] x[2] ...
+// (missing ones are 0, extra ones ignored; blank lines and lines starting with '#' are
+// skipped). Prints one line per point: F with 17 significant digits (%.17g), then the s[]
+// values, space-separated. A point without a value (a run-time error) prints `nan` and the
+// message of the first error with its location, e.g. `nan Division by zero (line 3 pos 14)`.
+//
+// Both backends print the same text: the JIT evaluates the points in blocks of kBlock
+// (vectorised), and each point whose F is NaN is evaluated again by the reference
+// interpreter, which knows which error happened and where.
+//
+// Exit codes: 0 = done, 1 = the model has compile errors (diagnostics on stderr),
+// 2 = usage or environment error (unreadable file, malformed input, JIT failure).
+
+#include <unistd.h>
+
+#include <CLI/CLI.hpp>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <cstring>
+#include <iostream>
+#include <iterator>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "hfrt/model.h"
 #include "tools/hfrt/commands.h"
 
 namespace hfrt::tools {
-CommandRunner register_eval(CLI::App&) { return [] { return 2; }; }
+namespace {
+
+constexpr size_t kBlock = 4096;  ///< points per JIT batch call
+
+struct EvalOptions {
+  std::string file;
+  std::string object;
+  std::string params;
+  std::string backend = "jit";
+  std::string precision = "f64";
+  int opt_level = 2;
+  bool stats = false;
+};
+
+double ms_since(std::chrono::steady_clock::time_point t0) {
+  return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+}
+
+void append_number(std::string& out, double v) {
+  if (std::isnan(v)) {
+    out += "nan";  // never "-nan"
+    return;
+  }
+  char buf[32];
+  std::snprintf(buf, sizeof buf, "%.17g", v);
+  out += buf;
+}
+
+/// Parses "v1,v2,..." into doubles; false on a malformed list.
+bool parse_params(const std::string& text, std::vector<double>* out) {
+  if (text.empty()) return true;
+  size_t pos = 0;
+  while (pos <= text.size()) {
+    size_t comma = text.find(',', pos);
+    std::string item = text.substr(pos, comma == std::string::npos ? std::string::npos : comma - pos);
+    char* end = nullptr;
+    double v = std::strtod(item.c_str(), &end);
+    if (item.empty() || *end != '\0') return false;
+    out->push_back(v);
+    if (comma == std::string::npos) break;
+    pos = comma + 1;
+  }
+  return true;
+}
+
+/// Reads stdin points as rows of `dims` coordinates. On malformed input, prints the line
+/// and returns false.
+bool read_points(int dims, std::vector<double>* rows, size_t* count) {
+  std::string text((std::istreambuf_iterator<char>(std::cin)), std::istreambuf_iterator<char>());
+  size_t line_no = 0, pos = 0;
+  *count = 0;
+  while (pos < text.size()) {
+    size_t eol = text.find('\n', pos);
+    if (eol == std::string::npos) eol = text.size();
+    std::string line = text.substr(pos, eol - pos);
+    pos = eol + 1;
+    ++line_no;
+    size_t first = line.find_first_not_of(" \t\r");
+    if (first == std::string::npos || line[first] == '#') continue;
+    std::vector<double> p(static_cast<size_t>(dims), 0.0);
+    const char* c = line.c_str();
+    for (int k = 0;; ++k) {
+      while (*c == ' ' || *c == '\t' || *c == '\r') ++c;
+      if (!*c) break;
+      char* end = nullptr;
+      double v = std::strtod(c, &end);
+      if (end == c || (*end && *end != ' ' && *end != '\t' && *end != '\r')) {
+        std::fprintf(stderr, "hfrt: stdin line %zu: cannot read '%s' as a number\n", line_no,
+                     std::string(c, std::strcspn(c, " \t\r")).c_str());
+        return false;
+      }
+      if (k < dims) p[k] = v;
+      c = end;
+    }
+    rows->insert(rows->end(), p.begin(), p.end());
+    ++*count;
+  }
+  return true;
+}
+
+int run_eval(const EvalOptions& opts) {
+  ModelOptions mo;
+  mo.object = opts.object;
+  mo.backend = opts.backend == "interp" ? Backend::kInterp : Backend::kJit;
+  mo.opt_level = opts.opt_level;
+  const bool f32 = opts.precision == "f32";
+  mo.eager_f64 = !f32;
+  mo.eager_f32 = f32;
+  std::vector<double> params;
+  if (!parse_params(opts.params, &params)) {
+    std::fprintf(stderr, "hfrt: -a expects numbers separated by commas, e.g. -a 1,0.5 (got '%s')\n",
+                 opts.params.c_str());
+    return 2;
+  }
+
+  auto t0 = std::chrono::steady_clock::now();
+  CompileResult compiled = Model::compile_file(opts.file, mo);
+  const double compile_ms = ms_since(t0);
+  if (!compiled.error.empty()) {
+    std::fprintf(stderr, "hfrt: %s\n", compiled.error.c_str());
+    return 2;
+  }
+  std::fputs(compiled.rendered.c_str(), stderr);
+  if (!compiled.ok()) return 1;
+  Model& model = *compiled.model;
+  model.set_params(params);
+
+  const int dims = model.num_inputs();
+  const int ns = model.num_attributes();
+  std::vector<double> rows;
+  size_t n = 0;
+  if (!read_points(dims, &rows, &n)) return 2;
+
+  t0 = std::chrono::steady_clock::now();
+  std::string out;
+  std::vector<double> xs, f, s;
+  std::vector<float> xs32, f32v, s32;
+  for (size_t start = 0; start < n; start += kBlock) {
+    const size_t m = std::min(kBlock, n - start);
+    f.assign(m, 0.0);
+    s.assign(m * ns, 0.0);
+    if (f32) {
+      xs32.assign(m * dims, 0.0f);
+      for (size_t i = 0; i < m; ++i) {
+        for (int k = 0; k < dims; ++k) xs32[k * m + i] = static_cast<float>(rows[(start + i) * dims + k]);
+      }
+      f32v.assign(m, 0.0f);
+      s32.assign(m * ns, 0.0f);
+      model.eval_batch(static_cast<int64_t>(m), xs32.data(), f32v.data(), ns ? s32.data() : nullptr);
+      for (size_t i = 0; i < m; ++i) f[i] = f32v[i];
+      for (size_t i = 0; i < m * ns; ++i) s[i] = s32[i];
+    } else {
+      xs.assign(m * dims, 0.0);
+      for (size_t i = 0; i < m; ++i) {
+        for (int k = 0; k < dims; ++k) xs[k * m + i] = rows[(start + i) * dims + k];
+      }
+      model.eval_batch(static_cast<int64_t>(m), xs.data(), f.data(), ns ? s.data() : nullptr);
+    }
+    for (size_t i = 0; i < m; ++i) {
+      if (std::isnan(f[i])) {
+        // Explain the NaN: the interpreter knows the first run-time error and its place.
+        PointValue pv = model.eval(std::span<const double>(&rows[(start + i) * dims], dims));
+        if (!pv.ok()) {
+          out += "nan ";
+          out += pv.error;
+          if (pv.error_line > 0) {
+            out += " (line " + std::to_string(pv.error_line) + " pos " +
+                   std::to_string(pv.error_col) + ")";
+          }
+          out += '\n';
+          continue;
+        }
+      }
+      append_number(out, f[i]);
+      for (int k = 0; k < ns; ++k) {
+        out += ' ';
+        append_number(out, s[k * m + i]);
+      }
+      out += '\n';
+    }
+    std::fwrite(out.data(), 1, out.size(), stdout);
+    out.clear();
+  }
+  std::fflush(stdout);
+  const double eval_ms = ms_since(t0);
+
+  if (opts.stats) {
+    ModelStats st = model.stats();
+    std::fprintf(stderr, "stats: object %s, %d IR instructions, backend %s, precision %s\n",
+                 model.object_name().c_str(), st.ir_insts, opts.backend.c_str(),
+                 opts.precision.c_str());
+    std::fprintf(stderr, "stats: compile %.3f ms (front end %.3f ms, lowering %.3f ms)\n",
+                 compile_ms, st.frontend_ms, st.lower_ms);
+    for (const ModelStats::Jit* j : {&st.jit_f64, &st.jit_f32}) {
+      if (!j->compiled) continue;
+      std::fprintf(stderr,
+                   "stats: jit %s: %d lanes, emit %.3f ms, optimise %.3f ms, codegen %.3f ms, "
+                   "LLVM instructions %zu -> %zu\n",
+                   j == &st.jit_f64 ? "f64" : "f32", j->lanes, j->emit_ms, j->optimize_ms,
+                   j->codegen_ms, j->llvm_insts_before, j->llvm_insts_after);
+    }
+    std::fprintf(stderr, "stats: evaluated %zu points in %.3f ms (%.1f ns/point, incl. output)\n", n,
+                 eval_ms, n ? eval_ms * 1e6 / static_cast<double>(n) : 0.0);
+  }
+  return 0;
+}
+
+}  // namespace
+
+CommandRunner register_eval(CLI::App& app) {
+  auto opts = std::make_shared<EvalOptions>();
+  CLI::App* sub = app.add_subcommand(
+      "eval", "Evaluate a model at points read from stdin (one per line: x1 x2 x3 ...)");
+  sub->add_option("model", opts->file, "HyperFun model file")->required();
+  sub->add_option("--object", opts->object, "object to evaluate (default: my_model or the first)");
+  sub->add_option("-a", opts->params, "parameter values a[1],a[2],... separated by commas");
+  sub->add_option("--backend", opts->backend, "evaluator: jit (default) or interp")
+      ->check(CLI::IsMember({"jit", "interp"}));
+  sub->add_option("--precision", opts->precision, "f64 (default) or f32")
+      ->check(CLI::IsMember({"f64", "f32"}));
+  sub->add_option("-O,--opt-level", opts->opt_level, "LLVM optimisation level 0..3 (default 2)")
+      ->check(CLI::Range(0, 3));
+  sub->add_flag("--stats", opts->stats, "print compile and evaluation times on stderr");
+  return [opts] { return run_eval(*opts); };
+}
+
 }  // namespace hfrt::tools

@@ -15,6 +15,8 @@ using CommandRunner = std::function<int()>;
 CommandRunner register_check(CLI::App& app);
 CommandRunner register_ir(CLI::App& app);
 CommandRunner register_eval(CLI::App& app);
+CommandRunner register_render(CLI::App& app);
+CommandRunner register_slice(CLI::App& app);
 
 /// True when the stream is a terminal and colour is not disabled (NO_COLOR, TERM=dumb).
 bool use_color(int fd);

@@ -32,6 +32,8 @@ int main(int argc, char** argv) {
   add(hfrt::tools::register_check);
   add(hfrt::tools::register_ir);
   add(hfrt::tools::register_eval);
+  add(hfrt::tools::register_render);
+  add(hfrt::tools::register_slice);
   CLI11_PARSE(app, argc, argv);
   for (auto& [sub, run] : commands) {
     if (sub->parsed()) return run();

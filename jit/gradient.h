@@ -1,0 +1,59 @@
+#pragma once
+// The gradient domain: forward-mode automatic differentiation of F with respect to
+// x[1], x[2], x[3]. Each value is a dual number (value and three partial derivatives); the
+// value part is bit-for-bit what the scalar interpreter computes (scalar_ops.h apply_op), the
+// derivative parts are exact derivatives (chain rule), not finite differences.
+//
+// Where an op is not differentiable the derivative is the one-sided derivative of the branch
+// the scalar code takes: abs (x < 0 ? -x : x), min/max (the chosen operand), floor/ceil/
+// trunc/round/sign and comparisons (0), fmod (d a - q d b, q the integral quotient), kSelect
+// and branches (the dual of the branch taken). Slots carry duals. A derivative component
+// whose input component is exactly 0 stays 0 (so sqrt(0 + const) has no NaN partials), and a
+// point where a kCheck fires gets NaN in all four components.
+
+#include <array>
+#include <cstdint>
+#include <span>
+#include <vector>
+
+#include "jit/ir.h"
+
+namespace hfrt::jit {
+
+/// A value and its partial derivatives d/dx[1], d/dx[2], d/dx[3].
+struct Dual {
+  double v = 0;
+  double d[3] = {0, 0, 0};
+
+  static Dual constant(double v) { return {v, {0, 0, 0}}; }
+};
+
+/// The dual extension of one pure op with arguments (the ops apply_op accepts).
+Dual apply_dual(Op op, const Dual& a, const Dual& b, const Dual& c);
+
+/// Iteration limit of while loops in the gradient interpreter (a point that exceeds it gets
+/// NaN, like the LoopLimit error of the scalar interpreter).
+inline constexpr int64_t kGradientLoopLimit = 100000000;
+
+/// Evaluates F and its gradient at points, in double precision, interpreting the IR.
+/// Owns its scratch memory: one per thread. The Function must outlive it.
+class GradientInterpreter {
+ public:
+  explicit GradientInterpreter(const Function& fn, int64_t loop_limit = kGradientLoopLimit);
+
+  /// F and dF/dx[1..3] at the point x (missing coordinates are 0), parameters a.
+  Dual eval(std::span<const double> x, std::span<const double> a);
+
+  /// True when a kCheck fired during the last eval (the result is then NaN).
+  bool error() const { return error_; }
+
+ private:
+  const Function& fn_;
+  int64_t loop_limit_;
+  std::vector<int32_t> match_;
+  std::vector<Dual> values_;
+  std::vector<Dual> slots_;
+  bool error_ = false;
+};
+
+}  // namespace hfrt::jit

@@ -1,0 +1,150 @@
+#pragma once
+// hfrt's embedding API: compile HyperFun source to a Model and evaluate it, one point or a
+// batch, in double or single precision, with the LLVM JIT or the reference interpreter.
+//
+//   auto compiled = hfrt::Model::compile(source);
+//   if (!compiled.ok()) { std::cerr << compiled.rendered; return 1; }
+//   hfrt::Model& model = *compiled.model;
+//   hfrt::PointValue v = model.eval({1.0, 2.0, 3.0});   // v.f, v.s, v.error
+//
+// Self-contained: only the standard library here (no LLVM, no hfrt internals), so an
+// embedder needs nothing but this header and the hfrt::jit library.
+
+#include <cstdint>
+#include <memory>
+#include <optional>
+#include <span>
+#include <string>
+#include <string_view>
+#include <vector>
+
+namespace hfrt {
+
+/// Which evaluator runs the model. Both give the same f64 values (the interpreter is the
+/// reference); the JIT is vectorised machine code, the interpreter can explain errors.
+enum class Backend { kJit, kInterp };
+
+enum class Precision { kF64, kF32 };
+
+struct ModelOptions {
+  std::string object;             ///< object to evaluate; empty: `my_model`, else the first
+  Backend backend = Backend::kJit;
+  int opt_level = 2;              ///< LLVM pipeline O0..O3 (JIT backend)
+  /// Precisions the JIT compiles inside compile(); the others compile on first use.
+  bool eager_f64 = true;
+  bool eager_f32 = false;
+};
+
+/// One compile-time diagnostic (error, warning or note), located in the source.
+struct SourceDiagnostic {
+  enum class Severity { kError, kWarning, kNote };
+  Severity severity = Severity::kError;
+  std::string file;
+  int line = 0;  ///< 1-based; 0 when the diagnostic has no location
+  int col = 0;   ///< 1-based byte column
+  int length = 0;
+  std::string message;
+  std::string hint;  ///< how to fix it (may be empty)
+};
+
+/// The value at one point. When a run-time error happened (division by zero, ...), `f` and
+/// `s` are NaN and `error` holds the message of the first error with its location.
+struct PointValue {
+  double f = 0;
+  std::vector<double> s;
+  std::string error;  ///< e.g. "Division by zero"; empty when the point has a value
+  int error_line = 0;
+  int error_col = 0;
+  bool ok() const { return error.empty(); }
+};
+
+/// Compile-latency figures, in milliseconds.
+struct ModelStats {
+  double frontend_ms = 0;  ///< parse + semantic checks
+  double lower_ms = 0;     ///< AST -> hfrt IR
+  int ir_insts = 0;
+  struct Jit {
+    bool compiled = false;
+    int lanes = 0;
+    double emit_ms = 0, optimize_ms = 0, codegen_ms = 0;
+    size_t llvm_insts_before = 0, llvm_insts_after = 0;
+  };
+  Jit jit_f64, jit_f32;
+};
+
+struct CompileResult;
+
+/// A compiled HyperFun object. Evaluation is const and thread-safe (many threads may call
+/// eval/eval_batch at once); select_object/set_params are not (call them before sharing).
+class Model {
+ public:
+  /// Compiles source text. `name` is the file name used in diagnostics.
+  static CompileResult compile(std::string_view source, const ModelOptions& options = {},
+                               std::string name = "<input>");
+  /// Reads and compiles a file.
+  static CompileResult compile_file(const std::string& path, const ModelOptions& options = {});
+
+  Model(Model&&) noexcept;
+  Model& operator=(Model&&) noexcept;
+  ~Model();
+
+  /// Names of every object in the file, and the one evaluated.
+  std::vector<std::string> object_names() const;
+  const std::string& object_name() const;
+  /// Switches to another object (re-lowers it and recompiles; the old code is freed).
+  /// Returns false and leaves the model as it was when there is no such object or the JIT
+  /// fails; `error` says why.
+  bool select_object(std::string_view name, std::string* error = nullptr);
+
+  Backend backend() const;
+  int num_inputs() const;      ///< x size of the object's header
+  int num_params() const;      ///< a size
+  int num_attributes() const;  ///< s size (0 without s)
+
+  /// Parameter values a[1..]; missing ones are 0 (the default is all zeros).
+  void set_params(std::vector<double> a);
+  const std::vector<double>& params() const;
+
+  /// Evaluates one point; missing coordinates are 0, extra ones are ignored. With the JIT
+  /// backend a point whose value is NaN because of a run-time error is evaluated again by
+  /// the interpreter to fill `error` with the message and location.
+  PointValue eval(std::span<const double> x) const;
+  PointValue eval(std::initializer_list<double> x) const {
+    return eval(std::span<const double>(x.begin(), x.size()));
+  }
+
+  /// Evaluates n points, structure of arrays: x[k+1] of point i is xs[k*n + i] for
+  /// k < num_inputs(); F goes to out_f[i], s[k+1] to out_s[k*n + i] (out_s may be null).
+  /// Points with a run-time error get NaN (use eval() for the message).
+  void eval_batch(int64_t n, const double* xs, double* out_f, double* out_s = nullptr) const;
+  void eval_batch(int64_t n, const float* xs, float* out_f, float* out_s = nullptr) const;
+
+  /// Compiles the JIT code of a precision now instead of on first use. Returns false (with
+  /// `error`) when the JIT fails; evaluation then falls back to the interpreter.
+  bool prepare(Precision precision, std::string* error = nullptr) const;
+
+  /// The object's hfrt IR as text (`hfrt ir`).
+  std::string ir_text() const;
+  /// The optimised LLVM IR of a precision ("" for the interpreter backend).
+  std::string llvm_ir(Precision precision) const;
+  /// Warnings of the compilation (also in CompileResult::diagnostics).
+  const std::vector<SourceDiagnostic>& warnings() const;
+  ModelStats stats() const;
+
+ private:
+  struct Impl;
+  explicit Model(std::unique_ptr<Impl> impl);
+  std::unique_ptr<Impl> impl_;
+};
+
+/// What Model::compile returns: a model, or the reasons there is none. `diagnostics` also
+/// holds the warnings of a successful compilation.
+struct CompileResult {
+  std::optional<Model> model;
+  std::vector<SourceDiagnostic> diagnostics;
+  std::string rendered;  ///< all diagnostics as text (`file:line:col: error: ...` + source)
+  std::string error;     ///< an environment failure (unreadable file, JIT unavailable), or ""
+  bool ok() const { return model.has_value(); }
+};
+
+}  // namespace hfrt

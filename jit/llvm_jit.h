@@ -1,0 +1,79 @@
+#pragma once
+// The vectorised scalar evaluator: one IR Function compiled by LLVM ORC (LLJIT) into a batch
+// function that evaluates n points W lanes at a time (W = the host's SIMD width). Control
+// flow is vectorised with lane masks, so programs with branches and loops stay SIMD.
+//
+// No LLVM types here (pimpl): only jit/llvm_*.cpp include LLVM headers.
+
+#include <cstdint>
+#include <memory>
+#include <string>
+
+#include "jit/ir.h"
+#include "lang/result.h"
+
+namespace hfrt::jit {
+
+enum class Precision : uint8_t {
+  kF64,  ///< exact conformance with the interpreter (same libm, no fast-math)
+  kF32,  ///< rendering speed (twice the lanes)
+};
+
+/// The batch ABI of compiled code, a noexcept C-ABI leaf (no exceptions, no globals written,
+/// callable from many threads at once). Structure of arrays, point i of n:
+///   x[k+1] = xs[k*n + i] for k < Function::num_inputs,  a[k+1] = a[k] (k < num_params),
+///   F      -> out_f[i],   s[k+1] -> out_s[k*n + i] (out_s may be null).
+/// A point where a run-time error (kCheck) fired gets NaN in out_f and in its s values.
+template <typename T>
+using BatchFn = void (*)(int64_t n, const T* xs, const T* a, T* out_f, T* out_s) noexcept;
+
+struct JitOptions {
+  int opt_level = 2;  ///< new pass manager pipeline O0..O3 (and the codegen level to match)
+  int lanes = 0;      ///< SIMD width in lanes; 0 = the host's (vector bytes / sizeof(T))
+};
+
+/// Compile-latency figures of one JitFunction (`hfrt eval --stats`).
+struct JitStats {
+  double emit_ms = 0;      ///< hfrt IR -> LLVM IR
+  double optimize_ms = 0;  ///< the new-pass-manager pipeline
+  double codegen_ms = 0;   ///< machine code + linking (ORC materialisation on lookup)
+  int lanes = 0;
+  size_t llvm_insts_before = 0;  ///< LLVM instructions before / after optimisation
+  size_t llvm_insts_after = 0;
+  double total_ms() const { return emit_ms + optimize_ms + codegen_ms; }
+};
+
+/// A compiled Function in one precision. Owns its code through a per-function ORC
+/// ResourceTracker and ThreadSafeContext: destroying (or replacing) it frees the code.
+/// Immutable after compile(); the batch function may be called concurrently.
+class JitFunction {
+ public:
+  ~JitFunction();
+  JitFunction(const JitFunction&) = delete;
+  JitFunction& operator=(const JitFunction&) = delete;
+
+  /// Emits, optimises and compiles `fn`. Fails (environment error) only when LLVM cannot
+  /// create the JIT or link the code; `fn` must be verified IR (else HFRT_CHECK).
+  static Result<std::unique_ptr<JitFunction>> compile(const Function& fn, Precision precision,
+                                                      const JitOptions& options = {});
+
+  Precision precision() const;
+  /// The entry point; only the one matching precision() is non-null.
+  BatchFn<double> f64() const;
+  BatchFn<float> f32() const;
+  const JitStats& stats() const;
+  /// The optimised LLVM IR text (for debugging and `hfrt ir --llvm`-style dumps).
+  const std::string& llvm_ir() const;
+
+ private:
+  struct Impl;
+  explicit JitFunction(std::unique_ptr<Impl> impl);
+  std::unique_ptr<Impl> impl_;
+};
+
+/// The host CPU as LLVM sees it (e.g. "znver3"), and the SIMD lanes it gives a precision:
+/// 16 floats / 8 doubles with AVX-512, 8 / 4 with AVX2 or AVX, 4 / 2 otherwise.
+std::string host_cpu_name();
+int host_lanes(Precision precision);
+
+}  // namespace hfrt::jit

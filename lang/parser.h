@@ -1,0 +1,21 @@
+#pragma once
+// Limits of the parser (the entry point is parse_program in lang/frontend.h). They exist so
+// that hostile or generated input cannot exhaust the stack or memory: every recursive walker
+// over the AST (checks, dump, lowering, destruction) relies on the depth bounds below.
+
+#include <cstdint>
+
+namespace hfrt::lang {
+
+/// Deepest nesting of parentheses, calls, unary operators, conditions and if/while blocks.
+/// The recursive-descent parser recurses once per level.
+inline constexpr int kMaxNesting = 256;
+
+/// Deepest expression tree. Left-associative chains (`a+b+c+...`) are built without parser
+/// recursion but still give deep trees; beyond this the parser reports an error.
+inline constexpr int kMaxExprDepth = 1000;
+
+/// Largest array size in a header or an `array` declaration.
+inline constexpr int kMaxArraySize = 1 << 20;
+
+}  // namespace hfrt::lang

@@ -1,0 +1,81 @@
+#pragma once
+// Field: how the renderer sees a model. The renderer never talks to the compiler or the JIT
+// directly; tools/hfrt adapts a compiled hfrt::Model to this interface, and tests implement it
+// analytically (sphere, thin shell, torus). That keeps render/ free of LLVM and of jit/
+// internals, and testable against exact answers.
+//
+// Convention (HyperFun): the solid is F >= 0; F = 0 is the surface; F < 0 is outside. A point
+// where F has no value (NaN: division by ~0, sqrt of a negative, ...) counts as outside.
+
+#include <cstddef>
+#include <string>
+
+#include "render/vec.h"
+
+namespace hfrt::render {
+
+/// A closed interval [lo, hi] of F values. An evaluator that cannot bound F returns NaN ends;
+/// the renderer then treats the region as "unknown" and subdivides it.
+struct Interval {
+  float lo = 0, hi = 0;
+};
+
+/// An axis-aligned box of points (closed).
+struct Box {
+  Vec3 lo, hi;
+
+  Vec3 center() const { return (lo + hi) * 0.5f; }
+  Vec3 size() const { return hi - lo; }
+  float max_extent() const {
+    Vec3 s = size();
+    return std::max(s.x, std::max(s.y, s.z));
+  }
+  bool empty() const { return !(lo.x <= hi.x && lo.y <= hi.y && lo.z <= hi.z); }
+  bool contains(Vec3 p) const {
+    return p.x >= lo.x && p.x <= hi.x && p.y >= lo.y && p.y <= hi.y && p.z >= lo.z && p.z <= hi.z;
+  }
+};
+
+/// Intersection of two boxes (empty() when they do not overlap).
+inline Box intersect(const Box& a, const Box& b) { return {vmax(a.lo, b.lo), vmin(a.hi, b.hi)}; }
+
+/// The model as a function of a 3-D point. Implementations must be thread-safe: the renderer
+/// calls every method concurrently from its worker threads (each call with its own buffers).
+/// All batch methods take structure-of-arrays inputs of `n` points and never fail: a point
+/// without a value yields NaN.
+class Field {
+ public:
+  virtual ~Field() = default;
+
+  /// F at n points.
+  virtual void eval(size_t n, const float* x, const float* y, const float* z,
+                    float* out_f) const = 0;
+
+  /// True when eval_interval() is available and sound (encloses F over the whole box) for
+  /// this model. When false, eval_interval() is never called.
+  virtual bool has_interval() const = 0;
+
+  /// An interval enclosing F over every point of `box`. `*maybe_nan` is set to true when some
+  /// point of the box may have no value (NaN); the renderer treats such points as outside,
+  /// so a box with hi < 0 is empty even then.
+  virtual Interval eval_interval(const Box& box, bool* maybe_nan) const = 0;
+
+  /// F and its gradient at n points. The gradient points into the solid (F grows inside);
+  /// the renderer uses -grad/|grad| as the outward surface normal.
+  virtual void eval_gradient(size_t n, const float* x, const float* y, const float* z,
+                             float* f, float* dx, float* dy, float* dz) const = 0;
+
+  /// How many attributes s[1..k] the model computes (0 when the model has none). When k >= 3,
+  /// s[1..3] are the RGB colour in [0, 1] of the surface point.
+  virtual int num_attributes() const { return 0; }
+
+  /// The attributes at n points, structure of arrays: out_s[i * n + j] is s[i+1] at point j.
+  virtual void eval_attributes(size_t n, const float* x, const float* y, const float* z,
+                               float* out_s) const {}
+
+  /// Why F has no value at `p`, as one line of text (e.g. "division by zero at model.hf:3:7"),
+  /// or "" when unknown. Called once per render, on the first NaN sample, to explain it.
+  virtual std::string explain_nan(Vec3 p) const { return {}; }
+};
+
+}  // namespace hfrt::render

@@ -1,0 +1,164 @@
+#include "render/image.h"
+
+#include <OpenImageIO/imageio.h>
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <memory>
+
+namespace hfrt::render {
+
+namespace {
+
+std::string lower_extension(const std::string& path) {
+  size_t dot = path.find_last_of('.');
+  size_t slash = path.find_last_of('/');
+  if (dot == std::string::npos || (slash != std::string::npos && dot < slash)) return "";
+  std::string ext = path.substr(dot + 1);
+  std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return std::tolower(c); });
+  return ext;
+}
+
+std::string sibling(const std::string& path, const std::string& what) {
+  size_t dot = path.find_last_of('.');
+  size_t slash = path.find_last_of('/');
+  if (dot == std::string::npos || (slash != std::string::npos && dot < slash))
+    return path + "." + what;
+  return path.substr(0, dot) + "." + what + path.substr(dot);
+}
+
+}  // namespace
+
+void Image::resize(int w, int h) {
+  width = w;
+  height = h;
+  size_t n = size_t(w) * size_t(h);
+  rgb.assign(3 * n, 0.0f);
+  alpha.assign(n, 0.0f);
+  depth.assign(n, std::numeric_limits<float>::infinity());
+  normal.assign(3 * n, 0.0f);
+}
+
+float linear_to_srgb(float v) {
+  if (!(v > 0)) return 0;
+  if (v >= 1) return 1;
+  return v <= 0.0031308f ? 12.92f * v : 1.055f * std::pow(v, 1.0f / 2.4f) - 0.055f;
+}
+
+Result<std::vector<std::string>> write_pixels(const std::string& path, int width, int height,
+                                              int channels, const std::vector<float>& data,
+                                              bool encode_srgb,
+                                              const std::vector<std::string>& channel_names) {
+  std::string ext = lower_extension(path);
+  auto out = OIIO::ImageOutput::create(path);
+  if (!out) {
+    return Error{"cannot write '" + path + "': no image format for the extension '." + ext +
+                 "' (use .png, .exr, .tif or .jpg)"};
+  }
+  bool is_float = ext == "exr" || ext == "hdr";
+  bool is_16 = ext == "tif" || ext == "tiff";
+  OIIO::TypeDesc type = is_float ? OIIO::TypeDesc::FLOAT
+                                 : (is_16 ? OIIO::TypeDesc::UINT16 : OIIO::TypeDesc::UINT8);
+  OIIO::ImageSpec spec(width, height, channels, type);
+  if (!channel_names.empty()) spec.channelnames = channel_names;
+  if (is_float) {
+    spec.attribute("oiio:ColorSpace", "Linear");
+  } else if (encode_srgb) {
+    spec.attribute("oiio:ColorSpace", "sRGB");
+  }
+  if (ext == "jpg" || ext == "jpeg") spec.attribute("Compression", "jpeg:95");
+  if (!out->open(path, spec)) {
+    return Error{"cannot write '" + path + "': " + out->geterror()};
+  }
+  std::vector<float> pixels(data.size());
+  for (size_t i = 0; i < data.size(); ++i) {
+    float v = data[i];
+    if (!is_float) {
+      // Integer formats: sRGB-encode colour; clamp everything (OIIO maps [0, 1] to the range).
+      if (encode_srgb && (channels < 4 || int(i % channels) < 3)) v = linear_to_srgb(v);
+      v = std::isfinite(v) ? std::clamp(v, 0.0f, 1.0f) : 0.0f;
+    }
+    pixels[i] = v;
+  }
+  bool ok = out->write_image(OIIO::TypeDesc::FLOAT, pixels.data());
+  std::string err = ok ? "" : out->geterror();
+  if (!out->close() && ok) {
+    ok = false;
+    err = out->geterror();
+  }
+  if (!ok) return Error{"cannot write '" + path + "': " + err};
+  return std::vector<std::string>{path};
+}
+
+Result<std::vector<std::string>> write_image(const Image& image, const std::string& path,
+                                             const AovSet& aovs) {
+  std::string ext = lower_extension(path);
+  size_t n = image.pixels();
+  if (ext == "exr") {
+    // One file: colour, alpha and the AOVs as extra channels.
+    std::vector<std::string> names{"R", "G", "B", "A"};
+    if (aovs.depth) names.push_back("Z");
+    if (aovs.normal) names.insert(names.end(), {"N.X", "N.Y", "N.Z"});
+    int c = int(names.size());
+    std::vector<float> data(n * c);
+    for (size_t i = 0; i < n; ++i) {
+      float* p = &data[i * c];
+      int k = 0;
+      p[k++] = image.rgb[3 * i];
+      p[k++] = image.rgb[3 * i + 1];
+      p[k++] = image.rgb[3 * i + 2];
+      p[k++] = image.alpha[i];
+      if (aovs.depth) p[k++] = image.depth[i];
+      if (aovs.normal) {
+        for (int j = 0; j < 3; ++j) p[k++] = image.normal[3 * i + j];
+      }
+    }
+    return write_pixels(path, image.width, image.height, c, data, false, names);
+  }
+  auto written = write_pixels(path, image.width, image.height, 3, image.rgb, true);
+  if (!written.ok()) return written;
+  std::vector<std::string> paths = written.value();
+  if (aovs.depth) {
+    float lo = std::numeric_limits<float>::infinity(), hi = -lo;
+    for (float d : image.depth) {
+      if (std::isfinite(d)) lo = std::min(lo, d), hi = std::max(hi, d);
+    }
+    std::vector<float> data(n, 0.0f);
+    for (size_t i = 0; i < n; ++i) {
+      float d = image.depth[i];
+      if (std::isfinite(d)) data[i] = hi > lo ? 1.0f - 0.9f * (d - lo) / (hi - lo) : 1.0f;
+    }
+    auto w = write_pixels(sibling(path, "depth"), image.width, image.height, 1, data, false);
+    if (!w.ok()) return w;
+    paths.push_back(w.value()[0]);
+  }
+  if (aovs.normal) {
+    std::vector<float> data(3 * n);
+    for (size_t i = 0; i < 3 * n; ++i) {
+      data[i] = image.alpha[i / 3] > 0 ? 0.5f + 0.5f * image.normal[i] : 0.0f;
+    }
+    auto w = write_pixels(sibling(path, "normal"), image.width, image.height, 3, data, false);
+    if (!w.ok()) return w;
+    paths.push_back(w.value()[0]);
+  }
+  return paths;
+}
+
+Result<std::vector<float>> read_image(const std::string& path, int* width, int* height,
+                                      int* channels) {
+  auto in = OIIO::ImageInput::open(path);
+  if (!in) return Error{"cannot read '" + path + "': " + OIIO::geterror()};
+  const OIIO::ImageSpec& spec = in->spec();
+  std::vector<float> data(size_t(spec.width) * spec.height * spec.nchannels);
+  if (!in->read_image(0, 0, 0, spec.nchannels, OIIO::TypeDesc::FLOAT, data.data())) {
+    return Error{"cannot read '" + path + "': " + in->geterror()};
+  }
+  *width = spec.width;
+  *height = spec.height;
+  *channels = spec.nchannels;
+  in->close();
+  return data;
+}
+
+}  // namespace hfrt::render

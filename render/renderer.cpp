@@ -1,0 +1,456 @@
+#include "render/renderer.h"
+
+#include <tbb/blocked_range.h>
+#include <tbb/enumerable_thread_specific.h>
+#include <tbb/global_control.h>
+#include <tbb/info.h>
+#include <tbb/parallel_for.h>
+#include <tbb/task_arena.h>
+
+#include <algorithm>
+#include <atomic>
+#include <chrono>
+#include <cmath>
+#include <limits>
+#include <mutex>
+
+#include "lang/check.h"
+
+namespace hfrt::render {
+
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+double seconds_since(Clock::time_point t) {
+  return std::chrono::duration<double>(Clock::now() - t).count();
+}
+
+constexpr float kAmbient = 0.12f;
+constexpr float kSpecular = 0.25f;
+constexpr float kShininess = 48.0f;
+
+/// splitmix64: a well-mixed 64-bit hash, so neighbouring pixels get unrelated jitter.
+uint64_t mix64(uint64_t z) {
+  z += 0x9e3779b97f4a7c15ull;
+  z = (z ^ (z >> 30)) * 0xbf58476d1ce4e5b9ull;
+  z = (z ^ (z >> 27)) * 0x94d049bb133111ebull;
+  return z ^ (z >> 31);
+}
+
+float unit_float(uint64_t bits) { return float(bits >> 40) * (1.0f / 16777216.0f); }
+
+/// A range of camera depths that per-tile culling could not prove empty.
+struct Span {
+  float a, b;
+};
+
+/// One camera sample of a tile.
+struct Sample {
+  Ray ray;
+  int pixel;        // index into the tile's pixel list
+  bool hit = false;
+  bool cap = false;  // hit the bbox face while entering it inside the solid
+  int cap_axis = 0;
+  float t = 0;
+};
+
+/// Scratch memory and counters of one worker thread.
+struct ThreadState {
+  explicit ThreadState(const Field& field) : searcher(field) {}
+  RootSearcher searcher;
+  std::vector<Sample> samples;
+  std::vector<Span> spans;
+  struct Piece {
+    float a, b;
+    int level;
+  };
+  std::vector<Piece> stack;
+  std::vector<float> hx, hy, hz, f, gx, gy, gz, attrs;
+  std::vector<int> hit_index;
+  std::vector<float> accum;  // per pixel: r g b hits depth nx ny nz
+  double cull_seconds = 0, search_seconds = 0, shade_seconds = 0;
+  uint64_t primary_rays = 0, shadow_rays = 0, hits = 0;
+  size_t tiles_empty = 0;
+};
+
+class TileRenderer {
+ public:
+  TileRenderer(const Field& field, const RenderOptions& options, Image* image)
+      : field_(field), opt_(options), frame_(options.camera, options.width, options.height),
+        image_(image) {
+    step_ = effective_step(options);
+    eps_ = effective_epsilon(options);
+    use_interval_ = options.root == RootMode::kInterval ||
+                    (options.root == RootMode::kAuto && field.has_interval());
+    cull_ = options.tile_culling && field.has_interval();
+    lights_ = options.lights.empty() ? default_lights(frame_) : options.lights;
+    frame_.depth_range(options.bbox, &t_min_, &t_max_);
+    // The per-pixel world footprint at depth t is footprint_a_ + footprint_b_ * t.
+    Ray r0 = frame_.ray(0, 0), r1 = frame_.ray(1, 0);
+    if (frame_.orthographic()) {
+      footprint_a_ = length(r1.o - r0.o);
+      footprint_b_ = 0;
+    } else {
+      footprint_a_ = 0;
+      footprint_b_ = length(r1.d - r0.d);
+    }
+    attrs_ = field.num_attributes() >= 3;
+    shadow_bias_ = 1e-3f * options.bbox.max_extent();
+  }
+
+  bool uses_interval() const { return use_interval_; }
+
+  void render_tile(int tx0, int ty0, int tx1, int ty1, ThreadState& ts) {
+    auto t_start = Clock::now();
+    int tw = tx1 - tx0, th = ty1 - ty0;
+    size_t npix = size_t(tw) * th;
+    ts.accum.assign(npix * 8, 0.0f);
+    // 1. Which depths can hold the surface for any ray of this tile.
+    ts.spans.clear();
+    if (t_min_ <= t_max_) {
+      if (cull_) {
+        cull_tile(tx0, ty0, tx1, ty1, ts);
+      } else {
+        ts.spans.push_back({t_min_, t_max_});
+      }
+    }
+    auto t_cull = Clock::now();
+    ts.cull_seconds += std::chrono::duration<double>(t_cull - t_start).count();
+    ts.primary_rays += npix * opt_.spp;
+    if (ts.spans.empty()) {
+      ts.tiles_empty++;
+      write_background(tx0, ty0, tx1, ty1);
+      return;
+    }
+    // 2. Camera samples and their root search.
+    make_samples(tx0, ty0, tx1, ty1, ts);
+    for (Sample& s : ts.samples) search_primary(s, ts);
+    auto t_search = Clock::now();
+    ts.search_seconds += std::chrono::duration<double>(t_search - t_cull).count();
+    // 3. Normals, colours, shadows; accumulate into pixels.
+    shade(ts);
+    resolve(tx0, ty0, tx1, ty1, ts);
+    ts.shade_seconds += seconds_since(t_search);
+  }
+
+ private:
+  void cull_tile(int tx0, int ty0, int tx1, int ty1, ThreadState& ts) {
+    const float tile_px = float(std::max(tx1 - tx0, ty1 - ty0));
+    ts.stack.clear();
+    ts.stack.push_back({t_min_, t_max_, 0});
+    EvalCounters& c = ts.searcher.counters();
+    while (!ts.stack.empty()) {
+      auto p = ts.stack.back();
+      ts.stack.pop_back();
+      Box box = intersect(frame_.slab_box(float(tx0), float(ty0), float(tx1), float(ty1), p.a, p.b),
+                          opt_.bbox);
+      if (box.empty()) continue;
+      bool maybe_nan = false;
+      Interval iv = field_.eval_interval(box, &maybe_nan);
+      c.interval_calls++;
+      if (iv.hi < 0) continue;
+      bool inside = !std::isnan(iv.lo) && iv.lo >= 0 && !maybe_nan;
+      // Split along depth while the slab is deeper than it is wide: past that, halving the depth
+      // no longer shrinks the box much.
+      float width = tile_px * (footprint_a_ + footprint_b_ * p.b);
+      if (!inside && p.level < 20 && (p.b - p.a) > width) {
+        float mid = p.a + (p.b - p.a) * 0.5f;
+        if (mid > p.a && mid < p.b) {
+          ts.stack.push_back({mid, p.b, p.level + 1});
+          ts.stack.push_back({p.a, mid, p.level + 1});
+          continue;
+        }
+      }
+      if (!ts.spans.empty() && ts.spans.back().b == p.a) {
+        ts.spans.back().b = p.b;
+      } else {
+        ts.spans.push_back({p.a, p.b});
+      }
+      // Every ray of the tile is inside the solid by the end of this slab: later slabs are
+      // hidden.
+      if (inside) break;
+    }
+  }
+
+  void make_samples(int tx0, int ty0, int tx1, int ty1, ThreadState& ts) {
+    const int spp = opt_.spp;
+    const int nx = std::max(1, int(std::floor(std::sqrt(float(spp)))));
+    const int ny = (spp + nx - 1) / nx;
+    ts.samples.clear();
+    int tw = tx1 - tx0;
+    for (int y = ty0; y < ty1; ++y) {
+      for (int x = tx0; x < tx1; ++x) {
+        int pixel = (y - ty0) * tw + (x - tx0);
+        for (int s = 0; s < spp; ++s) {
+          float fx = 0.5f, fy = 0.5f;
+          if (spp > 1) {
+            uint64_t seed = ((uint64_t(y) * uint64_t(opt_.width) + uint64_t(x)) << 16) ^ uint64_t(s);
+            uint64_t h = mix64(seed ^ 0x68667274ull);
+            float jx = unit_float(h), jy = unit_float(mix64(h));
+            fx = (float(s % nx) + jx) / float(nx);
+            fy = (float(s / nx) + jy) / float(ny);
+          }
+          Sample smp;
+          smp.ray = frame_.ray(float(x) + fx, float(y) + fy);
+          smp.pixel = pixel;
+          ts.samples.push_back(smp);
+        }
+      }
+    }
+  }
+
+  void search_primary(Sample& s, ThreadState& ts) {
+    float te, tx;
+    int axis;
+    if (!intersect_box(s.ray, opt_.bbox, &te, &tx, &axis)) return;
+    if (!frame_.orthographic() && te < 0) {
+      te = 0;
+      axis = -1;  // the eye is inside the box
+    }
+    float dlen = length(s.ray.d);
+    for (const Span& span : ts.spans) {
+      float a = std::max(span.a, te), b = std::min(span.b, tx);
+      if (!(a <= b)) continue;
+      RootHit h = use_interval_
+                      ? ts.searcher.interval_search(s.ray, a, b, eps_ / dlen, step_ / dlen, false)
+                      : ts.searcher.sign_search(s.ray, a, b, step_ / dlen, eps_ / dlen, false);
+      if (!h.hit) continue;
+      s.hit = true;
+      s.t = h.t;
+      s.cap = h.at_start && a == te && axis >= 0;
+      s.cap_axis = axis;
+      return;
+    }
+  }
+
+  bool occluded(Vec3 p, Vec3 n, const Light& light, ThreadState& ts) {
+    Vec3 o = p + n * shadow_bias_;
+    Vec3 l;
+    float dist = std::numeric_limits<float>::infinity();
+    if (light.kind == Light::Kind::kPoint) {
+      l = light.v - o;
+      dist = length(l);
+      l = l / dist;
+    } else {
+      l = normalize(light.v);
+    }
+    Ray r{o, l};
+    float te, tx;
+    if (!intersect_box(r, opt_.bbox, &te, &tx, nullptr)) return false;
+    te = std::max(te, 0.0f);
+    tx = std::min(tx, dist);
+    if (!(te <= tx)) return false;
+    ts.shadow_rays++;
+    RootHit h = use_interval_ ? ts.searcher.interval_search(r, te, tx, eps_, step_, true)
+                              : ts.searcher.sign_search(r, te, tx, step_, eps_, true);
+    return h.hit;
+  }
+
+  void shade(ThreadState& ts) {
+    ts.hit_index.clear();
+    for (size_t i = 0; i < ts.samples.size(); ++i) {
+      if (ts.samples[i].hit) ts.hit_index.push_back(int(i));
+    }
+    size_t n = ts.hit_index.size();
+    ts.hits += n;
+    if (n == 0) return;
+    for (auto* v : {&ts.hx, &ts.hy, &ts.hz, &ts.f, &ts.gx, &ts.gy, &ts.gz}) v->resize(n);
+    for (size_t k = 0; k < n; ++k) {
+      const Sample& s = ts.samples[ts.hit_index[k]];
+      Vec3 p = s.ray.o + s.ray.d * s.t;
+      ts.hx[k] = p.x, ts.hy[k] = p.y, ts.hz[k] = p.z;
+    }
+    EvalCounters& c = ts.searcher.counters();
+    field_.eval_gradient(n, ts.hx.data(), ts.hy.data(), ts.hz.data(), ts.f.data(), ts.gx.data(),
+                         ts.gy.data(), ts.gz.data());
+    c.gradient_calls++;
+    c.gradient_points += n;
+    if (attrs_) {
+      int k = field_.num_attributes();
+      ts.attrs.resize(size_t(k) * n);
+      field_.eval_attributes(n, ts.hx.data(), ts.hy.data(), ts.hz.data(), ts.attrs.data());
+      c.attribute_calls++;
+      c.attribute_points += n;
+    }
+    for (size_t k = 0; k < n; ++k) {
+      Sample& s = ts.samples[ts.hit_index[k]];
+      Vec3 p{ts.hx[k], ts.hy[k], ts.hz[k]};
+      Vec3 view = -normalize(s.ray.d);
+      Vec3 nrm;
+      if (s.cap) {
+        nrm = Vec3{};
+        nrm[s.cap_axis] = s.ray.d[s.cap_axis] > 0 ? -1.0f : 1.0f;
+      } else {
+        // F grows into the solid: the outward normal is -grad F.
+        nrm = -Vec3{ts.gx[k], ts.gy[k], ts.gz[k]};
+        float l = length(nrm);
+        nrm = (l > 0 && std::isfinite(l)) ? nrm / l : view;
+      }
+      if (dot(nrm, view) < 0) nrm = -nrm;  // seen from behind (noisy gradients): shade both sides
+      Vec3 albedo = opt_.albedo;
+      if (attrs_) {
+        Vec3 a{ts.attrs[k], ts.attrs[n + k], ts.attrs[2 * n + k]};
+        if (is_finite(a)) albedo = vmin(vmax(a, Vec3{0, 0, 0}), Vec3{1, 1, 1});
+      }
+      Vec3 color = albedo * kAmbient;
+      for (const Light& light : lights_) {
+        Vec3 l = light.kind == Light::Kind::kPoint ? normalize(light.v - p) : normalize(light.v);
+        float ndotl = dot(nrm, l);
+        if (ndotl <= 0) continue;
+        if (opt_.shadows && occluded(p, nrm, light, ts)) continue;
+        Vec3 h = normalize(l + view);
+        float spec = kSpecular * std::pow(std::max(0.0f, dot(nrm, h)), kShininess);
+        color += mul(albedo, light.color) * ndotl + light.color * spec;
+      }
+      float* acc = &ts.accum[size_t(s.pixel) * 8];
+      acc[0] += color.x, acc[1] += color.y, acc[2] += color.z;
+      acc[3] += 1;
+      acc[4] += s.t * length(s.ray.d);
+      acc[5] += nrm.x, acc[6] += nrm.y, acc[7] += nrm.z;
+    }
+  }
+
+  void resolve(int tx0, int ty0, int tx1, int ty1, ThreadState& ts) {
+    const float inv_spp = 1.0f / float(opt_.spp);
+    int tw = tx1 - tx0;
+    for (int y = ty0; y < ty1; ++y) {
+      for (int x = tx0; x < tx1; ++x) {
+        const float* acc = &ts.accum[size_t((y - ty0) * tw + (x - tx0)) * 8];
+        size_t i = size_t(y) * opt_.width + x;
+        float hits = acc[3], misses = float(opt_.spp) - hits;
+        for (int c = 0; c < 3; ++c) {
+          image_->rgb[3 * i + c] = (acc[c] + misses * opt_.background[c]) * inv_spp;
+        }
+        image_->alpha[i] = hits * inv_spp;
+        if (hits > 0) {
+          image_->depth[i] = acc[4] / hits;
+          Vec3 nrm = normalize(Vec3{acc[5], acc[6], acc[7]});
+          image_->normal[3 * i] = nrm.x;
+          image_->normal[3 * i + 1] = nrm.y;
+          image_->normal[3 * i + 2] = nrm.z;
+        }
+      }
+    }
+  }
+
+  void write_background(int tx0, int ty0, int tx1, int ty1) {
+    for (int y = ty0; y < ty1; ++y) {
+      for (int x = tx0; x < tx1; ++x) {
+        size_t i = size_t(y) * opt_.width + x;
+        for (int c = 0; c < 3; ++c) image_->rgb[3 * i + c] = opt_.background[c];
+      }
+    }
+  }
+
+  const Field& field_;
+  const RenderOptions& opt_;
+  CameraFrame frame_;
+  Image* image_;
+  std::vector<Light> lights_;
+  float step_ = 0, eps_ = 0;
+  bool use_interval_ = false, cull_ = false, attrs_ = false;
+  float t_min_ = 0, t_max_ = 0;
+  float footprint_a_ = 0, footprint_b_ = 0;
+  float shadow_bias_ = 0;
+};
+
+}  // namespace
+
+const char* root_mode_name(RootMode mode) {
+  switch (mode) {
+    case RootMode::kSign: return "sign";
+    case RootMode::kInterval: return "interval";
+    case RootMode::kAuto: return "auto";
+  }
+  return "?";
+}
+
+float effective_step(const RenderOptions& options) {
+  return options.step > 0 ? options.step : options.bbox.max_extent() / 512.0f;
+}
+
+float effective_epsilon(const RenderOptions& options) {
+  return options.epsilon > 0 ? options.epsilon : options.bbox.max_extent() * 1e-5f;
+}
+
+std::vector<Light> default_lights(const CameraFrame& frame) {
+  Vec3 f = frame.forward(), r = frame.right(), u = frame.up();
+  Light key{Light::Kind::kDirectional, normalize(-f * 0.8f + u * 0.9f - r * 0.6f), {0.85f, 0.85f, 0.82f}};
+  Light fill{Light::Kind::kDirectional, normalize(-f * 0.6f - u * 0.2f + r * 1.0f), {0.25f, 0.27f, 0.3f}};
+  return {key, fill};
+}
+
+RenderResult render(const Field& field, const RenderOptions& options) {
+  HFRT_CHECK(options.width > 0 && options.height > 0);
+  HFRT_CHECK(options.spp >= 1 && options.spp <= 65536);
+  HFRT_CHECK(options.tile_size >= 1);
+  HFRT_CHECK(!options.bbox.empty());
+  HFRT_CHECK_MSG(options.root != RootMode::kInterval || field.has_interval(),
+                 "--root interval needs an interval evaluator");
+  auto start = Clock::now();
+  RenderResult result;
+  result.image.resize(options.width, options.height);
+  TileRenderer tiles(field, options, &result.image);
+
+  const int ts = options.tile_size;
+  const int ntx = (options.width + ts - 1) / ts, nty = (options.height + ts - 1) / ts;
+  const size_t ntiles = size_t(ntx) * nty;
+  std::atomic<size_t> done{0};
+  std::mutex nan_mutex;
+  size_t nan_tile = std::numeric_limits<size_t>::max();
+  Vec3 nan_point;
+
+  tbb::enumerable_thread_specific<ThreadState> states([&] { return ThreadState(field); });
+  int threads = options.threads > 0 ? options.threads : tbb::info::default_concurrency();
+  // TBB caps workers at the core count unless told otherwise; --threads N means N.
+  tbb::global_control allow(tbb::global_control::max_allowed_parallelism,
+                            std::max<size_t>(threads, tbb::info::default_concurrency()));
+  tbb::task_arena arena(threads);
+  arena.execute([&] {
+    tbb::parallel_for(tbb::blocked_range<size_t>(0, ntiles, 1), [&](const tbb::blocked_range<size_t>& r) {
+      ThreadState& st = states.local();
+      for (size_t ti = r.begin(); ti != r.end(); ++ti) {
+        int tx = int(ti % ntx), ty = int(ti / ntx);
+        int x0 = tx * ts, y0 = ty * ts;
+        int x1 = std::min(options.width, x0 + ts), y1 = std::min(options.height, y0 + ts);
+        st.searcher.reset_nan_point();
+        tiles.render_tile(x0, y0, x1, y1, st);
+        if (st.searcher.has_nan_point()) {
+          // Keep the first in tile order, so the report does not depend on scheduling.
+          std::lock_guard<std::mutex> lock(nan_mutex);
+          if (ti < nan_tile) {
+            nan_tile = ti;
+            nan_point = st.searcher.nan_point();
+          }
+        }
+        size_t d = ++done;
+        if (options.progress) options.progress(d, ntiles);
+      }
+    });
+  });
+
+  RenderStats& s = result.stats;
+  s.root_used = tiles.uses_interval() ? RootMode::kInterval : RootMode::kSign;
+  s.tiles = ntiles;
+  s.threads = threads;
+  for (ThreadState& st : states) {
+    s.evals += st.searcher.counters();
+    s.primary_rays += st.primary_rays;
+    s.shadow_rays += st.shadow_rays;
+    s.hits += st.hits;
+    s.tiles_empty += st.tiles_empty;
+    s.cull_seconds += st.cull_seconds;
+    s.search_seconds += st.search_seconds;
+    s.shade_seconds += st.shade_seconds;
+  }
+  if (nan_tile != std::numeric_limits<size_t>::max()) {
+    s.has_nan_point = true;
+    s.nan_point = nan_point;
+    s.nan_explanation = field.explain_nan(nan_point);
+  }
+  s.seconds = seconds_since(start);
+  return result;
+}
+
+}  // namespace hfrt::render

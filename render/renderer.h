@@ -1,0 +1,103 @@
+#pragma once
+// The tile-parallel ray tracer. The image is cut into square tiles; each tile is one unit of
+// work for TBB, and each worker thread owns its scratch memory (a RootSearcher, batch buffers).
+// Every pixel is computed from deterministic inputs only (its position, its sample index and the
+// tile it belongs to, whose layout does not depend on the thread count), so the image is
+// bit-identical for any number of threads.
+
+#include <cstdint>
+#include <functional>
+#include <string>
+#include <vector>
+
+#include "render/camera.h"
+#include "render/field.h"
+#include "render/image.h"
+#include "render/root_search.h"
+
+namespace hfrt::render {
+
+/// How rays find the surface (`--root`).
+enum class RootMode { kSign, kInterval, kAuto };
+
+/// "sign", "interval" or "auto".
+const char* root_mode_name(RootMode mode);
+
+/// A light. `v` is the position of a point light, or the direction *towards* a directional one.
+struct Light {
+  enum class Kind { kPoint, kDirectional };
+  Kind kind = Kind::kDirectional;
+  Vec3 v{0, 1, 0};
+  Vec3 color{1, 1, 1};
+};
+
+/// Called after each finished tile with (tiles done, tiles in all). Called from worker
+/// threads, concurrently: it must be thread-safe (ProgressBar is).
+using ProgressFn = std::function<void(size_t done, size_t total)>;
+
+struct RenderOptions {
+  int width = 512, height = 512;
+  /// The region searched for the surface; the solid is clipped to it (a ray that enters the
+  /// box inside the solid hits the box face: the solid is capped, as the original polygoniser
+  /// shows it).
+  Box bbox{{-10, -10, -10}, {10, 10, 10}};
+  Camera camera;
+  RootMode root = RootMode::kAuto;
+  /// Marching step in world units for the sign-change search; 0: bbox.max_extent() / 512.
+  float step = 0;
+  /// Root tolerance in world units; 0: bbox.max_extent() * 1e-5.
+  float epsilon = 0;
+  /// Samples per pixel: stratified, jittered with seeds that depend only on the pixel and the
+  /// sample index. 1 sample goes through the pixel centre.
+  int spp = 1;
+  /// Worker threads; 0: all cores.
+  int threads = 0;
+  int tile_size = 16;
+  /// Empty: a default key light and a fill light placed relative to the camera.
+  std::vector<Light> lights;
+  bool shadows = true;
+  Vec3 background{0.18f, 0.2f, 0.24f};
+  /// Surface colour when the model has no colour attributes.
+  Vec3 albedo{0.78f, 0.76f, 0.7f};
+  /// Per-tile interval culling of empty space (used only when the field has intervals).
+  bool tile_culling = true;
+  ProgressFn progress;
+};
+
+struct RenderStats {
+  double seconds = 0;
+  /// Root mode actually used (kSign or kInterval, never kAuto).
+  RootMode root_used = RootMode::kSign;
+  uint64_t primary_rays = 0, shadow_rays = 0, hits = 0;
+  EvalCounters evals;
+  size_t tiles = 0;
+  /// Tiles whose whole frustum was proven empty by intervals (no per-ray search at all).
+  size_t tiles_empty = 0;
+  /// Thread-seconds spent in tile culling, in per-ray root search and in shading (normals,
+  /// colours, shadow rays); they add up to about seconds * threads.
+  double cull_seconds = 0, search_seconds = 0, shade_seconds = 0;
+  int threads = 0;
+  /// The first point (in tile order) where F had no value, with the Field's explanation.
+  bool has_nan_point = false;
+  Vec3 nan_point;
+  std::string nan_explanation;
+};
+
+struct RenderResult {
+  Image image;
+  RenderStats stats;
+};
+
+/// The effective marching step and tolerance (world units) for `options`.
+float effective_step(const RenderOptions& options);
+float effective_epsilon(const RenderOptions& options);
+
+/// The default lights for a camera: a key light from the upper left behind the viewer and a
+/// weaker fill light from the right.
+std::vector<Light> default_lights(const CameraFrame& frame);
+
+/// Renders `field`. The options must be valid (positive size and spp, a valid camera, a
+/// non-empty bbox): the command line checks user input before calling.
+RenderResult render(const Field& field, const RenderOptions& options);
+
+}  // namespace hfrt::render

@@ -1,0 +1,184 @@
+#include "render/root_search.h"
+
+#include <algorithm>
+#include <cmath>
+
+namespace hfrt::render {
+
+EvalCounters& EvalCounters::operator+=(const EvalCounters& o) {
+  eval_calls += o.eval_calls;
+  eval_points += o.eval_points;
+  interval_calls += o.interval_calls;
+  gradient_calls += o.gradient_calls;
+  gradient_points += o.gradient_points;
+  attribute_calls += o.attribute_calls;
+  attribute_points += o.attribute_points;
+  nan_samples += o.nan_samples;
+  interval_fallbacks += o.interval_fallbacks;
+  return *this;
+}
+
+Box segment_box(const Ray& ray, float a, float b) {
+  Vec3 p = ray.o + ray.d * a, q = ray.o + ray.d * b;
+  Box box{vmin(p, q), vmax(p, q)};
+  for (int i = 0; i < 3; ++i) {
+    // o + t d rounds twice: a relative pad of a few ulps of the operands keeps it sound.
+    float scale = std::abs(ray.o[i]) + std::max(std::abs(a), std::abs(b)) * std::abs(ray.d[i]);
+    float pad = 4e-7f * scale + 1e-30f;
+    box.lo[i] -= pad;
+    box.hi[i] += pad;
+  }
+  return box;
+}
+
+void RootSearcher::eval_params(const Ray& ray, size_t n) {
+  if (xs_.size() < n) {
+    xs_.resize(n);
+    ys_.resize(n);
+    zs_.resize(n);
+    fs_.resize(n);
+  }
+  for (size_t i = 0; i < n; ++i) {
+    float t = ts_[i];
+    xs_[i] = ray.o.x + t * ray.d.x;
+    ys_[i] = ray.o.y + t * ray.d.y;
+    zs_[i] = ray.o.z + t * ray.d.z;
+  }
+  field_.eval(n, xs_.data(), ys_.data(), zs_.data(), fs_.data());
+  counters_.eval_calls++;
+  counters_.eval_points += n;
+  for (size_t i = 0; i < n; ++i) {
+    if (std::isnan(fs_[i])) {
+      counters_.nan_samples++;
+      if (!has_nan_point_) {
+        has_nan_point_ = true;
+        nan_point_ = {xs_[i], ys_[i], zs_[i]};
+      }
+    }
+  }
+}
+
+float RootSearcher::refine(const Ray& ray, float ta, float fa, float tb, float fb, float eps) {
+  ts_.resize(std::max<size_t>(ts_.size(), kRefineBatch));
+  while (tb - ta > eps) {
+    float width = tb - ta;
+    for (int i = 0; i < kRefineBatch; ++i) ts_[i] = ta + width * float(i + 1) / float(kRefineBatch + 1);
+    eval_params(ray, kRefineBatch);
+    int first_in = -1;
+    for (int i = 0; i < kRefineBatch; ++i) {
+      if (fs_[i] >= 0) {
+        first_in = i;
+        break;
+      }
+    }
+    float na = ta, nfa = fa, nb = tb, nfb = fb;
+    if (first_in >= 0) {
+      nb = ts_[first_in];
+      nfb = fs_[first_in];
+      if (first_in > 0) {
+        na = ts_[first_in - 1];
+        nfa = fs_[first_in - 1];
+      }
+    } else {
+      na = ts_[kRefineBatch - 1];
+      nfa = fs_[kRefineBatch - 1];
+    }
+    if (!(nb - na < width)) break;  // float resolution reached
+    ta = na, fa = nfa, tb = nb, fb = nfb;
+  }
+  // One regula falsi step inside the final bracket when both ends have values.
+  if (std::isfinite(fa) && std::isfinite(fb) && fa < 0 && fb >= 0 && fb - fa > 0) {
+    float t = ta + (tb - ta) * (-fa / (fb - fa));
+    return std::clamp(t, ta, tb);
+  }
+  return tb;
+}
+
+RootHit RootSearcher::sign_search(const Ray& ray, float t0, float t1, float step, float eps,
+                                  bool any_hit) {
+  if (!(t0 <= t1) || !(step > 0)) return {};
+  // Sample i is at t0 + i*step (computed from i, so no drift), the last one exactly at t1.
+  double count = std::ceil(double(t1 - t0) / double(step));
+  int64_t last = int64_t(std::min(count, double(1 << 26)));
+  float prev_t = t0, prev_f = 0;
+  ts_.resize(std::max<size_t>(ts_.size(), kMarchBatch));
+  for (int64_t base = 0; base <= last; base += kMarchBatch) {
+    int n = int(std::min<int64_t>(kMarchBatch, last + 1 - base));
+    for (int i = 0; i < n; ++i) {
+      int64_t k = base + i;
+      ts_[i] = k == last ? t1 : std::min(t1, float(double(t0) + double(k) * double(step)));
+    }
+    eval_params(ray, n);
+    for (int i = 0; i < n; ++i) {
+      float f = fs_[i];
+      if (f >= 0) {
+        if (base + i == 0) return {true, t0, true};
+        if (any_hit) return {true, ts_[i], false};
+        float t = ts_[i];
+        return {true, refine(ray, prev_t, prev_f, t, f, eps), false};
+      }
+      prev_t = ts_[i];
+      prev_f = f;
+    }
+  }
+  return {};
+}
+
+RootHit RootSearcher::interval_search(const Ray& ray, float t0, float t1, float eps,
+                                      float fallback_step, bool any_hit) {
+  if (!(t0 <= t1)) return {};
+  stack_.clear();
+  stack_.push_back({t0, t1});
+  int budget = kIntervalBudget;
+  while (!stack_.empty()) {
+    if (budget-- <= 0) {
+      // Out of budget: finish the remaining pieces, front to back, by marching.
+      counters_.interval_fallbacks++;
+      while (!stack_.empty()) {
+        Piece p = stack_.back();
+        stack_.pop_back();
+        RootHit h = sign_search(ray, p.a, p.b, fallback_step, eps, any_hit);
+        if (h.hit) {
+          h.at_start = h.at_start && p.a == t0;
+          return h;
+        }
+      }
+      return {};
+    }
+    Piece p = stack_.back();
+    stack_.pop_back();
+    bool maybe_nan = false;
+    Interval iv = field_.eval_interval(segment_box(ray, p.a, p.b), &maybe_nan);
+    counters_.interval_calls++;
+    if (iv.hi < 0) continue;  // no point of the piece is inside (NaN points count as outside)
+    bool known = !std::isnan(iv.lo) && !std::isnan(iv.hi);
+    if (known && iv.lo >= 0 && !maybe_nan) {
+      // The whole piece is inside and everything before it was excluded: the surface is at
+      // its start.
+      return {true, p.a, p.a == t0};
+    }
+    float mid = p.a + (p.b - p.a) * 0.5f;
+    bool leaf = p.b - p.a <= eps || !(mid > p.a && mid < p.b);
+    if (!leaf) {
+      stack_.push_back({mid, p.b});
+      stack_.push_back({p.a, mid});
+      continue;
+    }
+    ts_.resize(std::max<size_t>(ts_.size(), 3));
+    ts_[0] = p.a, ts_[1] = mid, ts_[2] = p.b;
+    eval_params(ray, 3);
+    for (int i = 0; i < 3; ++i) {
+      if (fs_[i] >= 0) {
+        if (i == 0) return {true, p.a, p.a == t0};
+        if (any_hit) return {true, ts_[i], false};
+        return {true, refine(ray, ts_[i - 1], fs_[i - 1], ts_[i], fs_[i], eps * 0.25f), false};
+      }
+    }
+    // No sample is inside but the interval still reaches 0 at the tolerance: a feature thinner
+    // than eps or a tangent touch. Report it rather than punch a hole.
+    if (known && iv.hi >= 0) return {true, mid, false};
+  }
+  return {};
+}
+
+}  // namespace hfrt::render

@@ -1,0 +1,49 @@
+#pragma once
+// Test helpers: HyperFun text -> checked program -> lowered Function.
+
+#include <gtest/gtest.h>
+
+#include <memory>
+#include <string>
+
+#include "jit/interpreter.h"
+#include "jit/lower.h"
+#include "lang/frontend.h"
+
+namespace hfrt::jit::testutil {
+
+struct Compiled {
+  std::unique_ptr<lang::Program> program;
+  Function fn;
+  std::string diagnostics;  ///< rendered diagnostics (errors and warnings)
+  bool ok = false;
+};
+
+/// Compiles `text` and lowers object `object` (default: the model by the spec's rule).
+inline Compiled compile(const std::string& text, const std::string& object = "",
+                        const std::string& name = "test.hf") {
+  Compiled c;
+  auto file = std::make_shared<const lang::SourceFile>(name, text);
+  lang::DiagnosticSink diags(file);
+  c.program = lang::compile_source(file, diags);
+  if (c.program) {
+    int index = object.empty() ? c.program->default_object() : c.program->find_object(object);
+    if (index >= 0) {
+      c.fn = lower_object(*c.program, index, &diags);
+      c.ok = true;
+    }
+  }
+  c.diagnostics = diags.render(false);
+  return c;
+}
+
+/// Evaluates the model of `text` at x with a = 0.
+inline EvalResult eval_source(const std::string& text, std::vector<double> x = {1, 2, 3}) {
+  Compiled c = compile(text);
+  EXPECT_TRUE(c.ok) << c.diagnostics;
+  if (!c.ok) return EvalResult{std::nan(""), {}, std::nullopt};
+  std::vector<double> a(static_cast<size_t>(std::max(c.fn.num_params, 0)), 0.0);
+  return Interpreter(c.fn).eval(x, a);
+}
+
+}  // namespace hfrt::jit::testutil

@@ -1,0 +1,147 @@
+// Differential test: the LLVM JIT (f64 and f32, vectorised with masks) against the reference
+// interpreter on seeded random IR programs with ifs, loops, arrays, tables and checks.
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <map>
+#include <set>
+#include <sstream>
+
+#include "jit/interpreter.h"
+#include "jit/llvm_jit.h"
+#include "tests/jit/random_program.h"
+
+namespace hfrt::jit {
+namespace {
+
+using testing::random_points;
+using testing::random_program;
+using testing::RandomProgramOptions;
+
+constexpr int kPrograms = 300;
+constexpr int kPoints = 61;  // not a multiple of any lane count: exercises the tail
+
+bool close_f64(double jit, double ref) {
+  if (std::isnan(ref) || std::isnan(jit)) return std::isnan(ref) && std::isnan(jit);
+  if (jit == ref) return true;  // also equal infinities
+  return std::fabs(jit - ref) <= 1e-12 * std::max(std::fabs(jit), std::fabs(ref));
+}
+
+/// SoA input block for the batch ABI.
+template <typename T>
+std::vector<T> soa(const std::vector<std::vector<double>>& pts, int dims) {
+  std::vector<T> xs(static_cast<size_t>(dims) * pts.size());
+  for (size_t i = 0; i < pts.size(); ++i) {
+    for (int k = 0; k < dims; ++k) xs[k * pts.size() + i] = static_cast<T>(pts[i][k]);
+  }
+  return xs;
+}
+
+/// Compares one program on all points; returns "" or a description of the first mismatch.
+std::string compare_f64(const Function& fn, uint64_t seed, const JitOptions& options) {
+  auto compiled = JitFunction::compile(fn, Precision::kF64, options);
+  if (!compiled.ok()) return "compile failed: " + compiled.error().message;
+  Interpreter interp(fn);
+  auto pts = random_points(seed, kPoints, fn.num_inputs);
+  std::vector<double> a = {0.5, -1.25};
+  a.resize(std::max(fn.num_params, 1), 0.0);
+  auto xs = soa<double>(pts, fn.num_inputs);
+  const size_t n = pts.size(), ns = fn.s_slots.size();
+  std::vector<double> f(n), s(ns * n);
+  compiled.value()->f64()(static_cast<int64_t>(n), xs.data(), a.data(), f.data(), s.data());
+  for (size_t i = 0; i < n; ++i) {
+    EvalResult r = interp.eval(pts[i], a);
+    std::ostringstream os;
+    os.precision(17);
+    if (!close_f64(f[i], r.value)) {
+      os << "point " << i << ": jit F=" << f[i] << " interp F=" << r.value;
+    }
+    for (size_t k = 0; k < ns && os.str().empty(); ++k) {
+      double ref = r.error ? std::nan("") : r.s[k];
+      if (!close_f64(s[k * n + i], ref)) {
+        os << "point " << i << ": jit s" << k + 1 << "=" << s[k * n + i] << " interp=" << ref;
+      }
+    }
+    if (!os.str().empty()) return os.str() + "\n" + print(fn);
+  }
+  // Without out_s the batch function must still work (and leave f unchanged).
+  std::vector<double> f2(n);
+  compiled.value()->f64()(static_cast<int64_t>(n), xs.data(), a.data(), f2.data(), nullptr);
+  for (size_t i = 0; i < n; ++i) {
+    if (!close_f64(f2[i], f[i])) return "out_s == null changes F";
+  }
+  return "";
+}
+
+TEST(JitRandomTest, F64AgreesWithInterpreter) {
+  int with_loops = 0, with_ifs = 0;
+  for (int seed = 0; seed < kPrograms; ++seed) {
+    Function fn = random_program(seed);
+    for (const Inst& in : fn.insts) {
+      with_loops += in.op == Op::kLoop;
+      with_ifs += in.op == Op::kIf;
+    }
+    JitOptions options;
+    options.opt_level = seed % 16 == 0 ? 0 : 2;  // also check the unoptimised code
+    std::string err = compare_f64(fn, seed, options);
+    ASSERT_EQ(err, "") << "seed " << seed;
+  }
+  EXPECT_GT(with_loops, kPrograms / 2);
+  EXPECT_GT(with_ifs, kPrograms);
+}
+
+TEST(JitRandomTest, EveryOpIsGenerated) {
+  std::set<Op> seen;
+  for (int seed = 0; seed < kPrograms; ++seed) {
+    for (const Inst& in : random_program(seed).insts) seen.insert(in.op);
+  }
+  for (int k = 0; k < kOpCount; ++k) {
+    EXPECT_TRUE(seen.count(static_cast<Op>(k))) << op_name(static_cast<Op>(k)) << " never generated";
+  }
+}
+
+TEST(JitRandomTest, OtherLaneCountsAndLevels) {
+  // Lane counts other than the host's (2 = SSE-like, 16 = AVX-512-like) and O1/O3.
+  for (int seed = 1000; seed < 1024; ++seed) {
+    Function fn = random_program(seed);
+    JitOptions options;
+    options.lanes = seed % 2 ? 2 : 16;
+    options.opt_level = seed % 3 == 0 ? 1 : 3;
+    std::string err = compare_f64(fn, seed, options);
+    ASSERT_EQ(err, "") << "seed " << seed << " lanes " << options.lanes;
+  }
+}
+
+TEST(JitRandomTest, F32CloseToInterpreter) {
+  // Single precision: well-conditioned programs agree within float tolerance. A comparison
+  // may flip where its operands differ by rounding, so a few points per program may differ.
+  RandomProgramOptions opts;
+  opts.tame = true;
+  int points = 0, bad = 0;
+  for (int seed = 0; seed < 80; ++seed) {
+    Function fn = random_program(seed, opts);
+    auto compiled = JitFunction::compile(fn, Precision::kF32);
+    ASSERT_TRUE(compiled.ok()) << compiled.error().message;
+    Interpreter interp(fn);
+    auto pts = random_points(seed, kPoints, fn.num_inputs);
+    std::vector<double> a = {0.5, -1.25};
+    std::vector<float> af(a.begin(), a.end());
+    auto xs = soa<float>(pts, fn.num_inputs);
+    std::vector<float> f(pts.size());
+    compiled.value()->f32()(static_cast<int64_t>(pts.size()), xs.data(), af.data(), f.data(), nullptr);
+    for (size_t i = 0; i < pts.size(); ++i) {
+      std::vector<double> p(pts[i].size());
+      for (size_t k = 0; k < p.size(); ++k) p[k] = static_cast<float>(pts[i][k]);
+      double ref = interp.eval(p, a).value;
+      ++points;
+      bool ok = (std::isnan(ref) && std::isnan(f[i])) ||
+                std::fabs(f[i] - ref) <= 1e-4 * (1 + std::fabs(ref));
+      bad += !ok;
+    }
+  }
+  EXPECT_LT(bad, points / 100) << bad << " of " << points << " points differ";
+}
+
+}  // namespace
+}  // namespace hfrt::jit

@@ -1,0 +1,100 @@
+#include "render/framing.h"
+
+#include <gtest/gtest.h>
+
+#include "render/renderer.h"
+#include "tests/render/analytic_fields.h"
+
+namespace hfrt::render {
+namespace {
+
+using testing::SphereField;
+
+const Box kDefaultBox{{-10, -10, -10}, {10, 10, 10}};
+
+TEST(Framing, ExtentByIntervalsEnclosesTheSolidTightly) {
+  SphereField sphere({3, -2, 1}, 2);
+  bool by_interval = false;
+  Box e = find_extent(sphere, kDefaultBox, 6, &by_interval);
+  EXPECT_TRUE(by_interval);
+  // Encloses the ball...
+  EXPECT_LE(e.lo.x, 1.0f);
+  EXPECT_GE(e.hi.x, 5.0f);
+  EXPECT_LE(e.lo.y, -4.0f);
+  EXPECT_GE(e.hi.y, 0.0f);
+  EXPECT_LE(e.lo.z, -1.0f);
+  EXPECT_GE(e.hi.z, 3.0f);
+  // ... within about one octree cell (20 / 64).
+  EXPECT_GT(e.lo.x, 1.0f - 0.32f);
+  EXPECT_LT(e.hi.x, 5.0f + 0.32f);
+  EXPECT_LT(e.hi.y, 0.0f + 0.32f);
+}
+
+TEST(Framing, ExtentBySamplingWithoutIntervals) {
+  SphereField sphere({3, -2, 1}, 2);
+  sphere.set_has_interval(false);
+  bool by_interval = true;
+  Box e = find_extent(sphere, kDefaultBox, 6, &by_interval);
+  EXPECT_FALSE(by_interval);
+  EXPECT_LE(e.lo.x, 1.0f);
+  EXPECT_GE(e.hi.x, 5.0f);
+  EXPECT_GT(e.lo.x, 1.0f - 0.7f);
+  EXPECT_LT(e.hi.x, 5.0f + 0.7f);
+}
+
+TEST(Framing, EmptyModelFallsBackToTheBox) {
+  SphereField nothing({50, 50, 50}, 1);
+  Box e = find_extent(nothing, kDefaultBox);
+  EXPECT_EQ(e.lo.x, -10);
+  EXPECT_EQ(e.hi.z, 10);
+}
+
+TEST(Framing, DefaultCameraFitsTheSolidInTheFrame) {
+  SphereField sphere({3, -2, 1}, 2);
+  Box e = find_extent(sphere, kDefaultBox);
+  RenderOptions o;
+  o.width = 96;
+  o.height = 64;
+  o.camera = resolve_camera({}, e, float(o.width) / float(o.height));
+  o.shadows = false;
+  EXPECT_EQ(o.camera.kind, Camera::Kind::kPerspective);
+  // Three-quarter view: from the right, above and in front.
+  Vec3 dir = o.camera.eye - o.camera.look_at;
+  EXPECT_GT(dir.x, 0);
+  EXPECT_GT(dir.y, 0);
+  EXPECT_GT(dir.z, 0);
+  RenderResult res = render(sphere, o);
+  // Visible, not touching the border, and filling a fair part of the frame.
+  size_t covered = 0, border = 0;
+  for (int y = 0; y < o.height; ++y) {
+    for (int x = 0; x < o.width; ++x) {
+      bool hit = res.image.alpha[size_t(y) * o.width + x] > 0;
+      covered += hit;
+      if (hit && (x == 0 || y == 0 || x == o.width - 1 || y == o.height - 1)) ++border;
+    }
+  }
+  EXPECT_EQ(border, 0u);
+  EXPECT_GT(covered, size_t(o.width * o.height) / 10);
+}
+
+TEST(Framing, UserPartsOfTheCameraAreKept) {
+  Box e{{-1, -1, -1}, {1, 1, 1}};
+  CameraRequest req;
+  req.eye = Vec3{0, 0, 9};
+  req.fov_deg = 20;
+  Camera c = resolve_camera(req, e, 1.0f);
+  EXPECT_EQ(c.eye.z, 9);
+  EXPECT_EQ(c.look_at.x, 0);
+  EXPECT_EQ(c.fov_deg, 20);
+  req = {};
+  req.look_at = Vec3{5, 5, 5};
+  req.ortho_width = 4;
+  c = resolve_camera(req, e, 1.0f);
+  EXPECT_EQ(c.kind, Camera::Kind::kOrthographic);
+  EXPECT_EQ(c.ortho_width, 4);
+  EXPECT_EQ(c.look_at.y, 5);
+  EXPECT_GT(length(c.eye - c.look_at), 1.0f);
+}
+
+}  // namespace
+}  // namespace hfrt::render

@@ -1,0 +1,120 @@
+#include "render/root_search.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+#include "tests/render/analytic_fields.h"
+
+namespace hfrt::render {
+namespace {
+
+using testing::ShellField;
+using testing::SphereField;
+
+TEST(RootSearch, SignChangeFindsSphereToTolerance) {
+  SphereField sphere({0, 0, 0}, 3);
+  RootSearcher s(sphere);
+  Ray ray{{0.5f, 1.0f, 20}, {0, 0, -1}};
+  RootHit h = s.sign_search(ray, 0, 40, 0.05f, 1e-5f, false);
+  ASSERT_TRUE(h.hit);
+  EXPECT_FALSE(h.at_start);
+  double expected = 20 - std::sqrt(9.0 - 0.25 - 1.0);
+  EXPECT_NEAR(h.t, expected, 2e-5);
+  // Several samples per call: far fewer calls than samples.
+  EXPECT_GT(s.counters().eval_points, 4 * s.counters().eval_calls);
+}
+
+TEST(RootSearch, IntervalFindsSphereToTolerance) {
+  SphereField sphere({0, 0, 0}, 3);
+  RootSearcher s(sphere);
+  Ray ray{{0.5f, 1.0f, 20}, {0, 0, -1}};
+  RootHit h = s.interval_search(ray, 0, 40, 1e-5f, 0.05f, false);
+  ASSERT_TRUE(h.hit);
+  double expected = 20 - std::sqrt(9.0 - 0.25 - 1.0);
+  EXPECT_NEAR(h.t, expected, 2e-5);
+  EXPECT_GT(s.counters().interval_calls, 0u);
+}
+
+TEST(RootSearch, MissReportsNoHit) {
+  SphereField sphere({0, 0, 0}, 3);
+  RootSearcher s(sphere);
+  Ray ray{{3.5f, 0, 20}, {0, 0, -1}};
+  EXPECT_FALSE(s.sign_search(ray, 0, 40, 0.05f, 1e-5f, false).hit);
+  EXPECT_FALSE(s.interval_search(ray, 0, 40, 1e-5f, 0.05f, false).hit);
+}
+
+TEST(RootSearch, StartInsideIsReportedAtStart) {
+  SphereField sphere({0, 0, 0}, 3);
+  RootSearcher s(sphere);
+  Ray ray{{0, 0, 1}, {0, 0, -1}};
+  RootHit a = s.sign_search(ray, 0, 10, 0.05f, 1e-5f, false);
+  RootHit b = s.interval_search(ray, 0, 10, 1e-5f, 0.05f, false);
+  ASSERT_TRUE(a.hit && b.hit);
+  EXPECT_TRUE(a.at_start);
+  EXPECT_TRUE(b.at_start);
+  EXPECT_EQ(a.t, 0);
+  EXPECT_EQ(b.t, 0);
+}
+
+TEST(RootSearch, ThinShellMissedByCoarseStepFoundByIntervals) {
+  // Shell 0.01 thick; a step of 0.3 jumps over it for most offsets.
+  ShellField shell(5, 0.01);
+  RootSearcher s(shell);
+  int sign_hits = 0, interval_hits = 0;
+  for (int i = 0; i < 50; ++i) {
+    Ray ray{{0.01f * float(i), 0.3f, 20}, {0, 0, -1}};
+    sign_hits += s.sign_search(ray, 0, 40, 0.3f, 1e-5f, false).hit;
+    RootHit h = s.interval_search(ray, 0, 40, 1e-5f, 0.3f, false);
+    interval_hits += h.hit;
+    if (h.hit) {
+      double rho2 = double(ray.o.x) * ray.o.x + 0.09;
+      EXPECT_NEAR(h.t, 20 - std::sqrt(25 - rho2), 1e-4);
+    }
+  }
+  EXPECT_EQ(interval_hits, 50);
+  EXPECT_LT(sign_hits, 50);  // the coarse march does miss it: the test can tell them apart
+}
+
+TEST(RootSearch, TangentTouchIsFound) {
+  // A ray that grazes the ball at exactly one point (F <= 0 on the whole ray, = 0 once).
+  SphereField sphere({0, 0, 0}, 2);
+  RootSearcher s(sphere);
+  Ray ray{{2, 0, 10}, {0, 0, -1}};
+  RootHit h = s.interval_search(ray, 0, 20, 1e-4f, 0.1f, false);
+  ASSERT_TRUE(h.hit);
+  EXPECT_NEAR(h.t, 10, 1e-2);
+}
+
+TEST(RootSearch, AnyHitStopsWithoutRefining) {
+  SphereField sphere({0, 0, 0}, 3);
+  RootSearcher a(sphere), b(sphere);
+  Ray ray{{0, 0, 20}, {0, 0, -1}};
+  ASSERT_TRUE(a.sign_search(ray, 0, 40, 0.05f, 1e-6f, true).hit);
+  ASSERT_TRUE(b.sign_search(ray, 0, 40, 0.05f, 1e-6f, false).hit);
+  EXPECT_LT(a.counters().eval_calls, b.counters().eval_calls);
+}
+
+TEST(RootSearch, NanSamplesCountAsOutsideAndAreRecorded) {
+  testing::HalfNanSphereField f({0, 0, 0}, 3);
+  RootSearcher s(f);
+  Ray right{{1, 0, 20}, {0, 0, -1}};  // x > 0: F has no value anywhere on this ray
+  EXPECT_FALSE(s.sign_search(right, 0, 40, 0.1f, 1e-5f, false).hit);
+  EXPECT_GT(s.counters().nan_samples, 0u);
+  ASSERT_TRUE(s.has_nan_point());
+  EXPECT_EQ(s.nan_point().x, 1);
+  Ray left{{-1, 0, 20}, {0, 0, -1}};
+  EXPECT_TRUE(s.sign_search(left, 0, 40, 0.1f, 1e-5f, false).hit);
+}
+
+TEST(RootSearch, SegmentBoxEnclosesSamples) {
+  Ray ray{{1.1f, -3.3f, 7.7f}, {0.3f, 0.77f, -1.9f}};
+  Box b = segment_box(ray, 0.25f, 9.5f);
+  for (int i = 0; i <= 1000; ++i) {
+    float t = 0.25f + (9.5f - 0.25f) * float(i) / 1000.0f;
+    ASSERT_TRUE(b.contains(ray.o + ray.d * t)) << t;
+  }
+}
+
+}  // namespace
+}  // namespace hfrt::render
