@@ -7,6 +7,8 @@
 //
 // The interpreter needs seconds per frame, so by default it evaluates R = 64 evenly spaced
 // rows (all cores) and its frame time is extrapolated from those rows (printed as such).
+// A pixel is inside the solid where F >= 0 (HyperFun's convention; prospero.hf negates the
+// challenge expression, whose inside is < 0).
 
 #include <algorithm>
 #include <atomic>
@@ -35,6 +37,7 @@ struct Options {
   int frames = 5;
   int threads = 0;
   int interp_rows = 64;
+  int lanes = 0;
   std::string out;
 };
 
@@ -84,10 +87,11 @@ int main(int argc, char** argv) {
     else if (a == "--threads") o.threads = std::atoi(next());
     else if (a == "--interp-rows") o.interp_rows = std::atoi(next());
     else if (a == "--out") o.out = next();
+    else if (a == "--lanes") o.lanes = std::atoi(next());
     else if (!a.empty() && a[0] != '-') o.model = a;
     else {
       std::fprintf(stderr, "usage: %s [MODEL.hf] [--size N] [--frames K] [--threads T] "
-                           "[--interp-rows R] [--out image.pgm]\n", argv[0]);
+                           "[--interp-rows R] [--lanes W] [--out image.pgm]\n", argv[0]);
       return 2;
     }
   }
@@ -97,6 +101,7 @@ int main(int argc, char** argv) {
   auto t0 = Clock::now();
   hfrt::ModelOptions mo;
   mo.eager_f32 = true;
+  mo.lanes = o.lanes;
   hfrt::CompileResult jit = hfrt::Model::compile_file(o.model, mo);
   if (!jit.ok()) {
     std::fprintf(stderr, "%s%s\n", jit.rendered.c_str(), jit.error.c_str());
@@ -159,15 +164,15 @@ int main(int argc, char** argv) {
   size_t inside32 = 0, inside64 = 0, sign_mismatch32 = 0;
   double max_diff64 = 0;
   for (size_t p = 0; p < pixels; ++p) {
-    inside32 += img32[p] < 0;
-    inside64 += img64[p] < 0;
+    inside32 += img32[p] >= 0;
+    inside64 += img64[p] >= 0;
   }
   for (size_t k = 0; k < rows.size(); ++k) {
     for (int i = 0; i < o.size; ++i) {
       size_t p = static_cast<size_t>(rows[k]) * o.size + i;
       double r = ref[k * o.size + i];
       max_diff64 = std::max(max_diff64, std::fabs(img64[p] - r));
-      sign_mismatch32 += (img32[p] < 0) != (r < 0);
+      sign_mismatch32 += (img32[p] >= 0) != (r >= 0);
     }
   }
   std::printf("jit f32:     %8.2f ms/frame  (%.2f ns/point)\n", jit32, jit32 * 1e6 / pixels);
@@ -185,7 +190,7 @@ int main(int argc, char** argv) {
       return 1;
     }
     std::fprintf(f, "P5\n%d %d\n255\n", o.size, o.size);
-    for (size_t p = 0; p < pixels; ++p) std::fputc(img32[p] < 0 ? 255 : 0, f);
+    for (size_t p = 0; p < pixels; ++p) std::fputc(img32[p] >= 0 ? 255 : 0, f);
     std::fclose(f);
   }
   return max_diff64 < 1e-9 ? 0 : 1;

@@ -13,10 +13,13 @@
 
 #include <array>
 #include <cstdint>
+#include <memory>
 #include <span>
 #include <vector>
 
 #include "jit/ir.h"
+#include "jit/llvm_jit.h"  // Precision (no LLVM types)
+#include "lang/result.h"
 
 namespace hfrt::jit {
 
@@ -54,6 +57,43 @@ class GradientInterpreter {
   std::vector<Dual> values_;
   std::vector<Dual> slots_;
   bool error_ = false;
+};
+
+/// The compiled gradient evaluator (LLVM, f64 or f32, W points per SIMD block; see
+/// llvm_gradient.cpp). Values and derivatives follow the same formulas as apply_dual, control
+/// flow uses lane masks like the scalar JIT. Immutable after compile(); thread-safe.
+class GradientJit {
+ public:
+  ~GradientJit();
+  GradientJit(const GradientJit&) = delete;
+  GradientJit& operator=(const GradientJit&) = delete;
+
+  struct Options {
+    Precision precision = Precision::kF64;
+    int lanes = 0;      ///< points per SIMD block (power of two); 0 = the host's width
+    int opt_level = 1;  ///< LLVM pipeline O0..O3
+  };
+  static Result<std::unique_ptr<GradientJit>> compile(const Function& fn, const Options& options);
+  static Result<std::unique_ptr<GradientJit>> compile(const Function& fn) {
+    return compile(fn, Options{});
+  }
+
+  /// n points, structure of arrays: x[k+1] of point i is xs[k*n + i] (k < num_inputs);
+  /// out[c*n + i] gets F (c = 0) and dF/dx[c] (c = 1..3). A point where a run-time error
+  /// fired gets NaN in all four. Use the overload matching the compiled precision.
+  void eval(int64_t n, const double* xs, std::span<const double> a, double* out) const;
+  void eval(int64_t n, const float* xs, std::span<const double> a, float* out) const;
+
+  /// One point (convenience for tests and tools), in the compiled precision.
+  Dual eval_one(std::span<const double> x, std::span<const double> a) const;
+
+  Precision precision() const;
+  int lanes() const;
+
+ private:
+  struct Impl;
+  explicit GradientJit(std::unique_ptr<Impl> impl);
+  std::unique_ptr<Impl> impl_;
 };
 
 }  // namespace hfrt::jit

@@ -121,9 +121,18 @@ class IntervalJit {
   IntervalJit(const IntervalJit&) = delete;
   IntervalJit& operator=(const IntervalJit&) = delete;
 
-  /// Emits, optimises and links `fn` (verified IR). lanes = 0: the host's f64 SIMD width.
-  static Result<std::unique_ptr<IntervalJit>> compile(const Function& fn, int lanes = 0,
-                                                      int loop_limit = kIntervalLoopLimit);
+  struct Options {
+    int lanes = 0;  ///< boxes per SIMD block (a power of two); 0 = the host's f64 width
+    int loop_limit = kIntervalLoopLimit;
+    int opt_level = 1;   ///< LLVM pipeline O0..O3 (O1: large models compile much faster)
+    bool trace = true;   ///< emit the min/max/select trace (else `choices` stays untouched)
+  };
+
+  /// Emits, optimises and links `fn` (verified IR).
+  static Result<std::unique_ptr<IntervalJit>> compile(const Function& fn, const Options& options);
+  static Result<std::unique_ptr<IntervalJit>> compile(const Function& fn) {
+    return compile(fn, Options{});
+  }
 
   /// n boxes, structure of arrays: coordinate k of box i is [x_lo[k*n + i], x_hi[k*n + i]]
   /// for k < Function::num_inputs; results to out_lo/out_hi/out_nan (0 or 1). `choices`,

@@ -476,6 +476,9 @@ class Emitter {
                                         {ptr_, i64_, ptr_, ptr_, ptr_, i64_}, false);
     body_ = llvm::Function::Create(fty, llvm::GlobalValue::InternalLinkage, "body", m_);
     body_->setDoesNotThrow();
+    // Called twice (full blocks and the tail): one copy of the code halves compile time, and
+    // a call per W points costs nothing next to the body.
+    body_->addFnAttr(llvm::Attribute::NoInline);
     for (int i : {0, 2, 3, 4}) body_->addParamAttr(i, llvm::Attribute::NoAlias);
     llvm::Value* xs = body_->getArg(0);
     llvm::Value* stride = body_->getArg(1);

@@ -44,6 +44,7 @@ struct Compiled {
   jit::Function fn;
   std::unique_ptr<jit::Interpreter> interp;
   int opt_level = 2;
+  int lanes = 0;
   struct JitSlot {
     std::once_flag once;
     std::unique_ptr<jit::JitFunction> code;
@@ -56,6 +57,7 @@ struct Compiled {
     std::call_once(slot.once, [&] {
       jit::JitOptions options;
       options.opt_level = opt_level;
+      options.lanes = lanes;
       auto r = jit::JitFunction::compile(fn, to_jit(p), options);
       if (r.ok()) {
         slot.code = std::move(r.value());
@@ -93,6 +95,7 @@ struct Model::Impl {
                                   std::string* rendered, std::string* error) {
     auto c = std::make_unique<Compiled>();
     c->opt_level = options.opt_level;
+    c->lanes = options.lanes;
     lang::DiagnosticSink sink(file);
     auto t0 = std::chrono::steady_clock::now();
     c->fn = jit::lower_object(*program, index, &sink);

@@ -137,6 +137,7 @@ class Dumper {
       }
       case StmtKind::kIf:
         line(indent, "if" + at(s.range));
+        line(indent + 1, "cond");
         if (s.cond) expr(*s.cond, indent + 2);
         line(indent + 1, "then");
         block(s.then_body, indent + 2);
@@ -147,6 +148,7 @@ class Dumper {
         return;
       case StmtKind::kWhile:
         line(indent, "while" + at(s.range));
+        line(indent + 1, "cond");
         if (s.cond) expr(*s.cond, indent + 2);
         line(indent + 1, "loop");
         block(s.then_body, indent + 2);

@@ -41,6 +41,9 @@ class DiagnosticSink {
   int warning_count() const { return warning_count_; }
   /// True once the error limit is reached: the parser uses it to stop early.
   bool saturated() const { return error_count_ >= kMaxErrors; }
+  /// True once an error beyond the limit was dropped (and the "too many errors" note
+  /// recorded): nothing more will be shown, so producers can stop.
+  bool truncated() const { return truncated_; }
   const std::vector<Diagnostic>& diagnostics() const { return diags_; }
   const std::shared_ptr<const SourceFile>& file() const { return file_; }
 

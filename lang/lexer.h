@@ -15,8 +15,8 @@ namespace hfrt::lang {
 
 #define HFRT_TOKENS(X)                                    \
   X(kEof, "end of file")                                  \
-  X(kIdent, "name")                                       \
-  X(kNumber, "number")                                    \
+  X(kIdent, "a name")                                       \
+  X(kNumber, "a number")                                    \
   X(kInvalid, "invalid text")                             \
   X(kArray, "'array'")                                    \
   X(kIf, "'if'")                                          \

@@ -168,7 +168,7 @@ class Parser {
     syntax_error(std::move(msg), std::move(hint));
     return false;
   }
-  bool stopped() const { return sink_.saturated() && buffers_.empty(); }
+  bool stopped() const { return sink_.truncated() && buffers_.empty(); }
 
   // ---- speculation ----------------------------------------------------------------------
   struct State {
@@ -199,9 +199,16 @@ class Parser {
     explicit Nest(Parser& p) : p_(p) {
       if (++p_.depth_ > kMaxNesting) {
         ok_ = false;
-        p_.syntax_error("nesting is too deep (more than " + std::to_string(kMaxNesting) +
-                            " levels of parentheses, calls, operators or blocks)",
-                        "split the expression into several assignments");
+        // Once per file: after recovery the rest of a deep construct would hit the limit
+        // again at every level.
+        if (p_.nesting_reported_) {
+          p_.panic_ = true;
+        } else {
+          p_.nesting_reported_ = true;
+          p_.syntax_error("nesting is too deep (more than " + std::to_string(kMaxNesting) +
+                              " levels of parentheses, calls, operators or blocks)",
+                          "split the expression into several assignments");
+        }
       }
     }
     ~Nest() { --p_.depth_; }
@@ -266,6 +273,7 @@ class Parser {
   bool panic_ = false;
   bool lex_quiet_ = false;
   int depth_ = 0;
+  bool nesting_reported_ = false;
   int syntax_errors_ = 0;
   std::vector<std::vector<Diagnostic>> buffers_;
   Object* object_ = nullptr;  // the object being parsed (for array declarations)
@@ -357,13 +365,15 @@ void Parser::parse_object(Program& prog) {
 
 bool Parser::parse_size(int& size, std::string_view context) {
   if (!at(TokenKind::kNumber)) {
-    expect(TokenKind::kNumber, context);
+    syntax_error("expected an array size " + std::string(context) + ", found " + describe(tok_),
+                 "sizes are whole numbers, like x[3]");
     return false;
   }
   double v = tok_.number;
   if (!(v >= 1 && v <= kMaxArraySize && v == std::floor(v))) {
     syntax_error("array size must be a whole number from 1 to " + std::to_string(kMaxArraySize) +
-                 ", found " + describe(tok_));
+                     ", found " + describe(tok_),
+                 "sizes are whole numbers, like x[3]");
     advance();
     return false;
   }
@@ -406,7 +416,8 @@ void Parser::parse_array_decl(Object& obj) {
   do {
     if (!at(TokenKind::kIdent)) {
       if (is_keyword(tok_.kind)) {
-        syntax_error(describe(tok_) + " is a reserved word and cannot name an array");
+        syntax_error(describe(tok_) + " is a reserved word and cannot name an array",
+                     "choose another name for the array");
       } else {
         expect(TokenKind::kIdent, ctx, "declare arrays like: array c[3], w[10];");
       }
@@ -480,6 +491,11 @@ std::vector<StmtPtr> Parser::parse_statements(std::initializer_list<TokenKind> t
 
 StmtPtr Parser::parse_statement(Object* obj) {
   const uint32_t begin = tok_.offset;
+  if (is_keyword(tok_.kind) && peek().kind == TokenKind::kEq) {
+    syntax_error(describe(tok_) + " is a reserved word and cannot be assigned",
+                 "choose another variable name");
+    return nullptr;
+  }
   switch (tok_.kind) {
     case TokenKind::kIf: return parse_if();
     case TokenKind::kWhile: return parse_while();
@@ -506,12 +522,7 @@ StmtPtr Parser::parse_statement(Object* obj) {
       syntax_error(describe(tok_) + " without a matching 'while'", kStatementHint);
       return nullptr;
     default:
-      if (is_keyword(tok_.kind) && peek().kind == TokenKind::kEq) {
-        syntax_error(describe(tok_) + " is a reserved word and cannot be assigned",
-                     "choose another variable name");
-      } else {
-        syntax_error("expected a statement, found " + describe(tok_), kStatementHint);
-      }
+      syntax_error("expected a statement, found " + describe(tok_), kStatementHint);
       return nullptr;
   }
 

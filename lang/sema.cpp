@@ -78,7 +78,7 @@ class Checker {
   void run() {
     for (size_t i = 0; i < prog_.objects.size(); ++i) register_object(static_cast<int>(i));
     for (size_t i = 0; i < prog_.objects.size(); ++i) {
-      if (diags_.saturated()) break;
+      if (diags_.truncated()) break;
       if (!prog_.objects[i].had_syntax_errors) check_object(static_cast<int>(i));
     }
   }
@@ -240,7 +240,7 @@ class Checker {
   // ---- statements ---------------------------------------------------------------------
   void check_block(std::vector<StmtPtr>& body, std::vector<char>& assigned) {
     for (StmtPtr& s : body) {
-      if (diags_.saturated()) return;
+      if (diags_.truncated()) return;
       check_stmt(*s, assigned);
     }
   }

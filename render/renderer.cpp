@@ -243,6 +243,7 @@ class TileRenderer {
     if (!(te <= tx)) return false;
     ts.shadow_rays++;
     RootHit h = use_interval_ ? ts.searcher.interval_search(r, te, tx, eps_, step_, true)
+                : cull_       ? ts.searcher.pruned_sign_search(r, te, tx, step_, eps_, true)
                               : ts.searcher.sign_search(r, te, tx, step_, eps_, true);
     return h.hit;
   }

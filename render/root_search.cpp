@@ -181,4 +181,32 @@ RootHit RootSearcher::interval_search(const Ray& ray, float t0, float t1, float 
   return {};
 }
 
+RootHit RootSearcher::pruned_sign_search(const Ray& ray, float t0, float t1, float step,
+                                         float eps, bool any_hit) {
+  if (!(t0 <= t1)) return {};
+  const float span = kPrunedSpan * step;
+  std::vector<Piece> stack{{t0, t1}};  // separate from stack_: sign_search does not use it
+  while (!stack.empty()) {
+    Piece p = stack.back();
+    stack.pop_back();
+    bool maybe_nan = false;
+    Interval iv = field_.eval_interval(segment_box(ray, p.a, p.b), &maybe_nan);
+    counters_.interval_calls++;
+    if (iv.hi < 0) continue;
+    float mid = p.a + (p.b - p.a) * 0.5f;
+    if (p.b - p.a > span && mid > p.a && mid < p.b) {
+      stack.push_back({mid, p.b});
+      stack.push_back({p.a, mid});
+      continue;
+    }
+    // Everything before p.a was excluded or marched without a hit.
+    RootHit h = sign_search(ray, p.a, p.b, step, eps, any_hit);
+    if (h.hit) {
+      h.at_start = h.at_start && p.a == t0;
+      return h;
+    }
+  }
+  return {};
+}
+
 }  // namespace hfrt::render

@@ -64,6 +64,14 @@ class RootSearcher {
                           bool any_hit);
   static constexpr int kIntervalBudget = 4096;
 
+  /// Sign-change search that first drops pieces of [t0, t1] whose interval is below 0, marching
+  /// only pieces of at most kPrunedSpan steps that may hold the surface. For rays that no
+  /// per-tile culling covers (shadow rays) when the field has intervals but the user asked for
+  /// the sign-change search.
+  RootHit pruned_sign_search(const Ray& ray, float t0, float t1, float step, float eps,
+                             bool any_hit);
+  static constexpr int kPrunedSpan = 32;
+
   EvalCounters& counters() { return counters_; }
 
   /// The first point where a sample had no value, if any was seen since the last reset.

@@ -4,6 +4,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <fstream>
 #include <string>
 
 #include "hfrt/model.h"
@@ -48,6 +49,69 @@ TEST_P(LibExampleTest, IsABoundedSolidWithoutWarnings) {
 INSTANTIATE_TEST_SUITE_P(Examples, LibExampleTest,
                          ::testing::Values("lib_primitives", "lib_convolution", "lib_transforms",
                                            "lib_blends", "lib_distance", "lib_attributes"));
+
+}  // namespace
+}  // namespace hfrt
+
+namespace hfrt {
+namespace {
+
+// Through the whole pipeline: a point array of the wrong size is a located warning, not an
+// error, and the model still compiles (corpus/probes/quirk_sentinels.hf depends on it).
+TEST(LibWarnings, SentinelsWarnAtThePointArgument) {
+  const std::string path = std::string(HFRT_CORPUS_DIR) + "/probes/quirk_sentinels.hf";
+  ModelOptions options;
+  options.backend = Backend::kInterp;
+  auto compiled = Model::compile_file(path, options);
+  ASSERT_TRUE(compiled.ok()) << compiled.rendered;
+  std::ifstream in(path);
+  std::string line, text;
+  int line_no = 0, model_line = 0;
+  while (std::getline(in, line)) {
+    ++line_no;
+    if (line.find("hfSphere(") != std::string::npos) model_line = line_no, text = line;
+  }
+  ASSERT_GT(model_line, 0);
+  struct Want {
+    std::string call;
+    std::string value;
+  };
+  const Want wants[] = {{"hfSphere(", "-1111111111111.0"},
+                        {"hfDConeX(", "-11111111111.0"},
+                        {"hfDCylinder(", "-11111111111.1"}};
+  ASSERT_EQ(3u, compiled.diagnostics.size()) << compiled.rendered;
+  for (const Want& w : wants) {
+    const int col = static_cast<int>(text.find(w.call) + w.call.size()) + 1;  // the 'x'
+    bool found = false;
+    for (const SourceDiagnostic& d : compiled.diagnostics) {
+      if (d.line == model_line && d.col == col) {
+        found = true;
+        EXPECT_EQ(SourceDiagnostic::Severity::kWarning, d.severity);
+        EXPECT_EQ(1, d.length);
+        EXPECT_EQ(w.call.substr(0, w.call.size() - 1) + ": the point array 'x' has 4 elements, "
+                      "not 3; the call returns the failure value " + w.value,
+                  d.message);
+      }
+    }
+    EXPECT_TRUE(found) << w.call << " at column " << col << "\n" << compiled.rendered;
+  }
+  EXPECT_EQ(-1111111111111.0, compiled.model->eval({1, 2, 3, 4}).s.at(0));
+}
+
+TEST(LibWarnings, HfRWarnsAndReturnsTheFailureValue) {
+  ModelOptions options;
+  options.backend = Backend::kInterp;
+  auto compiled = Model::compile("m(x[3], a[1]) { m = hfR(x, 2); }", options);
+  ASSERT_TRUE(compiled.ok()) << compiled.rendered;
+  ASSERT_EQ(1u, compiled.diagnostics.size()) << compiled.rendered;
+  const SourceDiagnostic& d = compiled.diagnostics[0];
+  EXPECT_EQ(SourceDiagnostic::Severity::kWarning, d.severity);
+  EXPECT_EQ("hfR needs the R package build of HyperFun; it returns the failure value here",
+            d.message);
+  EXPECT_EQ(1, d.line);
+  EXPECT_EQ(21, d.col);  // the call hfR(...)
+  EXPECT_EQ(-1111111111111.0, compiled.model->eval({1, 2, 3}).f);
+}
 
 }  // namespace
 }  // namespace hfrt

@@ -30,6 +30,7 @@ struct ModelOptions {
   std::string object;             ///< object to evaluate; empty: `my_model`, else the first
   Backend backend = Backend::kJit;
   int opt_level = 2;              ///< LLVM pipeline O0..O3 (JIT backend)
+  int lanes = 0;                  ///< JIT SIMD lanes per block (power of two); 0 = host width
   /// Precisions the JIT compiles inside compile(); the others compile on first use.
   bool eager_f64 = true;
   bool eager_f32 = false;

@@ -1,0 +1,152 @@
+// Interval throughput on corpus/bench/prospero.hf (7866 operations): boxes per second of the
+// interval interpreter and the interval JIT, against points per second of the scalar
+// interpreter and the scalar JIT (f64), all on one thread. The boxes tile [-1,1]^2 (z = 0)
+// in an R x R grid; the points are the boxes' centres.
+//
+//   hfrt_bench_interval [MODEL.hf] [--grid R] [--seconds S]
+
+#include <algorithm>
+#include <chrono>
+#include <cstdio>
+#include <cstdlib>
+#include <cstring>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "jit/interpreter.h"
+#include "jit/interval.h"
+#include "jit/llvm_jit.h"
+#include "jit/lower.h"
+#include "lang/frontend.h"
+#include "lang/result.h"
+
+namespace {
+
+using Clock = std::chrono::steady_clock;
+double seconds_since(Clock::time_point t0) {
+  return std::chrono::duration<double>(Clock::now() - t0).count();
+}
+
+/// Repeats `pass` (which evaluates `per_pass` items) for at least `min_s` seconds; items/s.
+template <typename F>
+double rate(double min_s, size_t per_pass, F pass) {
+  size_t done = 0;
+  auto t0 = Clock::now();
+  do {
+    pass();
+    done += per_pass;
+  } while (seconds_since(t0) < min_s);
+  return static_cast<double>(done) / seconds_since(t0);
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  using namespace hfrt;
+  std::string path = HFRT_CORPUS_DIR "/bench/prospero.hf";
+  int grid = 64;
+  double min_s = 1.0;
+  for (int i = 1; i < argc; ++i) {
+    if (!std::strcmp(argv[i], "--grid") && i + 1 < argc) grid = std::atoi(argv[++i]);
+    else if (!std::strcmp(argv[i], "--seconds") && i + 1 < argc) min_s = std::atof(argv[++i]);
+    else path = argv[i];
+  }
+  Result<std::string> text = read_file(path);
+  if (!text.ok()) {
+    std::fprintf(stderr, "%s\n", text.error().message.c_str());
+    return 2;
+  }
+  auto file = std::make_shared<const lang::SourceFile>(path, std::move(text.value()));
+  lang::DiagnosticSink diags(file);
+  auto program = lang::compile_source(file, diags);
+  if (!program) {
+    std::fprintf(stderr, "%s", diags.render().c_str());
+    return 1;
+  }
+  jit::Function fn = jit::lower_object(*program, program->default_object(), nullptr);
+  std::printf("model %s: %zu IR instructions, %d x %d boxes over [-1,1]^2\n", path.c_str(),
+              fn.insts.size(), grid, grid);
+
+  const size_t n = static_cast<size_t>(grid) * grid;
+  const int dims = fn.num_inputs;
+  std::vector<double> lo(dims * n, 0.0), hi(dims * n, 0.0), centre(dims * n, 0.0);
+  std::vector<std::vector<jit::Interval>> boxes(n, std::vector<jit::Interval>(dims));
+  const double step = 2.0 / grid;
+  for (int j = 0; j < grid; ++j) {
+    for (int i = 0; i < grid; ++i) {
+      size_t b = static_cast<size_t>(j) * grid + i;
+      double x0 = -1 + i * step, y0 = -1 + j * step;
+      double c[2][2] = {{x0, x0 + step}, {y0, y0 + step}};
+      for (int k = 0; k < std::min(dims, 2); ++k) {
+        lo[k * n + b] = c[k][0];
+        hi[k * n + b] = c[k][1];
+        centre[k * n + b] = 0.5 * (c[k][0] + c[k][1]);
+        boxes[b][k] = {c[k][0], c[k][1], false};
+      }
+    }
+  }
+  std::vector<double> a(std::max(fn.num_params, 1), 0.0);
+
+  // Interval interpreter.
+  jit::IntervalInterpreter ii(fn);
+  size_t ambiguous = 0;
+  for (const auto& box : boxes) {
+    jit::Interval r = ii.eval(box, a);
+    if (r.lo <= 0 && r.hi >= 0) ++ambiguous;
+  }
+  double ii_rate = rate(min_s, n, [&] {
+    for (const auto& box : boxes) ii.eval(box, a);
+  });
+  std::printf("interval interpreter: %12.0f boxes/s (%zu of %zu boxes contain the surface)\n",
+              ii_rate, ambiguous, n);
+
+  // Interval JIT, with and without the min/max trace, at two optimisation levels.
+  double ij_rate = 0;
+  for (int variant = 0; variant < 3; ++variant) {
+    jit::IntervalJit::Options o;
+    o.trace = variant != 1;
+    o.opt_level = variant == 2 ? 2 : 1;
+    auto t0 = Clock::now();
+    auto ij = jit::IntervalJit::compile(fn, o);
+    double compile_s = seconds_since(t0);
+    if (!ij.ok()) {
+      std::printf("interval JIT: unavailable (%s)\n", ij.error().message.c_str());
+      break;
+    }
+    std::vector<double> olo(n), ohi(n);
+    std::vector<uint8_t> onan(n), choices(fn.insts.size());
+    double r = rate(min_s, n, [&] {
+      ij.value()->eval(static_cast<int64_t>(n), lo.data(), hi.data(), a, olo.data(), ohi.data(),
+                       onan.data(), choices.data());
+    });
+    if (variant == 0) ij_rate = r;
+    std::printf("interval JIT (%d lanes, O%d, trace %s): %12.0f boxes/s (compile %.0f ms)\n",
+                ij.value()->lanes(), o.opt_level, o.trace ? "on" : "off", r, compile_s * 1e3);
+  }
+
+  // Scalar interpreter and scalar JIT at the box centres.
+  jit::Interpreter interp(fn);
+  std::vector<std::vector<double>> pts(n, std::vector<double>(dims, 0.0));
+  for (size_t b = 0; b < n; ++b) {
+    for (int k = 0; k < dims; ++k) pts[b][k] = centre[k * n + b];
+  }
+  double si_rate = rate(min_s, n, [&] {
+    for (const auto& p : pts) interp.eval(p, a);
+  });
+  std::printf("scalar interpreter:   %12.0f points/s\n", si_rate);
+  double sj_rate = 0;
+  auto sj = jit::JitFunction::compile(fn, jit::Precision::kF64);
+  if (sj.ok()) {
+    std::vector<double> f(n);
+    sj_rate = rate(min_s, n, [&] {
+      sj.value()->f64()(static_cast<int64_t>(n), centre.data(), a.data(), f.data(), nullptr);
+    });
+    std::printf("scalar JIT f64:       %12.0f points/s\n", sj_rate);
+  }
+  std::printf("ratios: interval/scalar interpreter %.2f", ii_rate / si_rate);
+  if (ij_rate > 0 && sj_rate > 0) std::printf(", interval JIT/scalar JIT %.2f", ij_rate / sj_rate);
+  if (ij_rate > 0) std::printf(", interval JIT/interval interpreter %.1f", ij_rate / ii_rate);
+  std::printf("\n");
+  return 0;
+}

@@ -1,0 +1,841 @@
+// The interval JIT: hfrt IR -> LLVM IR over W boxes per SIMD block -> ORC LLJIT.
+//
+// Design
+// - Each IR value is three vectors: lo and hi (<W x double>) and a maybe-NaN mask (<W x i1>);
+//   lane i is box i of the block. Every op computes exactly what apply_interval computes
+//   (interval_interpreter.cpp) for its box, so the JIT and the interpreter give the same
+//   intervals: the cheap ops (add, sub, mul, square, neg, abs, min/max, sqrt, floor/ceil/
+//   trunc/round, comparisons, logic, select) are emitted as vector code with the same
+//   formulas, outward rounding included (nextafter as an integer step of the bit pattern:
+//   one add and a few selects per endpoint, no rounding-mode changes, no fast-math); the
+//   libm-based ops (exp, log, trig, pow, fmod, div, ...) call apply_interval per lane through
+//   a C-ABI helper.
+// - Slots are allocas of the three vectors (promoted to registers by mem2reg).
+// - Control flow, tri-state per lane: a condition is definitely true, definitely false or
+//   ambiguous over each box. An `if` saves the slots its sides write, runs the then side
+//   (skipped by a branch when no lane may take it), saves the result, restores the entry
+//   state, runs the else side likewise, and merges per lane: definitely-true lanes take the
+//   then state, definitely-false lanes the else state, ambiguous lanes the hull of both.
+//   This is exactly the interpreter's rule, lane by lane. kCheck ORs (lanes that may reach
+//   it) & (condition may be nonzero) into an error mask.
+// - Loops run while any lane is active. At the test, lanes whose test may be false add
+//   their state to an exit accumulator (hull); lanes whose test may be true stay active.
+//   Stores inside a loop are masked by the active lanes, so lanes that left keep their state.
+//   After `loop_limit` iterations the remaining lanes give up: the slots the loop writes
+//   become [-inf, inf] with maybe-NaN. At the exit every written slot is hulled with the
+//   accumulator.
+// - Dynamic indices are intervals too: kLoadIdx takes the hull of every element the index
+//   interval may address, kStoreIdx assigns where the index is one known element and hulls
+//   where it may be several (select chains over the array's slots).
+// - The min/max/select trace: each kMin/kMax/kSelect ORs, over the lanes that may reach it,
+//   which operands may decide the result into choices[instruction].
+// Only f64: single-precision intervals would need their own widening of every libm call.
+
+#include <algorithm>
+#include <cmath>
+#include <cstring>
+#include <limits>
+
+#include "jit/gradient.h"
+#include "jit/interval.h"
+#include "jit/llvm_domains.h"
+#include "jit/scalar_ops.h"
+#include "lang/check.h"
+
+/// apply_interval for one lane, called from JIT code for the libm-based ops.
+extern "C" void hfrt_interval_lane(int32_t op, double alo, double ahi, double anan, double blo,
+                                   double bhi, double bnan, double* out) noexcept {
+  using hfrt::jit::Interval;
+  Interval r = hfrt::jit::apply_interval(static_cast<hfrt::jit::Op>(op), {alo, ahi, anan != 0},
+                                         {blo, bhi, bnan != 0}, {}, false);
+  out[0] = r.lo;
+  out[1] = r.hi;
+  out[2] = r.maybe_nan ? 1.0 : 0.0;
+}
+
+/// kPowHF per lane for the gradient JIT (the interpreter's function).
+extern "C" double hfrt_domain_powhf(double b, double e) noexcept { return hfrt::jit::hf_pow(b, e); }
+extern "C" float hfrt_domain_powhf_f32(float b, float e) noexcept {
+  return static_cast<float>(hfrt::jit::hf_pow(b, e));
+}
+
+namespace hfrt::jit {
+namespace domains {
+
+/// Every host function the domain emitters may call (both emitters share one engine).
+std::vector<HostSymbol> domain_host_symbols() {
+  using D1 = double (*)(double);
+  using D2 = double (*)(double, double);
+  using F1 = float (*)(float);
+  using F2 = float (*)(float, float);
+  auto p = [](auto f) { return reinterpret_cast<void*>(f); };
+  return {
+      {"hfrt_interval_lane", p(&hfrt_interval_lane)},
+      {"hfrt_domain_powhf", p(&hfrt_domain_powhf)},
+      {"hfrt_domain_powhf_f32", p(&hfrt_domain_powhf_f32)},
+      {"exp", p(static_cast<D1>(&::exp))},      {"log", p(static_cast<D1>(&::log))},
+      {"log10", p(static_cast<D1>(&::log10))},  {"sin", p(static_cast<D1>(&::sin))},
+      {"cos", p(static_cast<D1>(&::cos))},      {"tan", p(static_cast<D1>(&::tan))},
+      {"asin", p(static_cast<D1>(&::asin))},    {"acos", p(static_cast<D1>(&::acos))},
+      {"atan", p(static_cast<D1>(&::atan))},    {"sinh", p(static_cast<D1>(&::sinh))},
+      {"cosh", p(static_cast<D1>(&::cosh))},    {"tanh", p(static_cast<D1>(&::tanh))},
+      {"atan2", p(static_cast<D2>(&::atan2))},  {"fmod", p(static_cast<D2>(&::fmod))},
+      {"pow", p(static_cast<D2>(&::pow))},      {"floor", p(static_cast<D1>(&::floor))},
+      {"ceil", p(static_cast<D1>(&::ceil))},    {"trunc", p(static_cast<D1>(&::trunc))},
+      {"round", p(static_cast<D1>(&::round))},  {"sqrt", p(static_cast<D1>(&::sqrt))},
+      {"expf", p(static_cast<F1>(&::expf))},    {"logf", p(static_cast<F1>(&::logf))},
+      {"log10f", p(static_cast<F1>(&::log10f))}, {"sinf", p(static_cast<F1>(&::sinf))},
+      {"cosf", p(static_cast<F1>(&::cosf))},    {"tanf", p(static_cast<F1>(&::tanf))},
+      {"asinf", p(static_cast<F1>(&::asinf))},  {"acosf", p(static_cast<F1>(&::acosf))},
+      {"atanf", p(static_cast<F1>(&::atanf))},  {"sinhf", p(static_cast<F1>(&::sinhf))},
+      {"coshf", p(static_cast<F1>(&::coshf))},  {"tanhf", p(static_cast<F1>(&::tanhf))},
+      {"atan2f", p(static_cast<F2>(&::atan2f))}, {"fmodf", p(static_cast<F2>(&::fmodf))},
+      {"powf", p(static_cast<F2>(&::powf))},    {"floorf", p(static_cast<F1>(&::floorf))},
+      {"ceilf", p(static_cast<F1>(&::ceilf))},  {"truncf", p(static_cast<F1>(&::truncf))},
+      {"roundf", p(static_cast<F1>(&::roundf))}, {"sqrtf", p(static_cast<F1>(&::sqrtf))},
+      {"memset", p(&::memset)},                 {"memcpy", p(&::memcpy)},
+      {"memmove", p(&::memmove)},
+  };
+}
+
+}  // namespace domains
+
+namespace {
+
+using domains::DomainEngine;
+
+constexpr double kInf = std::numeric_limits<double>::infinity();
+
+/// Control-flow targets: kIf -> kElse/kEndIf, kElse -> kEndIf, kLoop -> kLoopTest,
+/// kLoopTest -> kEndLoop.
+std::vector<int32_t> match_regions(const Function& fn) {
+  std::vector<int32_t> match(fn.insts.size(), -1);
+  std::vector<size_t> stack;
+  for (size_t i = 0; i < fn.insts.size(); ++i) {
+    switch (fn.insts[i].op) {
+      case Op::kIf:
+      case Op::kLoop: stack.push_back(i); break;
+      case Op::kElse:
+      case Op::kLoopTest:
+        match[stack.back()] = static_cast<int32_t>(i);
+        stack.back() = i;
+        break;
+      case Op::kEndIf:
+      case Op::kEndLoop:
+        match[stack.back()] = static_cast<int32_t>(i);
+        stack.pop_back();
+        break;
+      default: break;
+    }
+  }
+  return match;
+}
+
+/// Slots written by the instructions in [begin, end).
+std::vector<int> written_slots(const Function& fn, size_t begin, size_t end) {
+  std::vector<char> w(fn.num_slots, 0);
+  for (size_t i = begin; i < end; ++i) {
+    const Inst& in = fn.insts[i];
+    if (in.op == Op::kStoreSlot) w[in.aux] = 1;
+    if (in.op == Op::kStoreIdx) {
+      for (int k = 0; k < static_cast<int>(in.imm); ++k) w[in.aux + k] = 1;
+    }
+  }
+  std::vector<int> out;
+  for (int s = 0; s < fn.num_slots; ++s) {
+    if (w[s]) out.push_back(s);
+  }
+  return out;
+}
+
+struct IV {
+  llvm::Value* lo = nullptr;
+  llvm::Value* hi = nullptr;
+  llvm::Value* nan = nullptr;
+};
+
+struct Tri {
+  llvm::Value* can_true;
+  llvm::Value* can_false;
+};
+
+class IntervalEmitter {
+ public:
+  IntervalEmitter(llvm::LLVMContext& ctx, llvm::Module& m, const Function& fn, int lanes,
+                  int loop_limit, bool trace)
+      : ctx_(ctx), m_(m), b_(ctx), fn_(fn), w_(lanes), loop_limit_(loop_limit), trace_(trace) {
+    dt_ = llvm::Type::getDoubleTy(ctx);
+    vt_ = llvm::FixedVectorType::get(dt_, w_);
+    mt_ = llvm::FixedVectorType::get(llvm::Type::getInt1Ty(ctx), w_);
+    i64_ = llvm::Type::getInt64Ty(ctx);
+    i32_ = llvm::Type::getInt32Ty(ctx);
+    i8_ = llvm::Type::getInt8Ty(ctx);
+    ptr_ = llvm::PointerType::get(ctx, 0);
+    match_ = match_regions(fn);
+  }
+
+  void emit(const std::string& name) {
+    auto* fty = llvm::FunctionType::get(
+        llvm::Type::getVoidTy(ctx_), {ptr_, ptr_, i64_, ptr_, ptr_, ptr_, ptr_, ptr_}, false);
+    f_ = llvm::Function::Create(fty, llvm::Function::ExternalLinkage, name, m_);
+    f_->setDoesNotThrow();
+    auto arg = f_->arg_begin();
+    xlo_ = &*arg++;
+    xhi_ = &*arg++;
+    stride_ = &*arg++;
+    a_ = &*arg++;
+    olo_ = &*arg++;
+    ohi_ = &*arg++;
+    onan_ = &*arg++;
+    choices_ = &*arg++;
+    auto* entry = llvm::BasicBlock::Create(ctx_, "entry", f_);
+    b_.SetInsertPoint(entry);
+    lane_out_ = b_.CreateAlloca(llvm::ArrayType::get(dt_, 3), nullptr, "lane_out");
+    err_ = b_.CreateAlloca(mt_, nullptr, "err");
+    b_.CreateStore(fals(), err_);
+    slots_.resize(fn_.num_slots);
+    for (int s = 0; s < fn_.num_slots; ++s) {
+      slots_[s] = {b_.CreateAlloca(vt_), b_.CreateAlloca(vt_), b_.CreateAlloca(mt_)};
+      double init = s < static_cast<int>(fn_.slot_init.size()) ? fn_.slot_init[s] : 0.0;
+      store_slot_raw(s, point(init));
+    }
+    values_.resize(fn_.insts.size());
+    for (size_t i = 0; i < fn_.insts.size(); ++i) emit_inst(i);
+    IV r = values_[fn_.result];
+    HFRT_CHECK(r.lo);
+    // The caller's arrays are only element-aligned.
+    b_.CreateAlignedStore(r.lo, olo_, llvm::Align(8));
+    b_.CreateAlignedStore(r.hi, ohi_, llvm::Align(8));
+    llvm::Value* nan = b_.CreateOr(r.nan, b_.CreateLoad(mt_, err_));
+    b_.CreateAlignedStore(b_.CreateZExt(nan, llvm::FixedVectorType::get(i8_, w_)), onan_,
+                          llvm::Align(1));
+    b_.CreateRetVoid();
+  }
+
+ private:
+  // --- constants and small helpers ------------------------------------------------------
+  llvm::Constant* splat(double v) { return llvm::ConstantFP::get(vt_, v); }
+  llvm::Value* tru() { return llvm::ConstantInt::getTrue(mt_); }
+  llvm::Value* fals() { return llvm::ConstantInt::getFalse(mt_); }
+  llvm::Value* sel(llvm::Value* c, llvm::Value* a, llvm::Value* b) { return b_.CreateSelect(c, a, b); }
+  llvm::Value* OR(llvm::Value* a, llvm::Value* b) { return b_.CreateOr(a, b); }
+  llvm::Value* AND(llvm::Value* a, llvm::Value* b) { return b_.CreateAnd(a, b); }
+  llvm::Value* NOT(llvm::Value* a) { return b_.CreateNot(a); }
+  llvm::Value* lt(llvm::Value* a, llvm::Value* b) { return b_.CreateFCmpOLT(a, b); }
+  llvm::Value* le(llvm::Value* a, llvm::Value* b) { return b_.CreateFCmpOLE(a, b); }
+  llvm::Value* eq(llvm::Value* a, llvm::Value* b) { return b_.CreateFCmpOEQ(a, b); }
+  llvm::Value* isnan(llvm::Value* a) { return b_.CreateFCmpUNO(a, a); }
+  llvm::Value* isinf(llvm::Value* a) {
+    return b_.CreateFCmpOEQ(b_.CreateUnaryIntrinsic(llvm::Intrinsic::fabs, a), splat(kInf));
+  }
+  llvm::Value* fabs(llvm::Value* a) { return b_.CreateUnaryIntrinsic(llvm::Intrinsic::fabs, a); }
+  /// std::min / std::max on non-NaN values (the sign of a zero may differ; widening and the
+  /// comparisons that use these treat both zeros alike).
+  llvm::Value* vmin(llvm::Value* a, llvm::Value* b) { return sel(lt(b, a), b, a); }
+  llvm::Value* vmax(llvm::Value* a, llvm::Value* b) { return sel(lt(a, b), b, a); }
+  llvm::Value* any(llvm::Value* mask) { return b_.CreateOrReduce(mask); }
+
+  IV point(double v) {
+    if (v != v) return {splat(0), splat(0), tru()};
+    return {splat(v), splat(v), fals()};
+  }
+
+  /// nextafter(v, +inf) (v = +inf stays; v is never NaN where it matters).
+  llvm::Value* up(llvm::Value* v) {
+    auto* it = llvm::FixedVectorType::get(i64_, w_);
+    llvm::Value* bits = b_.CreateBitCast(v, it);
+    llvm::Value* inc = b_.CreateAdd(bits, llvm::ConstantInt::get(it, 1));
+    llvm::Value* dec = b_.CreateSub(bits, llvm::ConstantInt::get(it, 1));
+    llvm::Value* next = b_.CreateBitCast(sel(b_.CreateFCmpOGT(v, splat(0)), inc, dec), vt_);
+    next = sel(eq(v, splat(0)), splat(std::numeric_limits<double>::denorm_min()), next);
+    return sel(eq(v, splat(kInf)), v, next);
+  }
+  llvm::Value* down(llvm::Value* v) { return b_.CreateFNeg(up(b_.CreateFNeg(v))); }
+
+  llvm::Value* contains_zero(const IV& a) {
+    return AND(le(a.lo, splat(0)), b_.CreateFCmpOGE(a.hi, splat(0)));
+  }
+
+  IV from_tri(Tri t) {
+    return {sel(t.can_false, splat(0), splat(1)), sel(t.can_true, splat(1), splat(0)), fals()};
+  }
+  Tri nonzero(const IV& c) {
+    llvm::Value* t = OR(c.nan, OR(b_.CreateFCmpUNE(c.lo, splat(0)), b_.CreateFCmpUNE(c.hi, splat(0))));
+    return {t, contains_zero(c)};
+  }
+  Tri truth(const IV& a) {
+    llvm::Value* mag_hi = vmax(fabs(a.lo), fabs(a.hi));
+    llvm::Value* mag_lo = sel(contains_zero(a), splat(0), vmin(fabs(a.lo), fabs(a.hi)));
+    return {b_.CreateFCmpOGE(mag_hi, splat(kHfEps)), OR(lt(mag_lo, splat(kHfEps)), a.nan)};
+  }
+  IV hull(const IV& a, const IV& b) { return {vmin(a.lo, b.lo), vmax(a.hi, b.hi), OR(a.nan, b.nan)}; }
+  IV select_iv(llvm::Value* c, const IV& a, const IV& b) {
+    return {sel(c, a.lo, b.lo), sel(c, a.hi, b.hi), sel(c, a.nan, b.nan)};
+  }
+
+  // --- ops ----------------------------------------------------------------------------
+  IV add(const IV& a, const IV& b) {
+    llvm::Value* nan = OR(OR(a.nan, b.nan),
+                          OR(AND(eq(a.lo, splat(-kInf)), eq(b.hi, splat(kInf))),
+                             AND(eq(a.hi, splat(kInf)), eq(b.lo, splat(-kInf)))));
+    llvm::Value* lo = b_.CreateFAdd(a.lo, b.lo);
+    llvm::Value* hi = b_.CreateFAdd(a.hi, b.hi);
+    lo = sel(isnan(lo), splat(-kInf), down(lo));
+    hi = sel(isnan(hi), splat(kInf), up(hi));
+    return {lo, hi, nan};
+  }
+  IV neg(const IV& a) { return {b_.CreateFNeg(a.hi), b_.CreateFNeg(a.lo), a.nan}; }
+  IV mul(const IV& a, const IV& b) {
+    llvm::Value* nan =
+        OR(OR(a.nan, b.nan), OR(AND(contains_zero(a), OR(isinf(b.lo), isinf(b.hi))),
+                                AND(contains_zero(b), OR(isinf(a.lo), isinf(a.hi)))));
+    auto p = [&](llvm::Value* u, llvm::Value* v) {
+      llvm::Value* r = b_.CreateFMul(u, v);
+      return sel(isnan(r), splat(0), r);
+    };
+    llvm::Value* c0 = p(a.lo, b.lo), *c1 = p(a.lo, b.hi), *c2 = p(a.hi, b.lo), *c3 = p(a.hi, b.hi);
+    llvm::Value* lo = vmin(vmin(c0, c1), vmin(c2, c3));
+    llvm::Value* hi = vmax(vmax(c0, c1), vmax(c2, c3));
+    return {down(lo), up(hi), nan};
+  }
+  IV square(const IV& a) {
+    llvm::Value* al = fabs(a.lo), *ah = fabs(a.hi);
+    llvm::Value* m_lo = sel(contains_zero(a), splat(0), vmin(al, ah));
+    llvm::Value* m_hi = vmax(al, ah);
+    llvm::Value* lo = b_.CreateFMul(m_lo, m_lo);
+    lo = sel(eq(lo, splat(0)), splat(0), down(lo));
+    return {lo, up(b_.CreateFMul(m_hi, m_hi)), a.nan};
+  }
+  IV abs(const IV& a) {
+    llvm::Value* pos = b_.CreateFCmpOGE(a.lo, splat(0));
+    llvm::Value* negv = le(a.hi, splat(0));
+    IV n = neg(a);
+    IV mixed{splat(0), vmax(b_.CreateFNeg(a.lo), a.hi), a.nan};
+    return select_iv(pos, a, select_iv(negv, n, mixed));
+  }
+  IV min_max(const IV& a, const IV& b, bool is_min, size_t at) {
+    llvm::Value *left_only, *right_only;
+    llvm::Value* no_nan = NOT(OR(a.nan, b.nan));
+    if (is_min) {
+      left_only = AND(no_nan, lt(a.hi, b.lo));
+      right_only = le(b.hi, a.lo);
+    } else {
+      left_only = AND(no_nan, b_.CreateFCmpOGT(a.lo, b.hi));
+      right_only = b_.CreateFCmpOGE(b.lo, a.hi);
+    }
+    record_choice(at, NOT(right_only), NOT(left_only));
+    IV mixed;
+    if (is_min) {
+      mixed.lo = vmin(a.lo, b.lo);
+      mixed.hi = sel(a.nan, b.hi, vmin(a.hi, b.hi));
+    } else {
+      mixed.lo = sel(a.nan, b.lo, vmax(a.lo, b.lo));
+      mixed.hi = vmax(a.hi, b.hi);
+    }
+    mixed.nan = b.nan;
+    return select_iv(left_only, a, select_iv(right_only, b, mixed));
+  }
+  IV sqrt(const IV& a) {
+    llvm::Value* nan = OR(a.nan, lt(a.lo, splat(0)));
+    llvm::Value* lo = sel(lt(a.lo, splat(0)), splat(0), a.lo);
+    llvm::Value* hi = sel(lt(a.hi, splat(0)), splat(0), a.hi);
+    lo = down(b_.CreateUnaryIntrinsic(llvm::Intrinsic::sqrt, lo));
+    hi = up(b_.CreateUnaryIntrinsic(llvm::Intrinsic::sqrt, hi));
+    lo = sel(lt(lo, splat(0)), splat(0), lo);
+    return {lo, hi, nan};
+  }
+  IV rounding(const IV& a, llvm::Intrinsic::ID id) {
+    return {b_.CreateUnaryIntrinsic(id, a.lo), b_.CreateUnaryIntrinsic(id, a.hi), a.nan};
+  }
+  Tri cmp_lt(const IV& a, const IV& b) {
+    return {lt(a.lo, b.hi), OR(NOT(lt(a.hi, b.lo)), OR(a.nan, b.nan))};
+  }
+  Tri cmp_le(const IV& a, const IV& b) {
+    return {le(a.lo, b.hi), OR(b_.CreateFCmpOGT(a.hi, b.lo), OR(a.nan, b.nan))};
+  }
+
+  /// The per-lane helper (apply_interval) for the libm-based ops.
+  IV lane_call(Op op, const IV& a, const IV& b) {
+    auto* fty = llvm::FunctionType::get(llvm::Type::getVoidTy(ctx_),
+                                        {i32_, dt_, dt_, dt_, dt_, dt_, dt_, ptr_}, false);
+    llvm::FunctionCallee f = m_.getOrInsertFunction("hfrt_interval_lane", fty);
+    if (auto* fn = llvm::dyn_cast<llvm::Function>(f.getCallee())) fn->setDoesNotThrow();
+    llvm::Value* anan = b_.CreateUIToFP(a.nan, vt_);
+    llvm::Value* bnan = b_.CreateUIToFP(b.nan, vt_);
+    IV r{llvm::PoisonValue::get(vt_), llvm::PoisonValue::get(vt_), llvm::PoisonValue::get(vt_)};
+    auto* at = llvm::ArrayType::get(dt_, 3);
+    for (int i = 0; i < w_; ++i) {
+      auto e = [&](llvm::Value* v) { return b_.CreateExtractElement(v, uint64_t(i)); };
+      b_.CreateCall(f, {llvm::ConstantInt::get(i32_, static_cast<int>(op)), e(a.lo), e(a.hi),
+                        e(anan), e(b.lo), e(b.hi), e(bnan), lane_out_});
+      r.lo = b_.CreateInsertElement(r.lo, b_.CreateLoad(dt_, b_.CreateConstInBoundsGEP2_32(at, lane_out_, 0, 0)), uint64_t(i));
+      r.hi = b_.CreateInsertElement(r.hi, b_.CreateLoad(dt_, b_.CreateConstInBoundsGEP2_32(at, lane_out_, 0, 1)), uint64_t(i));
+      r.nan = b_.CreateInsertElement(r.nan, b_.CreateLoad(dt_, b_.CreateConstInBoundsGEP2_32(at, lane_out_, 0, 2)), uint64_t(i));
+    }
+    r.nan = b_.CreateFCmpUNE(r.nan, splat(0));
+    return r;
+  }
+
+  void record_choice(size_t at, llvm::Value* left_possible, llvm::Value* right_possible) {
+    if (!trace_) return;
+    llvm::Value* region = region_ ? region_ : tru();
+    llvm::Value* l = b_.CreateZExt(any(AND(region, left_possible)), i8_);
+    llvm::Value* r = b_.CreateZExt(any(AND(region, right_possible)), i8_);
+    llvm::Value* bits = b_.CreateOr(l, b_.CreateShl(r, 1));
+    llvm::Value* p = b_.CreateConstInBoundsGEP1_64(i8_, choices_, at);
+    b_.CreateStore(b_.CreateOr(b_.CreateLoad(i8_, p), bits), p);
+  }
+
+  // --- slots --------------------------------------------------------------------------
+  struct SlotMem {
+    llvm::AllocaInst* lo;
+    llvm::AllocaInst* hi;
+    llvm::AllocaInst* nan;
+  };
+  IV load_slot(int s) {
+    return {b_.CreateLoad(vt_, slots_[s].lo), b_.CreateLoad(vt_, slots_[s].hi),
+            b_.CreateLoad(mt_, slots_[s].nan)};
+  }
+  void store_slot_raw(int s, const IV& v) {
+    b_.CreateStore(v.lo, slots_[s].lo);
+    b_.CreateStore(v.hi, slots_[s].hi);
+    b_.CreateStore(v.nan, slots_[s].nan);
+  }
+  /// A store by the program: lanes that already left the innermost loop keep their value.
+  void store_slot(int s, IV v) {
+    if (store_mask_) v = select_iv(store_mask_, v, load_slot(s));
+    store_slot_raw(s, v);
+  }
+  void add_error(llvm::Value* lanes) {
+    if (region_) lanes = AND(lanes, region_);
+    b_.CreateStore(OR(b_.CreateLoad(mt_, err_), lanes), err_);
+  }
+  /// Entry-block alloca (so mem2reg can promote it).
+  llvm::AllocaInst* entry_alloca(llvm::Type* ty) {
+    llvm::IRBuilder<> eb(&f_->getEntryBlock(), f_->getEntryBlock().begin());
+    return eb.CreateAlloca(ty);
+  }
+
+  // --- control flow -------------------------------------------------------------------
+  struct IfFrame {
+    std::vector<int> written;
+    std::vector<IV> s0, s1;
+    Tri cond;
+    llvm::Value* parent_region;
+    llvm::BasicBlock* join;
+    bool has_else = false;
+  };
+  struct LoopFrame {
+    std::vector<int> written;
+    std::vector<SlotMem> exit;
+    llvm::AllocaInst* active;
+    llvm::AllocaInst* counter;
+    llvm::BasicBlock* header;
+    llvm::BasicBlock* exit_bb;
+    llvm::Value* parent_region;
+    llvm::Value* parent_store_mask;
+    llvm::Value* act = nullptr;
+  };
+
+  llvm::BasicBlock* block(const char* name) { return llvm::BasicBlock::Create(ctx_, name, f_); }
+
+  /// Runs the side that starts now only when some lane may take it.
+  void guard(llvm::Value* region, llvm::BasicBlock* side, llvm::BasicBlock* skip) {
+    b_.CreateCondBr(any(region), side, skip);
+    b_.SetInsertPoint(side);
+  }
+
+  void begin_if(size_t i) {
+    IfFrame fr;
+    fr.cond = nonzero(values_[fn_.insts[i].args[0]]);
+    size_t m = static_cast<size_t>(match_[i]);
+    fr.has_else = fn_.insts[m].op == Op::kElse;
+    size_t end = fr.has_else ? static_cast<size_t>(match_[m]) : m;
+    fr.written = written_slots(fn_, i + 1, end);
+    for (int s : fr.written) fr.s0.push_back(load_slot(s));
+    fr.parent_region = region_;
+    llvm::Value* then_region = region_ ? AND(region_, fr.cond.can_true) : fr.cond.can_true;
+    fr.join = block("then_done");
+    guard(then_region, block("then"), fr.join);
+    region_ = then_region;
+    ifs_.push_back(std::move(fr));
+  }
+  void begin_else() {
+    IfFrame& fr = ifs_.back();
+    b_.CreateBr(fr.join);
+    b_.SetInsertPoint(fr.join);
+    for (int s : fr.written) fr.s1.push_back(load_slot(s));
+    for (size_t k = 0; k < fr.written.size(); ++k) store_slot_raw(fr.written[k], fr.s0[k]);
+    llvm::Value* else_region =
+        fr.parent_region ? AND(fr.parent_region, fr.cond.can_false) : fr.cond.can_false;
+    fr.join = block("else_done");
+    guard(else_region, block("else"), fr.join);
+    region_ = else_region;
+  }
+  void end_if() {
+    IfFrame fr = std::move(ifs_.back());
+    ifs_.pop_back();
+    b_.CreateBr(fr.join);
+    b_.SetInsertPoint(fr.join);
+    std::vector<IV> s2;
+    if (fr.has_else) {
+      for (int s : fr.written) s2.push_back(load_slot(s));
+    } else {
+      for (int s : fr.written) fr.s1.push_back(load_slot(s));
+      s2 = fr.s0;
+    }
+    llvm::Value* def_true = AND(fr.cond.can_true, NOT(fr.cond.can_false));
+    llvm::Value* def_false = NOT(fr.cond.can_true);
+    for (size_t k = 0; k < fr.written.size(); ++k) {
+      IV merged = select_iv(def_true, fr.s1[k], select_iv(def_false, s2[k], hull(fr.s1[k], s2[k])));
+      store_slot_raw(fr.written[k], merged);
+    }
+    region_ = fr.parent_region;
+  }
+
+  void begin_loop(size_t i) {
+    LoopFrame fr;
+    size_t test = static_cast<size_t>(match_[i]);
+    size_t end = static_cast<size_t>(match_[test]);
+    fr.written = written_slots(fn_, i + 1, end);
+    for (size_t k = 0; k < fr.written.size(); ++k) {
+      SlotMem e{entry_alloca(vt_), entry_alloca(vt_), entry_alloca(mt_)};
+      b_.CreateStore(splat(kInf), e.lo);  // the empty interval: identity of the hull
+      b_.CreateStore(splat(-kInf), e.hi);
+      b_.CreateStore(fals(), e.nan);
+      fr.exit.push_back(e);
+    }
+    fr.active = entry_alloca(mt_);
+    fr.counter = entry_alloca(i64_);
+    b_.CreateStore(region_ ? region_ : tru(), fr.active);
+    b_.CreateStore(llvm::ConstantInt::get(i64_, 0), fr.counter);
+    fr.header = block("loop");
+    fr.exit_bb = block("loop_exit");
+    fr.parent_region = region_;
+    fr.parent_store_mask = store_mask_;
+    b_.CreateBr(fr.header);
+    b_.SetInsertPoint(fr.header);
+    fr.act = b_.CreateLoad(mt_, fr.active);
+    region_ = fr.act;
+    store_mask_ = fr.act;
+    loops_.push_back(std::move(fr));
+  }
+  void loop_test(size_t t) {
+    LoopFrame& fr = loops_.back();
+    Tri c = nonzero(values_[fn_.insts[t].args[0]]);
+    llvm::Value* maybe_exit = AND(fr.act, c.can_false);
+    for (size_t k = 0; k < fr.written.size(); ++k) {
+      const SlotMem& e = fr.exit[k];
+      IV ev{b_.CreateLoad(vt_, e.lo), b_.CreateLoad(vt_, e.hi), b_.CreateLoad(mt_, e.nan)};
+      IV h = select_iv(maybe_exit, hull(ev, load_slot(fr.written[k])), ev);
+      b_.CreateStore(h.lo, e.lo);
+      b_.CreateStore(h.hi, e.hi);
+      b_.CreateStore(h.nan, e.nan);
+    }
+    llvm::Value* active = AND(fr.act, c.can_true);
+    llvm::Value* count = b_.CreateLoad(i64_, fr.counter);
+    llvm::Value* over = b_.CreateICmpSGE(count, llvm::ConstantInt::get(i64_, loop_limit_));
+    llvm::Value* gave_up = AND(active, b_.CreateVectorSplat(w_, over));
+    IV entire{splat(-kInf), splat(kInf), tru()};
+    for (int s : fr.written) store_slot_raw(s, select_iv(gave_up, entire, load_slot(s)));
+    b_.CreateStore(OR(b_.CreateLoad(mt_, err_), gave_up), err_);
+    active = AND(active, NOT(gave_up));
+    b_.CreateStore(active, fr.active);
+    b_.CreateStore(b_.CreateAdd(count, llvm::ConstantInt::get(i64_, 1)), fr.counter);
+    b_.CreateCondBr(any(active), block("loop_body"), fr.exit_bb);
+    b_.SetInsertPoint(&f_->back());
+    // The body block was created last: continue there.
+    region_ = active;
+    store_mask_ = active;
+  }
+  void end_loop() {
+    LoopFrame fr = std::move(loops_.back());
+    loops_.pop_back();
+    b_.CreateBr(fr.header);
+    b_.SetInsertPoint(fr.exit_bb);
+    for (size_t k = 0; k < fr.written.size(); ++k) {
+      const SlotMem& e = fr.exit[k];
+      IV ev{b_.CreateLoad(vt_, e.lo), b_.CreateLoad(vt_, e.hi), b_.CreateLoad(mt_, e.nan)};
+      store_slot_raw(fr.written[k], hull(load_slot(fr.written[k]), ev));
+    }
+    region_ = fr.parent_region;
+    store_mask_ = fr.parent_store_mask;
+  }
+
+  // --- one instruction ------------------------------------------------------------------
+  void emit_inst(size_t i) {
+    const Inst& in = fn_.insts[i];
+    auto arg = [&](int k) -> const IV& { return values_[in.args[k]]; };
+    switch (in.op) {
+      case Op::kConst: values_[i] = point(in.imm); return;
+      case Op::kInput: {
+        if (in.aux >= fn_.num_inputs) {
+          values_[i] = point(0);
+          return;
+        }
+        llvm::Value* off = b_.CreateMul(stride_, llvm::ConstantInt::get(i64_, in.aux));
+        values_[i] = {b_.CreateAlignedLoad(vt_, b_.CreateInBoundsGEP(dt_, xlo_, off), llvm::Align(8)),
+                      b_.CreateAlignedLoad(vt_, b_.CreateInBoundsGEP(dt_, xhi_, off), llvm::Align(8)),
+                      fals()};
+        return;
+      }
+      case Op::kParam: {
+        llvm::Value* v = b_.CreateLoad(dt_, b_.CreateConstInBoundsGEP1_64(dt_, a_, in.aux));
+        llvm::Value* vs = b_.CreateVectorSplat(w_, v);
+        llvm::Value* n = isnan(vs);
+        vs = sel(n, splat(0), vs);
+        values_[i] = {vs, vs, n};
+        return;
+      }
+      case Op::kLoadSlot: values_[i] = load_slot(in.aux); return;
+      case Op::kStoreSlot: store_slot(in.aux, arg(0)); return;
+      case Op::kLoadIdx:
+      case Op::kStoreIdx: {
+        const IV& idx = arg(0);
+        const int size = static_cast<int>(in.imm);
+        llvm::Value* klo = b_.CreateUnaryIntrinsic(llvm::Intrinsic::ceil, idx.lo);
+        klo = sel(lt(klo, splat(1)), splat(1), klo);
+        llvm::Value* khi = b_.CreateUnaryIntrinsic(llvm::Intrinsic::floor, idx.hi);
+        khi = sel(lt(splat(size), khi), splat(size), khi);
+        llvm::Value* empty = b_.CreateFCmpOGT(klo, khi);
+        add_error(OR(idx.nan, empty));
+        if (in.op == Op::kLoadIdx) {
+          IV r{splat(kInf), splat(-kInf), fals()};
+          for (int k = 1; k <= size; ++k) {
+            llvm::Value* in_k = AND(le(klo, splat(k)), le(splat(k), khi));
+            r = select_iv(in_k, hull(r, load_slot(in.aux + k - 1)), r);
+          }
+          values_[i] = select_iv(empty, point(std::nan("")), r);
+        } else {
+          const IV& v = arg(1);
+          for (int k = 1; k <= size; ++k) {
+            llvm::Value* in_k = AND(le(klo, splat(k)), le(splat(k), khi));
+            llvm::Value* exact = AND(eq(klo, splat(k)), eq(khi, splat(k)));
+            IV old = load_slot(in.aux + k - 1);
+            store_slot(in.aux + k - 1, select_iv(exact, v, select_iv(in_k, hull(old, v), old)));
+          }
+        }
+        return;
+      }
+      case Op::kTableLoad: {
+        const std::vector<double>& t = fn_.tables[in.aux];
+        const IV& idx = arg(0);
+        llvm::Value* klo = b_.CreateUnaryIntrinsic(llvm::Intrinsic::ceil, idx.lo);
+        klo = sel(lt(klo, splat(0)), splat(0), klo);
+        llvm::Value* khi = b_.CreateUnaryIntrinsic(llvm::Intrinsic::floor, idx.hi);
+        double last = static_cast<double>(t.size()) - 1;
+        khi = sel(lt(splat(last), khi), splat(last), khi);
+        llvm::Value* empty = b_.CreateFCmpOGT(klo, khi);
+        IV r{splat(kInf), splat(-kInf), fals()};
+        for (size_t k = 0; k < t.size(); ++k) {
+          double kd = static_cast<double>(k);
+          llvm::Value* in_k = AND(le(klo, splat(kd)), le(splat(kd), khi));
+          r = select_iv(in_k, hull(r, point(t[k])), r);
+        }
+        r.nan = OR(r.nan, idx.nan);
+        values_[i] = select_iv(empty, point(std::nan("")), r);
+        return;
+      }
+      case Op::kCheck: add_error(nonzero(arg(0)).can_true); return;
+      case Op::kIf: begin_if(i); return;
+      case Op::kElse: begin_else(); return;
+      case Op::kEndIf: end_if(); return;
+      case Op::kLoop: begin_loop(i); return;
+      case Op::kLoopTest: loop_test(i); return;
+      case Op::kEndLoop: end_loop(); return;
+      default: break;
+    }
+    const bool same = in.args[0] == in.args[1] && in.args[0] != kNoValue;
+    const IV none = point(0);
+    const IV& a = arg(0);
+    const IV& b = in.args[1] != kNoValue ? arg(1) : none;
+    IV r;
+    switch (in.op) {
+      case Op::kAdd: r = add(a, b); break;
+      case Op::kSub: r = add(a, neg(b)); break;
+      case Op::kMul: r = same ? square(a) : mul(a, b); break;
+      case Op::kNeg: r = neg(a); break;
+      case Op::kAbs: r = abs(a); break;
+      case Op::kMin: r = same ? a : min_max(a, b, true, i); break;
+      case Op::kMax: r = same ? a : min_max(a, b, false, i); break;
+      case Op::kSqrt: r = sqrt(a); break;
+      case Op::kFloor: r = rounding(a, llvm::Intrinsic::floor); break;
+      case Op::kCeil: r = rounding(a, llvm::Intrinsic::ceil); break;
+      case Op::kTrunc: r = rounding(a, llvm::Intrinsic::trunc); break;
+      case Op::kRound: r = rounding(a, llvm::Intrinsic::round); break;
+      case Op::kLt: r = from_tri(cmp_lt(a, b)); break;
+      case Op::kLe: r = from_tri(cmp_le(a, b)); break;
+      case Op::kGt: r = from_tri(cmp_lt(b, a)); break;
+      case Op::kGe: r = from_tri(cmp_le(b, a)); break;
+      case Op::kEqTol:
+      case Op::kNeTol: {
+        IV d = abs(add(a, neg(b)));
+        llvm::Value* below = lt(d.lo, splat(kHfEps));
+        llvm::Value* above = OR(b_.CreateFCmpOGE(d.hi, splat(kHfEps)), d.nan);
+        if (in.op == Op::kEqTol) {
+          r = from_tri({below, above});
+        } else {
+          r = from_tri({b_.CreateFCmpOGE(d.hi, splat(kHfEps)), OR(below, d.nan)});
+        }
+        break;
+      }
+      case Op::kEq:
+      case Op::kNe: {
+        llvm::Value* overlap = AND(le(a.lo, b.hi), le(b.lo, a.hi));
+        llvm::Value* all_equal = AND(AND(eq(a.lo, a.hi), eq(b.lo, b.hi)), eq(a.lo, b.lo));
+        llvm::Value* differ = OR(NOT(all_equal), OR(a.nan, b.nan));
+        r = in.op == Op::kEq ? from_tri({overlap, differ}) : from_tri({differ, overlap});
+        break;
+      }
+      case Op::kTruth: r = from_tri(truth(a)); break;
+      case Op::kAnd: {
+        Tri ta = truth(a), tb = truth(b);
+        r = from_tri({AND(ta.can_true, tb.can_true), OR(ta.can_false, tb.can_false)});
+        break;
+      }
+      case Op::kOr: {
+        Tri ta = truth(a), tb = truth(b);
+        r = from_tri({OR(ta.can_true, tb.can_true), AND(ta.can_false, tb.can_false)});
+        break;
+      }
+      case Op::kNot: {
+        Tri t = truth(a);
+        r = from_tri({t.can_false, t.can_true});
+        break;
+      }
+      case Op::kSelect: {
+        Tri t = nonzero(a);
+        const IV& c = arg(2);
+        record_choice(i, t.can_true, t.can_false);
+        r = select_iv(NOT(t.can_false), b,
+                      select_iv(NOT(t.can_true), c, hull(b, c)));
+        break;
+      }
+      default: r = lane_call(in.op, a, b); break;  // libm-based ops, div, pow, fmod, sign
+    }
+    values_[i] = r;
+  }
+
+  llvm::LLVMContext& ctx_;
+  llvm::Module& m_;
+  llvm::IRBuilder<> b_;
+  const Function& fn_;
+  int w_;
+  int loop_limit_;
+  bool trace_;
+  llvm::Type *dt_, *vt_, *mt_, *i64_, *i32_, *i8_, *ptr_;
+  llvm::Function* f_ = nullptr;
+  llvm::Value *xlo_, *xhi_, *stride_, *a_, *olo_, *ohi_, *onan_, *choices_;
+  llvm::AllocaInst* lane_out_ = nullptr;
+  llvm::AllocaInst* err_ = nullptr;
+  std::vector<int32_t> match_;
+  std::vector<IV> values_;
+  std::vector<SlotMem> slots_;
+  llvm::Value* region_ = nullptr;      ///< lanes that may reach this point (null = all)
+  llvm::Value* store_mask_ = nullptr;  ///< lanes still in the innermost loop (null = none)
+  std::vector<IfFrame> ifs_;
+  std::vector<LoopFrame> loops_;
+};
+
+using BlockFn = void (*)(const double* xlo, const double* xhi, int64_t stride, const double* a,
+                         double* out_lo, double* out_hi, uint8_t* out_nan,
+                         uint8_t* choices) noexcept;
+
+}  // namespace
+
+struct IntervalJit::Impl {
+  std::unique_ptr<domains::CompiledCode> code;
+  BlockFn block = nullptr;
+  int lanes = 0;
+  int num_inputs = 0;
+  int num_params = 0;
+  size_t num_insts = 0;
+};
+
+IntervalJit::IntervalJit(std::unique_ptr<Impl> impl) : impl_(std::move(impl)) {}
+IntervalJit::~IntervalJit() = default;
+int IntervalJit::lanes() const { return impl_->lanes; }
+
+Result<std::unique_ptr<IntervalJit>> IntervalJit::compile(const Function& fn,
+                                                          const Options& options) {
+  int lanes = options.lanes;
+  std::string error;
+  DomainEngine* e = domains::domain_engine(domains::domain_host_symbols(), &error);
+  if (!e) return Error{error};
+  if (lanes <= 0) lanes = e->vector_bits / 64;
+  HFRT_CHECK_MSG(lanes > 0 && (lanes & (lanes - 1)) == 0, "lanes must be a power of two");
+  auto tm = e->jtmb.createTargetMachine();
+  if (!tm) return Error{"cannot create the target machine: " + domains::llvm_error_text(tm.takeError())};
+  const std::string name = "hfrt_interval_" + std::to_string(e->next_id.fetch_add(1));
+  auto ctx = std::make_unique<llvm::LLVMContext>();
+  auto module = std::make_unique<llvm::Module>(name, *ctx);
+  module->setDataLayout((*tm)->createDataLayout());
+  module->setTargetTriple((*tm)->getTargetTriple().str());
+  IntervalEmitter(*ctx, *module, fn, lanes, options.loop_limit, options.trace).emit(name);
+  auto code = domains::compile_module(*e, std::move(ctx), std::move(module), **tm, name,
+                                     options.opt_level);
+  if (!code.ok()) return code.error();
+  auto impl = std::make_unique<Impl>();
+  impl->block = reinterpret_cast<BlockFn>(code.value()->entry);
+  impl->code = std::move(code.value());
+  impl->lanes = lanes;
+  impl->num_inputs = fn.num_inputs;
+  impl->num_params = fn.num_params;
+  impl->num_insts = fn.insts.size();
+  return std::unique_ptr<IntervalJit>(new IntervalJit(std::move(impl)));
+}
+
+void IntervalJit::eval(int64_t n, const double* x_lo, const double* x_hi,
+                       std::span<const double> a, double* out_lo, double* out_hi,
+                       uint8_t* out_nan, uint8_t* choices) const {
+  const Impl& im = *impl_;
+  const int w = im.lanes, dims = im.num_inputs;
+  std::vector<double> params(std::max(im.num_params, 1), 0.0);
+  for (size_t k = 0; k < a.size() && k < params.size(); ++k) params[k] = a[k];
+  std::vector<uint8_t> scratch;
+  if (!choices) {
+    scratch.assign(im.num_insts, 0);
+    choices = scratch.data();
+  }
+  int64_t full = n - n % w;
+  for (int64_t i = 0; i < full; i += w) {
+    im.block(x_lo + i, x_hi + i, n, params.data(), out_lo + i, out_hi + i, out_nan + i, choices);
+  }
+  if (full < n) {
+    // The tail: a padded block whose extra lanes repeat the last box (harmless for the trace).
+    const int64_t m = n - full;
+    std::vector<double> lo(static_cast<size_t>(w) * std::max(dims, 1)), hi(lo.size());
+    for (int k = 0; k < dims; ++k) {
+      for (int j = 0; j < w; ++j) {
+        int64_t src = full + std::min<int64_t>(j, m - 1);
+        lo[k * w + j] = x_lo[k * n + src];
+        hi[k * w + j] = x_hi[k * n + src];
+      }
+    }
+    std::vector<double> olo(w), ohi(w);
+    std::vector<uint8_t> onan(w);
+    im.block(lo.data(), hi.data(), w, params.data(), olo.data(), ohi.data(), onan.data(), choices);
+    for (int64_t j = 0; j < m; ++j) {
+      out_lo[full + j] = olo[j];
+      out_hi[full + j] = ohi[j];
+      out_nan[full + j] = onan[j];
+    }
+  }
+}
+
+Interval IntervalJit::eval_one(std::span<const Interval> x, std::span<const double> a,
+                               std::vector<uint8_t>* choices) const {
+  const int dims = impl_->num_inputs;
+  std::vector<double> lo(std::max(dims, 1), 0.0), hi(lo.size(), 0.0);
+  for (int k = 0; k < dims && k < static_cast<int>(x.size()); ++k) {
+    lo[k] = x[k].lo;
+    hi[k] = x[k].hi;
+  }
+  double rl, rh;
+  uint8_t rn;
+  if (choices) choices->assign(impl_->num_insts, 0);
+  eval(1, lo.data(), hi.data(), a, &rl, &rh, &rn, choices ? choices->data() : nullptr);
+  return {rl, rh, rn != 0};
+}
+
+}  // namespace hfrt::jit

@@ -1,0 +1,168 @@
+// The interval and gradient interpreters end to end on the corpus: every probe (at least
+// one per library function and built-in) and every model under models/ is parsed, checked
+// and lowered; then
+//  - intervals: over seeded random boxes in [-3.5,3.5]^3 (the probes' grid) of several
+//    widths, every sampled point's value from the reference interpreter lies in the box's
+//    interval, or is NaN with maybe_nan set;
+//  - gradients: the value equals the interpreter's, and the partial derivatives agree with
+//    central differences (relative 1e-6) where F is smooth around the point.
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <memory>
+#include <random>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include "jit/gradient.h"
+#include "jit/interpreter.h"
+#include "jit/interval.h"
+#include "jit/lower.h"
+#include "lang/frontend.h"
+#include "lang/result.h"
+
+namespace hfrt::jit {
+namespace {
+
+namespace fs = std::filesystem;
+
+std::vector<std::string> corpus_files(const std::string& dir) {
+  std::vector<std::string> out;
+  std::error_code ec;
+  for (const auto& e : fs::recursive_directory_iterator(dir, ec)) {
+    if (e.path().extension() == ".hf") out.push_back(e.path().string());
+  }
+  std::sort(out.begin(), out.end());
+  return out;
+}
+
+/// The default object of a corpus file, lowered; nullopt when it does not compile.
+std::optional<Function> lower_file(const std::string& path) {
+  Result<std::string> text = read_file(path);
+  if (!text.ok()) return std::nullopt;
+  auto file = std::make_shared<const lang::SourceFile>(path, std::move(text.value()));
+  lang::DiagnosticSink diags(file);
+  auto program = lang::compile_source(file, diags);
+  if (!program || program->default_object() < 0) return std::nullopt;
+  return lower_object(*program, program->default_object(), nullptr);
+}
+
+std::string str(const Interval& iv) {
+  std::ostringstream os;
+  os.precision(17);
+  os << "[" << iv.lo << ", " << iv.hi << (iv.maybe_nan ? "] nan" : "]");
+  return os.str();
+}
+
+struct Totals {
+  int files = 0;
+  int compiled = 0;
+  int64_t points = 0;
+  int64_t derivatives = 0;
+  int failures = 0;
+};
+
+void check_intervals(const std::string& path, const Function& fn, Totals* t) {
+  Interpreter interp(fn);
+  IntervalInterpreter ii(fn);
+  std::mt19937_64 rng(std::hash<std::string>{}(fs::path(path).filename().string()));
+  std::uniform_real_distribution<double> u(0, 1);
+  const double widths[] = {1e-6, 0.01, 0.3, 1.5, 7};
+  std::vector<double> a(std::max(fn.num_params, 1), 0.0);
+  for (int bi = 0; bi < 40; ++bi) {
+    std::vector<Interval> box(fn.num_inputs, Interval{0, 0, false});
+    for (int k = 0; k < std::min(fn.num_inputs, 3); ++k) {
+      double w = widths[(bi + k) % 5] * u(rng);
+      double c = -3.5 + 7 * u(rng);
+      box[k] = {c - w / 2, c + w / 2, false};
+    }
+    Interval r = ii.eval(box, a);
+    for (int si = 0; si < 16; ++si) {
+      std::vector<double> p(fn.num_inputs, 0.0);
+      for (int k = 0; k < std::min(fn.num_inputs, 3); ++k) {
+        double s = si < 2 ? si : u(rng);
+        p[k] = std::min(box[k].hi, box[k].lo + (box[k].hi - box[k].lo) * s);
+      }
+      double v = interp.eval(p, a).value;
+      ++t->points;
+      if (!r.contains(v) && t->failures++ < 10) {
+        ADD_FAILURE() << path << ": F(" << p[0] << ", " << p[1] << ", " << p[2] << ") = " << v
+                      << " not in " << str(r);
+      }
+    }
+  }
+}
+
+void check_gradients(const std::string& path, const Function& fn, Totals* t) {
+  Interpreter interp(fn);
+  GradientInterpreter gi(fn);
+  std::mt19937_64 rng(7 + std::hash<std::string>{}(fs::path(path).filename().string()));
+  std::uniform_real_distribution<double> u(-3.5, 3.5);
+  std::vector<double> a(std::max(fn.num_params, 1), 0.0);
+  for (int pi = 0; pi < 30; ++pi) {
+    std::vector<double> p(fn.num_inputs, 0.0);
+    for (int k = 0; k < std::min(fn.num_inputs, 3); ++k) p[k] = u(rng);
+    Dual g = gi.eval(p, a);
+    double f0 = interp.eval(p, a).value;
+    if (!((g.v != g.v && f0 != f0) || g.v == f0)) {
+      if (t->failures++ < 10) ADD_FAILURE() << path << ": gradient value " << g.v << " vs " << f0;
+      continue;
+    }
+    if (!std::isfinite(f0)) continue;
+    for (int k = 0; k < std::min(fn.num_inputs, 3); ++k) {
+      double h = 1e-5 * std::max(1.0, std::fabs(p[k]));
+      std::vector<double> q = p;
+      q[k] = p[k] + h;
+      double fp = interp.eval(q, a).value;
+      q[k] = p[k] - h;
+      double fm = interp.eval(q, a).value;
+      if (!std::isfinite(fp) || !std::isfinite(fm)) continue;
+      double central = (fp - fm) / (2 * h);
+      double scale = std::max(1.0, std::fabs(central));
+      if (std::fabs((fp - f0) / h - (f0 - fm) / h) > 1e-3 * scale) continue;  // not smooth here
+      ++t->derivatives;
+      if (!(std::fabs(g.d[k] - central) <= 1e-6 * scale + 1e-9 * std::fabs(f0)) &&
+          t->failures++ < 10) {
+        ADD_FAILURE() << path << " at (" << p[0] << ", " << p[1] << ", " << p[2] << "): d/dx"
+                      << k + 1 << " = " << g.d[k] << ", central difference " << central;
+      }
+    }
+  }
+}
+
+void run_corpus(const std::string& dir, bool intervals, int min_compiled) {
+  Totals t;
+  for (const std::string& path : corpus_files(dir)) {
+    ++t.files;
+    std::optional<Function> fn = lower_file(path);
+    if (!fn) continue;
+    if (fn->insts.size() > 20000) continue;  // the generated stress files: too slow here
+    ++t.compiled;
+    if (intervals) check_intervals(path, *fn, &t);
+    else check_gradients(path, *fn, &t);
+  }
+  std::printf("%s: %d files, %d lowered, %lld points, %lld derivatives compared\n", dir.c_str(),
+              t.files, t.compiled, static_cast<long long>(t.points),
+              static_cast<long long>(t.derivatives));
+  EXPECT_GE(t.compiled, min_compiled) << "the corpus no longer compiles";
+}
+
+TEST(IntervalCorpusTest, ProbesContainEverySampledPoint) {
+  run_corpus(HFRT_CORPUS_DIR "/probes", true, 50);
+}
+TEST(IntervalCorpusTest, ModelsContainEverySampledPoint) {
+  run_corpus(HFRT_CORPUS_DIR "/models", true, 20);
+}
+TEST(GradientCorpusTest, ProbesMatchCentralDifferences) {
+  run_corpus(HFRT_CORPUS_DIR "/probes", false, 50);
+}
+TEST(GradientCorpusTest, ModelsMatchCentralDifferences) {
+  run_corpus(HFRT_CORPUS_DIR "/models", false, 20);
+}
+
+}  // namespace
+}  // namespace hfrt::jit
