@@ -1,0 +1,178 @@
+// End-to-end tests of `hfrt render` and `hfrt slice`: the binary, a compiled model (through
+// tools/hfrt/model_field.cpp) and the image files it writes.
+
+#include <gtest/gtest.h>
+#include <sys/wait.h>
+
+#include <cmath>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include "render/image.h"
+
+namespace hfrt::render {
+namespace {
+
+namespace fs = std::filesystem;
+
+const std::string kHfrt = std::string(HFRT_BINARY_DIR) + "/tools/hfrt/hfrt";
+
+fs::path temp_dir() {
+  fs::path d = fs::temp_directory_path() / ("hfrt_cli_test_" + std::to_string(getpid()));
+  fs::create_directories(d);
+  return d;
+}
+
+/// Runs `hfrt ARGS`, returns the exit code; stderr goes to *err.
+int run_hfrt(const std::string& args, std::string* err = nullptr) {
+  fs::path log = temp_dir() / "stderr.txt";
+  std::string cmd = kHfrt + " " + args + " 2> " + log.string() + " > /dev/null";
+  int status = std::system(cmd.c_str());
+  if (err) {
+    std::ifstream in(log);
+    std::stringstream ss;
+    ss << in.rdbuf();
+    *err = ss.str();
+  }
+  return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+}
+
+fs::path write_model(const std::string& name, const std::string& text) {
+  fs::path p = temp_dir() / name;
+  std::ofstream(p) << text;
+  return p;
+}
+
+const char* kSphereModel =
+    "my_model(x[3], a[1]) {\n"
+    "  array c[3];\n"
+    "  c = [0, 0, 0];\n"
+    "  my_model = hfSphere(x, c, 4);\n"
+    "}\n";
+
+TEST(RenderCli, OrthographicSphereCoversItsArea) {
+  fs::path model = write_model("sphere.hf", kSphereModel);
+  fs::path out = temp_dir() / "sphere.exr";
+  std::string err;
+  ASSERT_EQ(run_hfrt("render " + model.string() + " -o " + out.string() +
+                         " --size 100x100 --ortho 10 --eye 0,0,20 --look-at 0,0,0 --aov depth",
+                     &err), 0) << err;
+  EXPECT_NE(err.find("root search"), std::string::npos) << err;
+  int w, h, c;
+  auto img = read_image(out.string(), &w, &h, &c);
+  ASSERT_TRUE(img.ok()) << img.error().message;
+  ASSERT_EQ(c, 5);  // RGBA + Z
+  double covered = 0, worst_depth = 0;
+  for (int y = 0; y < h; ++y) {
+    for (int x = 0; x < w; ++x) {
+      const float* p = &img.value()[(size_t(y) * w + x) * c];
+      covered += p[3];
+      if (p[3] > 0) {
+        double px = -5 + (x + 0.5) * 0.1, py = 5 - (y + 0.5) * 0.1;
+        double expected = 20 - std::sqrt(std::max(0.0, 16 - px * px - py * py));
+        if (px * px + py * py < 15.5) worst_depth = std::max(worst_depth, std::abs(p[4] - expected));
+      }
+    }
+  }
+  EXPECT_NEAR(covered * 0.01 / (M_PI * 16), 1.0, 0.01);
+  EXPECT_LT(worst_depth, 2e-3);
+}
+
+TEST(RenderCli, SameFileForAnyThreadCount) {
+  fs::path model = write_model("sphere2.hf", kSphereModel);
+  fs::path a = temp_dir() / "t1.png", b = temp_dir() / "t2.png";
+  ASSERT_EQ(run_hfrt("render " + model.string() + " -o " + a.string() + " --size 48x40 --spp 4 --threads 1"), 0);
+  ASSERT_EQ(run_hfrt("render " + model.string() + " -o " + b.string() + " --size 48x40 --spp 4 --threads 2"), 0);
+  int w, h, c;
+  auto ia = read_image(a.string(), &w, &h, &c);
+  auto ib = read_image(b.string(), &w, &h, &c);
+  ASSERT_TRUE(ia.ok() && ib.ok());
+  EXPECT_EQ(ia.value(), ib.value());
+  // Framed by default: the sphere is in the picture, not touching the border.
+  size_t fg = 0;
+  const auto& v = ia.value();
+  for (size_t i = 0; i + 2 < v.size(); i += 3) fg += std::abs(v[i] - v[0]) > 0.02f;
+  EXPECT_GT(fg, v.size() / 3 / 10);
+}
+
+TEST(RenderCli, CompileErrorsExitOneWithDiagnostics) {
+  fs::path model = write_model("bad.hf", "my_model(x[3], a[1]) {\n  my_model = hfSphere(x, 4);\n}\n");
+  std::string err;
+  EXPECT_EQ(run_hfrt("render " + model.string() + " -o " + (temp_dir() / "bad.png").string(), &err), 1);
+  EXPECT_NE(err.find("bad.hf:2:"), std::string::npos) << err;
+  EXPECT_NE(err.find("error"), std::string::npos) << err;
+}
+
+TEST(RenderCli, UsageErrorsExitTwo) {
+  fs::path model = write_model("sphere3.hf", kSphereModel);
+  std::string out = " -o " + (temp_dir() / "u.png").string();
+  std::string err;
+  EXPECT_EQ(run_hfrt("render " + model.string() + out + " --size 12", &err), 0);
+  EXPECT_EQ(run_hfrt("render " + model.string() + out + " --size 0x5", &err), 2);
+  EXPECT_NE(err.find("--size"), std::string::npos);
+  EXPECT_EQ(run_hfrt("render " + model.string() + out + " --bbox 1,2,3", &err), 2);
+  EXPECT_EQ(run_hfrt("render " + model.string() + out + " --root maybe", &err), 2);
+  EXPECT_EQ(run_hfrt("render " + model.string() + out + " --light sun:1,2,3", &err), 2);
+  EXPECT_EQ(run_hfrt("render " + model.string() + out + " --eye 1,1,1 --look-at 1,1,1", &err), 2);
+  EXPECT_EQ(run_hfrt("render " + model.string() + " -o " + (temp_dir() / "u.nope").string(), &err), 2);
+}
+
+TEST(SliceCli, DiskArea) {
+  fs::path model = write_model("sphere4.hf", kSphereModel);
+  fs::path out = temp_dir() / "slice.png";
+  std::string err;
+  ASSERT_EQ(run_hfrt("slice " + model.string() + " -o " + out.string() +
+                         " --size 200x100 --bbox -5,-2.5,5,2.5 --z 2", &err), 0) << err;
+  int w, h, c;
+  auto img = read_image(out.string(), &w, &h, &c);
+  ASSERT_TRUE(img.ok());
+  ASSERT_EQ(w, 200);
+  ASSERT_EQ(h, 100);
+  double inside = 0;
+  for (float v : img.value()) inside += v > 0.5f;
+  // z = 2 slice of a radius-4 ball: a disk of radius sqrt(12), cut by |y| <= 2.5.
+  double r = std::sqrt(12.0), yc = 2.5;
+  double segment = r * r * std::acos(yc / r) - yc * std::sqrt(r * r - yc * yc);
+  double expected = M_PI * r * r - 2 * segment;
+  EXPECT_NEAR(inside * 0.05 * 0.05 / expected, 1.0, 0.01);
+}
+
+/// Every corpus model renders at 64x64 (exit 0, an image written).
+class CorpusRender : public ::testing::TestWithParam<std::string> {};
+
+TEST_P(CorpusRender, Renders64) {
+  fs::path out = temp_dir() / (fs::path(GetParam()).stem().string() + ".png");
+  std::string err;
+  ASSERT_EQ(run_hfrt("render '" + GetParam() + "' -o " + out.string() + " --size 64x64", &err), 0) << err;
+  int w, h, c;
+  ASSERT_TRUE(read_image(out.string(), &w, &h, &c).ok());
+  EXPECT_EQ(w, 64);
+}
+
+std::vector<std::string> corpus_models() {
+  std::vector<std::string> out;
+  fs::path root = fs::path(HFRT_CORPUS_DIR) / "models";
+  if (!fs::exists(root)) return out;
+  for (const auto& e : fs::recursive_directory_iterator(root)) {
+    std::string p = e.path().string();
+    // historical_*: machine-generated stress inputs (up to 185 KB) whose JIT compile alone
+    // takes 10-100 s here; too slow for a unit test.
+    if (e.path().extension() == ".hf" && p.find("historical_") == std::string::npos) out.push_back(p);
+  }
+  std::sort(out.begin(), out.end());
+  return out;
+}
+
+INSTANTIATE_TEST_SUITE_P(Corpus, CorpusRender, ::testing::ValuesIn(corpus_models()),
+                         [](const auto& info) {
+                           std::string n = fs::path(info.param).stem().string();
+                           for (char& ch : n) if (!std::isalnum(static_cast<unsigned char>(ch))) ch = '_';
+                           return n + "_" + std::to_string(info.index);
+                         });
+
+}  // namespace
+}  // namespace hfrt::render
