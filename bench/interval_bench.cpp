@@ -3,7 +3,10 @@
 // interpreter and the scalar JIT (f64), all on one thread. The boxes tile [-1,1]^2 (z = 0)
 // in an R x R grid; the points are the boxes' centres.
 //
-//   hfrt_bench_interval [MODEL.hf] [--grid R] [--seconds S]
+//   hfrt_bench_interval [MODEL.hf] [--grid R] [--seconds S] [-O N] [--no-trace]
+//
+// -O picks the LLVM pipeline of the interval JIT (default 1); --no-trace compiles it without
+// the min/max trace.
 
 #include <algorithm>
 #include <chrono>
@@ -47,8 +50,13 @@ int main(int argc, char** argv) {
   std::string path = HFRT_CORPUS_DIR "/bench/prospero.hf";
   int grid = 64;
   double min_s = 1.0;
+  int opt_level = 1;
+  bool trace = true;
+  std::setvbuf(stdout, nullptr, _IOLBF, 0);
   for (int i = 1; i < argc; ++i) {
     if (!std::strcmp(argv[i], "--grid") && i + 1 < argc) grid = std::atoi(argv[++i]);
+    else if (!std::strcmp(argv[i], "-O") && i + 1 < argc) opt_level = std::atoi(argv[++i]);
+    else if (!std::strcmp(argv[i], "--no-trace")) trace = false;
     else if (!std::strcmp(argv[i], "--seconds") && i + 1 < argc) min_s = std::atof(argv[++i]);
     else path = argv[i];
   }
@@ -101,28 +109,28 @@ int main(int argc, char** argv) {
   std::printf("interval interpreter: %12.0f boxes/s (%zu of %zu boxes contain the surface)\n",
               ii_rate, ambiguous, n);
 
-  // Interval JIT, with and without the min/max trace, at two optimisation levels.
+  // Interval JIT.
   double ij_rate = 0;
-  for (int variant = 0; variant < 3; ++variant) {
+  {
     jit::IntervalJit::Options o;
-    o.trace = variant != 1;
-    o.opt_level = variant == 2 ? 2 : 1;
+    o.trace = trace;
+    o.opt_level = opt_level;
     auto t0 = Clock::now();
     auto ij = jit::IntervalJit::compile(fn, o);
     double compile_s = seconds_since(t0);
-    if (!ij.ok()) {
+    if (ij.ok()) {
+      std::vector<double> olo(n), ohi(n);
+      std::vector<uint8_t> onan(n), choices(fn.insts.size());
+      ij_rate = rate(min_s, n, [&] {
+        ij.value()->eval(static_cast<int64_t>(n), lo.data(), hi.data(), a, olo.data(),
+                         ohi.data(), onan.data(), choices.data());
+      });
+      std::printf("interval JIT (%d lanes, O%d, trace %s): %12.0f boxes/s (compile %.0f ms)\n",
+                  ij.value()->lanes(), o.opt_level, o.trace ? "on" : "off", ij_rate,
+                  compile_s * 1e3);
+    } else {
       std::printf("interval JIT: unavailable (%s)\n", ij.error().message.c_str());
-      break;
     }
-    std::vector<double> olo(n), ohi(n);
-    std::vector<uint8_t> onan(n), choices(fn.insts.size());
-    double r = rate(min_s, n, [&] {
-      ij.value()->eval(static_cast<int64_t>(n), lo.data(), hi.data(), a, olo.data(), ohi.data(),
-                       onan.data(), choices.data());
-    });
-    if (variant == 0) ij_rate = r;
-    std::printf("interval JIT (%d lanes, O%d, trace %s): %12.0f boxes/s (compile %.0f ms)\n",
-                ij.value()->lanes(), o.opt_level, o.trace ? "on" : "off", r, compile_s * 1e3);
   }
 
   // Scalar interpreter and scalar JIT at the box centres.
@@ -136,8 +144,10 @@ int main(int argc, char** argv) {
   });
   std::printf("scalar interpreter:   %12.0f points/s\n", si_rate);
   double sj_rate = 0;
+  auto t1 = Clock::now();
   auto sj = jit::JitFunction::compile(fn, jit::Precision::kF64);
   if (sj.ok()) {
+    std::printf("scalar JIT compile: %.0f ms\n", seconds_since(t1) * 1e3);
     std::vector<double> f(n);
     sj_rate = rate(min_s, n, [&] {
       sj.value()->f64()(static_cast<int64_t>(n), centre.data(), a.data(), f.data(), nullptr);

@@ -139,6 +139,11 @@ class IrBuilder {
   void end_loop();
 
   /// Sets Function::result and checks the function (HFRT_CHECK on a malformed function).
+  /// Also removes dead code (unused values, stores to slots that are never loaded and are
+  /// not s_slots), which RENUMBERS the values: after finish, use Function::result, not the
+  /// ValueIds returned while building. Slot numbers do not change. (The builder also
+  /// forwards stores to later loads of the same slot in straight-line code, so load() may
+  /// return the stored value itself rather than a kLoadSlot.)
   void finish(ValueId result);
 
  private:

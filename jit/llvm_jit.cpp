@@ -134,6 +134,17 @@ void init_engine() {
   llvm::InitializeNativeTargetAsmPrinter();
   llvm::InitializeNativeTargetAsmParser();
 
+  // The X86 MachineCombiner is quadratic in the length of a basic block (60% of codegen time
+  // on a 30k-instruction model) and, without fast-math reassociation, finds nothing to
+  // combine in hfrt's FP code; switch it off (process-wide LLVM option, set once here).
+  {
+    auto& registered = llvm::cl::getRegisteredOptions();
+    auto it = registered.find("x86-machine-combiner");
+    if (it != registered.end()) {
+      if (auto* opt = static_cast<llvm::cl::opt<bool>*>(it->second)) opt->setValue(false);
+    }
+  }
+
   auto engine = std::make_unique<Engine>();
   engine->cpu = llvm::sys::getHostCPUName().str();
   auto host_features = llvm::sys::getHostCPUFeatures();

@@ -18,33 +18,54 @@ std::string number_text(double v) {
 
 const char* unary_name(UnaryOp op) {
   switch (op) {
-    case UnaryOp::kNeg: return "-";
-    case UnaryOp::kPlus: return "+";
-    case UnaryOp::kComplement: return "~";
-    case UnaryOp::kNot: return "not";
+    case UnaryOp::kNeg:
+      return "-";
+    case UnaryOp::kPlus:
+      return "+";
+    case UnaryOp::kComplement:
+      return "~";
+    case UnaryOp::kNot:
+      return "not";
   }
   return "?";
 }
 
 const char* binary_name(BinaryOp op) {
   switch (op) {
-    case BinaryOp::kAdd: return "+";
-    case BinaryOp::kSub: return "-";
-    case BinaryOp::kMul: return "*";
-    case BinaryOp::kDiv: return "/";
-    case BinaryOp::kPow: return "^";
-    case BinaryOp::kUnion: return "|";
-    case BinaryOp::kIntersect: return "&";
-    case BinaryOp::kSubtract: return "\\";
-    case BinaryOp::kProduct: return "@";
-    case BinaryOp::kLt: return "<";
-    case BinaryOp::kLe: return "<=";
-    case BinaryOp::kGt: return ">";
-    case BinaryOp::kGe: return ">=";
-    case BinaryOp::kEq: return "=";
-    case BinaryOp::kNe: return "/=";
-    case BinaryOp::kAnd: return "and";
-    case BinaryOp::kOr: return "or";
+    case BinaryOp::kAdd:
+      return "+";
+    case BinaryOp::kSub:
+      return "-";
+    case BinaryOp::kMul:
+      return "*";
+    case BinaryOp::kDiv:
+      return "/";
+    case BinaryOp::kPow:
+      return "^";
+    case BinaryOp::kUnion:
+      return "|";
+    case BinaryOp::kIntersect:
+      return "&";
+    case BinaryOp::kSubtract:
+      return "\\";
+    case BinaryOp::kProduct:
+      return "@";
+    case BinaryOp::kLt:
+      return "<";
+    case BinaryOp::kLe:
+      return "<=";
+    case BinaryOp::kGt:
+      return ">";
+    case BinaryOp::kGe:
+      return ">=";
+    case BinaryOp::kEq:
+      return "=";
+    case BinaryOp::kNe:
+      return "/=";
+    case BinaryOp::kAnd:
+      return "and";
+    case BinaryOp::kOr:
+      return "or";
   }
   return "?";
 }
@@ -76,12 +97,18 @@ class Dumper {
 
   std::string symbol(const Symbol& s) const {
     switch (s.kind) {
-      case SymbolKind::kUnresolved: return "unresolved";
-      case SymbolKind::kLocalScalar: return "local#" + std::to_string(s.index);
-      case SymbolKind::kLocalArray: return "array#" + std::to_string(s.index);
-      case SymbolKind::kX: return "x";
-      case SymbolKind::kA: return "a";
-      case SymbolKind::kS: return "s";
+      case SymbolKind::kUnresolved:
+        return "unresolved";
+      case SymbolKind::kLocalScalar:
+        return "local#" + std::to_string(s.index);
+      case SymbolKind::kLocalArray:
+        return "array#" + std::to_string(s.index);
+      case SymbolKind::kX:
+        return "x";
+      case SymbolKind::kA:
+        return "a";
+      case SymbolKind::kS:
+        return "s";
       case SymbolKind::kBuiltin:
         return "builtin " + std::string(builtin_name(static_cast<Builtin>(s.index)));
       case SymbolKind::kLibrary:
@@ -130,9 +157,10 @@ class Dumper {
         return;
       case StmtKind::kAssignArray: {
         std::string v;
-        for (size_t i = 0; i < s.literal.size(); ++i) v += (i ? ", " : "") + number_text(s.literal[i]);
-        line(indent, "assign-array " + s.name + " (" + symbol(s.symbol) + ") [" + v + "]" +
-                         at(s.range));
+        for (size_t i = 0; i < s.literal.size(); ++i)
+          v += (i ? ", " : "") + number_text(s.literal[i]);
+        line(indent,
+             "assign-array " + s.name + " (" + symbol(s.symbol) + ") [" + v + "]" + at(s.range));
         return;
       }
       case StmtKind::kIf:
@@ -158,12 +186,24 @@ class Dumper {
 
   void expr(const Expr& e, int indent) {
     switch (e.kind) {
-      case ExprKind::kNumber: line(indent, "number " + number_text(e.number)); return;
-      case ExprKind::kName: line(indent, "name " + e.name + " (" + symbol(e.symbol) + ")"); return;
-      case ExprKind::kIndex: line(indent, "index " + e.name + " (" + symbol(e.symbol) + ")"); break;
-      case ExprKind::kUnary: line(indent, std::string("unary ") + unary_name(e.unary_op)); break;
-      case ExprKind::kBinary: line(indent, std::string("binary ") + binary_name(e.binary_op)); break;
-      case ExprKind::kCall: line(indent, "call " + e.name + " (" + symbol(e.symbol) + ")"); break;
+      case ExprKind::kNumber:
+        line(indent, "number " + number_text(e.number));
+        return;
+      case ExprKind::kName:
+        line(indent, "name " + e.name + " (" + symbol(e.symbol) + ")");
+        return;
+      case ExprKind::kIndex:
+        line(indent, "index " + e.name + " (" + symbol(e.symbol) + ")");
+        break;
+      case ExprKind::kUnary:
+        line(indent, std::string("unary ") + unary_name(e.unary_op));
+        break;
+      case ExprKind::kBinary:
+        line(indent, std::string("binary ") + binary_name(e.binary_op));
+        break;
+      case ExprKind::kCall:
+        line(indent, "call " + e.name + " (" + symbol(e.symbol) + ")");
+        break;
     }
     for (const ExprPtr& a : e.args) {
       if (a) expr(*a, indent + 1);
@@ -176,6 +216,8 @@ class Dumper {
 
 }  // namespace
 
-std::string dump_ast(const Program& program) { return Dumper(program).run(); }
+std::string dump_ast(const Program& program) {
+  return Dumper(program).run();
+}
 
 }  // namespace hfrt::lang

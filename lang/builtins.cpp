@@ -35,7 +35,11 @@ std::optional<Builtin> find_builtin(std::string_view name) {
   return std::nullopt;
 }
 
-std::string_view builtin_name(Builtin b) { return info(b).name; }
-int builtin_arity(Builtin b) { return info(b).arity; }
+std::string_view builtin_name(Builtin b) {
+  return info(b).name;
+}
+int builtin_arity(Builtin b) {
+  return info(b).arity;
+}
 
 }  // namespace hfrt::lang

@@ -13,23 +13,31 @@ constexpr uint32_t kWindowBefore = 80;
 
 const char* severity_name(Severity s) {
   switch (s) {
-    case Severity::kError: return "error";
-    case Severity::kWarning: return "warning";
-    case Severity::kNote: return "note";
+    case Severity::kError:
+      return "error";
+    case Severity::kWarning:
+      return "warning";
+    case Severity::kNote:
+      return "note";
   }
   return "error";
 }
 
 const char* severity_color(Severity s) {
   switch (s) {
-    case Severity::kError: return "\033[1;31m";
-    case Severity::kWarning: return "\033[1;35m";
-    case Severity::kNote: return "\033[1;36m";
+    case Severity::kError:
+      return "\033[1;31m";
+    case Severity::kWarning:
+      return "\033[1;35m";
+    case Severity::kNote:
+      return "\033[1;36m";
   }
   return "";
 }
 
-bool is_utf8_continuation(char c) { return (static_cast<unsigned char>(c) & 0xC0) == 0x80; }
+bool is_utf8_continuation(char c) {
+  return (static_cast<unsigned char>(c) & 0xC0) == 0x80;
+}
 
 }  // namespace
 
@@ -37,10 +45,11 @@ void DiagnosticSink::error(SourceRange range, std::string message, std::string h
   if (error_count_ >= kMaxErrors) {
     if (!truncated_) {
       truncated_ = true;
-      diags_.push_back({Severity::kNote, range,
-                        "too many errors (" + std::to_string(kMaxErrors) +
-                            "); stopping here — fix these first",
-                        {}});
+      diags_.push_back(
+          {Severity::kNote,
+           range,
+           "too many errors (" + std::to_string(kMaxErrors) + "); stopping here — fix these first",
+           {}});
     }
     return;
   }
@@ -72,8 +81,7 @@ std::string render_diagnostic(const SourceFile& file, const Diagnostic& diag, bo
   out += bold;
   out += file.name();
   if (diag.range.begin.valid()) {
-    out += ':' + std::to_string(diag.range.begin.line) + ':' +
-           std::to_string(diag.range.begin.col);
+    out += ':' + std::to_string(diag.range.begin.line) + ':' + std::to_string(diag.range.begin.col);
   }
   out += ": ";
   out += reset;
@@ -88,8 +96,8 @@ std::string render_diagnostic(const SourceFile& file, const Diagnostic& diag, bo
 
   if (diag.range.begin.valid()) {
     std::string_view line = file.line_text(diag.range.begin.line);
-    uint32_t col0 = std::min<uint32_t>(diag.range.begin.col - 1,
-                                       static_cast<uint32_t>(line.size()));
+    uint32_t col0 =
+        std::min<uint32_t>(diag.range.begin.col - 1, static_cast<uint32_t>(line.size()));
     // Show at most kMaxShownLine bytes around the caret.
     uint32_t first = 0, last = static_cast<uint32_t>(line.size());
     if (line.size() > kMaxShownLine) {

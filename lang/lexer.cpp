@@ -23,23 +23,50 @@ struct Keyword {
 };
 
 constexpr Keyword kKeywords[] = {
-    {"array", TokenKind::kArray}, {"if", TokenKind::kIf},       {"then", TokenKind::kThen},
-    {"else", TokenKind::kElse},   {"endif", TokenKind::kEndif}, {"while", TokenKind::kWhile},
+    {"array", TokenKind::kArray}, {"if", TokenKind::kIf},           {"then", TokenKind::kThen},
+    {"else", TokenKind::kElse},   {"endif", TokenKind::kEndif},     {"while", TokenKind::kWhile},
     {"loop", TokenKind::kLoop},   {"endloop", TokenKind::kEndloop}, {"and", TokenKind::kAnd},
-    {"or", TokenKind::kOr},       {"not", TokenKind::kNot},     {"xor", TokenKind::kXor},
+    {"or", TokenKind::kOr},       {"not", TokenKind::kNot},         {"xor", TokenKind::kXor},
 };
 
-bool is_letter(char c) { return (c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z'); }
-bool is_digit(char c) { return c >= '0' && c <= '9'; }
-bool is_space(char c) { return c == ' ' || c == '\t' || c == '\n' || c == '\r'; }
+bool is_letter(char c) {
+  return (c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z');
+}
+bool is_digit(char c) {
+  return c >= '0' && c <= '9';
+}
+bool is_space(char c) {
+  return c == ' ' || c == '\t' || c == '\n' || c == '\r';
+}
 
 // Characters that can begin a token (or whitespace/comment): everything else is invalid.
 bool starts_token(char c) {
   if (is_letter(c) || is_digit(c) || is_space(c)) return true;
   switch (c) {
-    case '+': case '-': case '*': case '/': case '^': case '|': case '&': case '\\':
-    case '@': case '~': case '=': case '<': case '>': case '(': case ')': case '[':
-    case ']': case '{': case '}': case ',': case ';': case '.': case '"': case '!':
+    case '+':
+    case '-':
+    case '*':
+    case '/':
+    case '^':
+    case '|':
+    case '&':
+    case '\\':
+    case '@':
+    case '~':
+    case '=':
+    case '<':
+    case '>':
+    case '(':
+    case ')':
+    case '[':
+    case ']':
+    case '{':
+    case '}':
+    case ',':
+    case ';':
+    case '.':
+    case '"':
+    case '!':
       return true;
     default:
       return false;
@@ -134,24 +161,42 @@ Token Lexer::next() {
     return make(k, start);
   };
   switch (c) {
-    case '+': return one(TokenKind::kPlus);
-    case '-': return one(TokenKind::kMinus);
-    case '*': return one(TokenKind::kStar);
-    case '/': return peek(1) == '=' ? two(TokenKind::kNe) : one(TokenKind::kSlash);
-    case '^': return one(TokenKind::kCaret);
-    case '\\': return one(TokenKind::kBackslash);
-    case '@': return one(TokenKind::kAt);
-    case '~': return one(TokenKind::kTilde);
-    case '(': return one(TokenKind::kLParen);
-    case ')': return one(TokenKind::kRParen);
-    case '[': return one(TokenKind::kLBracket);
-    case ']': return one(TokenKind::kRBracket);
-    case '{': return one(TokenKind::kLBrace);
-    case '}': return one(TokenKind::kRBrace);
-    case ',': return one(TokenKind::kComma);
-    case ';': return one(TokenKind::kSemicolon);
-    case '<': return peek(1) == '=' ? two(TokenKind::kLe) : one(TokenKind::kLt);
-    case '>': return peek(1) == '=' ? two(TokenKind::kGe) : one(TokenKind::kGt);
+    case '+':
+      return one(TokenKind::kPlus);
+    case '-':
+      return one(TokenKind::kMinus);
+    case '*':
+      return one(TokenKind::kStar);
+    case '/':
+      return peek(1) == '=' ? two(TokenKind::kNe) : one(TokenKind::kSlash);
+    case '^':
+      return one(TokenKind::kCaret);
+    case '\\':
+      return one(TokenKind::kBackslash);
+    case '@':
+      return one(TokenKind::kAt);
+    case '~':
+      return one(TokenKind::kTilde);
+    case '(':
+      return one(TokenKind::kLParen);
+    case ')':
+      return one(TokenKind::kRParen);
+    case '[':
+      return one(TokenKind::kLBracket);
+    case ']':
+      return one(TokenKind::kRBracket);
+    case '{':
+      return one(TokenKind::kLBrace);
+    case '}':
+      return one(TokenKind::kRBrace);
+    case ',':
+      return one(TokenKind::kComma);
+    case ';':
+      return one(TokenKind::kSemicolon);
+    case '<':
+      return peek(1) == '=' ? two(TokenKind::kLe) : one(TokenKind::kLt);
+    case '>':
+      return peek(1) == '=' ? two(TokenKind::kGe) : one(TokenKind::kGt);
     // Operators from C-like languages: report them, then go on with the HyperFun
     // spelling so that the rest of the statement is still checked.
     case '=':
@@ -269,8 +314,8 @@ Token Lexer::lex_number(uint32_t start) {
   auto [ptr, ec] = std::from_chars(clean.data(), clean.data() + clean.size(), v);
   if (ec == std::errc::result_out_of_range) {
     // from_chars leaves v unchanged on overflow and underflow; tell them apart by size.
-    bool tiny = clean.find_first_of("eE") != std::string::npos &&
-                clean.find("e-") != std::string::npos;
+    bool tiny =
+        clean.find_first_of("eE") != std::string::npos && clean.find("e-") != std::string::npos;
     tiny = tiny || clean.find("E-") != std::string::npos;
     if (!tiny) {
       error(start, t.length, "number '" + std::string(txt) + "' is too large",

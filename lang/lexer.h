@@ -13,46 +13,46 @@
 
 namespace hfrt::lang {
 
-#define HFRT_TOKENS(X)                                    \
-  X(kEof, "end of file")                                  \
-  X(kIdent, "a name")                                       \
-  X(kNumber, "a number")                                    \
-  X(kInvalid, "invalid text")                             \
-  X(kArray, "'array'")                                    \
-  X(kIf, "'if'")                                          \
-  X(kThen, "'then'")                                      \
-  X(kElse, "'else'")                                      \
-  X(kEndif, "'endif'")                                    \
-  X(kWhile, "'while'")                                    \
-  X(kLoop, "'loop'")                                      \
-  X(kEndloop, "'endloop'")                                \
-  X(kAnd, "'and'")                                        \
-  X(kOr, "'or'")                                          \
-  X(kNot, "'not'")                                        \
-  X(kXor, "'xor'")                                        \
-  X(kPlus, "'+'")                                         \
-  X(kMinus, "'-'")                                        \
-  X(kStar, "'*'")                                         \
-  X(kSlash, "'/'")                                        \
-  X(kCaret, "'^'")                                        \
-  X(kBar, "'|'")                                          \
-  X(kAmp, "'&'")                                          \
-  X(kBackslash, "'\\'")                                   \
-  X(kAt, "'@'")                                           \
-  X(kTilde, "'~'")                                        \
-  X(kEq, "'='")                                           \
-  X(kNe, "'/='")                                          \
-  X(kLt, "'<'")                                           \
-  X(kLe, "'<='")                                          \
-  X(kGt, "'>'")                                           \
-  X(kGe, "'>='")                                          \
-  X(kLParen, "'('")                                       \
-  X(kRParen, "')'")                                       \
-  X(kLBracket, "'['")                                     \
-  X(kRBracket, "']'")                                     \
-  X(kLBrace, "'{'")                                       \
-  X(kRBrace, "'}'")                                       \
-  X(kComma, "','")                                        \
+#define HFRT_TOKENS(X)        \
+  X(kEof, "end of file")      \
+  X(kIdent, "a name")         \
+  X(kNumber, "a number")      \
+  X(kInvalid, "invalid text") \
+  X(kArray, "'array'")        \
+  X(kIf, "'if'")              \
+  X(kThen, "'then'")          \
+  X(kElse, "'else'")          \
+  X(kEndif, "'endif'")        \
+  X(kWhile, "'while'")        \
+  X(kLoop, "'loop'")          \
+  X(kEndloop, "'endloop'")    \
+  X(kAnd, "'and'")            \
+  X(kOr, "'or'")              \
+  X(kNot, "'not'")            \
+  X(kXor, "'xor'")            \
+  X(kPlus, "'+'")             \
+  X(kMinus, "'-'")            \
+  X(kStar, "'*'")             \
+  X(kSlash, "'/'")            \
+  X(kCaret, "'^'")            \
+  X(kBar, "'|'")              \
+  X(kAmp, "'&'")              \
+  X(kBackslash, "'\\'")       \
+  X(kAt, "'@'")               \
+  X(kTilde, "'~'")            \
+  X(kEq, "'='")               \
+  X(kNe, "'/='")              \
+  X(kLt, "'<'")               \
+  X(kLe, "'<='")              \
+  X(kGt, "'>'")               \
+  X(kGe, "'>='")              \
+  X(kLParen, "'('")           \
+  X(kRParen, "')'")           \
+  X(kLBracket, "'['")         \
+  X(kRBracket, "']'")         \
+  X(kLBrace, "'{'")           \
+  X(kRBrace, "'}'")           \
+  X(kComma, "','")            \
   X(kSemicolon, "';'")
 
 enum class TokenKind {

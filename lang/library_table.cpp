@@ -36,7 +36,11 @@ std::optional<LibraryFn> find_library_fn(std::string_view name) {
   return std::nullopt;
 }
 
-std::string_view library_fn_name(LibraryFn f) { return info(f).name; }
-std::string_view library_fn_kinds(LibraryFn f) { return info(f).kinds; }
+std::string_view library_fn_name(LibraryFn f) {
+  return info(f).name;
+}
+std::string_view library_fn_kinds(LibraryFn f) {
+  return info(f).kinds;
+}
 
 }  // namespace hfrt::lang

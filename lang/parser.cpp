@@ -11,6 +11,8 @@
 // text is read again as an arithmetic expression (the hfrt deviation that accepts
 // `if (a+1)*2 > 0 then`). Diagnostics of an attempt are buffered and only the chosen
 // attempt's are kept.
+#include "lang/parser.h"
+
 #include <algorithm>
 #include <cmath>
 #include <string>
@@ -20,7 +22,6 @@
 #include "lang/frontend.h"
 #include "lang/lexer.h"
 #include "lang/names.h"
-#include "lang/parser.h"
 
 namespace hfrt::lang {
 namespace {
@@ -36,8 +37,8 @@ struct Node {
 };
 
 bool is_relop(TokenKind k) {
-  return k == TokenKind::kLt || k == TokenKind::kLe || k == TokenKind::kGt ||
-         k == TokenKind::kGe || k == TokenKind::kEq || k == TokenKind::kNe;
+  return k == TokenKind::kLt || k == TokenKind::kLe || k == TokenKind::kGt || k == TokenKind::kGe ||
+         k == TokenKind::kEq || k == TokenKind::kNe;
 }
 
 bool is_additive(TokenKind k) {
@@ -52,24 +53,42 @@ bool is_arith_binary(TokenKind k) {
 
 BinaryOp binary_op(TokenKind k) {
   switch (k) {
-    case TokenKind::kPlus: return BinaryOp::kAdd;
-    case TokenKind::kMinus: return BinaryOp::kSub;
-    case TokenKind::kStar: return BinaryOp::kMul;
-    case TokenKind::kSlash: return BinaryOp::kDiv;
-    case TokenKind::kCaret: return BinaryOp::kPow;
-    case TokenKind::kBar: return BinaryOp::kUnion;
-    case TokenKind::kAmp: return BinaryOp::kIntersect;
-    case TokenKind::kBackslash: return BinaryOp::kSubtract;
-    case TokenKind::kAt: return BinaryOp::kProduct;
-    case TokenKind::kLt: return BinaryOp::kLt;
-    case TokenKind::kLe: return BinaryOp::kLe;
-    case TokenKind::kGt: return BinaryOp::kGt;
-    case TokenKind::kGe: return BinaryOp::kGe;
-    case TokenKind::kEq: return BinaryOp::kEq;
-    case TokenKind::kNe: return BinaryOp::kNe;
-    case TokenKind::kAnd: return BinaryOp::kAnd;
-    case TokenKind::kOr: return BinaryOp::kOr;
-    default: break;
+    case TokenKind::kPlus:
+      return BinaryOp::kAdd;
+    case TokenKind::kMinus:
+      return BinaryOp::kSub;
+    case TokenKind::kStar:
+      return BinaryOp::kMul;
+    case TokenKind::kSlash:
+      return BinaryOp::kDiv;
+    case TokenKind::kCaret:
+      return BinaryOp::kPow;
+    case TokenKind::kBar:
+      return BinaryOp::kUnion;
+    case TokenKind::kAmp:
+      return BinaryOp::kIntersect;
+    case TokenKind::kBackslash:
+      return BinaryOp::kSubtract;
+    case TokenKind::kAt:
+      return BinaryOp::kProduct;
+    case TokenKind::kLt:
+      return BinaryOp::kLt;
+    case TokenKind::kLe:
+      return BinaryOp::kLe;
+    case TokenKind::kGt:
+      return BinaryOp::kGt;
+    case TokenKind::kGe:
+      return BinaryOp::kGe;
+    case TokenKind::kEq:
+      return BinaryOp::kEq;
+    case TokenKind::kNe:
+      return BinaryOp::kNe;
+    case TokenKind::kAnd:
+      return BinaryOp::kAnd;
+    case TokenKind::kOr:
+      return BinaryOp::kOr;
+    default:
+      break;
   }
   HFRT_CHECK_MSG(false, "not a binary operator token");
   return BinaryOp::kAdd;
@@ -117,9 +136,12 @@ class Parser {
   }
   std::string describe(const Token& t) const {
     switch (t.kind) {
-      case TokenKind::kIdent: return "'" + std::string(text(t).substr(0, 40)) + "'";
-      case TokenKind::kNumber: return "number '" + std::string(text(t).substr(0, 40)) + "'";
-      default: return std::string(token_kind_name(t.kind));
+      case TokenKind::kIdent:
+        return "'" + std::string(text(t).substr(0, 40)) + "'";
+      case TokenKind::kNumber:
+        return "number '" + std::string(text(t).substr(0, 40)) + "'";
+      default:
+        return std::string(token_kind_name(t.kind));
     }
   }
   std::string where(const Token& t) const {
@@ -135,9 +157,15 @@ class Parser {
     }
     if (d.severity == Severity::kError) ++syntax_errors_;
     switch (d.severity) {
-      case Severity::kError: sink_.error(d.range, std::move(d.message), std::move(d.hint)); break;
-      case Severity::kWarning: sink_.warning(d.range, std::move(d.message), std::move(d.hint)); break;
-      case Severity::kNote: sink_.note(d.range, std::move(d.message)); break;
+      case Severity::kError:
+        sink_.error(d.range, std::move(d.message), std::move(d.hint));
+        break;
+      case Severity::kWarning:
+        sink_.warning(d.range, std::move(d.message), std::move(d.hint));
+        break;
+      case Severity::kNote:
+        sink_.note(d.range, std::move(d.message));
+        break;
     }
   }
   // A syntax error at the current token; suppressed in panic mode and at kInvalid tokens
@@ -207,7 +235,8 @@ class Parser {
           p_.nesting_reported_ = true;
           p_.syntax_error("nesting is too deep (more than " + std::to_string(kMaxNesting) +
                               " levels of parentheses, calls, operators or blocks)",
-                          "split the expression into several assignments");
+                          "split the expression into several assignments, or nest blocks "
+                          "less deeply");
         }
       }
     }
@@ -239,8 +268,8 @@ class Parser {
   bool height_ok(const Node& l, const Node& r, const Token& op) {
     if (1 + std::max(l.height, r.height) <= kMaxExprDepth) return true;
     syntax_error_at(range_of(op),
-                    "expression is too deeply nested (more than " +
-                        std::to_string(kMaxExprDepth) + " levels of operators)",
+                    "expression is too deeply nested (more than " + std::to_string(kMaxExprDepth) +
+                        " levels of operators)",
                     "split it into several assignments, e.g. t1 = ...; t2 = t1 + ...;");
     return false;
   }
@@ -255,6 +284,7 @@ class Parser {
   StmtPtr parse_if();
   StmtPtr parse_while();
   void synchronize(uint32_t stmt_begin);
+  void skip_block();
 
   Node parse_condition();
   Node parse_comparison();
@@ -302,7 +332,8 @@ std::unique_ptr<Program> Parser::run() {
   }
   if (prog->objects.empty() && syntax_errors_ == 0 && !sink_.has_errors()) {
     bool blank = file_->text().find_first_not_of(" \t\r\n") == std::string_view::npos;
-    report({Severity::kError, {file_->loc_at(0), 0},
+    report({Severity::kError,
+            {file_->loc_at(0), 0},
             blank ? "the file is empty" : "the file contains no object definition",
             "a HyperFun file holds at least one object: my_model(x[3], a[1]) { my_model = ...; }"});
   }
@@ -338,9 +369,9 @@ void Parser::parse_object(Program& prog) {
   if (!accept(TokenKind::kRBrace)) {
     closed = false;
     panic_ = false;
-    syntax_error("missing '}' at the end of object '" + obj.name + "' (its '{' is at " +
-                     where(open) + ")",
-                 "close the object body with '}'");
+    syntax_error(
+        "missing '}' at the end of object '" + obj.name + "' (its '{' is at " + where(open) + ")",
+        "close the object body with '}'");
   }
   const bool clean = syntax_errors_ == errors_before;
   // The model assignment is the last statement; it moves from the body to `result`.
@@ -352,8 +383,7 @@ void Parser::parse_object(Program& prog) {
     obj.result_range = last->range;
   } else if (clean && closed) {
     panic_ = false;
-    syntax_error_at(range_of(prev_),
-                    "object '" + obj.name + "' must end by assigning its value",
+    syntax_error_at(range_of(prev_), "object '" + obj.name + "' must end by assigning its value",
                     "make the last statement '" + obj.name + " = <expression>;'");
   }
   panic_ = false;
@@ -388,8 +418,7 @@ bool Parser::parse_header(Object& obj) {
                            obj.name + "(x[3], a[1], s[3])";
   auto param = [&](std::string_view want, int& size) {
     if (!at(TokenKind::kIdent) || !same_name(text(tok_), want)) {
-      syntax_error("expected '" + std::string(want) + "[...]' " + ctx + ", found " +
-                       describe(tok_),
+      syntax_error("expected '" + std::string(want) + "[...]' " + ctx + ", found " + describe(tok_),
                    hint);
       return false;
     }
@@ -435,6 +464,20 @@ void Parser::parse_array_decl(Object& obj) {
   } while (accept(TokenKind::kComma));
   if (!panic_) expect(TokenKind::kSemicolon, "after the array declaration");
   if (panic_) synchronize(stmt_begin);
+}
+
+// Skips a whole if/while construct (for one nested too deeply), balancing the block
+// keywords, so that its inner 'endif's and 'endloop's are not reported one by one.
+void Parser::skip_block() {
+  long open = 0;
+  while (!at(TokenKind::kEof) && !at(TokenKind::kRBrace)) {
+    TokenKind k = tok_.kind;
+    advance();
+    if (k == TokenKind::kIf || k == TokenKind::kWhile) ++open;
+    if ((k == TokenKind::kEndif || k == TokenKind::kEndloop) && --open <= 0) break;
+  }
+  accept(TokenKind::kSemicolon);
+  panic_ = false;
 }
 
 // Skips to the next statement boundary after an error and leaves panic mode. Always
@@ -497,8 +540,10 @@ StmtPtr Parser::parse_statement(Object* obj) {
     return nullptr;
   }
   switch (tok_.kind) {
-    case TokenKind::kIf: return parse_if();
-    case TokenKind::kWhile: return parse_while();
+    case TokenKind::kIf:
+      return parse_if();
+    case TokenKind::kWhile:
+      return parse_while();
     case TokenKind::kArray: {
       syntax_error("array declarations must come before the first statement",
                    "move 'array ...;' to the top of the object body");
@@ -511,7 +556,8 @@ StmtPtr Parser::parse_statement(Object* obj) {
       }
       return nullptr;
     }
-    case TokenKind::kIdent: break;
+    case TokenKind::kIdent:
+      break;
     case TokenKind::kElse:
     case TokenKind::kEndif:
     case TokenKind::kThen:
@@ -556,8 +602,8 @@ StmtPtr Parser::parse_statement(Object* obj) {
         }
         if (!at(TokenKind::kNumber)) {
           // Step over a whole expression so the message can underline it.
-          if (!at(TokenKind::kComma) && !at(TokenKind::kRBracket) &&
-              !at(TokenKind::kSemicolon) && !at(TokenKind::kEof)) {
+          if (!at(TokenKind::kComma) && !at(TokenKind::kRBracket) && !at(TokenKind::kSemicolon) &&
+              !at(TokenKind::kEof)) {
             const Token bad = tok_;
             State s = save();
             buffers_.emplace_back();
@@ -565,9 +611,9 @@ StmtPtr Parser::parse_statement(Object* obj) {
             buffers_.pop_back();
             SourceRange r = range_from(bad.offset);
             restore(s);
-            syntax_error_at(r, "array literal values must be numbers, found " + describe(bad),
-                            "set computed values element by element, e.g. " + stmt->name +
-                                "[1] = x[1];");
+            syntax_error_at(
+                r, "array literal values must be numbers, found " + describe(bad),
+                "set computed values element by element, e.g. " + stmt->name + "[1] = x[1];");
           } else {
             syntax_error("array literal values must be numbers, found " + describe(tok_),
                          "write the values like " + stmt->name + " = [1, -2.5, 3];");
@@ -597,8 +643,7 @@ StmtPtr Parser::parse_statement(Object* obj) {
   }
   if (!panic_) {
     expect(TokenKind::kSemicolon, "after the statement",
-           at(TokenKind::kIdent) || at(TokenKind::kRBrace) ? "every statement ends with ';'"
-                                                           : "");
+           at(TokenKind::kIdent) || at(TokenKind::kRBrace) ? "every statement ends with ';'" : "");
   }
   stmt->range = range_from(begin);
   return stmt;
@@ -607,14 +652,17 @@ StmtPtr Parser::parse_statement(Object* obj) {
 StmtPtr Parser::parse_if() {
   const Token kw = tok_;
   Nest nest(*this);
-  if (!nest.ok()) return nullptr;
+  if (!nest.ok()) {
+    skip_block();
+    return nullptr;
+  }
   advance();
   auto stmt = std::make_unique<Stmt>();
   stmt->kind = StmtKind::kIf;
   stmt->cond = parse_condition().expr;
   if (expect(TokenKind::kThen, "after the condition of 'if'")) panic_ = false;
-  stmt->then_body = parse_statements({TokenKind::kElse, TokenKind::kEndif, TokenKind::kRBrace,
-                                      TokenKind::kEndloop});
+  stmt->then_body = parse_statements(
+      {TokenKind::kElse, TokenKind::kEndif, TokenKind::kRBrace, TokenKind::kEndloop});
   if (accept(TokenKind::kElse)) {
     panic_ = false;
     stmt->has_else = true;
@@ -636,18 +684,19 @@ StmtPtr Parser::parse_if() {
 StmtPtr Parser::parse_while() {
   const Token kw = tok_;
   Nest nest(*this);
-  if (!nest.ok()) return nullptr;
+  if (!nest.ok()) {
+    skip_block();
+    return nullptr;
+  }
   advance();
   auto stmt = std::make_unique<Stmt>();
   stmt->kind = StmtKind::kWhile;
   stmt->cond = parse_condition().expr;
   if (expect(TokenKind::kLoop, "after the condition of 'while'")) panic_ = false;
-  stmt->then_body =
-      parse_statements({TokenKind::kEndloop, TokenKind::kRBrace, TokenKind::kElse,
-                        TokenKind::kEndif});
+  stmt->then_body = parse_statements(
+      {TokenKind::kEndloop, TokenKind::kRBrace, TokenKind::kElse, TokenKind::kEndif});
   if (!accept(TokenKind::kEndloop)) {
-    syntax_error("missing 'endloop' for the 'while' at " + where(kw) + ", found " +
-                     describe(tok_),
+    syntax_error("missing 'endloop' for the 'while' at " + where(kw) + ", found " + describe(tok_),
                  "close every 'while' with 'endloop;'");
     stmt->range = range_from(kw.offset);
     return stmt;

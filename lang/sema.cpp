@@ -113,14 +113,16 @@ class Checker {
     for (size_t i = 0; i < obj_->arrays.size(); ++i) {
       const ArrayDecl& d = obj_->arrays[i];
       if (auto why = reserved_reason(d.name)) {
-        diags_.error(d.range, "'" + d.name + "' is " + *why + " and cannot be used as an array name",
+        diags_.error(d.range,
+                     "'" + d.name + "' is " + *why + " and cannot be used as an array name",
                      "choose another name for the array");
         continue;
       }
       if (same_name(d.name, obj_->name)) {
-        diags_.error(d.range,
-                     "'" + d.name + "' is the name of this object and cannot be used as an array name",
-                     "choose another name for the array");
+        diags_.error(
+            d.range,
+            "'" + d.name + "' is the name of this object and cannot be used as an array name",
+            "choose another name for the array");
         continue;
       }
       auto [it, inserted] = arrays_.emplace(fold_case(d.name), static_cast<int>(i));
@@ -192,9 +194,7 @@ class Checker {
     }
     return std::nullopt;
   }
-  bool is_undeclared_s(std::string_view name) const {
-    return same_name(name, "s") && !obj_->has_s;
-  }
+  bool is_undeclared_s(std::string_view name) const { return same_name(name, "s") && !obj_->has_s; }
   void error_no_s(SourceRange r) {
     diags_.error(r, "object '" + obj_->name + "' has no 's' array in its header",
                  "declare it in the header, e.g. " + obj_->name +
@@ -215,9 +215,9 @@ class Checker {
                  "copy what you need into a local variable, e.g. t = " + name + "[1];");
   }
   void error_whole_array(SourceRange r, const std::string& name) {
-    diags_.error(r, "'" + name + "' is an array and cannot be assigned a single value",
-                 "assign one element, " + name + "[1] = ...;, or all of them, " + name +
-                     " = [...];");
+    diags_.error(
+        r, "'" + name + "' is an array and cannot be assigned a single value",
+        "assign one element, " + name + "[1] = ...;, or all of them, " + name + " = [...];");
   }
 
   std::vector<std::string> visible_names() const {
@@ -282,18 +282,20 @@ class Checker {
   void resolve_assign_target(Stmt& s) {
     const std::string& n = s.name;
     if (same_name(n, obj_->name)) {
-      diags_.error(s.name_range,
-                   "'" + n + "' is the value of the object and can only be assigned by the last "
-                   "statement",
-                   "compute into a local variable here and end the body with '" + n +
-                       " = <expression>;'");
+      diags_.error(
+          s.name_range,
+          "'" + n +
+              "' is the value of the object and can only be assigned by the last "
+              "statement",
+          "compute into a local variable here and end the body with '" + n + " = <expression>;'");
       return;
     }
     if (same_name(n, "x") || same_name(n, "a")) return error_read_only(s.name_range, n);
     if (is_undeclared_s(n)) return error_no_s(s.name_range);
     if (resolve_array(n)) return error_whole_array(s.name_range, n);
     if (auto why = reserved_reason(n)) {
-      diags_.error(s.name_range, "'" + n + "' is " + *why + " and cannot be used as a variable name",
+      diags_.error(s.name_range,
+                   "'" + n + "' is " + *why + " and cannot be used as a variable name",
                    "choose another variable name");
       return;
     }
@@ -341,22 +343,23 @@ class Checker {
     if (i >= 1 && i <= size) return;
     diags_.warning(index.range,
                    "index " + std::to_string(static_cast<long long>(std::clamp(i, -1e15, 1e15))) +
-                       " is out of range for '" + name + "', which has " +
-                       plural(size, "element"),
+                       " is out of range for '" + name + "', which has " + plural(size, "element"),
                    "array indices run from 1 to the declared size; this read fails at run time");
   }
 
   // ---- expressions --------------------------------------------------------------------
   void check_value(Expr& e, std::vector<char>& assigned) {
     switch (e.kind) {
-      case ExprKind::kNumber: return;
+      case ExprKind::kNumber:
+        return;
       case ExprKind::kUnary:
       case ExprKind::kBinary:
         for (ExprPtr& a : e.args) {
           if (a) check_value(*a, assigned);
         }
         return;
-      case ExprKind::kName: return check_name(e, assigned);
+      case ExprKind::kName:
+        return check_name(e, assigned);
       case ExprKind::kIndex: {
         if (!e.args.empty() && e.args[0]) check_value(*e.args[0], assigned);
         if (is_undeclared_s(e.name)) return error_no_s(e.name_range);
@@ -366,7 +369,8 @@ class Checker {
         if (!e.args.empty() && e.args[0]) check_constant_index(*e.args[0], e.name, ref->size);
         return;
       }
-      case ExprKind::kCall: return check_call(e, assigned);
+      case ExprKind::kCall:
+        return check_call(e, assigned);
     }
   }
 
@@ -383,8 +387,9 @@ class Checker {
       if (!assigned[*i] && !warned_.count(*i)) {
         warned_.insert({*i, true});
         diags_.warning(e.name_range, "'" + n + "' may be used before it is assigned",
-                       "assign '" + n + "' on every path before this point; reading an "
-                       "unassigned variable is an error at run time");
+                       "assign '" + n +
+                           "' on every path before this point; reading an "
+                           "unassigned variable is an error at run time");
       }
       return;
     }
@@ -410,8 +415,7 @@ class Checker {
   }
 
   // A real-valued argument: anything but a bare array name.
-  void check_real_arg(Expr& arg, int position, const std::string& fn,
-                      std::vector<char>& assigned) {
+  void check_real_arg(Expr& arg, int position, const std::string& fn, std::vector<char>& assigned) {
     if (arg.kind == ExprKind::kName && resolve_array(arg.name)) {
       diags_.error(arg.range,
                    "argument " + std::to_string(position) + " of '" + fn +
@@ -434,13 +438,13 @@ class Checker {
         return ref->size;
       }
     }
-    diags_.error(arg.range,
-                 "argument " + std::to_string(position) + " of '" + fn +
-                     "' must be an array name (x, a, s or a declared array)",
-                 arg.kind == ExprKind::kName
-                     ? "'" + arg.name + "' is not an array; declare one with 'array " + arg.name +
-                           "[N];'"
-                     : "pass the array itself, without an index or an expression");
+    diags_.error(
+        arg.range,
+        "argument " + std::to_string(position) + " of '" + fn +
+            "' must be an array name (x, a, s or a declared array)",
+        arg.kind == ExprKind::kName
+            ? "'" + arg.name + "' is not an array; declare one with 'array " + arg.name + "[N];'"
+            : "pass the array itself, without an index or an expression");
     return -1;
   }
 
@@ -504,13 +508,13 @@ class Checker {
       e.symbol = {SymbolKind::kObject, *j};
       const int max_args = callee.has_s ? 3 : 2;
       if (count < 2 || count > max_args) {
-        diags_.error(e.name_range,
-                     "object '" + n + "' takes " +
-                         (callee.has_s ? "2 or 3 array arguments (x, a [, s])"
-                                       : std::string("2 array arguments (x, a)")) +
-                         ", but " + std::to_string(count) + (count == 1 ? " was" : " were") +
-                         " given",
-                     "call it like " + n + (callee.has_s ? "(x, a) or " + n + "(x, a, s)" : "(x, a)"));
+        diags_.error(
+            e.name_range,
+            "object '" + n + "' takes " +
+                (callee.has_s ? "2 or 3 array arguments (x, a [, s])"
+                              : std::string("2 array arguments (x, a)")) +
+                ", but " + std::to_string(count) + (count == 1 ? " was" : " were") + " given",
+            "call it like " + n + (callee.has_s ? "(x, a) or " + n + "(x, a, s)" : "(x, a)"));
       }
       const char* header_names[3] = {"x", "a", "s"};
       const int header_sizes[3] = {callee.x_size, callee.a_size, callee.s_size};
@@ -518,13 +522,12 @@ class Checker {
         if (!e.args[i]) continue;
         int size = check_array_arg(*e.args[i], i + 1, n);
         if (size >= 0 && i < max_args && size != header_sizes[i]) {
-          diags_.error(e.args[i]->range,
-                       "array '" + e.args[i]->name + "' has " + plural(size, "element") +
-                           ", but object '" + n + "' expects " + header_names[i] + "[" +
-                           std::to_string(header_sizes[i]) + "]",
-                       "pass an array with exactly " + plural(header_sizes[i], "element") +
-                           " (declare one with 'array p[" + std::to_string(header_sizes[i]) +
-                           "];')");
+          diags_.error(
+              e.args[i]->range,
+              "array '" + e.args[i]->name + "' has " + plural(size, "element") + ", but object '" +
+                  n + "' expects " + header_names[i] + "[" + std::to_string(header_sizes[i]) + "]",
+              "pass an array with exactly " + plural(header_sizes[i], "element") +
+                  " (declare one with 'array p[" + std::to_string(header_sizes[i]) + "];')");
         }
       }
       return;
@@ -537,8 +540,9 @@ class Checker {
                    "index arrays with brackets, like " + n + "[1]");
       return;
     }
-    std::string hint = "built-in functions are sqrt, sin, max, ...; library functions start "
-                       "with 'hf'; objects must be defined above";
+    std::string hint =
+        "built-in functions are sqrt, sin, max, ...; library functions start "
+        "with 'hf'; objects must be defined above";
     std::string guess = closest(n, function_names());
     if (!guess.empty()) hint = "did you mean '" + guess + "'?";
     diags_.error(e.name_range, "unknown function '" + n + "'", hint);

@@ -63,6 +63,9 @@ struct Totals {
   int compiled = 0;
   int64_t points = 0;
   int64_t derivatives = 0;
+  int64_t boxes = 0;
+  int64_t tight_boxes = 0;  ///< finite, no NaN, narrower than 1e-3 for boxes of width <= 1e-6
+  int64_t small_boxes = 0;
   int failures = 0;
 };
 
@@ -81,6 +84,7 @@ void check_intervals(const std::string& path, const Function& fn, Totals* t) {
       box[k] = {c - w / 2, c + w / 2, false};
     }
     Interval r = ii.eval(box, a);
+    ++t->boxes;
     for (int si = 0; si < 16; ++si) {
       std::vector<double> p(fn.num_inputs, 0.0);
       for (int k = 0; k < std::min(fn.num_inputs, 3); ++k) {
@@ -94,6 +98,29 @@ void check_intervals(const std::string& path, const Function& fn, Totals* t) {
                       << " not in " << str(r);
       }
     }
+  }
+}
+
+/// Tightness: tiny boxes around random points must give narrow finite intervals where F is
+/// finite and defined nearby (an evaluator returning [-inf, inf] everywhere is sound too).
+void check_tightness(const Function& fn, Totals* t) {
+  Interpreter interp(fn);
+  IntervalInterpreter ii(fn);
+  std::mt19937_64 rng(3);
+  std::uniform_real_distribution<double> u(-3.5, 3.5);
+  std::vector<double> a(std::max(fn.num_params, 1), 0.0);
+  for (int bi = 0; bi < 10; ++bi) {
+    std::vector<double> p(fn.num_inputs, 0.0);
+    std::vector<Interval> box(fn.num_inputs, Interval{0, 0, false});
+    for (int k = 0; k < std::min(fn.num_inputs, 3); ++k) {
+      p[k] = u(rng);
+      box[k] = {p[k] - 1e-9, p[k] + 1e-9, false};
+    }
+    double v = interp.eval(p, a).value;
+    if (!std::isfinite(v)) continue;
+    ++t->small_boxes;
+    Interval r = ii.eval(box, a);
+    if (!r.maybe_nan && r.hi - r.lo < 1e-3 * std::max(1.0, std::fabs(v))) ++t->tight_boxes;
   }
 }
 
@@ -142,13 +169,21 @@ void run_corpus(const std::string& dir, bool intervals, int min_compiled) {
     if (!fn) continue;
     if (fn->insts.size() > 20000) continue;  // the generated stress files: too slow here
     ++t.compiled;
-    if (intervals) check_intervals(path, *fn, &t);
+    if (intervals) {
+      check_intervals(path, *fn, &t);
+      check_tightness(*fn, &t);
+    }
     else check_gradients(path, *fn, &t);
   }
   std::printf("%s: %d files, %d lowered, %lld points, %lld derivatives compared\n", dir.c_str(),
               t.files, t.compiled, static_cast<long long>(t.points),
               static_cast<long long>(t.derivatives));
   EXPECT_GE(t.compiled, min_compiled) << "the corpus no longer compiles";
+  if (intervals) {
+    std::printf("  tiny boxes (2e-9) around finite points: %lld of %lld give a narrow interval\n",
+                static_cast<long long>(t.tight_boxes), static_cast<long long>(t.small_boxes));
+    EXPECT_GE(t.tight_boxes, t.small_boxes * 3 / 4) << "intervals are uselessly wide";
+  }
 }
 
 TEST(IntervalCorpusTest, ProbesContainEverySampledPoint) {

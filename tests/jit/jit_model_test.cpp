@@ -72,7 +72,8 @@ TEST(JitModelTest, BothBackendsAndPrecisionsAgree) {
       double want = sphere(xs[i], xs[n + i], xs[2 * n + i], 2, 4);
       EXPECT_DOUBLE_EQ(f[i], want) << i;
       EXPECT_NEAR(f32[i], want, 1e-5 * (1 + std::fabs(want))) << i;
-      EXPECT_DOUBLE_EQ(s[i], (2 - f[i]) * 4) << i;
+      const double x = xs[i], y = xs[n + i], z = xs[2 * n + i];
+      EXPECT_DOUBLE_EQ(s[i], x * x + y * y + z * z) << i;
     }
   }
 }

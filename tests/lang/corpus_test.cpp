@@ -162,7 +162,8 @@ TEST(CorpusParse, MatchesTheOriginal) {
     } else {
       ASSERT_FALSE(c.ok()) << name << " should be rejected like: " << e.original;
       EXPECT_EQ(c.errors()[0]->range.begin.line, static_cast<uint32_t>(e.line))
-          << name << ": original " << e.original << "\nhfrt:\n" << c.rendered();
+          << name << ": original " << e.original << "\nhfrt:\n"
+          << c.rendered();
       ++rejected;
     }
   }

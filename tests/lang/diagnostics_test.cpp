@@ -18,8 +18,8 @@ using testing::Compiled;
 
 TEST(Render, LocationMessageSourceCaretHint) {
   SourceFile f("model.hf", "first line\n  v = foo + 1;\n");
-  Diagnostic d{Severity::kError, {f.loc_at(17), 3}, "'foo' is used but never assigned",
-               "assign it first"};
+  Diagnostic d{
+      Severity::kError, {f.loc_at(17), 3}, "'foo' is used but never assigned", "assign it first"};
   EXPECT_EQ(render_diagnostic(f, d, false),
             "model.hf:2:7: error: 'foo' is used but never assigned\n"
             "   v = foo + 1;\n"
@@ -114,10 +114,14 @@ struct MessageCase {
   bool last = false;  ///< check the last diagnostic instead of the first
 };
 
-void PrintTo(const MessageCase& c, std::ostream* os) { *os << c.id; }
+void PrintTo(const MessageCase& c, std::ostream* os) {
+  *os << c.id;
+}
 
 // Bodies start at column 17 after this header.
-std::string obj(const std::string& body) { return "m(x[3], a[1]) { " + body + " }"; }
+std::string obj(const std::string& body) {
+  return "m(x[3], a[1]) { " + body + " }";
+}
 
 const Severity E = Severity::kError;
 const Severity W = Severity::kWarning;
@@ -202,7 +206,8 @@ const MessageCase kMessages[] = {
      "'endloop' without a matching 'while'"},
     {"keyword_assigned", obj("loop = 1; m = 1;"), 1, 17, E,
      "'loop' is a reserved word and cannot be assigned"},
-    {"expected_statement", obj("5 = 1; m = 1;"), 1, 17, E, "expected a statement, found number '5'"},
+    {"expected_statement", obj("5 = 1; m = 1;"), 1, 17, E,
+     "expected a statement, found number '5'"},
     {"elseif", obj("v = 0; if v > 0 then v = 1; elseif v < 0 then v = 2; endif; m = v;"), 1, 45, E,
      "'elseif' is not HyperFun"},
     {"literal_not_number", obj("array c[2]; c = [1, v]; m = 1;"), 1, 37, E,
@@ -225,7 +230,8 @@ const MessageCase kMessages[] = {
     {"endloop_semicolon", obj("while 0 loop endloop m = 1;"), 1, 38, E,
      "expected ';' after 'endloop', found 'm'"},
     {"rparen", obj("m = (1 + 2;"), 1, 27, E, "expected ')' to close the '(' at 1:21, found ';'"},
-    {"rbracket_index", obj("m = x[1;"), 1, 24, E, "expected ']' to close the '[' at 1:22, found ';'"},
+    {"rbracket_index", obj("m = x[1;"), 1, 24, E,
+     "expected ']' to close the '[' at 1:22, found ';'"},
     {"rbracket_element", obj("array c[2]; c[1 = 2; m = 1;"), 1, 33, E,
      "expected ']' to close the '[' at 1:30, found '='"},
     {"eq_after_element", obj("array c[2]; c[1] 2; m = 1;"), 1, 34, E,
@@ -236,11 +242,13 @@ const MessageCase kMessages[] = {
     {"nesting", obj("m = " + std::string(300, '(') + "1" + std::string(300, ')') + ";"), 1, 277, E,
      "nesting is too deep (more than 256 levels of parentheses, calls, operators or blocks)"},
     {"operator_chain",
-     obj("m = 1" + [] {
+     obj("m = 1" +
+         [] {
            std::string s;
            for (int i = 0; i < 1100; ++i) s += "+1";
            return s;
-         }() + ";"),
+         }() +
+         ";"),
      1, 2020, E, "expression is too deeply nested (more than 1000 levels of operators)"},
     // semantic checks
     {"duplicate_object", "m(x[3], a[1]) { m = 1; }\nM(x[3], a[1]) { M = 1; }", 2, 1, E,
@@ -254,7 +262,8 @@ const MessageCase kMessages[] = {
     {"duplicate_array", obj("array c[3], c[2]; m = 1;"), 1, 29, E,
      "array 'c' is already declared (at 1:23)"},
     {"no_s", obj("m = s[1];"), 1, 21, E, "object 'm' has no 's' array in its header"},
-    {"scalar_not_array", obj("v = 1; m = v[1];"), 1, 28, E, "'v' is a scalar variable, not an array"},
+    {"scalar_not_array", obj("v = 1; m = v[1];"), 1, 28, E,
+     "'v' is a scalar variable, not an array"},
     {"not_declared_array", obj("m = q[1];"), 1, 21, E, "'q' is not a declared array"},
     {"read_only", obj("x[1] = 1; m = 1;"), 1, 17, E,
      "cannot assign to 'x': x and a are read-only inputs of the object"},
@@ -309,7 +318,8 @@ TEST_P(Message, TextAndLocation) {
   EXPECT_EQ(d.range.begin.line, mc.line) << c.rendered();
   EXPECT_EQ(d.range.begin.col, mc.col) << c.rendered();
   // Every error and warning says what to do, and renders with its location.
-  if (d.severity != Severity::kNote) EXPECT_FALSE(d.hint.empty() && d.message.find("expected") == std::string::npos) << mc.id;
+  if (d.severity != Severity::kNote)
+    EXPECT_FALSE(d.hint.empty() && d.message.find("expected") == std::string::npos) << mc.id;
   std::string loc = "case.hf:" + std::to_string(mc.line) + ":" + std::to_string(mc.col) + ": ";
   EXPECT_NE(c.rendered().find(loc), std::string::npos);
 }

@@ -43,13 +43,14 @@ using K = TokenKind;
 
 TEST(Lexer, OperatorsAndPunctuation) {
   EXPECT_EQ(kinds("+ - * / ^ | & \\ @ ~ = /= < <= > >= ( ) [ ] { } , ;"),
-            (std::vector<K>{K::kPlus, K::kMinus, K::kStar, K::kSlash, K::kCaret, K::kBar,
-                            K::kAmp, K::kBackslash, K::kAt, K::kTilde, K::kEq, K::kNe, K::kLt,
-                            K::kLe, K::kGt, K::kGe, K::kLParen, K::kRParen, K::kLBracket,
-                            K::kRBracket, K::kLBrace, K::kRBrace, K::kComma, K::kSemicolon}));
+            (std::vector<K>{K::kPlus,   K::kMinus,  K::kStar,      K::kSlash,    K::kCaret,
+                            K::kBar,    K::kAmp,    K::kBackslash, K::kAt,       K::kTilde,
+                            K::kEq,     K::kNe,     K::kLt,        K::kLe,       K::kGt,
+                            K::kGe,     K::kLParen, K::kRParen,    K::kLBracket, K::kRBracket,
+                            K::kLBrace, K::kRBrace, K::kComma,     K::kSemicolon}));
   // No spaces needed between tokens.
-  EXPECT_EQ(kinds("a/=b<=c/d"),
-            (std::vector<K>{K::kIdent, K::kNe, K::kIdent, K::kLe, K::kIdent, K::kSlash, K::kIdent}));
+  EXPECT_EQ(kinds("a/=b<=c/d"), (std::vector<K>{K::kIdent, K::kNe, K::kIdent, K::kLe, K::kIdent,
+                                                K::kSlash, K::kIdent}));
 }
 
 TEST(Lexer, KeywordsAreCaseInsensitive) {

@@ -66,9 +66,10 @@ TEST(Sema, ResolvesEveryKindOfName) {
 }
 
 TEST(Sema, ScalarsAreNumberedInFirstAssignmentOrder) {
-  Compiled c = compile(model(
-      "b = 1;\nif x[1] > 0 then c = 2; else a1 = 3; endif;\nwhile b < 0 loop d = 1; b = b + 1; endloop;\n"
-      "B = 4; c = 5; a1 = 1; d = 0;\nmy_model = b + c + a1 + d;"));
+  Compiled c =
+      compile(model("b = 1;\nif x[1] > 0 then c = 2; else a1 = 3; endif;\nwhile b < 0 loop d = 1; "
+                    "b = b + 1; endloop;\n"
+                    "B = 4; c = 5; a1 = 1; d = 0;\nmy_model = b + c + a1 + d;"));
   ASSERT_TRUE(c.ok()) << c.rendered();
   EXPECT_EQ(c.program->objects[0].scalars, (std::vector<std::string>{"b", "c", "a1", "d"}));
   // 'B' is the same local as 'b'.
@@ -77,12 +78,12 @@ TEST(Sema, ScalarsAreNumberedInFirstAssignmentOrder) {
 
 TEST(Sema, ScalarMayBeAssignedAfterItsFirstUseInALoop) {
   // Declared by an assignment later in the source: not an "undefined name", only a warning.
-  Compiled c = compile(model(
-      "i = 0; t = 0;\nwhile i < 3 loop u = t; t = i; i = i + 1; endloop;\nmy_model = t;"));
+  Compiled c = compile(
+      model("i = 0; t = 0;\nwhile i < 3 loop u = t; t = i; i = i + 1; endloop;\nmy_model = t;"));
   EXPECT_TRUE(c.ok()) << c.rendered();
   EXPECT_TRUE(c.warnings().empty()) << c.rendered();
-  Compiled d = compile(model(
-      "i = 0;\nwhile i < 3 loop u = t; t = i; i = i + 1; endloop;\nmy_model = i;"));
+  Compiled d =
+      compile(model("i = 0;\nwhile i < 3 loop u = t; t = i; i = i + 1; endloop;\nmy_model = i;"));
   EXPECT_TRUE(d.ok()) << d.rendered();
   ASSERT_EQ(d.warnings().size(), 1u);
   EXPECT_EQ(d.warnings()[0]->message, "'t' may be used before it is assigned");
@@ -100,21 +101,24 @@ TEST(Sema, UninitialisedWarnings) {
   Compiled both = compile(model("if x[1] > 5 then v = 1; else v = 2; endif;\nmy_model = v;"));
   EXPECT_TRUE(both.warnings().empty()) << both.rendered();
   // Only in a loop body.
-  Compiled loop = compile(model("i = 0; while i < 2 loop v = i; i = i + 1; endloop;\nmy_model = v;"));
+  Compiled loop =
+      compile(model("i = 0; while i < 2 loop v = i; i = i + 1; endloop;\nmy_model = v;"));
   ASSERT_EQ(loop.warnings().size(), 1u);
   // Used in its own first assignment.
   Compiled self = compile(model("v = v + 1;\nmy_model = v;"));
   ASSERT_EQ(self.warnings().size(), 1u);
   EXPECT_EQ(self.warnings()[0]->range.begin.col, 5u);
   // Nested ifs that assign on every path.
-  Compiled nested = compile(model(
-      "if x[1] > 0 then if x[2] > 0 then v = 1; else v = 2; endif; else v = 3; endif;\nmy_model = v;"));
+  Compiled nested =
+      compile(model("if x[1] > 0 then if x[2] > 0 then v = 1; else v = 2; endif; else v = 3; "
+                    "endif;\nmy_model = v;"));
   EXPECT_TRUE(nested.warnings().empty()) << nested.rendered();
   // Read inside the branch that assigned it: fine.
   Compiled inside = compile(model("w = 0; if x[1] > 0 then v = 1; w = v; endif;\nmy_model = w;"));
   EXPECT_TRUE(inside.warnings().empty()) << inside.rendered();
   // One warning per variable, not per read.
-  Compiled many = compile(model("if x[1] > 0 then v = 1; endif;\nw = v + v * v;\nmy_model = w + v;"));
+  Compiled many =
+      compile(model("if x[1] > 0 then v = 1; endif;\nw = v + v * v;\nmy_model = w + v;"));
   EXPECT_EQ(many.warnings().size(), 1u);
 }
 
@@ -142,7 +146,8 @@ TEST(Sema, ReservedNamesCannotBeLocals) {
   EXPECT_FALSE(compile(model("array x[2];\nmy_model = 1;")).ok());
   EXPECT_FALSE(compile(model("array my_model[2];\nmy_model = 1;")).ok());
   // Names that merely contain reserved words are fine.
-  EXPECT_TRUE(compile(model("maxv = 1; x1 = 2; sx = 3; ifs = 4;\nmy_model = maxv + x1 + sx + ifs;")).ok());
+  EXPECT_TRUE(
+      compile(model("maxv = 1; x1 = 2; sx = 3; ifs = 4;\nmy_model = maxv + x1 + sx + ifs;")).ok());
 }
 
 TEST(Sema, BuiltinArityAndArgumentKinds) {
@@ -160,7 +165,8 @@ TEST(Sema, LibraryArgumentKinds) {
   EXPECT_TRUE(compile(model(decl + "my_model = hfSphere(s, c, 1);", "x[3], a[1], s[3]")).ok());
   // 'A' arguments: only a bare array name.
   for (const char* bad : {"x[1]", "1", "c + 1", "-c", "v", "sqrt(2)", "hfSphere"}) {
-    Compiled c = compile(model(decl + "v = 1;\nmy_model = hfSphere(x, " + std::string(bad) + ", 1);"));
+    Compiled c =
+        compile(model(decl + "v = 1;\nmy_model = hfSphere(x, " + std::string(bad) + ", 1);"));
     ASSERT_FALSE(c.ok()) << bad;
     EXPECT_NE(first_error(c)->message.find("must be an array name"), std::string::npos)
         << bad << ": " << first_error(c)->message;
@@ -168,7 +174,8 @@ TEST(Sema, LibraryArgumentKinds) {
   // 'R' arguments: a bare array name is an error.
   Compiled r = compile(model(decl + "my_model = hfSphere(x, c, c);"));
   ASSERT_FALSE(r.ok());
-  EXPECT_EQ(first_error(r)->message, "argument 3 of 'hfSphere' must be a number, not the array 'c'");
+  EXPECT_EQ(first_error(r)->message,
+            "argument 3 of 'hfSphere' must be a number, not the array 'c'");
   // Count.
   EXPECT_FALSE(compile(model(decl + "my_model = hfSphere(x, c);")).ok());
   EXPECT_FALSE(compile(model(decl + "my_model = hfSphere(x, c, 1, 2);")).ok());
@@ -181,15 +188,15 @@ TEST(Sema, LibraryArgumentKinds) {
 TEST(Sema, EveryLibraryFunctionAcceptsItsSignature) {
   // Generated calls for all 85 signatures: array names for 'A', numbers for 'R'.
   std::string body = "array p[3];\np = [1, 2, 3];\nv = 0;\n";
-#define HFRT_X(e, s, k)                                     \
-  {                                                         \
-    std::string call = std::string(s) + "(";                \
-    std::string_view kinds = k;                             \
-    for (size_t i = 0; i < kinds.size(); ++i) {             \
-      call += i ? ", " : "";                                \
-      call += kinds[i] == 'A' ? "p" : "0.5";                \
-    }                                                       \
-    body += "v = v + " + call + ");\n";                     \
+#define HFRT_X(e, s, k)                         \
+  {                                             \
+    std::string call = std::string(s) + "(";    \
+    std::string_view kinds = k;                 \
+    for (size_t i = 0; i < kinds.size(); ++i) { \
+      call += i ? ", " : "";                    \
+      call += kinds[i] == 'A' ? "p" : "0.5";    \
+    }                                           \
+    body += "v = v + " + call + ");\n";         \
   }
   HFRT_LIBRARY(HFRT_X)
 #undef HFRT_X
@@ -200,9 +207,11 @@ TEST(Sema, EveryLibraryFunctionAcceptsItsSignature) {
 TEST(Sema, ObjectCalls) {
   const std::string callee = "two(x[2], a[1], s[2]) { two = x[1]; }\n";
   EXPECT_TRUE(compile(callee + "my_model(x[3], a[1]) { array p[2]; p[1] = x[1]; p[2] = x[2];\n"
-                               " my_model = two(p, a); }").ok());
+                               " my_model = two(p, a); }")
+                  .ok());
   EXPECT_TRUE(compile(callee + "my_model(x[3], a[1], s[2]) { array p[2]; p = [1, 2];\n"
-                               " my_model = two(p, a, s); }").ok());
+                               " my_model = two(p, a, s); }")
+                  .ok());
   // Size mismatch.
   Compiled m = compile(callee + "my_model(x[3], a[1]) {\n my_model = two(x, a); }");
   ASSERT_FALSE(m.ok());
@@ -210,11 +219,18 @@ TEST(Sema, ObjectCalls) {
   EXPECT_EQ(first_error(m)->range.begin.line, 3u);
   EXPECT_EQ(first_error(m)->range.begin.col, 17u);
   // Wrong count, non-array arguments.
-  EXPECT_FALSE(compile(callee + "my_model(x[3], a[1]) { array p[2]; p = [1, 2]; my_model = two(p); }").ok());
-  EXPECT_FALSE(compile(callee + "my_model(x[3], a[1]) { array p[2]; p = [1, 2]; my_model = two(p, 1); }").ok());
-  EXPECT_FALSE(compile("one(x[3], a[1]) { one = 1; }\nmy_model(x[3], a[1], s[1]) { my_model = one(x, a, s); }").ok());
+  EXPECT_FALSE(
+      compile(callee + "my_model(x[3], a[1]) { array p[2]; p = [1, 2]; my_model = two(p); }").ok());
+  EXPECT_FALSE(
+      compile(callee + "my_model(x[3], a[1]) { array p[2]; p = [1, 2]; my_model = two(p, 1); }")
+          .ok());
+  EXPECT_FALSE(
+      compile(
+          "one(x[3], a[1]) { one = 1; }\nmy_model(x[3], a[1], s[1]) { my_model = one(x, a, s); }")
+          .ok());
   // Forward reference and recursion.
-  Compiled f = compile("my_model(x[3], a[1]) {\n my_model = other(x, a);\n}\nother(x[3], a[1]) { other = 1; }");
+  Compiled f = compile(
+      "my_model(x[3], a[1]) {\n my_model = other(x, a);\n}\nother(x[3], a[1]) { other = 1; }");
   ASSERT_FALSE(f.ok());
   EXPECT_EQ(first_error(f)->range.begin.line, 2u);
   EXPECT_FALSE(compile("my_model(x[3], a[1]) { my_model = my_model(x, a); }").ok());
@@ -280,8 +296,9 @@ TEST(Sema, ConstantIndexOutOfRangeWarns) {
 
 TEST(Sema, ObjectsWithSyntaxErrorsAreNotChecked) {
   // The broken object reports its syntax error only; the intact one is still checked.
-  Compiled c = compile("one(x[3], a[1]) { v = (1; one = undefined1; }\n"
-                       "two(x[3], a[1]) { two = undefined2; }\n");
+  Compiled c = compile(
+      "one(x[3], a[1]) { v = (1; one = undefined1; }\n"
+      "two(x[3], a[1]) { two = undefined2; }\n");
   ASSERT_EQ(c.errors().size(), 2u) << c.rendered();
   EXPECT_EQ(c.errors()[0]->range.begin.line, 1u);
   EXPECT_EQ(c.errors()[1]->message, "'undefined2' is used but never assigned");
@@ -298,16 +315,18 @@ TEST(Sema, CompileSourceReturnsNullOnErrors) {
   EXPECT_EQ(compile_source(bad, bd), nullptr);
   EXPECT_TRUE(bd.has_errors());
   // Warnings alone do not fail.
-  auto warn = std::make_shared<const SourceFile>("w.hf", model("if x[1] > 0 then v = 1; endif;\nmy_model = v;"));
+  auto warn = std::make_shared<const SourceFile>(
+      "w.hf", model("if x[1] > 0 then v = 1; endif;\nmy_model = v;"));
   DiagnosticSink wd(warn);
   EXPECT_NE(compile_source(warn, wd), nullptr);
   EXPECT_EQ(wd.warning_count(), 1);
 }
 
 TEST(AstDump, StableTextForm) {
-  Compiled c = compile("m(x[3], a[1], s[3])\n{\n array c[2];\n c = [1, -2.5];\n v = -x[1]^2;\n"
-                       " if not v > 0 and c[1] /= 1 then s[1] = v; else endif;\n"
-                       " while v < 1 loop v = v + 1; endloop;\n m = hfSphere(x, c, v) | max(v, 1);\n}\n");
+  Compiled c = compile(
+      "m(x[3], a[1], s[3])\n{\n array c[2];\n c = [1, -2.5];\n v = -x[1]^2;\n"
+      " if not v > 0 and c[1] /= 1 then s[1] = v; else endif;\n"
+      " while v < 1 loop v = v + 1; endloop;\n m = hfSphere(x, c, v) | max(v, 1);\n}\n");
   ASSERT_TRUE(c.ok()) << c.rendered();
   const std::string want =
       "program 1 object, model m\n"

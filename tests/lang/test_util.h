@@ -48,7 +48,7 @@ inline std::string model(const std::string& body, const std::string& header = "x
 
 /// Prefix form of an expression: (+ 1 (* 2 x[1])), names as written, calls as (f a b).
 inline std::string sexpr(const Expr& e) {
-  static const char* const kBinary[] = {"+", "-", "*", "/", "^", "|", "&", "\\", "@",
+  static const char* const kBinary[] = {"+", "-",  "*", "/",  "^", "|",  "&",   "\\", "@",
                                         "<", "<=", ">", ">=", "=", "/=", "and", "or"};
   static const char* const kUnary[] = {"-", "+", "~", "not"};
   auto num = [](double v) {
@@ -58,11 +58,15 @@ inline std::string sexpr(const Expr& e) {
     return s;
   };
   switch (e.kind) {
-    case ExprKind::kNumber: return num(e.number);
-    case ExprKind::kName: return e.name;
-    case ExprKind::kIndex: return e.name + "[" + sexpr(*e.args[0]) + "]";
+    case ExprKind::kNumber:
+      return num(e.number);
+    case ExprKind::kName:
+      return e.name;
+    case ExprKind::kIndex:
+      return e.name + "[" + sexpr(*e.args[0]) + "]";
     case ExprKind::kUnary:
-      return std::string("(") + kUnary[static_cast<int>(e.unary_op)] + " " + sexpr(*e.args[0]) + ")";
+      return std::string("(") + kUnary[static_cast<int>(e.unary_op)] + " " + sexpr(*e.args[0]) +
+             ")";
     case ExprKind::kBinary:
       return std::string("(") + kBinary[static_cast<int>(e.binary_op)] + " " + sexpr(*e.args[0]) +
              " " + sexpr(*e.args[1]) + ")";
