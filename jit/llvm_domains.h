@@ -16,6 +16,9 @@
 #include <vector>
 
 #include "jit/llvm_includes.h"
+#include <llvm/Transforms/Scalar/DCE.h>
+#include <llvm/Transforms/Scalar/EarlyCSE.h>
+#include <llvm/Transforms/Scalar/SROA.h>
 #include "lang/result.h"
 
 namespace hfrt::jit::domains {
@@ -125,13 +128,27 @@ inline Result<std::unique_ptr<CompiledCode>> compile_module(
     pb.registerFunctionAnalyses(fam);
     pb.registerLoopAnalyses(lam);
     pb.crossRegisterProxies(lam, fam, cgam, mam);
-    llvm::OptimizationLevel level = opt_level <= 1   ? llvm::OptimizationLevel::O1
-                                    : opt_level >= 3 ? llvm::OptimizationLevel::O3
-                                                     : llvm::OptimizationLevel::O2;
-    llvm::ModulePassManager mpm = opt_level <= 0
-                                      ? pb.buildO0DefaultPipeline(llvm::OptimizationLevel::O0)
-                                      : pb.buildPerModuleDefaultPipeline(level);
-    mpm.run(*module, mam);
+    llvm::OptimizationLevel level = opt_level >= 3 ? llvm::OptimizationLevel::O3
+                                                   : llvm::OptimizationLevel::O2;
+    if (opt_level == 1) {
+      // The light pipeline: promote slots to registers and share common subexpressions, but
+      // keep the emitter's basic blocks. Domain code is wide (tens of LLVM instructions per
+      // hfrt op) and deep (select chains); the emitters cut it into small blocks because
+      // SelectionDAG's combiner is superlinear in the size of a block. The default
+      // pipelines merge those blocks again (SimplifyCFG) and take minutes on big models.
+      llvm::FunctionPassManager fpm;
+      fpm.addPass(llvm::SROAPass(llvm::SROAOptions::PreserveCFG));
+      fpm.addPass(llvm::EarlyCSEPass());
+      fpm.addPass(llvm::DCEPass());
+      llvm::ModulePassManager mpm;
+      mpm.addPass(llvm::createModuleToFunctionPassAdaptor(std::move(fpm)));
+      mpm.run(*module, mam);
+    } else {
+      llvm::ModulePassManager mpm = opt_level <= 0
+                                        ? pb.buildO0DefaultPipeline(llvm::OptimizationLevel::O0)
+                                        : pb.buildPerModuleDefaultPipeline(level);
+      mpm.run(*module, mam);
+    }
   }
   auto code = std::make_unique<CompiledCode>();
   code->tracker = e.jit->getMainJITDylib().createResourceTracker();

@@ -90,7 +90,15 @@ class GradientEmitter {
     }
     match_ = regions(fn_);
     values_.resize(fn_.insts.size());
-    for (size_t i = 0; i < fn_.insts.size(); ++i) emit_inst(i);
+    for (size_t i = 0; i < fn_.insts.size(); ++i) {
+      // Small basic blocks keep SelectionDAG fast (see llvm_domains.h).
+      if (i % kOpsPerBlock == kOpsPerBlock - 1) {
+        llvm::BasicBlock* next = llvm::BasicBlock::Create(ctx_, "ops", f_);
+        b_.CreateBr(next);
+        b_.SetInsertPoint(next);
+      }
+      emit_inst(i);
+    }
     DV r = values_[fn_.result];
     llvm::Value* err = b_.CreateLoad(mt_, err_);
     llvm::Value* nan = splat(std::nan(""));
@@ -103,6 +111,7 @@ class GradientEmitter {
   }
 
  private:
+  static constexpr size_t kOpsPerBlock = 8;
   llvm::Constant* splat(double v) { return llvm::ConstantFP::get(vt_, v); }
   llvm::Value* sel(llvm::Value* c, llvm::Value* a, llvm::Value* b) { return b_.CreateSelect(c, a, b); }
   llvm::Value* add(llvm::Value* a, llvm::Value* b) { return b_.CreateFAdd(a, b); }

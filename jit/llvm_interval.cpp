@@ -200,7 +200,16 @@ class IntervalEmitter {
       store_slot_raw(s, point(init));
     }
     values_.resize(fn_.insts.size());
-    for (size_t i = 0; i < fn_.insts.size(); ++i) emit_inst(i);
+    for (size_t i = 0; i < fn_.insts.size(); ++i) {
+      // A fresh basic block every few ops bounds SelectionDAG's block size (see
+      // llvm_domains.h: its combiner is superlinear in the size of a block).
+      if (i % kOpsPerBlock == kOpsPerBlock - 1) {
+        llvm::BasicBlock* next = llvm::BasicBlock::Create(ctx_, "ops", f_);
+        b_.CreateBr(next);
+        b_.SetInsertPoint(next);
+      }
+      emit_inst(i);
+    }
     IV r = values_[fn_.result];
     HFRT_CHECK(r.lo);
     // The caller's arrays are only element-aligned.
@@ -213,6 +222,7 @@ class IntervalEmitter {
   }
 
  private:
+  static constexpr size_t kOpsPerBlock = 8;
   // --- constants and small helpers ------------------------------------------------------
   llvm::Constant* splat(double v) { return llvm::ConstantFP::get(vt_, v); }
   llvm::Value* tru() { return llvm::ConstantInt::getTrue(mt_); }

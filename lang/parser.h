@@ -11,8 +11,10 @@ namespace hfrt::lang {
 /// The recursive-descent parser recurses once per level.
 inline constexpr int kMaxNesting = 256;
 
-/// Deepest expression tree. Left-associative chains (`a+b+c+...`) are built without parser
-/// recursion but still give deep trees; beyond this the parser reports an error.
+/// Deepest chain of binary operators. Left-associative chains (`a+b+c+...`) are built
+/// without parser recursion but still give deep trees; beyond this the parser reports an
+/// error. With the nesting limit above, no expression tree is deeper than
+/// kMaxExprDepth + kMaxNesting nodes, and no statement list nests deeper than kMaxNesting.
 inline constexpr int kMaxExprDepth = 1000;
 
 /// Largest array size in a header or an `array` declaration.

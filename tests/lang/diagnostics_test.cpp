@@ -318,8 +318,9 @@ TEST_P(Message, TextAndLocation) {
   EXPECT_EQ(d.range.begin.line, mc.line) << c.rendered();
   EXPECT_EQ(d.range.begin.col, mc.col) << c.rendered();
   // Every error and warning says what to do, and renders with its location.
-  if (d.severity != Severity::kNote)
+  if (d.severity != Severity::kNote) {
     EXPECT_FALSE(d.hint.empty() && d.message.find("expected") == std::string::npos) << mc.id;
+  }
   std::string loc = "case.hf:" + std::to_string(mc.line) + ":" + std::to_string(mc.col) + ": ";
   EXPECT_NE(c.rendered().find(loc), std::string::npos);
 }
