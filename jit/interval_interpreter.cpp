@@ -2,8 +2,8 @@
 // IntervalInterpreter (structured control flow over boxes). See interval.h for the contract.
 //
 // Rounding: results of inexact ops are computed in round-to-nearest at the endpoints that
-// bound them (monotone pieces, corners, critical points) and then widened outward by one ulp
-// (IEEE basic ops, which are correctly rounded and monotone) or a few ulps (libm functions,
+// bound them (monotone pieces, corners, critical points) and then widened outward by one or
+// two ulps (IEEE basic ops, which are correctly rounded and monotone) or more (libm functions,
 // whose error is below one ulp but whose monotonicity is not promised). Exact ops (neg, abs,
 // min/max, floor/ceil/trunc/round, comparisons) are not widened.
 
@@ -21,8 +21,24 @@ namespace {
 constexpr double kInf = std::numeric_limits<double>::infinity();
 constexpr double kPi = 3.141592653589793;  // the double nearest pi (below pi)
 
-double down(double v) { return v == -kInf ? v : std::nextafter(v, -kInf); }
-double up(double v) { return v == kInf ? v : std::nextafter(v, kInf); }
+// Outward widening by at least one ulp: v +- max(|v| 2^-52, denorm_min) in round-to-nearest
+// moves a finite v by one or two ulps (never zero); an infinite bound moves to the largest
+// finite double, as nextafter does. The same
+// formula is what the interval JIT emits (four FP ops, no integer tricks that would slow
+// LLVM's instruction selection), so both evaluators give the same bits.
+constexpr double kUlpScale = 0x1p-52;
+constexpr double kDenormMin = std::numeric_limits<double>::denorm_min();
+constexpr double kMax = std::numeric_limits<double>::max();
+double up(double v) {
+  if (v == -kInf) return -kMax;  // as nextafter: an overflowed bound moves to the largest finite
+  double step = std::fabs(v) * kUlpScale;
+  return v + (step > kDenormMin ? step : kDenormMin);
+}
+double down(double v) {
+  if (v == kInf) return kMax;
+  double step = std::fabs(v) * kUlpScale;
+  return v - (step > kDenormMin ? step : kDenormMin);
+}
 double down(double v, int ulps) {
   for (int i = 0; i < ulps; ++i) v = down(v);
   return v;

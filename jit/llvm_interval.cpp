@@ -6,8 +6,8 @@
 //   (interval_interpreter.cpp) for its box, so the JIT and the interpreter give the same
 //   intervals: the cheap ops (add, sub, mul, square, neg, abs, min/max, sqrt, floor/ceil/
 //   trunc/round, comparisons, logic, select) are emitted as vector code with the same
-//   formulas, outward rounding included (nextafter as an integer step of the bit pattern:
-//   one add and a few selects per endpoint, no rounding-mode changes, no fast-math); the
+//   formulas, outward rounding included (v +- max(|v| 2^-52, denorm_min): a few FP ops per
+//   endpoint, no rounding-mode changes, no fast-math); the
 //   libm-based ops (exp, log, trig, pow, fmod, div, ...) call apply_interval per lane through
 //   a C-ABI helper.
 // - Slots are allocas of the three vectors (promoted to registers by mem2reg).
@@ -250,17 +250,22 @@ class IntervalEmitter {
     return {splat(v), splat(v), fals()};
   }
 
-  /// nextafter(v, +inf) (v = +inf stays; v is never NaN where it matters).
-  llvm::Value* up(llvm::Value* v) {
-    auto* it = llvm::FixedVectorType::get(i64_, w_);
-    llvm::Value* bits = b_.CreateBitCast(v, it);
-    llvm::Value* inc = b_.CreateAdd(bits, llvm::ConstantInt::get(it, 1));
-    llvm::Value* dec = b_.CreateSub(bits, llvm::ConstantInt::get(it, 1));
-    llvm::Value* next = b_.CreateBitCast(sel(b_.CreateFCmpOGT(v, splat(0)), inc, dec), vt_);
-    next = sel(eq(v, splat(0)), splat(std::numeric_limits<double>::denorm_min()), next);
-    return sel(eq(v, splat(kInf)), v, next);
+  /// Outward widening, the interpreter's formula: v +- max(|v| 2^-52, denorm_min), with
+  /// -inf (up) / +inf (down) moved to the largest finite double. Floating-point ops only: integer bit tricks here made
+  /// SelectionDAG's known-bits analysis dominate compile time.
+  llvm::Value* step(llvm::Value* v) {
+    llvm::Value* s = b_.CreateFMul(fabs(v), splat(0x1p-52));
+    llvm::Value* dm = splat(std::numeric_limits<double>::denorm_min());
+    return sel(b_.CreateFCmpOGT(s, dm), s, dm);
   }
-  llvm::Value* down(llvm::Value* v) { return b_.CreateFNeg(up(b_.CreateFNeg(v))); }
+  llvm::Value* up(llvm::Value* v) {
+    return sel(eq(v, splat(-kInf)), splat(-std::numeric_limits<double>::max()),
+               b_.CreateFAdd(v, step(v)));
+  }
+  llvm::Value* down(llvm::Value* v) {
+    return sel(eq(v, splat(kInf)), splat(std::numeric_limits<double>::max()),
+               b_.CreateFSub(v, step(v)));
+  }
 
   llvm::Value* contains_zero(const IV& a) {
     return AND(le(a.lo, splat(0)), b_.CreateFCmpOGE(a.hi, splat(0)));

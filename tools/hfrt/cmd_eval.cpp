@@ -61,7 +61,8 @@ void append_number(std::string& out, double v) {
 }
 
 /// Parses "v1,v2,..." into doubles; false on a malformed list.
-bool parse_params(const std::string& text, std::vector<double>* out) {
+bool parse_params(std::string text, std::vector<double>* out) {
+  if (!text.empty() && text[0] == '=') text.erase(0, 1);  // `-a=1,2` (CLI11 keeps the '=')
   if (text.empty()) return true;
   size_t pos = 0;
   while (pos <= text.size()) {
