@@ -89,6 +89,8 @@ class GradientJit {
 
   Precision precision() const;
   int lanes() const;
+  /// Compile-latency figures (emit, optimise, code generation).
+  const JitStats& stats() const;
 
  private:
   struct Impl;

@@ -26,6 +26,7 @@
 #include <vector>
 
 #include "jit/ir.h"
+#include "jit/llvm_jit.h"  // JitStats (no LLVM types)
 #include "lang/result.h"
 
 namespace hfrt::jit {
@@ -146,6 +147,8 @@ class IntervalJit {
                     std::vector<uint8_t>* choices = nullptr) const;
 
   int lanes() const;
+  /// Compile-latency figures (emit, optimise, code generation).
+  const JitStats& stats() const;
 
  private:
   struct Impl;

@@ -14,19 +14,17 @@
 //   all four outputs at the end.
 
 #include <array>
+#include <chrono>
 #include <cmath>
 #include <limits>
 
 #include "jit/gradient.h"
-#include "jit/llvm_domains.h"
+#include "jit/llvm_emit.h"
+#include "jit/llvm_session.h"
 #include "jit/scalar_ops.h"
 #include "lang/check.h"
 
 namespace hfrt::jit {
-namespace domains {
-std::vector<HostSymbol> domain_host_symbols();  // llvm_interval.cpp
-}  // namespace domains
-
 namespace {
 
 struct DV {
@@ -34,40 +32,13 @@ struct DV {
   llvm::Value* d[3] = {nullptr, nullptr, nullptr};
 };
 
-std::vector<int32_t> regions(const Function& fn) {
-  std::vector<int32_t> match(fn.insts.size(), -1);
-  std::vector<size_t> stack;
-  for (size_t i = 0; i < fn.insts.size(); ++i) {
-    switch (fn.insts[i].op) {
-      case Op::kIf:
-      case Op::kLoop: stack.push_back(i); break;
-      case Op::kElse:
-      case Op::kLoopTest:
-        match[stack.back()] = static_cast<int32_t>(i);
-        stack.back() = i;
-        break;
-      case Op::kEndIf:
-      case Op::kEndLoop:
-        match[stack.back()] = static_cast<int32_t>(i);
-        stack.pop_back();
-        break;
-      default: break;
-    }
-  }
-  return match;
-}
-
-class GradientEmitter {
+class GradientEmitter : public VectorEmitter {
  public:
-  GradientEmitter(llvm::LLVMContext& ctx, llvm::Module& m, const Function& fn, bool f32, int lanes)
-      : ctx_(ctx), m_(m), b_(ctx), fn_(fn), f32_(f32), w_(lanes) {
-    st_ = f32 ? llvm::Type::getFloatTy(ctx) : llvm::Type::getDoubleTy(ctx);
-    vt_ = llvm::FixedVectorType::get(st_, w_);
-    mt_ = llvm::FixedVectorType::get(llvm::Type::getInt1Ty(ctx), w_);
-    i64_ = llvm::Type::getInt64Ty(ctx);
-    ptr_ = llvm::PointerType::get(ctx, 0);
-    align_ = llvm::Align(f32 ? 4 : 8);
-  }
+  GradientEmitter(llvm::Module& m, const Function& fn, bool f32, int lanes)
+      : VectorEmitter(m, fn,
+                      f32 ? llvm::Type::getFloatTy(m.getContext())
+                          : llvm::Type::getDoubleTy(m.getContext()),
+                      lanes) {}
 
   void emit(const std::string& name) {
     // void block(const T* x, i64 stride, const T* a, T* out)   (out rows: F, d1, d2, d3)
@@ -88,10 +59,10 @@ class GradientEmitter {
       double init = s < static_cast<int>(fn_.slot_init.size()) ? fn_.slot_init[s] : 0.0;
       store_raw(s, flat(splat(init)));
     }
-    match_ = regions(fn_);
     values_.resize(fn_.insts.size());
     for (size_t i = 0; i < fn_.insts.size(); ++i) {
-      // Small basic blocks keep SelectionDAG fast (see llvm_domains.h).
+      // Small basic blocks keep SelectionDAG fast (its combiner is superlinear in the size
+      // of a block).
       if (i % kOpsPerBlock == kOpsPerBlock - 1) {
         llvm::BasicBlock* next = llvm::BasicBlock::Create(ctx_, "ops", f_);
         b_.CreateBr(next);
@@ -112,40 +83,18 @@ class GradientEmitter {
 
  private:
   static constexpr size_t kOpsPerBlock = 8;
-  llvm::Constant* splat(double v) { return llvm::ConstantFP::get(vt_, v); }
   llvm::Value* sel(llvm::Value* c, llvm::Value* a, llvm::Value* b) { return b_.CreateSelect(c, a, b); }
   llvm::Value* add(llvm::Value* a, llvm::Value* b) { return b_.CreateFAdd(a, b); }
   llvm::Value* sub(llvm::Value* a, llvm::Value* b) { return b_.CreateFSub(a, b); }
   llvm::Value* mul(llvm::Value* a, llvm::Value* b) { return b_.CreateFMul(a, b); }
   llvm::Value* div(llvm::Value* a, llvm::Value* b) { return b_.CreateFDiv(a, b); }
-  llvm::Value* fabs(llvm::Value* a) { return b_.CreateUnaryIntrinsic(llvm::Intrinsic::fabs, a); }
-  llvm::Value* to_real(llvm::Value* m) { return b_.CreateUIToFP(m, vt_); }
-  llvm::Value* truth(llvm::Value* v) { return b_.CreateFCmpOGE(fabs(v), splat(kHfEps)); }
-  llvm::Value* any(llvm::Value* m) { return b_.CreateOrReduce(m); }
-  llvm::Value* with_mask(llvm::Value* m) { return mask_ ? b_.CreateAnd(mask_, m) : m; }
-
+ 
   DV flat(llvm::Value* v) { return {v, {splat(0), splat(0), splat(0)}}; }
 
   /// Per-lane call of a scalar function (libm or helper).
   llvm::Value* call(const char* f64_name, const char* f32_name, llvm::Value* a,
                     llvm::Value* c = nullptr) {
-    std::vector<llvm::Type*> params(c ? 2 : 1, st_);
-    llvm::FunctionCallee f =
-        m_.getOrInsertFunction(f32_ ? f32_name : f64_name, llvm::FunctionType::get(st_, params, false));
-    if (auto* fn = llvm::dyn_cast<llvm::Function>(f.getCallee())) {
-      fn->setDoesNotThrow();
-      fn->setWillReturn();
-      fn->setMemoryEffects(llvm::MemoryEffects::none());
-    }
-    llvm::Value* r = llvm::PoisonValue::get(vt_);
-    for (int i = 0; i < w_; ++i) {
-      llvm::Value* ai = b_.CreateExtractElement(a, uint64_t(i));
-      llvm::CallInst* ci = c ? b_.CreateCall(f, {ai, b_.CreateExtractElement(c, uint64_t(i))})
-                             : b_.CreateCall(f, {ai});
-      ci->setDoesNotThrow();
-      r = b_.CreateInsertElement(r, ci, uint64_t(i));
-    }
-    return r;
+    return call_lanes(pure_function(pick_name(f64_name, f32_name), c ? 2 : 1), a, c);
   }
 
   /// chain rule; zero input components stay zero.
@@ -182,31 +131,13 @@ class GradientEmitter {
     for (int i = 0; i < 3; ++i) b_.CreateStore(v.d[i], slots_[s][i + 1]);
   }
   void store(int s, DV v, llvm::Value* extra = nullptr) {
-    llvm::Value* m = mask_;
-    if (extra) m = m ? b_.CreateAnd(m, extra) : extra;
+    llvm::Value* m = mask();
+    if (extra) m = and_mask(m, extra);
     if (m) v = pick(m, v, load(s));
     store_raw(s, v);
   }
   void add_error(llvm::Value* lanes) {
-    b_.CreateStore(b_.CreateOr(b_.CreateLoad(mt_, err_), with_mask(lanes)), err_);
-  }
-
-  // --- control --------------------------------------------------------------------------
-  struct Frame {
-    bool loop = false;
-    llvm::Value* parent_mask = nullptr;
-    llvm::Value* cond = nullptr;  ///< if: cond != 0 lanes
-    llvm::BasicBlock* join = nullptr;
-    llvm::AllocaInst* active = nullptr;
-    llvm::AllocaInst* trips = nullptr;
-    llvm::BasicBlock* header = nullptr;
-    llvm::BasicBlock* exit = nullptr;
-    llvm::Value* act = nullptr;
-  };
-  llvm::BasicBlock* block(const char* n) { return llvm::BasicBlock::Create(ctx_, n, f_); }
-  llvm::AllocaInst* entry_alloca(llvm::Type* ty) {
-    llvm::IRBuilder<> eb(&f_->getEntryBlock(), f_->getEntryBlock().begin());
-    return eb.CreateAlloca(ty);
+    b_.CreateStore(b_.CreateOr(b_.CreateLoad(mt_, err_), and_mask(mask(), lanes)), err_);
   }
 
   void emit_inst(size_t i) {
@@ -263,80 +194,35 @@ class GradientEmitter {
         return;
       }
       case Op::kCheck: add_error(b_.CreateFCmpUNE(arg(0).v, splat(0))); return;
-      case Op::kIf: {
-        Frame fr;
-        fr.parent_mask = mask_;
-        fr.cond = b_.CreateFCmpUNE(arg(0).v, splat(0));
-        llvm::Value* then_mask = with_mask(fr.cond);
-        fr.join = block("then_done");
-        b_.CreateCondBr(any(then_mask), block("then"), fr.join);
-        b_.SetInsertPoint(&f_->back());
-        mask_ = then_mask;
-        frames_.push_back(fr);
-        return;
-      }
-      case Op::kElse: {
-        Frame& fr = frames_.back();
-        b_.CreateBr(fr.join);
-        b_.SetInsertPoint(fr.join);
-        llvm::Value* not_c = b_.CreateNot(fr.cond);
-        llvm::Value* else_mask = fr.parent_mask ? b_.CreateAnd(fr.parent_mask, not_c) : not_c;
-        fr.join = block("else_done");
-        b_.CreateCondBr(any(else_mask), block("else"), fr.join);
-        b_.SetInsertPoint(&f_->back());
-        mask_ = else_mask;
-        return;
-      }
-      case Op::kEndIf: {
-        Frame fr = frames_.back();
-        frames_.pop_back();
-        b_.CreateBr(fr.join);
-        b_.SetInsertPoint(fr.join);
-        mask_ = fr.parent_mask;
-        return;
-      }
+      case Op::kIf: begin_if(nonzero(arg(0).v)); return;
+      case Op::kElse: begin_else(); return;
+      case Op::kEndIf: end_if(); return;
       case Op::kLoop: {
-        Frame fr;
-        fr.loop = true;
-        fr.parent_mask = mask_;
-        fr.active = entry_alloca(mt_);
-        fr.trips = entry_alloca(i64_);
-        b_.CreateStore(mask_ ? mask_ : llvm::ConstantInt::getTrue(mt_), fr.active);
-        b_.CreateStore(llvm::ConstantInt::get(i64_, 0), fr.trips);
-        fr.header = block("loop");
-        fr.exit = block("loop_exit");
-        b_.CreateBr(fr.header);
-        b_.SetInsertPoint(fr.header);
-        fr.act = b_.CreateLoad(mt_, fr.active);
-        mask_ = fr.act;
-        frames_.push_back(fr);
+        llvm::AllocaInst* trips = entry_alloca(i64_, "trips");
+        b_.CreateStore(llvm::ConstantInt::get(i64_, 0), trips);
+        trips_.push_back(trips);
+        begin_loop();
         return;
       }
       case Op::kLoopTest: {
-        Frame& fr = frames_.back();
-        llvm::Value* stay = b_.CreateAnd(fr.act, b_.CreateFCmpUNE(arg(0).v, splat(0)));
+        // Lanes with an error leave (their result is NaN anyway); after kGradientLoopLimit
+        // iterations the remaining lanes give up with an error, like the interpreter.
+        llvm::Value* stay = and_mask(mask(), nonzero(arg(0).v));
         stay = b_.CreateAnd(stay, b_.CreateNot(b_.CreateLoad(mt_, err_)));
-        llvm::Value* trips = b_.CreateAdd(b_.CreateLoad(i64_, fr.trips), llvm::ConstantInt::get(i64_, 1));
-        b_.CreateStore(trips, fr.trips);
+        llvm::Value* trips =
+            b_.CreateAdd(b_.CreateLoad(i64_, trips_.back()), llvm::ConstantInt::get(i64_, 1));
+        b_.CreateStore(trips, trips_.back());
         llvm::Value* over = b_.CreateVectorSplat(
             w_, b_.CreateICmpSGT(trips, llvm::ConstantInt::get(i64_, kGradientLoopLimit)));
         llvm::Value* gave_up = b_.CreateAnd(stay, over);
         b_.CreateStore(b_.CreateOr(b_.CreateLoad(mt_, err_), gave_up), err_);
-        stay = b_.CreateAnd(stay, b_.CreateNot(gave_up));
-        b_.CreateStore(stay, fr.active);
-        b_.CreateCondBr(any(stay), block("loop_body"), fr.exit);
-        b_.SetInsertPoint(&f_->back());
-        mask_ = stay;
+        loop_continue(b_.CreateAnd(stay, b_.CreateNot(gave_up)));
         return;
       }
-      case Op::kEndLoop: {
-        Frame fr = frames_.back();
-        frames_.pop_back();
-        b_.CreateBr(fr.header);
-        b_.SetInsertPoint(fr.exit);
-        mask_ = fr.parent_mask;
+      case Op::kEndLoop:
+        end_loop();
+        trips_.pop_back();
         return;
-      }
       default: break;
     }
     const DV zero = flat(splat(0));
@@ -344,101 +230,63 @@ class GradientEmitter {
     const DV& b = in.args[1] != kNoValue ? arg(1) : zero;
     llvm::Value* av = a.v;
     llvm::Value* bv = b.v;
-    auto cmp = [&](llvm::Value* c) { return flat(to_real(c)); };
+    // The value part is the scalar JIT's code for the op (bit-identical to apply_op).
+    llvm::Value* v = scalar_op(in.op, av, bv, in.args[2] != kNoValue ? arg(2).v : nullptr);
+    auto powhf = [&](llvm::Value* base, llvm::Value* e) {
+      return call("hfrt_jit_powhf_f64", "hfrt_jit_powhf_f32", base, e);
+    };
     DV r;
     switch (in.op) {
-      case Op::kAdd: r = chain2(add(av, bv), a, splat(1), b, splat(1)); break;
-      case Op::kSub: r = chain2(sub(av, bv), a, splat(1), b, splat(-1)); break;
-      case Op::kMul: r = chain2(mul(av, bv), a, bv, b, av); break;
-      case Op::kDiv: {
-        llvm::Value* v = div(av, bv);
-        r = chain2(v, a, div(splat(1), bv), b, b_.CreateFNeg(div(v, bv)));
-        break;
-      }
-      case Op::kNeg: r = chain(b_.CreateFNeg(av), a, splat(-1)); break;
-      case Op::kAbs:
-        r = chain(fabs(av), a, sel(b_.CreateFCmpOLT(av, splat(0)), splat(-1), splat(1)));
-        break;
+      case Op::kAdd: r = chain2(v, a, splat(1), b, splat(1)); break;
+      case Op::kSub: r = chain2(v, a, splat(1), b, splat(-1)); break;
+      case Op::kMul: r = chain2(v, a, bv, b, av); break;
+      case Op::kDiv: r = chain2(v, a, div(splat(1), bv), b, b_.CreateFNeg(div(v, bv))); break;
+      case Op::kNeg: r = chain(v, a, splat(-1)); break;
+      case Op::kAbs: r = chain(v, a, sel(b_.CreateFCmpOLT(av, splat(0)), splat(-1), splat(1))); break;
       case Op::kMin: r = pick(b_.CreateFCmpOLT(av, bv), a, b); break;
       case Op::kMax: r = pick(b_.CreateFCmpOGT(av, bv), a, b); break;
-      case Op::kSqrt: {
-        llvm::Value* v = b_.CreateUnaryIntrinsic(llvm::Intrinsic::sqrt, av);
-        r = chain(v, a, div(splat(0.5), v));
-        break;
-      }
-      case Op::kExp: {
-        llvm::Value* v = call("exp", "expf", av);
-        r = chain(v, a, v);
-        break;
-      }
-      case Op::kLog: r = chain(call("log", "logf", av), a, div(splat(1), av)); break;
-      case Op::kLog10:
-        r = chain(call("log10", "log10f", av), a, div(splat(1), mul(av, splat(std::log(10.0)))));
-        break;
-      case Op::kSin: r = chain(call("sin", "sinf", av), a, call("cos", "cosf", av)); break;
-      case Op::kCos:
-        r = chain(call("cos", "cosf", av), a, b_.CreateFNeg(call("sin", "sinf", av)));
-        break;
-      case Op::kTan: {
-        llvm::Value* v = call("tan", "tanf", av);
-        r = chain(v, a, add(splat(1), mul(v, v)));
-        break;
-      }
+      case Op::kSqrt: r = chain(v, a, div(splat(0.5), v)); break;
+      case Op::kExp: r = chain(v, a, v); break;
+      case Op::kLog: r = chain(v, a, div(splat(1), av)); break;
+      case Op::kLog10: r = chain(v, a, div(splat(1), mul(av, splat(std::log(10.0))))); break;
+      case Op::kSin: r = chain(v, a, call("cos", "cosf", av)); break;
+      case Op::kCos: r = chain(v, a, b_.CreateFNeg(call("sin", "sinf", av))); break;
+      case Op::kTan: r = chain(v, a, add(splat(1), mul(v, v))); break;
       case Op::kAsin:
       case Op::kAcos: {
         llvm::Value* k = div(splat(in.op == Op::kAsin ? 1 : -1),
                              b_.CreateUnaryIntrinsic(llvm::Intrinsic::sqrt, sub(splat(1), mul(av, av))));
-        r = chain(in.op == Op::kAsin ? call("asin", "asinf", av) : call("acos", "acosf", av), a, k);
+        r = chain(v, a, k);
         break;
       }
-      case Op::kAtan:
-        r = chain(call("atan", "atanf", av), a, div(splat(1), add(splat(1), mul(av, av))));
-        break;
+      case Op::kAtan: r = chain(v, a, div(splat(1), add(splat(1), mul(av, av)))); break;
       case Op::kAtan2: {
         llvm::Value* r2 = add(mul(av, av), mul(bv, bv));
-        r = chain2(call("atan2", "atan2f", av, bv), a, div(bv, r2), b, b_.CreateFNeg(div(av, r2)));
+        r = chain2(v, a, div(bv, r2), b, b_.CreateFNeg(div(av, r2)));
         break;
       }
-      case Op::kSinh: r = chain(call("sinh", "sinhf", av), a, call("cosh", "coshf", av)); break;
-      case Op::kCosh: r = chain(call("cosh", "coshf", av), a, call("sinh", "sinhf", av)); break;
-      case Op::kTanh: {
-        llvm::Value* v = call("tanh", "tanhf", av);
-        r = chain(v, a, sub(splat(1), mul(v, v)));
-        break;
-      }
-      case Op::kFloor: r = flat(b_.CreateUnaryIntrinsic(llvm::Intrinsic::floor, av)); break;
-      case Op::kCeil: r = flat(b_.CreateUnaryIntrinsic(llvm::Intrinsic::ceil, av)); break;
-      case Op::kTrunc: r = flat(b_.CreateUnaryIntrinsic(llvm::Intrinsic::trunc, av)); break;
-      case Op::kRound: r = flat(b_.CreateUnaryIntrinsic(llvm::Intrinsic::round, av)); break;
-      case Op::kSign: {
-        llvm::Value* v = sel(b_.CreateFCmpOEQ(av, splat(0)), splat(0), av);
-        v = sel(b_.CreateFCmpOLT(av, splat(0)), splat(-1), v);
-        v = sel(b_.CreateFCmpOGT(av, splat(0)), splat(1), v);
-        r = flat(v);
-        break;
-      }
+      case Op::kSinh: r = chain(v, a, call("cosh", "coshf", av)); break;
+      case Op::kCosh: r = chain(v, a, call("sinh", "sinhf", av)); break;
+      case Op::kTanh: r = chain(v, a, sub(splat(1), mul(v, v))); break;
       case Op::kFmod: {
-        llvm::Value* v = call("fmod", "fmodf", av, bv);
         llvm::Value* q = b_.CreateUnaryIntrinsic(llvm::Intrinsic::round, div(sub(av, v), bv));
         r = chain2(v, a, splat(1), b, b_.CreateFNeg(q));
         break;
       }
       case Op::kPow: {
-        llvm::Value* v = call("pow", "powf", av, bv);
         llvm::Value* ka = sel(b_.CreateFCmpOEQ(bv, splat(0)), splat(0),
                               mul(bv, call("pow", "powf", av, sub(bv, splat(1)))));
         r = chain2(v, a, ka, b, mul(v, call("log", "logf", av)));
         break;
       }
       case Op::kPowHF: {
-        llvm::Value* v = call("hfrt_domain_powhf", "hfrt_domain_powhf_f32", av, bv);
         llvm::Value* small = b_.CreateFCmpOLT(fabs(av), splat(kHfEps));
         llvm::Value* integral = b_.CreateFCmpOLT(
             fabs(sub(bv, b_.CreateUnaryIntrinsic(llvm::Intrinsic::trunc, bv))), splat(kHfEps));
         llvm::Value* n = b_.CreateUnaryIntrinsic(llvm::Intrinsic::round, fabs(bv));
         n = sel(b_.CreateFCmpOLT(bv, splat(0)), b_.CreateFNeg(n), n);
-        llvm::Value* ka_int = sel(b_.CreateFCmpOEQ(n, splat(0)), splat(0),
-                                  mul(n, call("hfrt_domain_powhf", "hfrt_domain_powhf_f32", av, sub(n, splat(1)))));
+        llvm::Value* ka_int =
+            sel(b_.CreateFCmpOEQ(n, splat(0)), splat(0), mul(n, powhf(av, sub(n, splat(1)))));
         llvm::Value* ka_gen = div(mul(v, bv), av);
         llvm::Value* kb_gen = mul(v, call("log", "logf", av));
         llvm::Value* ka = sel(small, splat(0), sel(integral, ka_int, ka_gen));
@@ -446,40 +294,18 @@ class GradientEmitter {
         r = chain2(v, a, ka, b, kb);
         break;
       }
-      case Op::kLt: r = cmp(b_.CreateFCmpOLT(av, bv)); break;
-      case Op::kLe: r = cmp(b_.CreateFCmpOLE(av, bv)); break;
-      case Op::kGt: r = cmp(b_.CreateFCmpOGT(av, bv)); break;
-      case Op::kGe: r = cmp(b_.CreateFCmpOGE(av, bv)); break;
-      case Op::kEqTol: r = cmp(b_.CreateFCmpOLT(fabs(sub(av, bv)), splat(kHfEps))); break;
-      case Op::kNeTol: r = cmp(b_.CreateFCmpOGE(fabs(sub(av, bv)), splat(kHfEps))); break;
-      case Op::kEq: r = cmp(b_.CreateFCmpOEQ(av, bv)); break;
-      case Op::kNe: r = cmp(b_.CreateFCmpUNE(av, bv)); break;
-      case Op::kTruth: r = cmp(truth(av)); break;
-      case Op::kAnd: r = cmp(b_.CreateAnd(truth(av), truth(bv))); break;
-      case Op::kOr: r = cmp(b_.CreateOr(truth(av), truth(bv))); break;
-      case Op::kNot: r = cmp(b_.CreateNot(truth(av))); break;
-      case Op::kSelect: r = pick(b_.CreateFCmpUNE(av, splat(0)), b, arg(2)); break;
-      default: HFRT_CHECK_MSG(false, "gradient JIT: unexpected op " << op_name(in.op));
+      case Op::kSelect: r = pick(nonzero(av), b, arg(2)); break;
+      // Piecewise constant: floor, ceil, trunc, round, sign, comparisons and logic.
+      default: r = flat(v); break;
     }
     values_[i] = r;
   }
 
-  llvm::LLVMContext& ctx_;
-  llvm::Module& m_;
-  llvm::IRBuilder<> b_;
-  const Function& fn_;
-  bool f32_;
-  int w_;
-  llvm::Type *st_, *vt_, *mt_, *i64_, *ptr_;
-  llvm::Align align_;
-  llvm::Function* f_ = nullptr;
   llvm::Value *x_, *stride_, *a_, *out_;
   llvm::AllocaInst* err_ = nullptr;
   std::vector<std::array<llvm::AllocaInst*, 4>> slots_;
-  std::vector<int32_t> match_;
   std::vector<DV> values_;
-  llvm::Value* mask_ = nullptr;
-  std::vector<Frame> frames_;
+  std::vector<llvm::AllocaInst*> trips_;  ///< iteration counters of the enclosing loops
 };
 
 template <typename T>
@@ -508,40 +334,38 @@ void run_blocks(BlockFn<T> block, int w, int dims, int num_params, int64_t n, co
 }  // namespace
 
 struct GradientJit::Impl {
-  std::unique_ptr<domains::CompiledCode> code;
+  std::unique_ptr<CompiledCode> code;
   Precision precision = Precision::kF64;
   int lanes = 0;
   int num_inputs = 0;
   int num_params = 0;
+  JitStats stats;
 };
 
 GradientJit::GradientJit(std::unique_ptr<Impl> impl) : impl_(std::move(impl)) {}
 GradientJit::~GradientJit() = default;
 Precision GradientJit::precision() const { return impl_->precision; }
 int GradientJit::lanes() const { return impl_->lanes; }
+const JitStats& GradientJit::stats() const { return impl_->stats; }
 
 Result<std::unique_ptr<GradientJit>> GradientJit::compile(const Function& fn, const Options& options) {
-  std::string error;
-  domains::DomainEngine* e = domains::domain_engine(domains::domain_host_symbols(), &error);
-  if (!e) return Error{error};
+  Result<LlvmSession*> session = LlvmSession::get();
+  if (!session.ok()) return session.error();
   const bool f32 = options.precision == Precision::kF32;
-  int lanes = options.lanes > 0 ? options.lanes : e->vector_bits / (f32 ? 32 : 64);
-  HFRT_CHECK_MSG(lanes > 0 && (lanes & (lanes - 1)) == 0, "lanes must be a power of two");
-  auto tm = e->jtmb.createTargetMachine();
-  if (!tm) return Error{"cannot create the target machine: " + domains::llvm_error_text(tm.takeError())};
-  const std::string name = "hfrt_gradient_" + std::to_string(e->next_id.fetch_add(1));
-  auto ctx = std::make_unique<llvm::LLVMContext>();
-  auto module = std::make_unique<llvm::Module>(name, *ctx);
-  module->setDataLayout((*tm)->createDataLayout());
-  module->setTargetTriple((*tm)->getTargetTriple().str());
-  GradientEmitter(*ctx, *module, fn, f32, lanes).emit(name);
-  auto code = domains::compile_module(*e, std::move(ctx), std::move(module), **tm, name,
-                                      options.opt_level);
-  if (!code.ok()) return code.error();
   auto impl = std::make_unique<Impl>();
+  impl->lanes = options.lanes > 0 ? options.lanes : session.value()->lanes(f32 ? 4 : 8);
+  ModuleUnit unit = session.value()->new_module("hfrt_gradient");
+  const std::string name = unit.name;
+  auto t0 = std::chrono::steady_clock::now();
+  GradientEmitter(*unit.module, fn, f32, impl->lanes).emit(name);
+  impl->stats.emit_ms =
+      std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+  impl->stats.lanes = impl->lanes;
+  auto code = session.value()->compile(std::move(unit), name, domain_pipeline(options.opt_level),
+                                       &impl->stats);
+  if (!code.ok()) return code.error();
   impl->code = std::move(code.value());
   impl->precision = options.precision;
-  impl->lanes = lanes;
   impl->num_inputs = fn.num_inputs;
   impl->num_params = fn.num_params;
   return std::unique_ptr<GradientJit>(new GradientJit(std::move(impl)));
@@ -549,13 +373,13 @@ Result<std::unique_ptr<GradientJit>> GradientJit::compile(const Function& fn, co
 
 void GradientJit::eval(int64_t n, const double* xs, std::span<const double> a, double* out) const {
   HFRT_CHECK(impl_->precision == Precision::kF64);
-  run_blocks(reinterpret_cast<BlockFn<double>>(impl_->code->entry), impl_->lanes,
+  run_blocks(reinterpret_cast<BlockFn<double>>(impl_->code->entry()), impl_->lanes,
              impl_->num_inputs, impl_->num_params, n, xs, a, out);
 }
 
 void GradientJit::eval(int64_t n, const float* xs, std::span<const double> a, float* out) const {
   HFRT_CHECK(impl_->precision == Precision::kF32);
-  run_blocks(reinterpret_cast<BlockFn<float>>(impl_->code->entry), impl_->lanes,
+  run_blocks(reinterpret_cast<BlockFn<float>>(impl_->code->entry()), impl_->lanes,
              impl_->num_inputs, impl_->num_params, n, xs, a, out);
 }
 

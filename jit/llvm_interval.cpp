@@ -32,13 +32,14 @@
 // Only f64: single-precision intervals would need their own widening of every libm call.
 
 #include <algorithm>
+#include <chrono>
 #include <cmath>
 #include <cstring>
 #include <limits>
 
-#include "jit/gradient.h"
 #include "jit/interval.h"
-#include "jit/llvm_domains.h"
+#include "jit/llvm_emit.h"
+#include "jit/llvm_session.h"
 #include "jit/scalar_ops.h"
 #include "lang/check.h"
 
@@ -53,100 +54,15 @@ extern "C" void hfrt_interval_lane(int32_t op, double alo, double ahi, double an
   out[2] = r.maybe_nan ? 1.0 : 0.0;
 }
 
-/// kPowHF per lane for the gradient JIT (the interpreter's function).
-extern "C" double hfrt_domain_powhf(double b, double e) noexcept { return hfrt::jit::hf_pow(b, e); }
-extern "C" float hfrt_domain_powhf_f32(float b, float e) noexcept {
-  return static_cast<float>(hfrt::jit::hf_pow(b, e));
-}
-
 namespace hfrt::jit {
-namespace domains {
-
-/// Every host function the domain emitters may call (both emitters share one engine).
-std::vector<HostSymbol> domain_host_symbols() {
-  using D1 = double (*)(double);
-  using D2 = double (*)(double, double);
-  using F1 = float (*)(float);
-  using F2 = float (*)(float, float);
-  auto p = [](auto f) { return reinterpret_cast<void*>(f); };
-  return {
-      {"hfrt_interval_lane", p(&hfrt_interval_lane)},
-      {"hfrt_domain_powhf", p(&hfrt_domain_powhf)},
-      {"hfrt_domain_powhf_f32", p(&hfrt_domain_powhf_f32)},
-      {"exp", p(static_cast<D1>(&::exp))},      {"log", p(static_cast<D1>(&::log))},
-      {"log10", p(static_cast<D1>(&::log10))},  {"sin", p(static_cast<D1>(&::sin))},
-      {"cos", p(static_cast<D1>(&::cos))},      {"tan", p(static_cast<D1>(&::tan))},
-      {"asin", p(static_cast<D1>(&::asin))},    {"acos", p(static_cast<D1>(&::acos))},
-      {"atan", p(static_cast<D1>(&::atan))},    {"sinh", p(static_cast<D1>(&::sinh))},
-      {"cosh", p(static_cast<D1>(&::cosh))},    {"tanh", p(static_cast<D1>(&::tanh))},
-      {"atan2", p(static_cast<D2>(&::atan2))},  {"fmod", p(static_cast<D2>(&::fmod))},
-      {"pow", p(static_cast<D2>(&::pow))},      {"floor", p(static_cast<D1>(&::floor))},
-      {"ceil", p(static_cast<D1>(&::ceil))},    {"trunc", p(static_cast<D1>(&::trunc))},
-      {"round", p(static_cast<D1>(&::round))},  {"sqrt", p(static_cast<D1>(&::sqrt))},
-      {"expf", p(static_cast<F1>(&::expf))},    {"logf", p(static_cast<F1>(&::logf))},
-      {"log10f", p(static_cast<F1>(&::log10f))}, {"sinf", p(static_cast<F1>(&::sinf))},
-      {"cosf", p(static_cast<F1>(&::cosf))},    {"tanf", p(static_cast<F1>(&::tanf))},
-      {"asinf", p(static_cast<F1>(&::asinf))},  {"acosf", p(static_cast<F1>(&::acosf))},
-      {"atanf", p(static_cast<F1>(&::atanf))},  {"sinhf", p(static_cast<F1>(&::sinhf))},
-      {"coshf", p(static_cast<F1>(&::coshf))},  {"tanhf", p(static_cast<F1>(&::tanhf))},
-      {"atan2f", p(static_cast<F2>(&::atan2f))}, {"fmodf", p(static_cast<F2>(&::fmodf))},
-      {"powf", p(static_cast<F2>(&::powf))},    {"floorf", p(static_cast<F1>(&::floorf))},
-      {"ceilf", p(static_cast<F1>(&::ceilf))},  {"truncf", p(static_cast<F1>(&::truncf))},
-      {"roundf", p(static_cast<F1>(&::roundf))}, {"sqrtf", p(static_cast<F1>(&::sqrtf))},
-      {"memset", p(&::memset)},                 {"memcpy", p(&::memcpy)},
-      {"memmove", p(&::memmove)},
-  };
-}
-
-}  // namespace domains
+const HostSymbol kIntervalSymbols[] = {
+    {"hfrt_interval_lane", reinterpret_cast<void*>(&hfrt_interval_lane)},
+};
+std::span<const HostSymbol> interval_jit_symbols() { return kIntervalSymbols; }
 
 namespace {
 
-using domains::DomainEngine;
-
 constexpr double kInf = std::numeric_limits<double>::infinity();
-
-/// Control-flow targets: kIf -> kElse/kEndIf, kElse -> kEndIf, kLoop -> kLoopTest,
-/// kLoopTest -> kEndLoop.
-std::vector<int32_t> match_regions(const Function& fn) {
-  std::vector<int32_t> match(fn.insts.size(), -1);
-  std::vector<size_t> stack;
-  for (size_t i = 0; i < fn.insts.size(); ++i) {
-    switch (fn.insts[i].op) {
-      case Op::kIf:
-      case Op::kLoop: stack.push_back(i); break;
-      case Op::kElse:
-      case Op::kLoopTest:
-        match[stack.back()] = static_cast<int32_t>(i);
-        stack.back() = i;
-        break;
-      case Op::kEndIf:
-      case Op::kEndLoop:
-        match[stack.back()] = static_cast<int32_t>(i);
-        stack.pop_back();
-        break;
-      default: break;
-    }
-  }
-  return match;
-}
-
-/// Slots written by the instructions in [begin, end).
-std::vector<int> written_slots(const Function& fn, size_t begin, size_t end) {
-  std::vector<char> w(fn.num_slots, 0);
-  for (size_t i = begin; i < end; ++i) {
-    const Inst& in = fn.insts[i];
-    if (in.op == Op::kStoreSlot) w[in.aux] = 1;
-    if (in.op == Op::kStoreIdx) {
-      for (int k = 0; k < static_cast<int>(in.imm); ++k) w[in.aux + k] = 1;
-    }
-  }
-  std::vector<int> out;
-  for (int s = 0; s < fn.num_slots; ++s) {
-    if (w[s]) out.push_back(s);
-  }
-  return out;
-}
 
 struct IV {
   llvm::Value* lo = nullptr;
@@ -159,18 +75,13 @@ struct Tri {
   llvm::Value* can_false;
 };
 
-class IntervalEmitter {
+class IntervalEmitter : public VectorEmitter {
  public:
-  IntervalEmitter(llvm::LLVMContext& ctx, llvm::Module& m, const Function& fn, int lanes,
-                  int loop_limit, bool trace)
-      : ctx_(ctx), m_(m), b_(ctx), fn_(fn), w_(lanes), loop_limit_(loop_limit), trace_(trace) {
-    dt_ = llvm::Type::getDoubleTy(ctx);
-    vt_ = llvm::FixedVectorType::get(dt_, w_);
-    mt_ = llvm::FixedVectorType::get(llvm::Type::getInt1Ty(ctx), w_);
-    i64_ = llvm::Type::getInt64Ty(ctx);
-    i32_ = llvm::Type::getInt32Ty(ctx);
-    i8_ = llvm::Type::getInt8Ty(ctx);
-    ptr_ = llvm::PointerType::get(ctx, 0);
+  IntervalEmitter(llvm::Module& m, const Function& fn, int lanes, int loop_limit, bool trace)
+      : VectorEmitter(m, fn, llvm::Type::getDoubleTy(m.getContext()), lanes),
+        loop_limit_(loop_limit),
+        trace_(trace) {
+    dt_ = st_;
     match_ = match_regions(fn);
   }
 
@@ -201,8 +112,8 @@ class IntervalEmitter {
     }
     values_.resize(fn_.insts.size());
     for (size_t i = 0; i < fn_.insts.size(); ++i) {
-      // A fresh basic block every few ops bounds SelectionDAG's block size (see
-      // llvm_domains.h: its combiner is superlinear in the size of a block).
+      // A fresh basic block every few ops bounds SelectionDAG's block size (its combiner
+      // is superlinear in the size of a block).
       if (i % kOpsPerBlock == kOpsPerBlock - 1) {
         llvm::BasicBlock* next = llvm::BasicBlock::Create(ctx_, "ops", f_);
         b_.CreateBr(next);
@@ -224,9 +135,8 @@ class IntervalEmitter {
  private:
   static constexpr size_t kOpsPerBlock = 8;
   // --- constants and small helpers ------------------------------------------------------
-  llvm::Constant* splat(double v) { return llvm::ConstantFP::get(vt_, v); }
-  llvm::Value* tru() { return llvm::ConstantInt::getTrue(mt_); }
-  llvm::Value* fals() { return llvm::ConstantInt::getFalse(mt_); }
+  llvm::Value* tru() { return all_true(); }
+  llvm::Value* fals() { return all_false(); }
   llvm::Value* sel(llvm::Value* c, llvm::Value* a, llvm::Value* b) { return b_.CreateSelect(c, a, b); }
   llvm::Value* OR(llvm::Value* a, llvm::Value* b) { return b_.CreateOr(a, b); }
   llvm::Value* AND(llvm::Value* a, llvm::Value* b) { return b_.CreateAnd(a, b); }
@@ -238,12 +148,10 @@ class IntervalEmitter {
   llvm::Value* isinf(llvm::Value* a) {
     return b_.CreateFCmpOEQ(b_.CreateUnaryIntrinsic(llvm::Intrinsic::fabs, a), splat(kInf));
   }
-  llvm::Value* fabs(llvm::Value* a) { return b_.CreateUnaryIntrinsic(llvm::Intrinsic::fabs, a); }
   /// std::min / std::max on non-NaN values (the sign of a zero may differ; widening and the
   /// comparisons that use these treat both zeros alike).
   llvm::Value* vmin(llvm::Value* a, llvm::Value* b) { return sel(lt(b, a), b, a); }
   llvm::Value* vmax(llvm::Value* a, llvm::Value* b) { return sel(lt(a, b), b, a); }
-  llvm::Value* any(llvm::Value* mask) { return b_.CreateOrReduce(mask); }
 
   IV point(double v) {
     if (v != v) return {splat(0), splat(0), tru()};
@@ -425,11 +333,6 @@ class IntervalEmitter {
     if (region_) lanes = AND(lanes, region_);
     b_.CreateStore(OR(b_.CreateLoad(mt_, err_), lanes), err_);
   }
-  /// Entry-block alloca (so mem2reg can promote it).
-  llvm::AllocaInst* entry_alloca(llvm::Type* ty) {
-    llvm::IRBuilder<> eb(&f_->getEntryBlock(), f_->getEntryBlock().begin());
-    return eb.CreateAlloca(ty);
-  }
 
   // --- control flow -------------------------------------------------------------------
   struct IfFrame {
@@ -452,7 +355,7 @@ class IntervalEmitter {
     llvm::Value* act = nullptr;
   };
 
-  llvm::BasicBlock* block(const char* name) { return llvm::BasicBlock::Create(ctx_, name, f_); }
+  llvm::BasicBlock* block(const char* name) { return new_block(name); }
 
   /// Runs the side that starts now only when some lane may take it.
   void guard(llvm::Value* region, llvm::BasicBlock* side, llvm::BasicBlock* skip) {
@@ -731,15 +634,9 @@ class IntervalEmitter {
     values_[i] = r;
   }
 
-  llvm::LLVMContext& ctx_;
-  llvm::Module& m_;
-  llvm::IRBuilder<> b_;
-  const Function& fn_;
-  int w_;
   int loop_limit_;
   bool trace_;
-  llvm::Type *dt_, *vt_, *mt_, *i64_, *i32_, *i8_, *ptr_;
-  llvm::Function* f_ = nullptr;
+  llvm::Type* dt_;
   llvm::Value *xlo_, *xhi_, *stride_, *a_, *olo_, *ohi_, *onan_, *choices_;
   llvm::AllocaInst* lane_out_ = nullptr;
   llvm::AllocaInst* err_ = nullptr;
@@ -759,41 +656,38 @@ using BlockFn = void (*)(const double* xlo, const double* xhi, int64_t stride, c
 }  // namespace
 
 struct IntervalJit::Impl {
-  std::unique_ptr<domains::CompiledCode> code;
+  std::unique_ptr<CompiledCode> code;
   BlockFn block = nullptr;
   int lanes = 0;
   int num_inputs = 0;
   int num_params = 0;
   size_t num_insts = 0;
+  JitStats stats;
 };
 
 IntervalJit::IntervalJit(std::unique_ptr<Impl> impl) : impl_(std::move(impl)) {}
 IntervalJit::~IntervalJit() = default;
 int IntervalJit::lanes() const { return impl_->lanes; }
+const JitStats& IntervalJit::stats() const { return impl_->stats; }
 
 Result<std::unique_ptr<IntervalJit>> IntervalJit::compile(const Function& fn,
                                                           const Options& options) {
-  int lanes = options.lanes;
-  std::string error;
-  DomainEngine* e = domains::domain_engine(domains::domain_host_symbols(), &error);
-  if (!e) return Error{error};
-  if (lanes <= 0) lanes = e->vector_bits / 64;
-  HFRT_CHECK_MSG(lanes > 0 && (lanes & (lanes - 1)) == 0, "lanes must be a power of two");
-  auto tm = e->jtmb.createTargetMachine();
-  if (!tm) return Error{"cannot create the target machine: " + domains::llvm_error_text(tm.takeError())};
-  const std::string name = "hfrt_interval_" + std::to_string(e->next_id.fetch_add(1));
-  auto ctx = std::make_unique<llvm::LLVMContext>();
-  auto module = std::make_unique<llvm::Module>(name, *ctx);
-  module->setDataLayout((*tm)->createDataLayout());
-  module->setTargetTriple((*tm)->getTargetTriple().str());
-  IntervalEmitter(*ctx, *module, fn, lanes, options.loop_limit, options.trace).emit(name);
-  auto code = domains::compile_module(*e, std::move(ctx), std::move(module), **tm, name,
-                                     options.opt_level);
-  if (!code.ok()) return code.error();
+  Result<LlvmSession*> session = LlvmSession::get();
+  if (!session.ok()) return session.error();
   auto impl = std::make_unique<Impl>();
-  impl->block = reinterpret_cast<BlockFn>(code.value()->entry);
+  impl->lanes = options.lanes > 0 ? options.lanes : session.value()->lanes(8);
+  ModuleUnit unit = session.value()->new_module("hfrt_interval");
+  const std::string name = unit.name;
+  auto t0 = std::chrono::steady_clock::now();
+  IntervalEmitter(*unit.module, fn, impl->lanes, options.loop_limit, options.trace).emit(name);
+  impl->stats.emit_ms =
+      std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+  impl->stats.lanes = impl->lanes;
+  auto code = session.value()->compile(std::move(unit), name, domain_pipeline(options.opt_level),
+                                       &impl->stats);
+  if (!code.ok()) return code.error();
+  impl->block = reinterpret_cast<BlockFn>(code.value()->entry());
   impl->code = std::move(code.value());
-  impl->lanes = lanes;
   impl->num_inputs = fn.num_inputs;
   impl->num_params = fn.num_params;
   impl->num_insts = fn.insts.size();

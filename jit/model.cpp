@@ -2,11 +2,16 @@
 
 #include "hfrt/model.h"
 
+#include <algorithm>
+#include <atomic>
 #include <chrono>
 #include <cmath>
+#include <cstring>
 #include <mutex>
 
+#include "jit/gradient.h"
 #include "jit/interpreter.h"
+#include "jit/interval.h"
 #include "jit/llvm_jit.h"
 #include "lang/check.h"
 #include "lang/frontend.h"
@@ -38,34 +43,130 @@ jit::Precision to_jit(Precision p) {
   return p == Precision::kF64 ? jit::Precision::kF64 : jit::Precision::kF32;
 }
 
-/// One lowered object with its evaluators. The JIT code of each precision is compiled at
-/// most once, on first use (or eagerly), and then shared read-only by all threads.
+/// Instances of a stateful evaluator (the interval and gradient interpreters own their
+/// scratch memory, so one instance serves one thread at a time). A caller leases one and gives
+/// it back; the pool grows to the largest number of concurrent callers seen.
+template <typename T>
+class Pool {
+ public:
+  class Lease {
+   public:
+    Lease(Pool* pool, std::unique_ptr<T> item) : pool_(pool), item_(std::move(item)) {}
+    Lease(Lease&&) = default;
+    ~Lease() {
+      if (item_) pool_->give_back(std::move(item_));
+    }
+    T* operator->() const { return item_.get(); }
+
+   private:
+    Pool* pool_;
+    std::unique_ptr<T> item_;
+  };
+
+  explicit Pool(const jit::Function& fn) : fn_(fn) {}
+
+  Lease take() {
+    {
+      std::lock_guard<std::mutex> lock(mutex_);
+      if (!free_.empty()) {
+        std::unique_ptr<T> item = std::move(free_.back());
+        free_.pop_back();
+        return Lease(this, std::move(item));
+      }
+    }
+    return Lease(this, std::make_unique<T>(fn_));
+  }
+
+ private:
+  void give_back(std::unique_ptr<T> item) {
+    std::lock_guard<std::mutex> lock(mutex_);
+    free_.push_back(std::move(item));
+  }
+
+  const jit::Function& fn_;
+  std::mutex mutex_;
+  std::vector<std::unique_ptr<T>> free_;
+};
+
+/// Lazily compiled code: compiled at most once, by the first thread that needs it (the others
+/// wait on the once_flag), then shared read-only. `state` lets readers that must not compile
+/// (stats, engine queries) look without a data race.
+template <typename Code>
+struct LazySlot {
+  std::once_flag once;
+  std::unique_ptr<Code> code;
+  std::string error;
+  double compile_ms = 0;
+  std::atomic<int> state{0};  ///< 0 not compiled yet, 1 compiled, 2 failed
+
+  template <typename Compile>
+  const Code* get(Compile&& compile) {
+    std::call_once(once, [&] {
+      auto t0 = std::chrono::steady_clock::now();
+      auto r = compile();
+      compile_ms = ms_since(t0);
+      if (r.ok()) {
+        code = std::move(r.value());
+        state.store(1, std::memory_order_release);
+      } else {
+        error = r.error().message;
+        state.store(2, std::memory_order_release);
+      }
+    });
+    return code.get();
+  }
+  /// The code if it is compiled already (never compiles).
+  const Code* peek() const { return state.load(std::memory_order_acquire) == 1 ? code.get() : nullptr; }
+};
+
+/// One lowered object with its evaluators. Every JIT code (scalar per precision, interval,
+/// gradient per precision) is compiled at most once, on first use (or eagerly), and then
+/// shared read-only by all threads; the interval and gradient interpreters are pooled.
 struct Compiled {
+  explicit Compiled() : interval_pool(fn), gradient_pool(fn) {}
+
   jit::Function fn;
   std::unique_ptr<jit::Interpreter> interp;
   int opt_level = 2;
   int lanes = 0;
-  struct JitSlot {
-    std::once_flag once;
-    std::unique_ptr<jit::JitFunction> code;
-    std::string error;
-  };
-  mutable JitSlot jit[2];
+  bool interval_jit = false;  ///< the interval domain uses the JIT (else the interpreter)
+  bool gradient_jit = false;
+  mutable LazySlot<jit::JitFunction> jit[2];
+  mutable LazySlot<jit::IntervalJit> interval;
+  mutable LazySlot<jit::GradientJit> gradient[2];
+  mutable Pool<jit::IntervalInterpreter> interval_pool;
+  mutable Pool<jit::GradientInterpreter> gradient_pool;
 
   const jit::JitFunction* get(Precision p) const {
-    JitSlot& slot = jit[p == Precision::kF64 ? 0 : 1];
-    std::call_once(slot.once, [&] {
+    return jit[p == Precision::kF64 ? 0 : 1].get([&] {
       jit::JitOptions options;
       options.opt_level = opt_level;
       options.lanes = lanes;
-      auto r = jit::JitFunction::compile(fn, to_jit(p), options);
-      if (r.ok()) {
-        slot.code = std::move(r.value());
-      } else {
-        slot.error = r.error().message;
-      }
+      return jit::JitFunction::compile(fn, to_jit(p), options);
     });
-    return slot.code.get();
+  }
+
+  /// The interval JIT, or null when the interpreter must be used.
+  const jit::IntervalJit* get_interval() const {
+    if (!interval_jit) return nullptr;
+    return interval.get([&] {
+      // O1: the interval code is large (three values per op, rounding); O2 buys little over
+      // O1 and costs much compile time (see llvm_interval.cpp).
+      jit::IntervalJit::Options options;
+      options.opt_level = std::min(opt_level, 1);
+      if (getenv("HFRT_IL")) options.lanes = atoi(getenv("HFRT_IL"));
+      return jit::IntervalJit::compile(fn, options);
+    });
+  }
+
+  const jit::GradientJit* get_gradient(Precision p) const {
+    if (!gradient_jit) return nullptr;
+    return gradient[p == Precision::kF64 ? 0 : 1].get([&] {
+      jit::GradientJit::Options options;
+      options.precision = to_jit(p);
+      options.opt_level = std::min(opt_level, 1);
+      return jit::GradientJit::compile(fn, options);
+    });
   }
 };
 
@@ -93,7 +194,7 @@ struct Model::Impl {
   /// Lowers object `index` into a fresh Compiled (JIT code per the eager options).
   std::unique_ptr<Compiled> build(int index, std::vector<SourceDiagnostic>* diags,
                                   std::string* rendered, std::string* error) {
-    auto c = std::make_unique<Compiled>();
+    auto c = std::make_unique<Compiled>();  // (the pools refer to c->fn: it never moves)
     c->opt_level = options.opt_level;
     c->lanes = options.lanes;
     lang::DiagnosticSink sink(file);
@@ -106,6 +207,10 @@ struct Model::Impl {
     }
     if (rendered && !sink.diagnostics().empty()) *rendered += sink.render(false);
     c->interp = std::make_unique<jit::Interpreter>(c->fn);
+    const int insts = static_cast<int>(c->fn.insts.size());
+    auto within = [&](int max_insts) { return max_insts < 0 || insts <= max_insts; };
+    c->interval_jit = options.backend == Backend::kJit && within(options.interval_jit_max_insts);
+    c->gradient_jit = options.backend == Backend::kJit && within(options.gradient_jit_max_insts);
     if (options.backend == Backend::kJit) {
       for (Precision p : {Precision::kF64, Precision::kF32}) {
         bool eager = p == Precision::kF64 ? options.eager_f64 : options.eager_f32;
@@ -296,6 +401,167 @@ bool Model::prepare(Precision precision, std::string* error) const {
   return false;
 }
 
+// --- Interval domain ------------------------------------------------------------------------
+
+IntervalValue Model::eval_interval(std::span<const double> lo, std::span<const double> hi,
+                                   std::vector<uint8_t>* choices) const {
+  const Compiled& c = *impl_->compiled;
+  const int nx = c.fn.num_inputs;
+  auto coord = [&](int k, double* l, double* h) {
+    *l = k < static_cast<int>(lo.size()) ? lo[k] : 0.0;
+    *h = k < static_cast<int>(hi.size()) ? hi[k] : *l;
+    HFRT_CHECK_MSG(*l <= *h, "eval_interval: a box needs lo <= hi on every coordinate");
+  };
+  if (const jit::IntervalJit* code = c.get_interval()) {
+    // The renderer calls this once per box, millions of times a frame: fill one whole SIMD
+    // block (every lane the same box) from per-thread buffers, so that no call allocates
+    // here nor takes the JIT's padded-tail path. The trace goes to a scratch buffer when
+    // the caller does not want it.
+    struct Scratch {
+      std::vector<double> lo, hi, out_lo, out_hi;
+      std::vector<uint8_t> out_nan, trace;
+    };
+    thread_local Scratch sc;
+    const size_t w = static_cast<size_t>(code->lanes());
+    sc.lo.resize(w * static_cast<size_t>(std::max(nx, 1)));
+    sc.hi.resize(sc.lo.size());
+    for (int k = 0; k < nx; ++k) {
+      double l, h;
+      coord(k, &l, &h);
+      std::fill_n(sc.lo.begin() + k * w, w, l);
+      std::fill_n(sc.hi.begin() + k * w, w, h);
+    }
+    sc.out_lo.resize(w);
+    sc.out_hi.resize(w);
+    sc.out_nan.resize(w);
+    uint8_t* trace = nullptr;
+    if (choices) {
+      choices->assign(c.fn.insts.size(), 0);
+      trace = choices->data();
+    } else {
+      sc.trace.resize(c.fn.insts.size());  // contents irrelevant: only OR-ed into
+      trace = sc.trace.data();
+    }
+    code->eval(static_cast<int64_t>(w), sc.lo.data(), sc.hi.data(), impl_->params_f64,
+               sc.out_lo.data(), sc.out_hi.data(), sc.out_nan.data(), trace);
+    return {sc.out_lo[0], sc.out_hi[0], sc.out_nan[0] != 0};
+  }
+  std::vector<jit::Interval> box(static_cast<size_t>(std::max(nx, 0)), jit::Interval{});
+  for (int k = 0; k < nx; ++k) {
+    double l, h;
+    coord(k, &l, &h);
+    box[k] = jit::Interval::of(l, h);
+  }
+  jit::Interval r = c.interval_pool.take()->eval(box, impl_->params_f64, choices);
+  return {r.lo, r.hi, r.maybe_nan};
+}
+
+void Model::eval_interval_batch(int64_t n, const double* lo, const double* hi, double* out_lo,
+                                double* out_hi, uint8_t* out_nan, uint8_t* choices) const {
+  const Compiled& c = *impl_->compiled;
+  const size_t ninsts = c.fn.insts.size();
+  if (choices) std::memset(choices, 0, ninsts);
+  if (n <= 0) return;
+  if (const jit::IntervalJit* code = c.get_interval()) {
+    code->eval(n, lo, hi, impl_->params_f64, out_lo, out_hi, out_nan, choices);
+    return;
+  }
+  const int nx = c.fn.num_inputs;
+  auto ii = c.interval_pool.take();
+  std::vector<jit::Interval> box(static_cast<size_t>(std::max(nx, 0)));
+  std::vector<uint8_t> one;
+  for (int64_t i = 0; i < n; ++i) {
+    for (int k = 0; k < nx; ++k) box[k] = jit::Interval::of(lo[k * n + i], hi[k * n + i]);
+    jit::Interval r = ii->eval(box, impl_->params_f64, choices ? &one : nullptr);
+    out_lo[i] = r.lo;
+    out_hi[i] = r.hi;
+    out_nan[i] = r.maybe_nan ? 1 : 0;
+    if (choices) {
+      for (size_t j = 0; j < ninsts && j < one.size(); ++j) choices[j] |= one[j];
+    }
+  }
+}
+
+DomainEngine Model::interval_engine() const {
+  const Compiled& c = *impl_->compiled;
+  return c.interval_jit && c.interval.state.load() != 2 ? DomainEngine::kJit : DomainEngine::kInterp;
+}
+
+bool Model::prepare_interval(std::string* error) const {
+  const Compiled& c = *impl_->compiled;
+  if (!c.interval_jit || c.get_interval()) return true;
+  if (error) *error = c.interval.error;
+  return false;
+}
+
+// --- Gradient domain ------------------------------------------------------------------------
+
+GradientValue Model::eval_gradient(std::span<const double> x) const {
+  const Compiled& c = *impl_->compiled;
+  const int nx = c.fn.num_inputs;
+  std::vector<double> p(static_cast<size_t>(std::max(nx, 1)), 0.0);
+  for (int k = 0; k < nx && k < static_cast<int>(x.size()); ++k) p[k] = x[k];
+  jit::Dual d;
+  if (const jit::GradientJit* code = c.get_gradient(Precision::kF64)) {
+    d = code->eval_one(p, impl_->params_f64);
+  } else {
+    d = c.gradient_pool.take()->eval(p, impl_->params_f64);
+  }
+  GradientValue out;
+  out.f = d.v;
+  for (int k = 0; k < 3; ++k) out.d[k] = d.d[k];
+  return out;
+}
+
+namespace {
+template <typename T>
+void gradient_interp_batch(const Compiled& c, const std::vector<double>& a, int64_t n,
+                           const T* xs, T* out) {
+  const int nx = c.fn.num_inputs;
+  auto gi = c.gradient_pool.take();
+  std::vector<double> x(static_cast<size_t>(std::max(nx, 1)), 0.0);
+  for (int64_t i = 0; i < n; ++i) {
+    for (int k = 0; k < nx; ++k) x[k] = static_cast<double>(xs[k * n + i]);
+    jit::Dual d = gi->eval(x, a);
+    out[i] = static_cast<T>(d.v);
+    for (int k = 0; k < 3; ++k) out[(k + 1) * n + i] = static_cast<T>(d.d[k]);
+  }
+}
+}  // namespace
+
+void Model::eval_gradient_batch(int64_t n, const double* xs, double* out) const {
+  if (n <= 0) return;
+  const Compiled& c = *impl_->compiled;
+  if (const jit::GradientJit* code = c.get_gradient(Precision::kF64)) {
+    code->eval(n, xs, impl_->params_f64, out);
+  } else {
+    gradient_interp_batch(c, impl_->params_f64, n, xs, out);
+  }
+}
+
+void Model::eval_gradient_batch(int64_t n, const float* xs, float* out) const {
+  if (n <= 0) return;
+  const Compiled& c = *impl_->compiled;
+  if (const jit::GradientJit* code = c.get_gradient(Precision::kF32)) {
+    code->eval(n, xs, impl_->params_f64, out);
+  } else {
+    gradient_interp_batch(c, impl_->params_f64, n, xs, out);
+  }
+}
+
+DomainEngine Model::gradient_engine(Precision precision) const {
+  const Compiled& c = *impl_->compiled;
+  int state = c.gradient[precision == Precision::kF64 ? 0 : 1].state.load();
+  return c.gradient_jit && state != 2 ? DomainEngine::kJit : DomainEngine::kInterp;
+}
+
+bool Model::prepare_gradient(Precision precision, std::string* error) const {
+  const Compiled& c = *impl_->compiled;
+  if (!c.gradient_jit || c.get_gradient(precision)) return true;
+  if (error) *error = c.gradient[precision == Precision::kF64 ? 0 : 1].error;
+  return false;
+}
+
 std::string Model::ir_text() const { return jit::print(impl_->compiled->fn); }
 
 std::string Model::llvm_ir(Precision precision) const {
@@ -311,7 +577,7 @@ ModelStats Model::stats() const {
   const Compiled& c = *impl_->compiled;
   for (int k = 0; k < 2; ++k) {
     // Only report precisions already compiled (reading the slot never compiles).
-    const jit::JitFunction* code = c.jit[k].code.get();
+    const jit::JitFunction* code = c.jit[k].peek();
     ModelStats::Jit& j = k == 0 ? s.jit_f64 : s.jit_f32;
     if (!code) continue;
     const jit::JitStats& js = code->stats();
@@ -322,6 +588,18 @@ ModelStats Model::stats() const {
     j.codegen_ms = js.codegen_ms;
     j.llvm_insts_before = js.llvm_insts_before;
     j.llvm_insts_after = js.llvm_insts_after;
+  }
+  auto domain = [](const auto& slot, int lanes, ModelStats::Domain* d) {
+    d->compiled = true;
+    d->lanes = lanes;
+    d->compile_ms = slot.compile_ms;
+  };
+  if (const jit::IntervalJit* code = c.interval.peek()) domain(c.interval, code->lanes(), &s.interval);
+  if (const jit::GradientJit* code = c.gradient[0].peek()) {
+    domain(c.gradient[0], code->lanes(), &s.gradient_f64);
+  }
+  if (const jit::GradientJit* code = c.gradient[1].peek()) {
+    domain(c.gradient[1], code->lanes(), &s.gradient_f32);
   }
   return s;
 }

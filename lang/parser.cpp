@@ -46,10 +46,13 @@ bool is_additive(TokenKind k) {
          k == TokenKind::kAmp || k == TokenKind::kBackslash || k == TokenKind::kAt;
 }
 
-bool is_arith_binary(TokenKind k) {
-  return is_additive(k) || k == TokenKind::kStar || k == TokenKind::kSlash ||
-         k == TokenKind::kCaret;
-}
+bool is_multiplicative(TokenKind k) { return k == TokenKind::kStar || k == TokenKind::kSlash; }
+
+bool is_power(TokenKind k) { return k == TokenKind::kCaret; }
+
+bool is_logical(TokenKind k) { return k == TokenKind::kAnd || k == TokenKind::kOr; }
+
+bool is_arith_binary(TokenKind k) { return is_additive(k) || is_multiplicative(k) || is_power(k); }
 
 BinaryOp binary_op(TokenKind k) {
   switch (k) {
@@ -286,6 +289,9 @@ class Parser {
   void synchronize(uint32_t stmt_begin);
   void skip_block();
 
+  /// One loop for every left-associative binary level: `operand` parses the operands and
+  /// `is_op` tells this level's operator tokens (all levels of the spec associate left).
+  Node parse_left_assoc(Node (Parser::*operand)(), bool (*is_op)(TokenKind));
   Node parse_condition();
   Node parse_comparison();
   Node parse_condition_primary();
@@ -707,33 +713,24 @@ StmtPtr Parser::parse_while() {
   return stmt;
 }
 
-// cond = cmp { ('and' | 'or') cmp }   (one level, left to right)
-Node Parser::parse_condition() {
+Node Parser::parse_left_assoc(Node (Parser::*operand)(), bool (*is_op)(TokenKind)) {
   const uint32_t begin = tok_.offset;
-  Node left = parse_comparison();
-  while ((at(TokenKind::kAnd) || at(TokenKind::kOr)) && !panic_) {
+  Node left = (this->*operand)();
+  while (is_op(tok_.kind) && !panic_) {
     const Token op = tok_;
     advance();
-    Node right = parse_comparison();
+    Node right = (this->*operand)();
     if (!height_ok(left, right, op)) break;
     left = make_binary(binary_op(op.kind), std::move(left), std::move(right), begin);
   }
   return left;
 }
 
+// cond = cmp { ('and' | 'or') cmp }   (one level, left to right)
+Node Parser::parse_condition() { return parse_left_assoc(&Parser::parse_comparison, is_logical); }
+
 // cmp = prim { relop prim }   (chained numerically)
-Node Parser::parse_comparison() {
-  const uint32_t begin = tok_.offset;
-  Node left = parse_condition_primary();
-  while (is_relop(tok_.kind) && !panic_) {
-    const Token op = tok_;
-    advance();
-    Node right = parse_condition_primary();
-    if (!height_ok(left, right, op)) break;
-    left = make_binary(binary_op(op.kind), std::move(left), std::move(right), begin);
-  }
-  return left;
-}
+Node Parser::parse_comparison() { return parse_left_assoc(&Parser::parse_condition_primary, is_relop); }
 
 // prim = 'not' prim | '(' cond ')' | expr
 Node Parser::parse_condition_primary() {
@@ -800,46 +797,13 @@ Node Parser::parse_paren_condition() {
 }
 
 // expr = term { ('+' | '-' | '|' | '&' | '\' | '@') term }
-Node Parser::parse_expr() {
-  const uint32_t begin = tok_.offset;
-  Node left = parse_term();
-  while (is_additive(tok_.kind) && !panic_) {
-    const Token op = tok_;
-    advance();
-    Node right = parse_term();
-    if (!height_ok(left, right, op)) break;
-    left = make_binary(binary_op(op.kind), std::move(left), std::move(right), begin);
-  }
-  return left;
-}
+Node Parser::parse_expr() { return parse_left_assoc(&Parser::parse_term, is_additive); }
 
 // term = power { ('*' | '/') power }
-Node Parser::parse_term() {
-  const uint32_t begin = tok_.offset;
-  Node left = parse_power();
-  while ((at(TokenKind::kStar) || at(TokenKind::kSlash)) && !panic_) {
-    const Token op = tok_;
-    advance();
-    Node right = parse_power();
-    if (!height_ok(left, right, op)) break;
-    left = make_binary(binary_op(op.kind), std::move(left), std::move(right), begin);
-  }
-  return left;
-}
+Node Parser::parse_term() { return parse_left_assoc(&Parser::parse_power, is_multiplicative); }
 
 // power = unary { '^' unary }   (left-associative, as the original)
-Node Parser::parse_power() {
-  const uint32_t begin = tok_.offset;
-  Node left = parse_unary();
-  while (at(TokenKind::kCaret) && !panic_) {
-    const Token op = tok_;
-    advance();
-    Node right = parse_unary();
-    if (!height_ok(left, right, op)) break;
-    left = make_binary(BinaryOp::kPow, std::move(left), std::move(right), begin);
-  }
-  return left;
-}
+Node Parser::parse_power() { return parse_left_assoc(&Parser::parse_unary, is_power); }
 
 // unary = ('+' | '-' | '~') unary | primary   (binds tighter than '^')
 Node Parser::parse_unary() {

@@ -304,23 +304,36 @@ class Checker {
     s.symbol = {SymbolKind::kLocalScalar, *idx};
   }
 
-  void resolve_element_target(Stmt& s) {
+  /// The array a statement writes (element or whole), or nullopt after reporting why it
+  /// cannot be written (x and a are read-only, s needs a header entry, scalars have no elements).
+  std::optional<ArrayRef> resolve_writable_array(Stmt& s) {
     const std::string& n = s.name;
-    if (same_name(n, "x") || same_name(n, "a")) return error_read_only(s.name_range, n);
-    if (is_undeclared_s(n)) return error_no_s(s.name_range);
+    if (same_name(n, "x") || same_name(n, "a")) {
+      error_read_only(s.name_range, n);
+      return std::nullopt;
+    }
+    if (is_undeclared_s(n)) {
+      error_no_s(s.name_range);
+      return std::nullopt;
+    }
     auto ref = resolve_array(n);
-    if (!ref) return error_not_array(s.name_range, n);
+    if (!ref) {
+      error_not_array(s.name_range, n);
+      return std::nullopt;
+    }
     s.symbol = ref->symbol;
-    if (s.index) check_constant_index(*s.index, n, ref->size);
+    return ref;
+  }
+
+  void resolve_element_target(Stmt& s) {
+    auto ref = resolve_writable_array(s);
+    if (ref && s.index) check_constant_index(*s.index, s.name, ref->size);
   }
 
   void resolve_array_target(Stmt& s) {
+    auto ref = resolve_writable_array(s);
+    if (!ref) return;
     const std::string& n = s.name;
-    if (same_name(n, "x") || same_name(n, "a")) return error_read_only(s.name_range, n);
-    if (is_undeclared_s(n)) return error_no_s(s.name_range);
-    auto ref = resolve_array(n);
-    if (!ref) return error_not_array(s.name_range, n);
-    s.symbol = ref->symbol;
     const int count = static_cast<int>(s.literal.size());
     if (count != ref->size) {
       diags_.error(s.range,

@@ -205,11 +205,13 @@ int run_render(const RenderCli& cli) {
   auto loaded = load_model(cli.model, /*eager_f32=*/true, &code);
   if (!loaded) return code;
   const Model& model = *loaded->model;
-  ModelField field(model, cli.model.file, 1e-4f * opt.bbox.max_extent());
+  ModelField field(model, cli.model.file);
   if (opt.root == render::RootMode::kInterval && !field.has_interval()) {
     return usage_error("--root interval needs an interval evaluator, which is not available for "
-                       "this model yet; use --root sign (or auto)");
+                       "this model; use --root sign (or auto)");
   }
+  // Intervals serve framing and tile culling even with --root sign.
+  const double prepare_ms = prepare_render_code(model, field.has_interval(), /*gradient=*/true);
 
   auto t_frame = std::chrono::steady_clock::now();
   bool framed = !cam.eye || !cam.look_at;
@@ -257,8 +259,9 @@ int run_render(const RenderCli& cli) {
   if (cli.stats) {
     const render::EvalCounters& e = st.evals;
     double mrays = double(st.primary_rays + st.shadow_rays) / std::max(st.seconds, 1e-9) * 1e-6;
-    std::fprintf(stderr, "stats: compile %.1f ms, framing %.1f ms%s, render %.3f s on %d threads\n",
-                 loaded->compile_ms, frame_ms,
+    std::fprintf(stderr, "stats: compile %.1f ms (+ %.1f ms interval and gradient code: %s)\n",
+                 loaded->compile_ms, prepare_ms, describe_domain_engines(model).c_str());
+    std::fprintf(stderr, "stats: framing %.1f ms%s, render %.3f s on %d threads\n", frame_ms,
                  framed ? (extent_by_interval ? " (intervals)" : " (sampling)") : " (camera given)",
                  st.seconds, st.threads);
     std::fprintf(stderr, "stats: %llu primary + %llu shadow rays, %.2f Mrays/s, %llu hits\n",
@@ -266,10 +269,10 @@ int run_render(const RenderCli& cli) {
                  (unsigned long long)st.hits);
     std::fprintf(stderr,
                  "stats: evaluator calls: point %llu (%llu points), interval %llu, gradient %llu "
-                 "(%llu points%s), attributes %llu\n",
+                 "(%llu points), attributes %llu\n",
                  (unsigned long long)e.eval_calls, (unsigned long long)e.eval_points,
                  (unsigned long long)e.interval_calls, (unsigned long long)e.gradient_calls,
-                 (unsigned long long)e.gradient_points, ", central differences",
+                 (unsigned long long)e.gradient_points,
                  (unsigned long long)e.attribute_calls);
     std::fprintf(stderr,
                  "stats: tiles %zu (%zu empty by intervals); thread time: culling %.3f s, root "

@@ -64,7 +64,8 @@ int run_slice(const SliceCli& cli) {
   int code = 0;
   auto loaded = load_model(cli.model, /*eager_f32=*/true, &code);
   if (!loaded) return code;
-  ModelField field(*loaded->model, cli.model.file, 1e-4f * std::max(opt.x1 - opt.x0, opt.y1 - opt.y0));
+  ModelField field(*loaded->model, cli.model.file);
+  const double prepare_ms = prepare_render_code(*loaded->model, field.has_interval(), /*gradient=*/false);
 
   render::ProgressBar bar("slicing", isatty(STDERR_FILENO) != 0);
   opt.progress = [&bar](size_t done, size_t total) { bar.update(done, total); };
@@ -87,8 +88,9 @@ int run_slice(const SliceCli& cli) {
                  st.nan_explanation.c_str());
   }
   if (cli.stats) {
-    std::fprintf(stderr, "stats: compile %.1f ms, slice %.3f s on %d threads\n",
-                 loaded->compile_ms, st.seconds, st.threads);
+    std::fprintf(stderr, "stats: compile %.1f ms (+ %.1f ms interval code: %s), slice %.3f s on %d threads\n",
+                 loaded->compile_ms, prepare_ms, describe_domain_engines(*loaded->model).c_str(),
+                 st.seconds, st.threads);
     std::fprintf(stderr,
                  "stats: evaluator calls: point %llu (%llu points), interval %llu; %llu pixels "
                  "settled by intervals\n",

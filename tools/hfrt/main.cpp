@@ -34,7 +34,14 @@ int main(int argc, char** argv) {
   add(hfrt::tools::register_eval);
   add(hfrt::tools::register_render);
   add(hfrt::tools::register_slice);
-  CLI11_PARSE(app, argc, argv);
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::ParseError& e) {
+    // Help and version requests exit 0; every usage error exits 2, as the subcommands'
+    // own usage errors do (CLI11's per-error codes would leak 100+ codes to scripts).
+    const int code = app.exit(e);
+    return code == 0 ? 0 : 2;
+  }
   for (auto& [sub, run] : commands) {
     if (sub->parsed()) return run();
   }

@@ -1,10 +1,12 @@
 #include "tools/hfrt/model_field.h"
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
 #include <limits>
+#include <thread>
 
 namespace hfrt::tools {
 
@@ -12,71 +14,70 @@ namespace {
 
 /// Per-thread packing buffers: the renderer calls from many threads at once.
 struct Scratch {
-  std::vector<float> xs;
-  std::vector<double> xd, fd;
+  std::vector<float> xs, out;
 };
 thread_local Scratch t_scratch;
 
+/// The float nearest to v on the side of -inf / +inf (so [down(lo), up(hi)] still encloses
+/// [lo, hi] after the conversion to float).
+float round_down(double v) {
+  float f = static_cast<float>(v);
+  return static_cast<double>(f) > v ? std::nextafter(f, -std::numeric_limits<float>::infinity()) : f;
+}
+float round_up(double v) {
+  float f = static_cast<float>(v);
+  return static_cast<double>(f) < v ? std::nextafter(f, std::numeric_limits<float>::infinity()) : f;
+}
+
+/// Packs up to three coordinate arrays into the structure-of-arrays layout of the model
+/// (x[1..3]; any further coordinates, e.g. time, are held at 0).
+void pack(int dims, size_t n, const float* x, const float* y, const float* z,
+          std::vector<float>* xs) {
+  xs->assign(size_t(std::max(dims, 1)) * n, 0.0f);
+  const float* src[3] = {x, y, z};
+  for (int k = 0; k < std::min(dims, 3); ++k) std::copy(src[k], src[k] + n, xs->data() + k * n);
+}
+
 }  // namespace
 
-ModelField::ModelField(const Model& model, std::string file, float gradient_step)
-    : model_(model), file_(std::move(file)), h_(gradient_step), dims_(model.num_inputs()) {}
+ModelField::ModelField(const Model& model, std::string file)
+    : model_(model), file_(std::move(file)), dims_(model.num_inputs()) {}
 
 void ModelField::eval(size_t n, const float* x, const float* y, const float* z,
                       float* out_f) const {
   if (n == 0) return;
   Scratch& sc = t_scratch;
-  // x[1..3] from the point; any further coordinates (time, ...) are held at 0.
-  sc.xs.assign(size_t(dims_) * n, 0.0f);
-  const float* src[3] = {x, y, z};
-  for (int k = 0; k < std::min(dims_, 3); ++k) std::copy(src[k], src[k] + n, &sc.xs[k * n]);
+  pack(dims_, n, x, y, z, &sc.xs);
   model_.eval_batch(int64_t(n), sc.xs.data(), out_f, nullptr);
 }
 
-render::Interval ModelField::eval_interval(const render::Box&, bool* maybe_nan) const {
-  // Never called: has_interval() is false until the public API exposes intervals.
-  *maybe_nan = true;
-  return {-std::numeric_limits<float>::infinity(), std::numeric_limits<float>::infinity()};
+render::Interval ModelField::eval_interval(const render::Box& box, bool* maybe_nan) const {
+  // Float box corners are exact in double; the f64 enclosure is rounded outwards.
+  const double lo[3] = {box.lo.x, box.lo.y, box.lo.z};
+  const double hi[3] = {box.hi.x, box.hi.y, box.hi.z};
+  IntervalValue r = model_.eval_interval(lo, hi);
+  *maybe_nan = r.maybe_nan;
+  return {round_down(r.lo), round_up(r.hi)};
 }
 
 void ModelField::eval_gradient(size_t n, const float* x, const float* y, const float* z,
                                float* f, float* dx, float* dy, float* dz) const {
   if (n == 0) return;
-  // FALLBACK: central differences of the f64 evaluator, one batch of 7n points (the point and
-  // its 6 neighbours at +-h along each axis).
   Scratch& sc = t_scratch;
-  const size_t m = 7 * n;
-  sc.xd.assign(size_t(dims_) * m, 0.0);
-  sc.fd.resize(m);
-  const float* src[3] = {x, y, z};
-  for (size_t i = 0; i < n; ++i) {
-    for (int j = 0; j < 7; ++j) {
-      size_t p = i * 7 + j;
-      for (int k = 0; k < std::min(dims_, 3); ++k) {
-        double v = src[k][i];
-        if (j > 0 && (j - 1) / 2 == k) v += (j % 2 ? h_ : -h_);
-        sc.xd[k * m + p] = v;
-      }
-    }
-  }
-  model_.eval_batch(int64_t(m), sc.xd.data(), sc.fd.data(), nullptr);
-  double inv = 0.5 / h_;
-  for (size_t i = 0; i < n; ++i) {
-    const double* v = &sc.fd[i * 7];
-    f[i] = float(v[0]);
-    dx[i] = float((v[1] - v[2]) * inv);
-    dy[i] = float((v[3] - v[4]) * inv);
-    dz[i] = float((v[5] - v[6]) * inv);
-  }
+  pack(dims_, n, x, y, z, &sc.xs);
+  sc.out.resize(4 * n);
+  model_.eval_gradient_batch(int64_t(n), sc.xs.data(), sc.out.data());
+  std::copy(&sc.out[0], &sc.out[n], f);
+  std::copy(&sc.out[n], &sc.out[2 * n], dx);
+  std::copy(&sc.out[2 * n], &sc.out[3 * n], dy);
+  std::copy(&sc.out[3 * n], &sc.out[4 * n], dz);
 }
 
 void ModelField::eval_attributes(size_t n, const float* x, const float* y, const float* z,
                                  float* out_s) const {
   if (n == 0 || model_.num_attributes() == 0) return;
   Scratch& sc = t_scratch;
-  sc.xs.assign(size_t(dims_) * n, 0.0f);
-  const float* src[3] = {x, y, z};
-  for (int k = 0; k < std::min(dims_, 3); ++k) std::copy(src[k], src[k] + n, &sc.xs[k * n]);
+  pack(dims_, n, x, y, z, &sc.xs);
   std::vector<float> f(n);
   model_.eval_batch(int64_t(n), sc.xs.data(), f.data(), out_s);
 }
@@ -91,6 +92,49 @@ std::string ModelField::explain_nan(render::Vec3 p) const {
     text += " at " + file_ + ":" + std::to_string(v.error_line) + ":" + std::to_string(v.error_col);
   }
   return text + where;
+}
+
+double prepare_render_code(const Model& model, bool interval, bool gradient) {
+  auto t0 = std::chrono::steady_clock::now();
+  std::string interval_error, gradient_error;
+  bool interval_ok = true, gradient_ok = true;
+  {
+    // The process-wide LLJIT accepts modules from several threads (one context each).
+    std::thread worker;
+    if (interval && gradient) {
+      worker = std::thread([&] { interval_ok = model.prepare_interval(&interval_error); });
+    } else if (interval) {
+      interval_ok = model.prepare_interval(&interval_error);
+    }
+    if (gradient) gradient_ok = model.prepare_gradient(Precision::kF32, &gradient_error);
+    if (worker.joinable()) worker.join();
+  }
+  if (!interval_ok) {
+    std::fprintf(stderr, "hfrt: warning: interval JIT failed (%s); using the interval interpreter\n",
+                 interval_error.c_str());
+  }
+  if (!gradient_ok) {
+    std::fprintf(stderr, "hfrt: warning: gradient JIT failed (%s); using the gradient interpreter\n",
+                 gradient_error.c_str());
+  }
+  return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+}
+
+std::string describe_domain_engines(const Model& model) {
+  ModelStats st = model.stats();
+  auto one = [&](const char* name, DomainEngine engine, const ModelStats::Domain& d) {
+    char buf[160];
+    if (engine == DomainEngine::kJit && d.compiled) {
+      std::snprintf(buf, sizeof buf, "%s JIT (%d lanes, %.1f ms)", name, d.lanes, d.compile_ms);
+    } else if (engine == DomainEngine::kJit) {
+      std::snprintf(buf, sizeof buf, "%s JIT (not compiled)", name);
+    } else {
+      std::snprintf(buf, sizeof buf, "%s interpreter", name);
+    }
+    return std::string(buf);
+  };
+  return one("interval", model.interval_engine(), st.interval) + ", " +
+         one("gradient f32", model.gradient_engine(Precision::kF32), st.gradient_f32);
 }
 
 bool parse_doubles(const std::string& text, std::vector<double>* out, size_t count) {

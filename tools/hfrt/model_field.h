@@ -3,10 +3,14 @@
 // renderer's Field interface (render/field.h), plus the model loading and list parsing that
 // `hfrt render` and `hfrt slice` share.
 //
-// FALLBACK, to be replaced: the public API does not expose the interval and gradient
-// evaluators yet, so has_interval() is false (the renderer then uses the sign-change search
-// and sampling for framing) and the gradient is taken by central differences of the f64
-// scalar evaluator. When Model gains interval/gradient entry points, only this file changes.
+// Which evaluator serves which Field method:
+//  - eval: the f32 batch evaluator (Model::eval_batch), the renderer's hot loop;
+//  - eval_interval: Model::eval_interval (f64, outward rounded to float bounds), the interval
+//    JIT or, for large objects and the interp backend, the interval interpreter;
+//  - eval_gradient: Model::eval_gradient_batch in f32 (automatic differentiation);
+//  - eval_attributes / explain_nan: the scalar evaluators.
+// has_interval() is true for every model: the interval evaluator is sound for every op (see
+// jit/interval.h), so the renderer may cull tiles and search roots by bisection.
 
 #include <memory>
 #include <optional>
@@ -21,11 +25,11 @@ namespace hfrt::tools {
 class ModelField final : public render::Field {
  public:
   /// `model` must outlive the field and must not be changed (object, params) while rendering.
-  /// `gradient_step` is the central-difference step in world units.
-  ModelField(const Model& model, std::string file, float gradient_step);
+  /// `file` names the model in explain_nan().
+  ModelField(const Model& model, std::string file);
 
   void eval(size_t n, const float* x, const float* y, const float* z, float* out_f) const override;
-  bool has_interval() const override { return false; }
+  bool has_interval() const override { return true; }
   render::Interval eval_interval(const render::Box& box, bool* maybe_nan) const override;
   void eval_gradient(size_t n, const float* x, const float* y, const float* z, float* f,
                      float* dx, float* dy, float* dz) const override;
@@ -37,7 +41,6 @@ class ModelField final : public render::Field {
  private:
   const Model& model_;
   std::string file_;
-  double h_;
   int dims_;
 };
 
@@ -59,6 +62,16 @@ struct LoadedModel {
 /// for source errors) and returns nullopt with `*exit_code` = 1 (compile errors) or 2 (usage
 /// or environment).
 std::optional<LoadedModel> load_model(const ModelRequest& request, bool eager_f32, int* exit_code);
+
+/// Compiles now (instead of on first use inside the render threads) the code a render needs
+/// beyond the scalar f32 evaluator: the interval evaluator when `interval`, the f32 gradient
+/// evaluator when `gradient`. The two JIT compiles run in parallel. Returns the wall time in
+/// ms. A JIT failure is not fatal (the interpreters take over); it is printed as a warning.
+double prepare_render_code(const Model& model, bool interval, bool gradient);
+
+/// One line describing the engines of the interval and gradient domains with their compile
+/// times, e.g. "interval JIT (4 lanes, 85.2 ms), gradient f32 JIT (8 lanes, 40.1 ms)".
+std::string describe_domain_engines(const Model& model);
 
 /// Parses "v1,v2,..." (exactly `count` numbers when count > 0). False when malformed.
 bool parse_doubles(const std::string& text, std::vector<double>* out, size_t count = 0);

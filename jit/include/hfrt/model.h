@@ -11,6 +11,7 @@
 // embedder needs nothing but this header and the hfrt::jit library.
 
 #include <cstdint>
+#include <initializer_list>
 #include <memory>
 #include <optional>
 #include <span>
@@ -34,6 +35,15 @@ struct ModelOptions {
   /// Precisions the JIT compiles inside compile(); the others compile on first use.
   bool eager_f64 = true;
   bool eager_f32 = false;
+  /// The interval evaluator is compiled by the JIT only for objects of at most this many IR
+  /// instructions; larger ones use the interval interpreter. The interval JIT's compile time
+  /// grows fast with program size (about 100 s for the 8k-instruction `prospero` corpus
+  /// model) while the interpreter starts at once: below the threshold the JIT pays for itself
+  /// within one render, above it the compile would dominate. Raise it when the interval JIT
+  /// compiles faster; -1 means always the JIT, 0 always the interpreter. (JIT backend only.)
+  int interval_jit_max_insts = 2000;
+  /// The same for the gradient evaluator.
+  int gradient_jit_max_insts = 2000;
 };
 
 /// One compile-time diagnostic (error, warning or note), located in the source.
@@ -59,6 +69,31 @@ struct PointValue {
   bool ok() const { return error.empty(); }
 };
 
+/// An enclosure of F over a box: every value the f64 scalar evaluator computes at a point of
+/// the box is in [lo, hi], or is NaN (no value: a run-time error) and then `maybe_nan` is
+/// set. Outward rounding: the enclosure is sound, not tight (it may be [-inf, inf]).
+struct IntervalValue {
+  double lo = 0;
+  double hi = 0;
+  bool maybe_nan = false;
+  bool contains(double v) const { return v != v ? maybe_nan : (lo <= v && v <= hi); }
+};
+
+/// F and its gradient at a point, by forward-mode automatic differentiation (exact chain
+/// rule, not finite differences). `f` is the scalar evaluator's value; where F is not
+/// differentiable the derivative is the one-sided one of the branch taken (abs, min/max,
+/// if). A point without a value (run-time error) has NaN in all four.
+struct GradientValue {
+  double f = 0;
+  double d[3] = {0, 0, 0};  ///< dF/dx[1], dF/dx[2], dF/dx[3] (0 beyond num_inputs)
+};
+
+/// Which implementation evaluates a domain (interval or gradient) of a Model.
+enum class DomainEngine {
+  kJit,     ///< LLVM code, compiled on first use
+  kInterp,  ///< the interpreter (backend kInterp, a large object, or a failed JIT compile)
+};
+
 /// Compile-latency figures, in milliseconds.
 struct ModelStats {
   double frontend_ms = 0;  ///< parse + semantic checks
@@ -71,6 +106,13 @@ struct ModelStats {
     size_t llvm_insts_before = 0, llvm_insts_after = 0;
   };
   Jit jit_f64, jit_f32;
+  /// The interval and gradient JITs, once compiled (their compile time in total).
+  struct Domain {
+    bool compiled = false;
+    int lanes = 0;
+    double compile_ms = 0;
+  };
+  Domain interval, gradient_f64, gradient_f32;
 };
 
 struct CompileResult;
@@ -119,6 +161,55 @@ class Model {
   /// Points with a run-time error get NaN (use eval() for the message).
   void eval_batch(int64_t n, const double* xs, double* out_f, double* out_s = nullptr) const;
   void eval_batch(int64_t n, const float* xs, float* out_f, float* out_s = nullptr) const;
+
+  // --- The interval domain ----------------------------------------------------------------
+  // Engine: the JIT (compiled lazily, on the first interval call or prepare_interval(), by
+  // whichever thread comes first while the others wait) unless the backend is kInterp or
+  // the object has more than ModelOptions::interval_jit_max_insts IR instructions; then the
+  // interval interpreter (a pool of instances, one per concurrent caller). Both give the
+  // same results. Const and thread-safe like eval().
+
+  /// F over the box x[k+1] in [lo[k], hi[k]] (missing coordinates are the point 0; lo <= hi).
+  /// When `choices` is non-null it receives the min/max/select trace: one byte per IR
+  /// instruction of ir_text() (kChoice bits: 1 = the left operand / then-value decides
+  /// somewhere in the box, 2 = the right one, 0 = not a min/max/select or not reached), so
+  /// that a caller can prune the program for the box (libfive / fidget style).
+  IntervalValue eval_interval(std::span<const double> lo, std::span<const double> hi,
+                              std::vector<uint8_t>* choices = nullptr) const;
+  IntervalValue eval_interval(std::initializer_list<double> lo,
+                              std::initializer_list<double> hi) const {
+    return eval_interval(std::span<const double>(lo.begin(), lo.size()),
+                         std::span<const double>(hi.begin(), hi.size()));
+  }
+  /// n boxes, structure of arrays: coordinate k of box i is [lo[k*n + i], hi[k*n + i]] for
+  /// k < num_inputs(). Results to out_lo/out_hi and out_nan (0 or 1). `choices`, when
+  /// non-null, has ir_insts bytes and gets the trace bits OR-ed over all n boxes.
+  void eval_interval_batch(int64_t n, const double* lo, const double* hi, double* out_lo,
+                           double* out_hi, uint8_t* out_nan, uint8_t* choices = nullptr) const;
+
+  // --- The gradient domain ----------------------------------------------------------------
+  // Engine: the gradient JIT of the precision (lazily compiled, like the scalar one) unless
+  // the backend is kInterp or the object has more than gradient_jit_max_insts instructions;
+  // then the gradient interpreter (f64; f32 batches are converted).
+
+  /// F and dF/dx[1..3] at one point, in f64 (missing coordinates are 0).
+  GradientValue eval_gradient(std::span<const double> x) const;
+  GradientValue eval_gradient(std::initializer_list<double> x) const {
+    return eval_gradient(std::span<const double>(x.begin(), x.size()));
+  }
+  /// n points, structure of arrays as eval_batch; out[c*n + i] gets F (c = 0) and dF/dx[c]
+  /// (c = 1..3). A point without a value gets NaN in all four.
+  void eval_gradient_batch(int64_t n, const double* xs, double* out) const;
+  void eval_gradient_batch(int64_t n, const float* xs, float* out) const;
+
+  /// Which engine evaluates intervals / gradients of the precision (never compiles).
+  DomainEngine interval_engine() const;
+  DomainEngine gradient_engine(Precision precision = Precision::kF64) const;
+  /// Compiles the interval / gradient JIT now instead of on first use (no-op with the
+  /// interpreter engine). False (with `error`) when the JIT fails; evaluation then uses
+  /// the interpreter.
+  bool prepare_interval(std::string* error = nullptr) const;
+  bool prepare_gradient(Precision precision, std::string* error = nullptr) const;
 
   /// Compiles the JIT code of a precision now instead of on first use. Returns false (with
   /// `error`) when the JIT fails; evaluation then falls back to the interpreter.

@@ -1,0 +1,258 @@
+// Shared emitter code: see llvm_emit.h.
+
+#include "jit/llvm_emit.h"
+
+#include <cmath>
+
+#include "jit/scalar_ops.h"
+#include "lang/check.h"
+
+namespace hfrt::jit {
+
+std::vector<int32_t> match_regions(const Function& fn) {
+  std::vector<int32_t> match(fn.insts.size(), -1);
+  std::vector<size_t> stack;
+  for (size_t i = 0; i < fn.insts.size(); ++i) {
+    switch (fn.insts[i].op) {
+      case Op::kIf:
+      case Op::kLoop: stack.push_back(i); break;
+      case Op::kElse:
+      case Op::kLoopTest:
+        HFRT_CHECK(!stack.empty());
+        match[stack.back()] = static_cast<int32_t>(i);
+        stack.back() = i;
+        break;
+      case Op::kEndIf:
+      case Op::kEndLoop:
+        HFRT_CHECK(!stack.empty());
+        match[stack.back()] = static_cast<int32_t>(i);
+        stack.pop_back();
+        break;
+      default: break;
+    }
+  }
+  HFRT_CHECK(stack.empty());
+  return match;
+}
+
+std::vector<int> written_slots(const Function& fn, size_t begin, size_t end) {
+  std::vector<char> w(fn.num_slots, 0);
+  for (size_t i = begin; i < end; ++i) {
+    const Inst& in = fn.insts[i];
+    if (in.op == Op::kStoreSlot) w[in.aux] = 1;
+    if (in.op == Op::kStoreIdx) {
+      for (int k = 0; k < static_cast<int>(in.imm); ++k) w[in.aux + k] = 1;
+    }
+  }
+  std::vector<int> out;
+  for (int s = 0; s < fn.num_slots; ++s) {
+    if (w[s]) out.push_back(s);
+  }
+  return out;
+}
+
+VectorEmitter::VectorEmitter(llvm::Module& module, const Function& fn, llvm::Type* element,
+                             int lanes)
+    : ctx_(module.getContext()),
+      m_(module),
+      b_(module.getContext()),
+      fn_(fn),
+      w_(lanes),
+      is_f32_(element->isFloatTy()),
+      st_(element) {
+  HFRT_CHECK_MSG(lanes > 0 && (lanes & (lanes - 1)) == 0, "lanes must be a power of two");
+  vt_ = llvm::FixedVectorType::get(st_, w_);
+  mt_ = llvm::FixedVectorType::get(llvm::Type::getInt1Ty(ctx_), w_);
+  i64_ = llvm::Type::getInt64Ty(ctx_);
+  i32_ = llvm::Type::getInt32Ty(ctx_);
+  i8_ = llvm::Type::getInt8Ty(ctx_);
+  ptr_ = llvm::PointerType::get(ctx_, 0);
+  align_ = llvm::Align(is_f32_ ? 4 : 8);
+}
+
+llvm::Value* VectorEmitter::truth(llvm::Value* v) {
+  return b_.CreateFCmpOGE(fabs(v), splat(kHfEps));
+}
+
+llvm::AllocaInst* VectorEmitter::entry_alloca(llvm::Type* ty, const char* name) {
+  llvm::BasicBlock& entry = f_->getEntryBlock();
+  llvm::IRBuilder<> eb(&entry, entry.begin());
+  return eb.CreateAlloca(ty, nullptr, name);
+}
+
+llvm::FunctionCallee VectorEmitter::pure_function(const char* name, int args) {
+  std::vector<llvm::Type*> params(args, st_);
+  auto* ty = llvm::FunctionType::get(st_, params, false);
+  llvm::FunctionCallee callee = m_.getOrInsertFunction(name, ty);
+  if (auto* f = llvm::dyn_cast<llvm::Function>(callee.getCallee())) {
+    f->setDoesNotThrow();
+    f->setWillReturn();
+    f->setMemoryEffects(llvm::MemoryEffects::none());
+  }
+  return callee;
+}
+
+llvm::Value* VectorEmitter::call_lanes(llvm::FunctionCallee f, llvm::Value* a, llvm::Value* b) {
+  llvm::Value* r = llvm::PoisonValue::get(vt_);
+  for (int i = 0; i < w_; ++i) {
+    llvm::Value* ai = b_.CreateExtractElement(a, uint64_t(i));
+    llvm::CallInst* call = b ? b_.CreateCall(f, {ai, b_.CreateExtractElement(b, uint64_t(i))})
+                             : b_.CreateCall(f, {ai});
+    call->setDoesNotThrow();
+    r = b_.CreateInsertElement(r, call, uint64_t(i));
+  }
+  return r;
+}
+
+llvm::Value* VectorEmitter::scalar_op(Op op, llvm::Value* a, llvm::Value* b, llvm::Value* c) {
+  auto unary = [&](llvm::Intrinsic::ID id) { return b_.CreateUnaryIntrinsic(id, a); };
+  auto libm1 = [&](const char* f64, const char* f32) {
+    return call_lanes(pure_function(pick_name(f64, f32), 1), a);
+  };
+  auto libm2 = [&](const char* f64, const char* f32) {
+    return call_lanes(pure_function(pick_name(f64, f32), 2), a, b);
+  };
+  switch (op) {
+    case Op::kAdd: return b_.CreateFAdd(a, b);
+    case Op::kSub: return b_.CreateFSub(a, b);
+    case Op::kMul: return b_.CreateFMul(a, b);
+    case Op::kDiv: return b_.CreateFDiv(a, b);
+    case Op::kNeg: return b_.CreateFNeg(a);
+    case Op::kAbs: return fabs(a);
+    // As written in ir_ops.h: a < b ? a : b (NaN -> b), which is x86's minps/maxps.
+    case Op::kMin: return b_.CreateSelect(b_.CreateFCmpOLT(a, b), a, b);
+    case Op::kMax: return b_.CreateSelect(b_.CreateFCmpOGT(a, b), a, b);
+    case Op::kSqrt: return unary(llvm::Intrinsic::sqrt);
+    case Op::kExp: return libm1("exp", "expf");
+    case Op::kLog: return libm1("log", "logf");
+    case Op::kLog10: return libm1("log10", "log10f");
+    case Op::kSin: return libm1("sin", "sinf");
+    case Op::kCos: return libm1("cos", "cosf");
+    case Op::kTan: return libm1("tan", "tanf");
+    case Op::kAsin: return libm1("asin", "asinf");
+    case Op::kAcos: return libm1("acos", "acosf");
+    case Op::kAtan: return libm1("atan", "atanf");
+    case Op::kAtan2: return libm2("atan2", "atan2f");
+    case Op::kSinh: return libm1("sinh", "sinhf");
+    case Op::kCosh: return libm1("cosh", "coshf");
+    case Op::kTanh: return libm1("tanh", "tanhf");
+    case Op::kFloor: return unary(llvm::Intrinsic::floor);
+    case Op::kCeil: return unary(llvm::Intrinsic::ceil);
+    case Op::kTrunc: return unary(llvm::Intrinsic::trunc);
+    case Op::kRound: return unary(llvm::Intrinsic::round);
+    case Op::kFmod: return libm2("fmod", "fmodf");
+    case Op::kPow: return libm2("pow", "powf");
+    case Op::kPowHF: return libm2("hfrt_jit_powhf_f64", "hfrt_jit_powhf_f32");
+    case Op::kSign: {
+      // hf_sign: -1, 0 or 1; NaN stays NaN.
+      llvm::Value* zero_or_nan = b_.CreateSelect(b_.CreateFCmpOEQ(a, splat(0.0)), splat(0.0), a);
+      return b_.CreateSelect(
+          b_.CreateFCmpOGT(a, splat(0.0)), splat(1.0),
+          b_.CreateSelect(b_.CreateFCmpOLT(a, splat(0.0)), splat(-1.0), zero_or_nan));
+    }
+    case Op::kLt: return to_real(b_.CreateFCmpOLT(a, b));
+    case Op::kLe: return to_real(b_.CreateFCmpOLE(a, b));
+    case Op::kGt: return to_real(b_.CreateFCmpOGT(a, b));
+    case Op::kGe: return to_real(b_.CreateFCmpOGE(a, b));
+    case Op::kEqTol:
+    case Op::kNeTol: {
+      llvm::Value* d = fabs(b_.CreateFSub(a, b));
+      // As scalar_ops.h: '=' is |d| < eps, '/=' is |d| >= eps (both false for NaN).
+      return to_real(op == Op::kEqTol ? b_.CreateFCmpOLT(d, splat(kHfEps))
+                                      : b_.CreateFCmpOGE(d, splat(kHfEps)));
+    }
+    case Op::kEq: return to_real(b_.CreateFCmpOEQ(a, b));
+    case Op::kNe: return to_real(b_.CreateFCmpUNE(a, b));
+    case Op::kTruth: return to_real(truth(a));
+    case Op::kAnd: return to_real(b_.CreateAnd(truth(a), truth(b)));
+    case Op::kOr: return to_real(b_.CreateOr(truth(a), truth(b)));
+    case Op::kNot: return to_real(b_.CreateNot(truth(a)));
+    case Op::kSelect: return b_.CreateSelect(nonzero(a), b, c);
+    case Op::kConst: case Op::kInput: case Op::kParam: case Op::kLoadSlot:
+    case Op::kStoreSlot: case Op::kLoadIdx: case Op::kStoreIdx: case Op::kTableLoad:
+    case Op::kCheck: case Op::kIf: case Op::kElse: case Op::kEndIf: case Op::kLoop:
+    case Op::kLoopTest: case Op::kEndLoop:
+      break;
+  }
+  HFRT_CHECK_MSG(false, "scalar_op: not a pure op with arguments: " << op_name(op));
+  return nullptr;
+}
+
+// --- Lane-mask control flow ---------------------------------------------------------------
+
+void VectorEmitter::begin_if(llvm::Value* cond) {
+  MaskFrame f;
+  f.outer = mask_;
+  f.cond = cond;
+  f.skip = new_block("if.skip");
+  f.end = new_block("if.end");
+  llvm::Value* then_mask = and_mask(mask_, cond);
+  llvm::BasicBlock* then_bb = new_block("if.then");
+  b_.CreateCondBr(any(then_mask), then_bb, f.skip);
+  b_.SetInsertPoint(then_bb);
+  mask_ = then_mask;
+  frames_.push_back(f);
+}
+
+void VectorEmitter::begin_else() {
+  HFRT_CHECK(!frames_.empty());
+  MaskFrame& f = frames_.back();
+  HFRT_CHECK(!f.is_loop && !f.has_else);
+  f.has_else = true;
+  b_.CreateBr(f.skip);
+  b_.SetInsertPoint(f.skip);
+  llvm::Value* else_mask = and_mask(f.outer, b_.CreateNot(f.cond));
+  llvm::BasicBlock* else_bb = new_block("if.else");
+  b_.CreateCondBr(any(else_mask), else_bb, f.end);
+  b_.SetInsertPoint(else_bb);
+  mask_ = else_mask;
+}
+
+void VectorEmitter::end_if() {
+  HFRT_CHECK(!frames_.empty());
+  MaskFrame f = frames_.back();
+  frames_.pop_back();
+  HFRT_CHECK(!f.is_loop);
+  b_.CreateBr(f.has_else ? f.end : f.skip);
+  if (!f.has_else) {
+    b_.SetInsertPoint(f.skip);
+    b_.CreateBr(f.end);
+  }
+  b_.SetInsertPoint(f.end);
+  mask_ = f.outer;
+}
+
+void VectorEmitter::begin_loop() {
+  MaskFrame f;
+  f.is_loop = true;
+  f.outer = mask_;
+  f.active = entry_alloca(mt_, "loop.mask");
+  b_.CreateStore(mask_ ? mask_ : all_true(), f.active);
+  f.header = new_block("loop.header");
+  f.end = new_block("loop.exit");
+  b_.CreateBr(f.header);
+  b_.SetInsertPoint(f.header);
+  mask_ = b_.CreateLoad(mt_, f.active);
+  frames_.push_back(f);
+}
+
+void VectorEmitter::loop_continue(llvm::Value* stay) {
+  HFRT_CHECK(!frames_.empty() && frames_.back().is_loop);
+  MaskFrame& f = frames_.back();
+  b_.CreateStore(stay, f.active);
+  llvm::BasicBlock* body = new_block("loop.body");
+  b_.CreateCondBr(any(stay), body, f.end);
+  b_.SetInsertPoint(body);
+  mask_ = stay;
+}
+
+void VectorEmitter::end_loop() {
+  HFRT_CHECK(!frames_.empty() && frames_.back().is_loop);
+  MaskFrame f = frames_.back();
+  frames_.pop_back();
+  b_.CreateBr(f.header);
+  b_.SetInsertPoint(f.end);
+  mask_ = f.outer;
+}
+
+}  // namespace hfrt::jit

@@ -1,0 +1,117 @@
+#pragma once
+// What the three LLVM emitters (scalar llvm_jit.cpp, interval llvm_interval.cpp, gradient
+// llvm_gradient.cpp) share: the vector types of a block of W lanes, constants and small
+// helpers, entry-block allocas, per-lane calls of scalar host functions, the scalar value of
+// every pure op (the scalar JIT's code, which is also the value part of the gradient JIT),
+// lane-mask control flow (scalar and gradient; the interval JIT has its own tri-state rules)
+// and the region/slot analyses of structured control flow.
+//
+// Only jit/llvm_*.cpp may include this header (it includes LLVM).
+
+#include <cstdint>
+#include <vector>
+
+#include "jit/ir.h"
+#include "jit/llvm_includes.h"
+
+namespace hfrt::jit {
+
+/// Control-flow partners: kIf -> its kElse or kEndIf, kElse -> kEndIf, kLoop -> kLoopTest,
+/// kLoopTest -> kEndLoop; -1 elsewhere.
+std::vector<int32_t> match_regions(const Function& fn);
+
+/// Slots written (kStoreSlot, kStoreIdx) by the instructions in [begin, end), ascending.
+std::vector<int> written_slots(const Function& fn, size_t begin, size_t end);
+
+/// Base of the emitters: one IR Function -> LLVM code over <W x T> vectors (lane i = point or
+/// box i of a block). Holds the builder and the types; emitters add their value
+/// representation (one vector, an interval, a dual number) on top.
+class VectorEmitter {
+ protected:
+  /// `element` is double or float; `lanes` a power of two.
+  VectorEmitter(llvm::Module& module, const Function& fn, llvm::Type* element, int lanes);
+
+  // --- Constants and small helpers ------------------------------------------------------
+  llvm::Constant* splat(double v) const { return llvm::ConstantFP::get(vt_, v); }
+  llvm::Constant* all_true() const { return llvm::ConstantInt::getTrue(mt_); }
+  llvm::Constant* all_false() const { return llvm::ConstantInt::getFalse(mt_); }
+  llvm::Value* fabs(llvm::Value* v) { return b_.CreateUnaryIntrinsic(llvm::Intrinsic::fabs, v); }
+  /// Some lane set (a branch condition).
+  llvm::Value* any(llvm::Value* mask) { return b_.CreateOrReduce(mask); }
+  /// A lane mask as 1.0 / 0.0.
+  llvm::Value* to_real(llvm::Value* mask) { return b_.CreateUIToFP(mask, vt_); }
+  /// `v != 0` (NaN counts as nonzero): how kSelect, kIf, kLoopTest and kCheck read a value.
+  llvm::Value* nonzero(llvm::Value* v) { return b_.CreateFCmpUNE(v, splat(0.0)); }
+  /// HyperFun truth: |v| >= 1e-6.
+  llvm::Value* truth(llvm::Value* v);
+  /// m & c, where a null m means all lanes.
+  llvm::Value* and_mask(llvm::Value* m, llvm::Value* c) { return m ? b_.CreateAnd(m, c) : c; }
+
+  /// A new basic block at the end of the current function.
+  llvm::BasicBlock* new_block(const char* name) {
+    return llvm::BasicBlock::Create(ctx_, name, f_);
+  }
+  /// An alloca in the current function's entry block (so SROA/mem2reg promote it).
+  llvm::AllocaInst* entry_alloca(llvm::Type* ty, const char* name = "");
+
+  /// A declared pure external function of `args` scalars (libm or an hfrt helper).
+  llvm::FunctionCallee pure_function(const char* name, int args);
+  /// The f64 or f32 name, by the element type.
+  const char* pick_name(const char* f64_name, const char* f32_name) const {
+    return is_f32_ ? f32_name : f64_name;
+  }
+  /// Calls a scalar function on every lane (all lanes: the functions are pure, and the
+  /// results of inactive lanes are never stored).
+  llvm::Value* call_lanes(llvm::FunctionCallee f, llvm::Value* a, llvm::Value* b = nullptr);
+
+  /// The value of a pure op (kAdd ... kSelect, no kTableLoad) on vectors, exactly as
+  /// scalar_ops.h apply_op computes it: IEEE instructions and intrinsics without fast-math
+  /// flags, per-lane calls of the interpreter's own libm functions and hf_pow.
+  llvm::Value* scalar_op(Op op, llvm::Value* a, llvm::Value* b, llvm::Value* c);
+
+  // --- Lane-mask control flow (scalar and gradient JIT) ----------------------------------
+  // Both sides of an `if` run under their masks (a side no lane takes is skipped by a
+  // branch); a loop runs while any lane is active. mask() is the active lanes (null = all);
+  // only side effects (stores, checks) look at it.
+  llvm::Value* mask() const { return mask_; }
+  void begin_if(llvm::Value* cond);  ///< cond: lanes where the condition holds
+  void begin_else();
+  void end_if();
+  /// Opens the loop header; the lanes that enter it are mask().
+  void begin_loop();
+  /// kLoopTest: lanes in `stay` run the body again (mask() becomes `stay`), the others leave.
+  void loop_continue(llvm::Value* stay);
+  void end_loop();
+
+  llvm::LLVMContext& ctx_;
+  llvm::Module& m_;
+  llvm::IRBuilder<> b_;
+  const Function& fn_;
+  const int w_;
+  const bool is_f32_;
+  llvm::Type* st_;               ///< element type
+  llvm::FixedVectorType* vt_;    ///< <W x T>
+  llvm::FixedVectorType* mt_;    ///< <W x i1>
+  llvm::IntegerType* i64_;
+  llvm::IntegerType* i32_;
+  llvm::IntegerType* i8_;
+  llvm::PointerType* ptr_;
+  llvm::Align align_;            ///< element alignment (callers' arrays are element-aligned)
+  llvm::Function* f_ = nullptr;  ///< the function being emitted
+
+ private:
+  struct MaskFrame {
+    bool is_loop = false;
+    llvm::Value* outer = nullptr;        ///< mask around the region (null = all lanes)
+    llvm::Value* cond = nullptr;         ///< if: lanes where the condition holds
+    llvm::BasicBlock* skip = nullptr;    ///< if: where the then side's skip branch lands
+    llvm::BasicBlock* end = nullptr;     ///< if: after kEndIf; loop: the exit
+    llvm::BasicBlock* header = nullptr;  ///< loop
+    llvm::AllocaInst* active = nullptr;  ///< loop: lanes entering the next iteration
+    bool has_else = false;
+  };
+  llvm::Value* mask_ = nullptr;
+  std::vector<MaskFrame> frames_;
+};
+
+}  // namespace hfrt::jit

@@ -1,0 +1,273 @@
+// The shared LLVM JIT session: see llvm_session.h.
+
+#include "jit/llvm_session.h"
+
+#include <chrono>
+#include <cmath>
+#include <cstdlib>
+#include <cstring>
+#include <mutex>
+
+#include <llvm/ExecutionEngine/Orc/CompileUtils.h>
+#include <llvm/Passes/StandardInstrumentations.h>
+#include <llvm/Support/MemoryBuffer.h>
+#include <llvm/Support/Timer.h>
+#include <llvm/Transforms/Scalar/DCE.h>
+#include <llvm/Transforms/Scalar/EarlyCSE.h>
+#include <llvm/Transforms/Scalar/SROA.h>
+
+#include "lang/check.h"
+
+namespace hfrt::jit {
+namespace {
+
+double ms_since(std::chrono::steady_clock::time_point t0) {
+  return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+}
+
+template <typename F>
+void* fn_addr(F* f) {
+  return reinterpret_cast<void*>(f);
+}
+
+/// libm (the very functions the interpreters call, so f64 results are bit-identical) and the
+/// C library functions the optimiser may introduce.
+std::vector<HostSymbol> libc_symbols() {
+  using D1 = double (*)(double);
+  using D2 = double (*)(double, double);
+  using F1 = float (*)(float);
+  using F2 = float (*)(float, float);
+  return {
+      {"exp", fn_addr(static_cast<D1>(&::exp))},      {"log", fn_addr(static_cast<D1>(&::log))},
+      {"log10", fn_addr(static_cast<D1>(&::log10))},  {"sin", fn_addr(static_cast<D1>(&::sin))},
+      {"cos", fn_addr(static_cast<D1>(&::cos))},      {"tan", fn_addr(static_cast<D1>(&::tan))},
+      {"asin", fn_addr(static_cast<D1>(&::asin))},    {"acos", fn_addr(static_cast<D1>(&::acos))},
+      {"atan", fn_addr(static_cast<D1>(&::atan))},    {"sinh", fn_addr(static_cast<D1>(&::sinh))},
+      {"cosh", fn_addr(static_cast<D1>(&::cosh))},    {"tanh", fn_addr(static_cast<D1>(&::tanh))},
+      {"atan2", fn_addr(static_cast<D2>(&::atan2))},  {"fmod", fn_addr(static_cast<D2>(&::fmod))},
+      {"pow", fn_addr(static_cast<D2>(&::pow))},      {"floor", fn_addr(static_cast<D1>(&::floor))},
+      {"ceil", fn_addr(static_cast<D1>(&::ceil))},    {"trunc", fn_addr(static_cast<D1>(&::trunc))},
+      {"round", fn_addr(static_cast<D1>(&::round))},  {"sqrt", fn_addr(static_cast<D1>(&::sqrt))},
+      {"expf", fn_addr(static_cast<F1>(&::expf))},    {"logf", fn_addr(static_cast<F1>(&::logf))},
+      {"log10f", fn_addr(static_cast<F1>(&::log10f))}, {"sinf", fn_addr(static_cast<F1>(&::sinf))},
+      {"cosf", fn_addr(static_cast<F1>(&::cosf))},    {"tanf", fn_addr(static_cast<F1>(&::tanf))},
+      {"asinf", fn_addr(static_cast<F1>(&::asinf))},  {"acosf", fn_addr(static_cast<F1>(&::acosf))},
+      {"atanf", fn_addr(static_cast<F1>(&::atanf))},  {"sinhf", fn_addr(static_cast<F1>(&::sinhf))},
+      {"coshf", fn_addr(static_cast<F1>(&::coshf))},  {"tanhf", fn_addr(static_cast<F1>(&::tanhf))},
+      {"atan2f", fn_addr(static_cast<F2>(&::atan2f))}, {"fmodf", fn_addr(static_cast<F2>(&::fmodf))},
+      {"powf", fn_addr(static_cast<F2>(&::powf))},    {"floorf", fn_addr(static_cast<F1>(&::floorf))},
+      {"ceilf", fn_addr(static_cast<F1>(&::ceilf))},  {"truncf", fn_addr(static_cast<F1>(&::truncf))},
+      {"roundf", fn_addr(static_cast<F1>(&::roundf))}, {"sqrtf", fn_addr(static_cast<F1>(&::sqrtf))},
+      // The optimiser may turn aggregate initialisation and copies into these.
+      {"memset", fn_addr(&::memset)},                 {"memcpy", fn_addr(&::memcpy)},
+      {"memmove", fn_addr(&::memmove)},
+  };
+}
+
+/// Sets a process-wide LLVM boolean option if this LLVM build has it.
+void set_bool_option(const char* name, bool value) {
+  auto& registered = llvm::cl::getRegisteredOptions();
+  auto it = registered.find(name);
+  if (it != registered.end()) {
+    if (auto* opt = static_cast<llvm::cl::opt<bool>*>(it->second)) opt->setValue(value);
+  }
+}
+
+}  // namespace
+
+std::string llvm_error_text(llvm::Error err) {
+  std::string s;
+  llvm::raw_string_ostream os(s);
+  os << err;
+  return os.str();
+}
+
+size_t count_insts(const llvm::Module& m) {
+  size_t n = 0;
+  for (const llvm::Function& f : m) {
+    for (const llvm::BasicBlock& bb : f) n += bb.size();
+  }
+  return n;
+}
+
+PipelineOptions domain_pipeline(int opt_level) {
+  PipelineOptions o;
+  o.opt_level = opt_level;
+  o.light = opt_level == 1;
+  o.codegen = opt_level <= 0 ? llvm::CodeGenOptLevel::None : llvm::CodeGenOptLevel::Aggressive;
+  return o;
+}
+
+CompiledCode::~CompiledCode() {
+  if (tracker_) {
+    if (auto err = tracker_->remove()) llvm::consumeError(std::move(err));
+  }
+}
+
+Result<LlvmSession*> LlvmSession::get() {
+  static Result<LlvmSession*> session = create();
+  return session;
+}
+
+Result<LlvmSession*> LlvmSession::create() {
+  llvm::InitializeNativeTarget();
+  llvm::InitializeNativeTargetAsmPrinter();
+  llvm::InitializeNativeTargetAsmParser();
+
+  // The X86 MachineCombiner is quadratic in the length of a basic block (60% of codegen time
+  // on a 30k-instruction model) and, without fast-math reassociation, finds nothing to
+  // combine in hfrt's FP code; switch it off (process-wide LLVM option, set once here).
+  set_bool_option("x86-machine-combiner", false);
+  // Debugging and profiling: LLVM options from the environment (e.g. -time-passes).
+  if (std::getenv("HFRT_LLVM_ARGS")) {
+    const char* argv[] = {"hfrt"};
+    llvm::cl::ParseCommandLineOptions(1, argv, "", nullptr, "HFRT_LLVM_ARGS");
+  }
+
+  std::unique_ptr<LlvmSession> s(new LlvmSession());
+  s->cpu_ = llvm::sys::getHostCPUName().str();
+  auto host_features = llvm::sys::getHostCPUFeatures();
+  std::vector<std::string> features;
+  for (auto& f : host_features) {
+    std::string feature(f.second ? "+" : "-");
+    feature.append(f.first().data(), f.first().size());
+    features.push_back(std::move(feature));
+  }
+  if (host_features.lookup("avx512f")) {
+    s->vector_bits_ = 512;
+  } else if (host_features.lookup("avx")) {
+    s->vector_bits_ = 256;
+  }
+  s->jtmb_ = llvm::orc::JITTargetMachineBuilder(llvm::Triple(llvm::sys::getProcessTriple()));
+  s->jtmb_.setCPU(s->cpu_);
+  s->jtmb_.addFeatures(features);
+  s->jtmb_.setCodeGenOptLevel(llvm::CodeGenOptLevel::Aggressive);
+
+  auto jit = llvm::orc::LLJITBuilder()
+                 .setJITTargetMachineBuilder(s->jtmb_)
+                 // No process symbols (every host function is registered below), hence no
+                 // native platform either: JIT code has no static initialisers to run.
+                 .setLinkProcessSymbolsByDefault(false)
+                 .setPlatformSetUp(llvm::orc::setUpInactivePlatform)
+                 .setSupportConcurrentCompilation(true)
+                 .create();
+  if (!jit) return Error{"cannot create the LLVM JIT: " + llvm_error_text(jit.takeError())};
+  s->jit_ = std::move(*jit);
+  {
+    auto tm = s->jtmb_.createTargetMachine();
+    if (!tm) return Error{"cannot create the target machine: " + llvm_error_text(tm.takeError())};
+    s->data_layout_ = (*tm)->createDataLayout().getStringRepresentation();
+    s->triple_ = (*tm)->getTargetTriple().str();
+  }
+
+  llvm::orc::SymbolMap symbols;
+  auto add = [&](const HostSymbol& h) {
+    symbols[s->jit_->mangleAndIntern(h.name)] = {
+        llvm::orc::ExecutorAddr::fromPtr(h.addr),
+        llvm::JITSymbolFlags::Exported | llvm::JITSymbolFlags::Callable};
+  };
+  for (const HostSymbol& h : libc_symbols()) add(h);
+  for (const HostSymbol& h : scalar_jit_symbols()) add(h);
+  for (const HostSymbol& h : interval_jit_symbols()) add(h);
+  if (auto err = s->jit_->getMainJITDylib().define(llvm::orc::absoluteSymbols(symbols))) {
+    return Error{"cannot register host symbols: " + llvm_error_text(std::move(err))};
+  }
+  return s.release();
+}
+
+ModuleUnit LlvmSession::new_module(std::string_view prefix) {
+  ModuleUnit u;
+  u.name = std::string(prefix) + "_" + std::to_string(next_id_.fetch_add(1));
+  u.ctx = std::make_unique<llvm::LLVMContext>();
+  u.module = std::make_unique<llvm::Module>(u.name, *u.ctx);
+  u.module->setDataLayout(data_layout_);
+  u.module->setTargetTriple(triple_);
+  return u;
+}
+
+Result<std::unique_ptr<CompiledCode>> LlvmSession::compile(ModuleUnit unit,
+                                                           const std::string& entry,
+                                                           const PipelineOptions& options,
+                                                           JitStats* stats,
+                                                           std::string* ir_text) {
+  llvm::Module& module = *unit.module;
+  {
+    std::string msg;
+    llvm::raw_string_ostream os(msg);
+    HFRT_CHECK_MSG(!llvm::verifyModule(module, &os), "invalid LLVM IR emitted: " << os.str());
+  }
+  auto tm_or = jtmb_.createTargetMachine();
+  if (!tm_or) {
+    return Error{"cannot create the target machine: " + llvm_error_text(tm_or.takeError())};
+  }
+  std::unique_ptr<llvm::TargetMachine> tm = std::move(*tm_or);
+  tm->setOptLevel(options.codegen);
+  if (stats) stats->llvm_insts_before = count_insts(module);
+
+  // --- Optimisation (new pass manager).
+  auto t0 = std::chrono::steady_clock::now();
+  {
+    llvm::LoopAnalysisManager lam;
+    llvm::FunctionAnalysisManager fam;
+    llvm::CGSCCAnalysisManager cgam;
+    llvm::ModuleAnalysisManager mam;
+    // Standard instrumentation makes -time-passes and -print-after-all (HFRT_LLVM_ARGS) work.
+    llvm::PassInstrumentationCallbacks pic;
+    llvm::StandardInstrumentations si(*unit.ctx, /*DebugLogging=*/false);
+    si.registerCallbacks(pic, &mam);
+    llvm::PassBuilder pb(tm.get(), llvm::PipelineTuningOptions(), std::nullopt, &pic);
+    pb.registerModuleAnalyses(mam);
+    pb.registerCGSCCAnalyses(cgam);
+    pb.registerFunctionAnalyses(fam);
+    pb.registerLoopAnalyses(lam);
+    pb.crossRegisterProxies(lam, fam, cgam, mam);
+    llvm::ModulePassManager mpm;
+    if (options.light) {
+      // Promote slots to registers and share common subexpressions, but keep the emitter's
+      // basic blocks (no SimplifyCFG, no instcombine).
+      llvm::FunctionPassManager fpm;
+      fpm.addPass(llvm::SROAPass(llvm::SROAOptions::PreserveCFG));
+      fpm.addPass(llvm::EarlyCSEPass());
+      fpm.addPass(llvm::DCEPass());
+      mpm.addPass(llvm::createModuleToFunctionPassAdaptor(std::move(fpm)));
+    } else if (options.opt_level <= 0) {
+      mpm = pb.buildO0DefaultPipeline(llvm::OptimizationLevel::O0);
+    } else {
+      llvm::OptimizationLevel level = options.opt_level == 1   ? llvm::OptimizationLevel::O1
+                                      : options.opt_level == 2 ? llvm::OptimizationLevel::O2
+                                                               : llvm::OptimizationLevel::O3;
+      mpm = pb.buildPerModuleDefaultPipeline(level);
+    }
+    mpm.run(module, mam);
+  }
+  if (stats) {
+    stats->optimize_ms = ms_since(t0);
+    stats->llvm_insts_after = count_insts(module);
+  }
+  if (options.keep_ir && ir_text) {
+    ir_text->clear();
+    llvm::raw_string_ostream os(*ir_text);
+    module.print(os, nullptr);
+  }
+
+  // --- Code generation (here rather than lazily in ORC, at the level asked for) and linking.
+  t0 = std::chrono::steady_clock::now();
+  llvm::orc::SimpleCompiler compiler(*tm);
+  auto object = compiler(module);
+  if (!object) return Error{"cannot compile " + entry + ": " + llvm_error_text(object.takeError())};
+  auto tracker = jit_->getMainJITDylib().createResourceTracker();
+  if (auto err = jit_->addObjectFile(tracker, std::move(*object))) {
+    return Error{"cannot add the object to the JIT: " + llvm_error_text(std::move(err))};
+  }
+  auto sym = jit_->lookup(entry);
+  if (!sym) {
+    if (auto err = tracker->remove()) llvm::consumeError(std::move(err));
+    return Error{"cannot link " + entry + ": " + llvm_error_text(sym.takeError())};
+  }
+  auto code = std::make_unique<CompiledCode>(tracker, sym->toPtr<void*>());
+  if (stats) stats->codegen_ms = ms_since(t0);
+  // The context and module die here: the object code no longer needs them.
+  return code;
+}
+
+}  // namespace hfrt::jit

@@ -1,0 +1,130 @@
+#pragma once
+// The one LLVM JIT infrastructure of hfrt, shared by every emitter (the scalar JIT of
+// llvm_jit.cpp, the interval JIT of llvm_interval.cpp, the gradient JIT of llvm_gradient.cpp):
+//
+// - one process-wide ORC LLJIT ("the session"), created on first use for the host CPU with
+//   all its features, concurrent compilation on, no process symbol lookup: every host
+//   function JIT code may call (libm, hfrt's helpers) is registered here as an absolute
+//   symbol, so nothing resolves by surprise;
+// - the host's SIMD width (lanes per precision);
+// - per compiled function: its own LLVMContext (ThreadSafeContext), module and ORC
+//   ResourceTracker, so compiled code is freed with its owner while the session is shared;
+// - the new-pass-manager pipeline at a chosen level and the code generator at a chosen
+//   level (optimisation and code generation are run here, not lazily by ORC, so each can be
+//   timed and tuned per function: huge interval functions want a cheaper code generator);
+// - compile statistics (JitStats).
+//
+// Debugging: the environment variable HFRT_LLVM_ARGS is parsed as LLVM command-line options
+// when the session starts (e.g. HFRT_LLVM_ARGS="-time-passes" prints LLVM's pass timers).
+//
+// Only jit/llvm_*.cpp may include this header (it includes LLVM).
+
+#include <atomic>
+#include <cstdint>
+#include <memory>
+#include <span>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include "jit/llvm_includes.h"
+#include "jit/llvm_jit.h"  // JitStats
+#include "lang/result.h"
+
+namespace hfrt::jit {
+
+/// A host function JIT code may call: registered under `name` at `addr`.
+struct HostSymbol {
+  const char* name;
+  void* addr;
+};
+
+/// The host functions of each emitter (defined in its own llvm_*.cpp); the session registers
+/// all of them, with libm's, when it starts.
+std::span<const HostSymbol> scalar_jit_symbols();
+std::span<const HostSymbol> interval_jit_symbols();
+
+/// How one module is optimised and turned into machine code.
+struct PipelineOptions {
+  /// LLVM's default new-pass-manager pipelines O0..O3, or (light = true) the light pipeline:
+  /// SROA (keeping the CFG), EarlyCSE, instcombine-free DCE. The light pipeline is for very
+  /// wide code (interval, gradient) where the default pipelines' block merging and
+  /// instcombine cost minutes on large models and find little.
+  int opt_level = 2;
+  bool light = false;
+  /// The code generator's level (instruction selection, scheduling, register allocation).
+  llvm::CodeGenOptLevel codegen = llvm::CodeGenOptLevel::Aggressive;
+  /// Keep the optimised IR text (JitFunction::llvm_ir).
+  bool keep_ir = false;
+};
+
+/// The pipeline of the wide domain emitters (interval, gradient) for their opt_level option:
+/// 0 = O0, 1 = the light pipeline, 2 and 3 = LLVM's default O2 / O3 pipelines.
+PipelineOptions domain_pipeline(int opt_level);
+
+/// A fresh context and module, set up for the host (data layout, triple), to emit into.
+struct ModuleUnit {
+  std::unique_ptr<llvm::LLVMContext> ctx;
+  std::unique_ptr<llvm::Module> module;
+  std::string name;  ///< unique in the session: use it as the entry function's name
+};
+
+/// Machine code owned through a ResourceTracker: freed when this is destroyed.
+class CompiledCode {
+ public:
+  CompiledCode(llvm::orc::ResourceTrackerSP tracker, void* entry)
+      : tracker_(std::move(tracker)), entry_(entry) {}
+  ~CompiledCode();
+  CompiledCode(const CompiledCode&) = delete;
+  CompiledCode& operator=(const CompiledCode&) = delete;
+
+  void* entry() const { return entry_; }
+
+ private:
+  llvm::orc::ResourceTrackerSP tracker_;
+  void* entry_;
+};
+
+class LlvmSession {
+ public:
+  /// The process-wide session (created on first call; lives for the process, since code of
+  /// static models may outlive main). Fails only when LLVM cannot create the JIT.
+  static Result<LlvmSession*> get();
+
+  /// The host CPU as LLVM names it (e.g. "znver3").
+  const std::string& cpu_name() const { return cpu_; }
+  /// SIMD lanes for elements of `element_bytes` (8 for double, 4 for float): 512-bit vectors
+  /// with AVX-512, 256 with AVX, else 128.
+  int lanes(int element_bytes) const { return vector_bits_ / (8 * element_bytes); }
+
+  /// A new module named `<prefix>_<unique number>`.
+  ModuleUnit new_module(std::string_view prefix);
+
+  /// Verifies (HFRT_CHECK: the emitters' output must be valid), optimises and compiles
+  /// `unit`, links it under a fresh ResourceTracker and returns the address of the function
+  /// named `entry`. Fills optimize_ms, codegen_ms and the instruction counts of `stats`
+  /// (emit_ms and lanes are the caller's), and `*ir_text` when options.keep_ir.
+  Result<std::unique_ptr<CompiledCode>> compile(ModuleUnit unit, const std::string& entry,
+                                                const PipelineOptions& options, JitStats* stats,
+                                                std::string* ir_text = nullptr);
+
+ private:
+  LlvmSession() = default;
+  static Result<LlvmSession*> create();
+
+  std::unique_ptr<llvm::orc::LLJIT> jit_;
+  llvm::orc::JITTargetMachineBuilder jtmb_{llvm::Triple()};
+  std::string cpu_;
+  std::string data_layout_;
+  std::string triple_;
+  int vector_bits_ = 128;
+  std::atomic<uint64_t> next_id_{0};
+};
+
+/// The text of an llvm::Error (consumed).
+std::string llvm_error_text(llvm::Error err);
+
+/// Number of LLVM instructions in `m`.
+size_t count_insts(const llvm::Module& m);
+
+}  // namespace hfrt::jit
