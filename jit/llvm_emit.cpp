@@ -2,6 +2,7 @@
 
 #include "jit/llvm_emit.h"
 
+#include <algorithm>
 #include <cmath>
 
 #include "jit/scalar_ops.h"
@@ -49,6 +50,65 @@ std::vector<int> written_slots(const Function& fn, size_t begin, size_t end) {
     if (w[s]) out.push_back(s);
   }
   return out;
+}
+
+ValueHomes plan_value_homes(const Function& fn) {
+  const size_t n = fn.insts.size();
+  // The innermost loop around each instruction (-1: none); a kLoop marker is outside its loop.
+  std::vector<int32_t> loop_of(n, -1), loop_end(n, -1), parent(n, -1);
+  std::vector<int32_t> open;
+  for (size_t i = 0; i < n; ++i) {
+    loop_of[i] = open.empty() ? -1 : open.back();
+    if (fn.insts[i].op == Op::kLoop) {
+      parent[i] = loop_of[i];
+      open.push_back(static_cast<int32_t>(i));
+    } else if (fn.insts[i].op == Op::kEndLoop) {
+      HFRT_CHECK(!open.empty());
+      loop_end[open.back()] = static_cast<int32_t>(i);
+      open.pop_back();
+      loop_of[i] = open.empty() ? -1 : open.back();
+    }
+  }
+  // Last use of each value, extended to the end of the outermost loop that encloses a use
+  // but not the definition (the use runs again on the next iteration).
+  std::vector<int64_t> last(n, -1);
+  auto use = [&](ValueId v, size_t at) {
+    int64_t end = static_cast<int64_t>(at);
+    for (int32_t l = loop_of[at]; l > static_cast<int32_t>(v); l = parent[l]) {
+      end = std::max<int64_t>(end, loop_end[l]);
+    }
+    last[v] = std::max(last[v], end);
+  };
+  for (size_t i = 0; i < n; ++i) {
+    for (ValueId a : fn.insts[i].args) {
+      if (a != kNoValue) use(a, i);
+    }
+  }
+  if (fn.result != kNoValue) last[fn.result] = static_cast<int64_t>(n);
+
+  ValueHomes h;
+  h.home.assign(n, -1);
+  std::vector<int32_t> free_homes;
+  std::vector<std::vector<int32_t>> dies_at(n + 1);
+  for (size_t i = 0; i < n; ++i) {
+    const Op op = fn.insts[i].op;
+    if (op_has_value(op) && op != Op::kConst) {
+      if (free_homes.empty()) {
+        h.home[i] = h.num_homes++;
+      } else {
+        h.home[i] = free_homes.back();
+        free_homes.pop_back();
+      }
+      // Freed after its last use (after the definition when it has none).
+      const int64_t end = std::min<int64_t>(std::max<int64_t>(last[i], static_cast<int64_t>(i)),
+                                            static_cast<int64_t>(n));
+      dies_at[static_cast<size_t>(end)].push_back(h.home[i]);
+    }
+    // Homes whose value was used for the last time here serve later definitions.
+    for (int32_t d : dies_at[i]) free_homes.push_back(d);
+    dies_at[i].clear();
+  }
+  return h;
 }
 
 VectorEmitter::VectorEmitter(llvm::Module& module, const Function& fn, llvm::Type* element,

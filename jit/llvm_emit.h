@@ -23,6 +23,21 @@ std::vector<int32_t> match_regions(const Function& fn);
 /// Slots written (kStoreSlot, kStoreIdx) by the instructions in [begin, end), ascending.
 std::vector<int> written_slots(const Function& fn, size_t begin, size_t end);
 
+/// Memory homes of IR values for the wide emitters (interval, gradient). Their values are
+/// many vectors each (lo/hi/NaN, value and three derivatives) and their code per op is long:
+/// kept in SSA form, a large model becomes one huge web of selects and masks in which
+/// SelectionDAG's known-bits queries (exponential in their depth) and the register
+/// allocator take minutes. Instead every computed value is stored to a home in a scratch
+/// buffer when it is defined and loaded where it is used, so each op is a small independent
+/// piece of code between loads and stores (compile time linear in the model) that works in
+/// L1 cache: homes are reused once a value is dead (linear scan over the instruction list;
+/// a value used inside a loop it was not defined in lives until that loop's end).
+struct ValueHomes {
+  std::vector<int32_t> home;  ///< per instruction: its home, or -1 (no value, or a constant)
+  int num_homes = 0;          ///< homes needed at once
+};
+ValueHomes plan_value_homes(const Function& fn);
+
 /// Base of the emitters: one IR Function -> LLVM code over <W x T> vectors (lane i = point or
 /// box i of a block). Holds the builder and the types; emitters add their value
 /// representation (one vector, an interval, a dual number) on top.

@@ -87,7 +87,8 @@ class IntervalEmitter : public VectorEmitter {
 
   void emit(const std::string& name) {
     auto* fty = llvm::FunctionType::get(
-        llvm::Type::getVoidTy(ctx_), {ptr_, ptr_, i64_, ptr_, ptr_, ptr_, ptr_, ptr_}, false);
+        llvm::Type::getVoidTy(ctx_), {ptr_, ptr_, i64_, ptr_, ptr_, ptr_, ptr_, ptr_, ptr_},
+        false);
     f_ = llvm::Function::Create(fty, llvm::Function::ExternalLinkage, name, m_);
     f_->setDoesNotThrow();
     auto arg = f_->arg_begin();
@@ -99,6 +100,9 @@ class IntervalEmitter : public VectorEmitter {
     ohi_ = &*arg++;
     onan_ = &*arg++;
     choices_ = &*arg++;
+    scratch_ = &*arg++;
+    f_->addParamAttr(8, llvm::Attribute::NoAlias);
+    homes_ = plan_value_homes(fn_);
     auto* entry = llvm::BasicBlock::Create(ctx_, "entry", f_);
     b_.SetInsertPoint(entry);
     lane_out_ = b_.CreateAlloca(llvm::ArrayType::get(dt_, 3), nullptr, "lane_out");
@@ -121,7 +125,7 @@ class IntervalEmitter : public VectorEmitter {
       }
       emit_inst(i);
     }
-    IV r = values_[fn_.result];
+    IV r = value(fn_.result);
     HFRT_CHECK(r.lo);
     // The caller's arrays are only element-aligned.
     b_.CreateAlignedStore(r.lo, olo_, llvm::Align(8));
@@ -131,6 +135,8 @@ class IntervalEmitter : public VectorEmitter {
                           llvm::Align(1));
     b_.CreateRetVoid();
   }
+
+  int num_homes() const { return homes_.num_homes; }
 
  private:
   static constexpr size_t kOpsPerBlock = 8;
@@ -309,6 +315,35 @@ class IntervalEmitter : public VectorEmitter {
     b_.CreateStore(b_.CreateOr(b_.CreateLoad(i8_, p), bits), p);
   }
 
+  // --- values: constants in SSA form, computed values in their homes (see ValueHomes) ------
+  /// Home h holds lo (W doubles), hi (W doubles) and the NaN mask (W x i64, 0 or -1).
+  llvm::Value* home_ptr(ValueId v, int part) {
+    const uint64_t at = (static_cast<uint64_t>(homes_.home[v]) * 3 + part) * w_;
+    return b_.CreateConstInBoundsGEP1_64(dt_, scratch_, at);
+  }
+  IV value(ValueId v) {
+    HFRT_CHECK(v != kNoValue);
+    if (homes_.home[v] < 0) {
+      HFRT_CHECK_MSG(values_[v].lo, "use of a value without code: %" << v);
+      return values_[v];
+    }
+    auto* it = llvm::FixedVectorType::get(i64_, w_);
+    return {b_.CreateAlignedLoad(vt_, home_ptr(v, 0), llvm::Align(8)),
+            b_.CreateAlignedLoad(vt_, home_ptr(v, 1), llvm::Align(8)),
+            b_.CreateTrunc(b_.CreateAlignedLoad(it, home_ptr(v, 2), llvm::Align(8)), mt_)};
+  }
+  void define(size_t i, const IV& r) {
+    if (homes_.home[i] < 0) {
+      values_[i] = r;
+      return;
+    }
+    const ValueId v = static_cast<ValueId>(i);
+    b_.CreateAlignedStore(r.lo, home_ptr(v, 0), llvm::Align(8));
+    b_.CreateAlignedStore(r.hi, home_ptr(v, 1), llvm::Align(8));
+    b_.CreateAlignedStore(b_.CreateSExt(r.nan, llvm::FixedVectorType::get(i64_, w_)),
+                          home_ptr(v, 2), llvm::Align(8));
+  }
+
   // --- slots --------------------------------------------------------------------------
   struct SlotMem {
     llvm::AllocaInst* lo;
@@ -365,7 +400,7 @@ class IntervalEmitter : public VectorEmitter {
 
   void begin_if(size_t i) {
     IfFrame fr;
-    fr.cond = nonzero(values_[fn_.insts[i].args[0]]);
+    fr.cond = nonzero(value(fn_.insts[i].args[0]));
     size_t m = static_cast<size_t>(match_[i]);
     fr.has_else = fn_.insts[m].op == Op::kElse;
     size_t end = fr.has_else ? static_cast<size_t>(match_[m]) : m;
@@ -440,7 +475,7 @@ class IntervalEmitter : public VectorEmitter {
   }
   void loop_test(size_t t) {
     LoopFrame& fr = loops_.back();
-    Tri c = nonzero(values_[fn_.insts[t].args[0]]);
+    Tri c = nonzero(value(fn_.insts[t].args[0]));
     llvm::Value* maybe_exit = AND(fr.act, c.can_false);
     for (size_t k = 0; k < fr.written.size(); ++k) {
       const SlotMem& e = fr.exit[k];
@@ -483,18 +518,18 @@ class IntervalEmitter : public VectorEmitter {
   // --- one instruction ------------------------------------------------------------------
   void emit_inst(size_t i) {
     const Inst& in = fn_.insts[i];
-    auto arg = [&](int k) -> const IV& { return values_[in.args[k]]; };
+    auto arg = [&](int k) { return value(in.args[k]); };
     switch (in.op) {
-      case Op::kConst: values_[i] = point(in.imm); return;
+      case Op::kConst: define(i, point(in.imm)); return;
       case Op::kInput: {
         if (in.aux >= fn_.num_inputs) {
-          values_[i] = point(0);
+          define(i, point(0));
           return;
         }
         llvm::Value* off = b_.CreateMul(stride_, llvm::ConstantInt::get(i64_, in.aux));
-        values_[i] = {b_.CreateAlignedLoad(vt_, b_.CreateInBoundsGEP(dt_, xlo_, off), llvm::Align(8)),
-                      b_.CreateAlignedLoad(vt_, b_.CreateInBoundsGEP(dt_, xhi_, off), llvm::Align(8)),
-                      fals()};
+        define(i, {b_.CreateAlignedLoad(vt_, b_.CreateInBoundsGEP(dt_, xlo_, off), llvm::Align(8)),
+                   b_.CreateAlignedLoad(vt_, b_.CreateInBoundsGEP(dt_, xhi_, off), llvm::Align(8)),
+                   fals()});
         return;
       }
       case Op::kParam: {
@@ -502,10 +537,10 @@ class IntervalEmitter : public VectorEmitter {
         llvm::Value* vs = b_.CreateVectorSplat(w_, v);
         llvm::Value* n = isnan(vs);
         vs = sel(n, splat(0), vs);
-        values_[i] = {vs, vs, n};
+        define(i, {vs, vs, n});
         return;
       }
-      case Op::kLoadSlot: values_[i] = load_slot(in.aux); return;
+      case Op::kLoadSlot: define(i, load_slot(in.aux)); return;
       case Op::kStoreSlot: store_slot(in.aux, arg(0)); return;
       case Op::kLoadIdx:
       case Op::kStoreIdx: {
@@ -523,7 +558,7 @@ class IntervalEmitter : public VectorEmitter {
             llvm::Value* in_k = AND(le(klo, splat(k)), le(splat(k), khi));
             r = select_iv(in_k, hull(r, load_slot(in.aux + k - 1)), r);
           }
-          values_[i] = select_iv(empty, point(std::nan("")), r);
+          define(i, select_iv(empty, point(std::nan("")), r));
         } else {
           const IV& v = arg(1);
           for (int k = 1; k <= size; ++k) {
@@ -551,7 +586,7 @@ class IntervalEmitter : public VectorEmitter {
           r = select_iv(in_k, hull(r, point(t[k])), r);
         }
         r.nan = OR(r.nan, idx.nan);
-        values_[i] = select_iv(empty, point(std::nan("")), r);
+        define(i, select_iv(empty, point(std::nan("")), r));
         return;
       }
       case Op::kCheck: add_error(nonzero(arg(0)).can_true); return;
@@ -631,13 +666,14 @@ class IntervalEmitter : public VectorEmitter {
       }
       default: r = lane_call(in.op, a, b); break;  // libm-based ops, div, pow, fmod, sign
     }
-    values_[i] = r;
+    define(i, r);
   }
 
   int loop_limit_;
   bool trace_;
   llvm::Type* dt_;
-  llvm::Value *xlo_, *xhi_, *stride_, *a_, *olo_, *ohi_, *onan_, *choices_;
+  llvm::Value *xlo_, *xhi_, *stride_, *a_, *olo_, *ohi_, *onan_, *choices_, *scratch_;
+  ValueHomes homes_;
   llvm::AllocaInst* lane_out_ = nullptr;
   llvm::AllocaInst* err_ = nullptr;
   std::vector<int32_t> match_;
@@ -651,7 +687,7 @@ class IntervalEmitter : public VectorEmitter {
 
 using BlockFn = void (*)(const double* xlo, const double* xhi, int64_t stride, const double* a,
                          double* out_lo, double* out_hi, uint8_t* out_nan,
-                         uint8_t* choices) noexcept;
+                         uint8_t* choices, double* scratch) noexcept;
 
 }  // namespace
 
@@ -662,6 +698,7 @@ struct IntervalJit::Impl {
   int num_inputs = 0;
   int num_params = 0;
   size_t num_insts = 0;
+  int num_homes = 0;  ///< scratch: 3 W doubles per value home
   JitStats stats;
 };
 
@@ -679,7 +716,9 @@ Result<std::unique_ptr<IntervalJit>> IntervalJit::compile(const Function& fn,
   ModuleUnit unit = session.value()->new_module("hfrt_interval");
   const std::string name = unit.name;
   auto t0 = std::chrono::steady_clock::now();
-  IntervalEmitter(*unit.module, fn, impl->lanes, options.loop_limit, options.trace).emit(name);
+  IntervalEmitter emitter(*unit.module, fn, impl->lanes, options.loop_limit, options.trace);
+  emitter.emit(name);
+  impl->num_homes = emitter.num_homes();
   impl->stats.emit_ms =
       std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
   impl->stats.lanes = impl->lanes;
@@ -701,14 +740,17 @@ void IntervalJit::eval(int64_t n, const double* x_lo, const double* x_hi,
   const int w = im.lanes, dims = im.num_inputs;
   std::vector<double> params(std::max(im.num_params, 1), 0.0);
   for (size_t k = 0; k < a.size() && k < params.size(); ++k) params[k] = a[k];
-  std::vector<uint8_t> scratch;
+  std::vector<uint8_t> no_choices;
   if (!choices) {
-    scratch.assign(im.num_insts, 0);
-    choices = scratch.data();
+    no_choices.assign(im.num_insts, 0);
+    choices = no_choices.data();
   }
+  std::vector<double> homes(static_cast<size_t>(std::max(im.num_homes, 1)) * 3 * w);
+  double* scratch = homes.data();
   int64_t full = n - n % w;
   for (int64_t i = 0; i < full; i += w) {
-    im.block(x_lo + i, x_hi + i, n, params.data(), out_lo + i, out_hi + i, out_nan + i, choices);
+    im.block(x_lo + i, x_hi + i, n, params.data(), out_lo + i, out_hi + i, out_nan + i, choices,
+             scratch);
   }
   if (full < n) {
     // The tail: a padded block whose extra lanes repeat the last box (harmless for the trace).
@@ -723,7 +765,8 @@ void IntervalJit::eval(int64_t n, const double* x_lo, const double* x_hi,
     }
     std::vector<double> olo(w), ohi(w);
     std::vector<uint8_t> onan(w);
-    im.block(lo.data(), hi.data(), w, params.data(), olo.data(), ohi.data(), onan.data(), choices);
+    im.block(lo.data(), hi.data(), w, params.data(), olo.data(), ohi.data(), onan.data(), choices,
+             scratch);
     for (int64_t j = 0; j < m; ++j) {
       out_lo[full + j] = olo[j];
       out_hi[full + j] = ohi[j];

@@ -129,6 +129,7 @@ struct Compiled {
   std::unique_ptr<jit::Interpreter> interp;
   int opt_level = 2;
   int lanes = 0;
+  int interval_lanes = 1;
   bool interval_jit = false;  ///< the interval domain uses the JIT (else the interpreter)
   bool gradient_jit = false;
   mutable LazySlot<jit::JitFunction> jit[2];
@@ -154,7 +155,7 @@ struct Compiled {
       // O1 and costs much compile time (see llvm_interval.cpp).
       jit::IntervalJit::Options options;
       options.opt_level = std::min(opt_level, 1);
-      if (getenv("HFRT_IL")) options.lanes = atoi(getenv("HFRT_IL"));
+      options.lanes = interval_lanes;
       return jit::IntervalJit::compile(fn, options);
     });
   }
@@ -197,6 +198,7 @@ struct Model::Impl {
     auto c = std::make_unique<Compiled>();  // (the pools refer to c->fn: it never moves)
     c->opt_level = options.opt_level;
     c->lanes = options.lanes;
+    c->interval_lanes = options.interval_lanes;
     lang::DiagnosticSink sink(file);
     auto t0 = std::chrono::steady_clock::now();
     c->fn = jit::lower_object(*program, index, &sink);

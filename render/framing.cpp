@@ -91,7 +91,16 @@ Box find_extent(const Field& field, const Box& bbox, int depth, bool* used_inter
   Box found = by_interval ? extent_by_intervals(field, bbox, depth)
                           : extent_by_sampling(field, bbox, depth);
   found = intersect(found, bbox);
-  return found.empty() ? bbox : found;
+  if (found.empty()) return bbox;
+  if (by_interval) {
+    // Interval enclosures of R-function blends can be very loose (the dependency problem:
+    // f1 + f2 + sqrt(f1^2 + f2^2) over a box far from the solid still reaches above 0), so the
+    // octree may keep most of the box. Sampling inside the sound extent tightens the frame;
+    // when no sample is inside (a feature thinner than a cell) the sound extent stays.
+    Box fine = intersect(extent_by_sampling(field, found, depth), found);
+    if (!fine.empty()) found = fine;
+  }
+  return found;
 }
 
 Vec3 default_view_direction() {

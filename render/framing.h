@@ -10,7 +10,8 @@
 namespace hfrt::render {
 
 /// A box enclosing the part of `bbox` where F may be >= 0. With an interval evaluator: octree
-/// subdivision of `bbox` (boxes whose interval excludes 0 are dropped) to `depth` levels; without
+/// subdivision of `bbox` (boxes whose interval excludes 0 are dropped) to `depth` levels, then
+/// tightened by a grid of samples inside it (loose enclosures otherwise frame too wide); without
 /// one: a grid of 2^depth + 1 samples per axis, widened by one cell. Returns `bbox` itself when
 /// nothing was found (an empty model still gets a sensible camera). `used_interval` (optional)
 /// tells which method ran.

@@ -107,6 +107,56 @@ bool parse_light(const std::string& text, render::Light* out) {
   return true;
 }
 
+/// Above this many interval evaluations per primary ray (probe average), the interval root
+/// search costs many times the sign-change march, and `auto` takes the march (interval
+/// culling of tiles and shadow rays stays on). Measured at 512x512 on 2 cores: a sphere needs
+/// ~10 per ray (interval search 2.5x the march's time), a torus ~50 (6x), the default example
+/// (R-function blends, whose enclosures are loose) ~500 (60x: 88 s instead of 1.5 s).
+constexpr double kAutoMaxIntervalEvalsPerRay = 64;
+constexpr int kAutoProbeSize = 24;  ///< the probe image's larger side, in pixels
+
+/// `--root auto`: the interval search (robust: thin shells and tangent touches are not
+/// missed) unless the model has no interval evaluator, its interval engine is the
+/// interpreter (large models: too slow per ray), or a small probe render (same camera and
+/// box, no shadows) shows that its enclosures are too loose for the search to pay. The probe
+/// counts evaluations (deterministic), it does not time them, so the choice does not depend
+/// on the machine or the load. `*why` gets the reason, for the user.
+render::RootMode choose_auto_root(const render::Field& field, const Model& model,
+                                  const render::RenderOptions& opt, std::string* why) {
+  if (!field.has_interval()) {
+    *why = "no interval evaluator for this model";
+    return render::RootMode::kSign;
+  }
+  if (model.interval_engine() != DomainEngine::kJit) {
+    *why = "the interval evaluator of this model is the interpreter (too slow per ray)";
+    return render::RootMode::kSign;
+  }
+  render::RenderOptions probe = opt;
+  const float scale = float(kAutoProbeSize) / float(std::max(opt.width, opt.height));
+  if (scale < 1) {
+    probe.width = std::max(1, int(std::lround(opt.width * scale)));
+    probe.height = std::max(1, int(std::lround(opt.height * scale)));
+  }
+  probe.spp = 1;
+  probe.shadows = false;
+  probe.root = render::RootMode::kInterval;
+  probe.progress = nullptr;
+  render::RenderResult r = render::render(field, probe);
+  double per_ray = double(r.stats.evals.interval_calls) / double(std::max<uint64_t>(r.stats.primary_rays, 1));
+  char buf[200];
+  if (per_ray > kAutoMaxIntervalEvalsPerRay) {
+    std::snprintf(buf, sizeof buf,
+                  "the interval enclosures of this model are loose, %.0f interval evaluations per "
+                  "ray; --root interval forces the interval search", per_ray);
+    *why = buf;
+    return render::RootMode::kSign;
+  }
+  std::snprintf(buf, sizeof buf, "the model has an interval evaluator, %.0f evaluations per ray",
+                per_ray);
+  *why = buf;
+  return render::RootMode::kInterval;
+}
+
 int run_render(const RenderCli& cli) {
   render::RenderOptions opt;
   if (!parse_size(cli.size, &opt.width, &opt.height)) {
@@ -230,6 +280,15 @@ int run_render(const RenderCli& cli) {
     return usage_error("--up is parallel to the view direction; give another --up");
   }
 
+  std::string auto_why;
+  double probe_ms = 0;
+  if (opt.root == render::RootMode::kAuto) {
+    auto t_probe = std::chrono::steady_clock::now();
+    opt.root = choose_auto_root(field, model, opt, &auto_why);
+    probe_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t_probe)
+                   .count();
+  }
+
   render::ProgressBar bar("rendering", isatty(STDERR_FILENO) != 0);
   opt.progress = [&bar](size_t done, size_t total) { bar.update(done, total); };
   render::RenderResult result = render::render(field, opt);
@@ -241,13 +300,10 @@ int run_render(const RenderCli& cli) {
     return 2;
   }
   const render::RenderStats& st = result.stats;
-  const char* why = cli.root == "auto" ? (st.root_used == render::RootMode::kInterval
-                                              ? " (auto: the model has an interval evaluator)"
-                                              : " (auto: no interval evaluator for this model)")
-                                       : "";
+  std::string why = auto_why.empty() ? "" : " (auto: " + auto_why + ")";
   std::fprintf(stderr, "hfrt: wrote %s (%dx%d, %d spp, root search %s%s)\n",
                cli.output.c_str(), opt.width, opt.height, opt.spp,
-               render::root_mode_name(st.root_used), why);
+               render::root_mode_name(st.root_used), why.c_str());
   for (size_t i = 1; i < written.value().size(); ++i) {
     std::fprintf(stderr, "hfrt: wrote %s\n", written.value()[i].c_str());
   }
@@ -261,9 +317,10 @@ int run_render(const RenderCli& cli) {
     double mrays = double(st.primary_rays + st.shadow_rays) / std::max(st.seconds, 1e-9) * 1e-6;
     std::fprintf(stderr, "stats: compile %.1f ms (+ %.1f ms interval and gradient code: %s)\n",
                  loaded->compile_ms, prepare_ms, describe_domain_engines(model).c_str());
-    std::fprintf(stderr, "stats: framing %.1f ms%s, render %.3f s on %d threads\n", frame_ms,
+    std::fprintf(stderr, "stats: framing %.1f ms%s, auto probe %.1f ms, render %.3f s on %d threads\n",
+                 frame_ms,
                  framed ? (extent_by_interval ? " (intervals)" : " (sampling)") : " (camera given)",
-                 st.seconds, st.threads);
+                 probe_ms, st.seconds, st.threads);
     std::fprintf(stderr, "stats: %llu primary + %llu shadow rays, %.2f Mrays/s, %llu hits\n",
                  (unsigned long long)st.primary_rays, (unsigned long long)st.shadow_rays, mrays,
                  (unsigned long long)st.hits);

@@ -34,6 +34,7 @@ int main(int argc, char** argv) {
   add(hfrt::tools::register_eval);
   add(hfrt::tools::register_render);
   add(hfrt::tools::register_slice);
+  add(hfrt::tools::register_repl);
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {

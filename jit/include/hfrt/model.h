@@ -44,6 +44,11 @@ struct ModelOptions {
   int interval_jit_max_insts = 2000;
   /// The same for the gradient evaluator.
   int gradient_jit_max_insts = 2000;
+  /// Boxes per SIMD block of the interval JIT (a power of two; 0 = the host's f64 width).
+  /// 1 by default: the renderer asks for one box per call (bisection), and the libm-based
+  /// interval ops run lane by lane anyway, so wider blocks would evaluate copies of the same
+  /// box (measured: 1 lane renders 1.6x faster than 4). Batch users may prefer 0.
+  int interval_lanes = 1;
 };
 
 /// One compile-time diagnostic (error, warning or note), located in the source.
