@@ -3,10 +3,12 @@
 // interpreter and the scalar JIT (f64), all on one thread. The boxes tile [-1,1]^2 (z = 0)
 // in an R x R grid; the points are the boxes' centres.
 //
-//   hfrt_bench_interval [MODEL.hf] [--grid R] [--seconds S] [-O N] [--no-trace]
+//   hfrt_bench_interval [MODEL.hf] [--grid R] [--seconds S] [-O N] [--no-trace] [--compile-only]
 //
-// -O picks the LLVM pipeline of the interval JIT (default 1); --no-trace compiles it without
-// the min/max trace.
+// -O picks the LLVM pipeline of the interval and gradient JITs (default 1); --no-trace
+// compiles the interval JIT without the min/max trace; --compile-only prints the compile
+// times (with their emit / optimise / codegen split) and evaluates nothing. The gradient
+// interpreter and JIT (f64, points/s at the box centres) are measured too.
 
 #include <algorithm>
 #include <chrono>
@@ -17,6 +19,7 @@
 #include <string>
 #include <vector>
 
+#include "jit/gradient.h"
 #include "jit/interpreter.h"
 #include "jit/interval.h"
 #include "jit/llvm_jit.h"
@@ -52,11 +55,13 @@ int main(int argc, char** argv) {
   double min_s = 1.0;
   int opt_level = 1;
   bool trace = true;
+  bool compile_only = false;
   std::setvbuf(stdout, nullptr, _IOLBF, 0);
   for (int i = 1; i < argc; ++i) {
     if (!std::strcmp(argv[i], "--grid") && i + 1 < argc) grid = std::atoi(argv[++i]);
     else if (!std::strcmp(argv[i], "-O") && i + 1 < argc) opt_level = std::atoi(argv[++i]);
     else if (!std::strcmp(argv[i], "--no-trace")) trace = false;
+    else if (!std::strcmp(argv[i], "--compile-only")) compile_only = true;
     else if (!std::strcmp(argv[i], "--seconds") && i + 1 < argc) min_s = std::atof(argv[++i]);
     else path = argv[i];
   }
@@ -96,18 +101,27 @@ int main(int argc, char** argv) {
   }
   std::vector<double> a(std::max(fn.num_params, 1), 0.0);
 
+  auto print_stats = [](const char* what, double wall_ms, const jit::JitStats& st) {
+    std::printf("%s compile: %.0f ms (emit %.0f, optimise %.0f, codegen+link %.0f; %zu LLVM "
+                "instructions)\n",
+                what, wall_ms, st.emit_ms, st.optimize_ms, st.codegen_ms, st.llvm_insts_after);
+  };
+
   // Interval interpreter.
-  jit::IntervalInterpreter ii(fn);
-  size_t ambiguous = 0;
-  for (const auto& box : boxes) {
-    jit::Interval r = ii.eval(box, a);
-    if (r.lo <= 0 && r.hi >= 0) ++ambiguous;
+  double ii_rate = 0;
+  if (!compile_only) {
+    jit::IntervalInterpreter ii(fn);
+    size_t ambiguous = 0;
+    for (const auto& box : boxes) {
+      jit::Interval r = ii.eval(box, a);
+      if (r.lo <= 0 && r.hi >= 0) ++ambiguous;
+    }
+    ii_rate = rate(min_s, n, [&] {
+      for (const auto& box : boxes) ii.eval(box, a);
+    });
+    std::printf("interval interpreter: %12.0f boxes/s (%zu of %zu boxes contain the surface)\n",
+                ii_rate, ambiguous, n);
   }
-  double ii_rate = rate(min_s, n, [&] {
-    for (const auto& box : boxes) ii.eval(box, a);
-  });
-  std::printf("interval interpreter: %12.0f boxes/s (%zu of %zu boxes contain the surface)\n",
-              ii_rate, ambiguous, n);
 
   // Interval JIT.
   double ij_rate = 0;
@@ -119,44 +133,82 @@ int main(int argc, char** argv) {
     auto ij = jit::IntervalJit::compile(fn, o);
     double compile_s = seconds_since(t0);
     if (ij.ok()) {
-      std::vector<double> olo(n), ohi(n);
-      std::vector<uint8_t> onan(n), choices(fn.insts.size());
-      ij_rate = rate(min_s, n, [&] {
-        ij.value()->eval(static_cast<int64_t>(n), lo.data(), hi.data(), a, olo.data(),
-                         ohi.data(), onan.data(), choices.data());
-      });
-      std::printf("interval JIT (%d lanes, O%d, trace %s): %12.0f boxes/s (compile %.0f ms)\n",
-                  ij.value()->lanes(), o.opt_level, o.trace ? "on" : "off", ij_rate,
-                  compile_s * 1e3);
+      print_stats("interval JIT", compile_s * 1e3, ij.value()->stats());
+      if (!compile_only) {
+        std::vector<double> olo(n), ohi(n);
+        std::vector<uint8_t> onan(n), choices(fn.insts.size());
+        ij_rate = rate(min_s, n, [&] {
+          ij.value()->eval(static_cast<int64_t>(n), lo.data(), hi.data(), a, olo.data(),
+                           ohi.data(), onan.data(), choices.data());
+        });
+        std::printf("interval JIT (%d lanes, O%d, trace %s): %12.0f boxes/s\n",
+                    ij.value()->lanes(), o.opt_level, o.trace ? "on" : "off", ij_rate);
+      }
     } else {
       std::printf("interval JIT: unavailable (%s)\n", ij.error().message.c_str());
     }
   }
 
-  // Scalar interpreter and scalar JIT at the box centres.
-  jit::Interpreter interp(fn);
+  // Gradient interpreter and JIT (f64) at the box centres.
   std::vector<std::vector<double>> pts(n, std::vector<double>(dims, 0.0));
   for (size_t b = 0; b < n; ++b) {
     for (int k = 0; k < dims; ++k) pts[b][k] = centre[k * n + b];
   }
-  double si_rate = rate(min_s, n, [&] {
-    for (const auto& p : pts) interp.eval(p, a);
-  });
-  std::printf("scalar interpreter:   %12.0f points/s\n", si_rate);
-  double sj_rate = 0;
+  double gi_rate = 0, gj_rate = 0;
+  if (!compile_only) {
+    jit::GradientInterpreter gi(fn);
+    gi_rate = rate(min_s, n, [&] {
+      for (const auto& p : pts) gi.eval(p, a);
+    });
+    std::printf("gradient interpreter: %12.0f points/s\n", gi_rate);
+  }
+  {
+    jit::GradientJit::Options o;
+    o.opt_level = opt_level;
+    auto t0 = Clock::now();
+    auto gj = jit::GradientJit::compile(fn, o);
+    double compile_s = seconds_since(t0);
+    if (gj.ok()) {
+      print_stats("gradient JIT", compile_s * 1e3, gj.value()->stats());
+      if (!compile_only) {
+        std::vector<double> out(4 * n);
+        gj_rate = rate(min_s, n, [&] {
+          gj.value()->eval(static_cast<int64_t>(n), centre.data(), a, out.data());
+        });
+        std::printf("gradient JIT f64 (%d lanes): %12.0f points/s\n", gj.value()->lanes(),
+                    gj_rate);
+      }
+    } else {
+      std::printf("gradient JIT: unavailable (%s)\n", gj.error().message.c_str());
+    }
+  }
+
+  // Scalar interpreter and scalar JIT at the box centres.
+  double si_rate = 0, sj_rate = 0;
+  if (!compile_only) {
+    jit::Interpreter interp(fn);
+    si_rate = rate(min_s, n, [&] {
+      for (const auto& p : pts) interp.eval(p, a);
+    });
+    std::printf("scalar interpreter:   %12.0f points/s\n", si_rate);
+  }
   auto t1 = Clock::now();
   auto sj = jit::JitFunction::compile(fn, jit::Precision::kF64);
   if (sj.ok()) {
-    std::printf("scalar JIT compile: %.0f ms\n", seconds_since(t1) * 1e3);
-    std::vector<double> f(n);
-    sj_rate = rate(min_s, n, [&] {
-      sj.value()->f64()(static_cast<int64_t>(n), centre.data(), a.data(), f.data(), nullptr);
-    });
-    std::printf("scalar JIT f64:       %12.0f points/s\n", sj_rate);
+    print_stats("scalar JIT f64", seconds_since(t1) * 1e3, sj.value()->stats());
+    if (!compile_only) {
+      std::vector<double> f(n);
+      sj_rate = rate(min_s, n, [&] {
+        sj.value()->f64()(static_cast<int64_t>(n), centre.data(), a.data(), f.data(), nullptr);
+      });
+      std::printf("scalar JIT f64:       %12.0f points/s\n", sj_rate);
+    }
   }
+  if (compile_only) return 0;
   std::printf("ratios: interval/scalar interpreter %.2f", ii_rate / si_rate);
   if (ij_rate > 0 && sj_rate > 0) std::printf(", interval JIT/scalar JIT %.2f", ij_rate / sj_rate);
   if (ij_rate > 0) std::printf(", interval JIT/interval interpreter %.1f", ij_rate / ii_rate);
+  if (gj_rate > 0) std::printf(", gradient JIT/gradient interpreter %.1f", gj_rate / gi_rate);
   std::printf("\n");
   return 0;
 }

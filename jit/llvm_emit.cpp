@@ -134,6 +134,20 @@ llvm::Value* VectorEmitter::truth(llvm::Value* v) {
   return b_.CreateFCmpOGE(fabs(v), splat(kHfEps));
 }
 
+void VectorEmitter::cut_block(llvm::Value* positive) {
+  if (escape_of_ != f_) {
+    escape_of_ = f_;
+    escape_ = llvm::BasicBlock::Create(ctx_, "escape", f_);
+    llvm::IRBuilder<> eb(escape_);
+    HFRT_CHECK(f_->getReturnType()->isVoidTy());
+    eb.CreateRetVoid();
+  }
+  llvm::BasicBlock* next = new_block("ops");
+  llvm::Value* never = b_.CreateICmpEQ(positive, llvm::ConstantInt::get(positive->getType(), -++cuts_));
+  b_.CreateCondBr(never, escape_, next);
+  b_.SetInsertPoint(next);
+}
+
 llvm::AllocaInst* VectorEmitter::entry_alloca(llvm::Type* ty, const char* name) {
   llvm::BasicBlock& entry = f_->getEntryBlock();
   llvm::IRBuilder<> eb(&entry, entry.begin());

@@ -66,6 +66,16 @@ class VectorEmitter {
   llvm::BasicBlock* new_block(const char* name) {
     return llvm::BasicBlock::Create(ctx_, name, f_);
   }
+  /// Starts a new basic block. Long straight-line code must be cut into blocks: instruction
+  /// selection and scheduling work one block at a time and are superlinear in its size. An
+  /// unconditional branch would not do (CodeGenPrepare merges such blocks back into one),
+  /// so the cut is a conditional branch to a block that returns, on `positive == -k` for a
+  /// fresh k each cut: `positive` is an i64 argument the callers always pass > 0, so the
+  /// branch is never taken (one predictable compare and branch), and no pass can fold it
+  /// (a repeated condition would be folded in the blocks it dominates, a pointer compared
+  /// with null is known non-null once dereferenced).
+  void cut_block(llvm::Value* positive);
+
   /// An alloca in the current function's entry block (so SROA/mem2reg promote it).
   llvm::AllocaInst* entry_alloca(llvm::Type* ty, const char* name = "");
 
@@ -127,6 +137,9 @@ class VectorEmitter {
   };
   llvm::Value* mask_ = nullptr;
   std::vector<MaskFrame> frames_;
+  llvm::BasicBlock* escape_ = nullptr;  ///< cut_block's return block (of f_)
+  llvm::Function* escape_of_ = nullptr;
+  int64_t cuts_ = 0;
 };
 
 }  // namespace hfrt::jit

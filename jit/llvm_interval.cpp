@@ -116,13 +116,8 @@ class IntervalEmitter : public VectorEmitter {
     }
     values_.resize(fn_.insts.size());
     for (size_t i = 0; i < fn_.insts.size(); ++i) {
-      // A fresh basic block every few ops bounds SelectionDAG's block size (its combiner
-      // is superlinear in the size of a block).
-      if (i % kOpsPerBlock == kOpsPerBlock - 1) {
-        llvm::BasicBlock* next = llvm::BasicBlock::Create(ctx_, "ops", f_);
-        b_.CreateBr(next);
-        b_.SetInsertPoint(next);
-      }
+      // Small basic blocks keep instruction selection and scheduling linear.
+      if (i % kOpsPerBlock == kOpsPerBlock - 1) cut_block(stride_);  // n >= 1
       emit_inst(i);
     }
     IV r = value(fn_.result);

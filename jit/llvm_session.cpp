@@ -94,7 +94,9 @@ PipelineOptions domain_pipeline(int opt_level) {
   PipelineOptions o;
   o.opt_level = opt_level;
   o.light = opt_level == 1;
-  o.codegen = opt_level <= 0 ? llvm::CodeGenOptLevel::None : llvm::CodeGenOptLevel::Aggressive;
+  // Not Aggressive: at that level x86 runs the post-RA list scheduler, whose dependence
+  // graph is quadratic in the memory operations of a block.
+  o.codegen = opt_level <= 0 ? llvm::CodeGenOptLevel::None : llvm::CodeGenOptLevel::Default;
   return o;
 }
 

@@ -66,10 +66,12 @@ TEST(ReplSession, MultiLineDefinitionThenEval) {
   EXPECT_TRUE(r->ok) << r->err;
   EXPECT_FALSE(s.pending());
   EXPECT_EQ(s.current(), "ball");
-  // 4 - 1 - 4 - 0.25 = -1.25, printed with %.17g as `hfrt eval` does.
+  // 4 - 1 - 4 - 0.25 = -1.25, printed with %.17g as `hfrt eval` does, then s[] (every
+  // object has s[1], 0 when not written).
   SessionResult e = s.run(":eval 1 2 0.5");
   ASSERT_TRUE(e.ok) << e.err;
-  EXPECT_EQ(e.out, "-1.25\n");
+  EXPECT_EQ(e.out, "-1.25 0\n");
+  EXPECT_EQ(s.run(":eval 0.1 0 0").out, "3.9900000000000002 0\n");
 }
 
 TEST(ReplSession, ErroneousDefinitionKeepsPreviousModel) {
@@ -211,13 +213,13 @@ RunResult run_hfrt(const std::string& script, const std::string& env = "") {
 TEST(ReplScript, SuccessfulScriptExitsZero) {
   RunResult r = run_hfrt("ball(x[3], a[1])\n{\n  ball = 4 - x[1]*x[1];\n}\n:eval 1 0 0\n:eval 3 0 0\n");
   EXPECT_EQ(r.code, 0);
-  EXPECT_EQ(r.out, "defined ball\n3\n-5\n");
+  EXPECT_EQ(r.out, "defined ball\n3 0\n-5 0\n");
 }
 
 TEST(ReplScript, FailedCommandExitsNonZeroButGoesOn) {
   RunResult r = run_hfrt("m(x[3], a[1]) { m = 1; }\nm(x[3], a[1]) { m = 1 + ; }\n:eval 0 0 0\n");
   EXPECT_EQ(r.code, 1);
-  EXPECT_EQ(r.out, "defined m\n1\n");
+  EXPECT_EQ(r.out, "defined m\n1 0\n");
   // Input that ends inside a definition is an error too.
   EXPECT_EQ(run_hfrt("m(x[3], a[1]) {\n m = 1;\n").code, 1);
 }

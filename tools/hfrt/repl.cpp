@@ -98,6 +98,12 @@ struct Frontend {
 
   /// Reloads and re-renders FILE whenever it changes, until Ctrl-C.
   void watch(const std::string& file) {
+    // Ctrl-C ends the watch, not the session: our handler only while watching (elsewhere
+    // the default, so that Ctrl-C at the prompt cannot leave libedit in a half-read line).
+    struct sigaction sa{}, old{};
+    sa.sa_handler = on_sigint;
+    sigemptyset(&sa.sa_mask);
+    sigaction(SIGINT, &sa, &old);
     g_interrupted = 0;
     std::fprintf(stderr, "watching %s (Ctrl-C stops)\n", file.c_str());
     int64_t seen = mtime_ns(file);
@@ -109,6 +115,7 @@ struct Frontend {
       print(session.watch_step(file));
     }
     g_interrupted = 0;
+    sigaction(SIGINT, &old, nullptr);
   }
 
   /// Handles one line; false when the session ends.
@@ -142,10 +149,6 @@ int run_repl(const std::string& model_file) {
   Frontend fe;
   fe.interactive = isatty(STDIN_FILENO) != 0;
   fe.preview = fe.interactive && isatty(STDOUT_FILENO) != 0;
-  struct sigaction sa{};
-  sa.sa_handler = on_sigint;
-  sigemptyset(&sa.sa_mask);
-  sigaction(SIGINT, &sa, nullptr);
   if (!model_file.empty()) fe.print(fe.session.run(":load " + model_file));
 
   if (!fe.interactive) {
@@ -176,7 +179,6 @@ int run_repl(const std::string& model_file) {
     if (!raw) break;  // EOF (Ctrl-D)
     std::string text = raw;
     std::free(raw);
-    g_interrupted = 0;
     if (text.find_first_not_of(" \t") != std::string::npos) {
       add_history(text.c_str());
       // Written as we go: nothing typed is lost if the session dies.

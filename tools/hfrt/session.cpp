@@ -316,8 +316,12 @@ SessionResult Session::cmd_load(const std::vector<std::string>& args) {
   ss << in.rdbuf();
   std::string text = ss.str();
   // The file alone first, so its diagnostics name its own lines.
-  CompileResult alone = Model::compile(text, {}, args[0]);
+  ModelOptions mo;
+  mo.eager_f32 = true;
+  auto t0 = std::chrono::steady_clock::now();
+  CompileResult alone = Model::compile(text, mo, args[0]);
   ++compiles_;
+  last_compile_ms_ = ms_since(t0);
   if (!alone.ok()) return failure(alone.error.empty() ? alone.rendered : "hfrt: " + alone.error);
   std::vector<std::string> defs = split_objects(text);
   auto objects = objects_;
@@ -338,6 +342,11 @@ SessionResult Session::cmd_load(const std::vector<std::string>& args) {
   for (const auto& o : objects) {
     src += o.second;
     if (src.back() != '\n') src += '\n';
+  }
+  // Into an empty session the file is the whole source: its model serves (no second compile).
+  if (src == text && alone.model->object_name() == current) {
+    if (cache_.size() >= 16) cache_.clear();
+    cache_.emplace(std::make_pair(src, current), std::move(*alone.model));
   }
   std::string err;
   if (!model_for(src, current, &err, 0, "<session>")) return failure(err);
@@ -375,9 +384,10 @@ SessionResult Session::cmd_eval(const std::vector<std::string>& args) {
   ++evals_;
   std::string line;
   append_number(line, pv.f);
-  for (double s : pv.s) {
+  // s[] as `hfrt eval` prints it: num_attributes() values (none for an object without s).
+  for (int k = 0; k < m->num_attributes() && k < int(pv.s.size()); ++k) {
     line += ' ';
-    append_number(line, s);
+    append_number(line, pv.s[size_t(k)]);
   }
   SessionResult r = success(line);
   if (!pv.ok()) {
