@@ -4,10 +4,12 @@
 // in an R x R grid; the points are the boxes' centres.
 //
 //   hfrt_bench_interval [MODEL.hf] [--grid R] [--seconds S] [-O N] [--no-trace] [--compile-only]
+//                       [--inline-limit N]
 //
 // -O picks the LLVM pipeline of the interval and gradient JITs (default 1); --no-trace
 // compiles the interval JIT without the min/max trace; --compile-only prints the compile
-// times (with their emit / optimise / codegen split) and evaluates nothing. The gradient
+// times (with their emit / optimise / codegen split) and evaluates nothing; --inline-limit
+// sets IntervalJit::Options::inline_limit (0: every op through its helper). The gradient
 // interpreter and JIT (f64, points/s at the box centres) are measured too.
 
 #include <algorithm>
@@ -56,12 +58,14 @@ int main(int argc, char** argv) {
   int opt_level = 1;
   bool trace = true;
   bool compile_only = false;
+  int inline_limit = jit::IntervalJit::Options{}.inline_limit;
   std::setvbuf(stdout, nullptr, _IOLBF, 0);
   for (int i = 1; i < argc; ++i) {
     if (!std::strcmp(argv[i], "--grid") && i + 1 < argc) grid = std::atoi(argv[++i]);
     else if (!std::strcmp(argv[i], "-O") && i + 1 < argc) opt_level = std::atoi(argv[++i]);
     else if (!std::strcmp(argv[i], "--no-trace")) trace = false;
     else if (!std::strcmp(argv[i], "--compile-only")) compile_only = true;
+    else if (!std::strcmp(argv[i], "--inline-limit") && i + 1 < argc) inline_limit = std::atoi(argv[++i]);
     else if (!std::strcmp(argv[i], "--seconds") && i + 1 < argc) min_s = std::atof(argv[++i]);
     else path = argv[i];
   }
@@ -129,6 +133,7 @@ int main(int argc, char** argv) {
     jit::IntervalJit::Options o;
     o.trace = trace;
     o.opt_level = opt_level;
+    o.inline_limit = inline_limit;
     auto t0 = Clock::now();
     auto ij = jit::IntervalJit::compile(fn, o);
     double compile_s = seconds_since(t0);
@@ -141,8 +146,10 @@ int main(int argc, char** argv) {
           ij.value()->eval(static_cast<int64_t>(n), lo.data(), hi.data(), a, olo.data(),
                            ohi.data(), onan.data(), choices.data());
         });
-        std::printf("interval JIT (%d lanes, O%d, trace %s): %12.0f boxes/s\n",
-                    ij.value()->lanes(), o.opt_level, o.trace ? "on" : "off", ij_rate);
+        std::printf("interval JIT (%d lanes, O%d, trace %s, ops %s): %12.0f boxes/s\n",
+                    ij.value()->lanes(), o.opt_level, o.trace ? "on" : "off",
+                    static_cast<int64_t>(fn.insts.size()) > o.inline_limit ? "outlined" : "inline",
+                    ij_rate);
       }
     } else {
       std::printf("interval JIT: unavailable (%s)\n", ij.error().message.c_str());

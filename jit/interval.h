@@ -127,6 +127,10 @@ class IntervalJit {
     int loop_limit = kIntervalLoopLimit;
     int opt_level = 1;   ///< LLVM pipeline O0..O3 (O1: large models compile much faster)
     bool trace = true;   ///< emit the min/max/select trace (else `choices` stays untouched)
+    /// Functions with more IR instructions than this call one shared helper per op kind
+    /// instead of inlining every op: compile time stays small and linear (seconds, not
+    /// minutes, for 10k-instruction models) for a modest loss of throughput. Same results.
+    int inline_limit = 1500;
   };
 
   /// Emits, optimises and links `fn` (verified IR).

@@ -61,13 +61,6 @@ class GradientEmitter : public VectorEmitter {
     }
     values_.resize(fn_.insts.size());
     for (size_t i = 0; i < fn_.insts.size(); ++i) {
-      // Small basic blocks keep SelectionDAG fast (its combiner is superlinear in the size
-      // of a block).
-      if (i % kOpsPerBlock == kOpsPerBlock - 1) {
-        llvm::BasicBlock* next = llvm::BasicBlock::Create(ctx_, "ops", f_);
-        b_.CreateBr(next);
-        b_.SetInsertPoint(next);
-      }
       emit_inst(i);
     }
     DV r = values_[fn_.result];
@@ -82,7 +75,6 @@ class GradientEmitter : public VectorEmitter {
   }
 
  private:
-  static constexpr size_t kOpsPerBlock = 8;
   llvm::Value* sel(llvm::Value* c, llvm::Value* a, llvm::Value* b) { return b_.CreateSelect(c, a, b); }
   llvm::Value* add(llvm::Value* a, llvm::Value* b) { return b_.CreateFAdd(a, b); }
   llvm::Value* sub(llvm::Value* a, llvm::Value* b) { return b_.CreateFSub(a, b); }

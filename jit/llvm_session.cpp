@@ -242,6 +242,12 @@ Result<std::unique_ptr<CompiledCode>> LlvmSession::compile(ModuleUnit unit,
     }
     mpm.run(module, mam);
   }
+  for (const std::string& name : options.fast_codegen) {
+    if (llvm::Function* f = module.getFunction(name)) {
+      f->addFnAttr(llvm::Attribute::NoInline);
+      f->addFnAttr(llvm::Attribute::OptimizeNone);
+    }
+  }
   if (stats) {
     stats->optimize_ms = ms_since(t0);
     stats->llvm_insts_after = count_insts(module);

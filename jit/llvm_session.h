@@ -54,6 +54,10 @@ struct PipelineOptions {
   bool light = false;
   /// The code generator's level (instruction selection, scheduling, register allocation).
   llvm::CodeGenOptLevel codegen = llvm::CodeGenOptLevel::Aggressive;
+  /// Functions compiled without machine optimisation (fast instruction selection; marked
+  /// optnone after the IR pipeline, which still optimises them): for huge functions that
+  /// are mostly calls, where the optimising code generator costs seconds and gains nothing.
+  std::vector<std::string> fast_codegen;
   /// Keep the optimised IR text (JitFunction::llvm_ir).
   bool keep_ir = false;
 };

@@ -199,5 +199,36 @@ TEST(GradientCorpusTest, ModelsMatchCentralDifferences) {
   run_corpus(HFRT_CORPUS_DIR "/models", false, 20);
 }
 
+// The interval JIT on prospero (8k instructions: the outlined code shape) gives the
+// interpreter's intervals and trace, and compiles (the regression this guards: minutes).
+TEST(IntervalCorpusTest, ProsperoJitSameAsInterpreter) {
+  std::optional<Function> fn = lower_file(HFRT_CORPUS_DIR "/bench/prospero.hf");
+  ASSERT_TRUE(fn.has_value());
+  ASSERT_GT(static_cast<int64_t>(fn->insts.size()), IntervalJit::Options{}.inline_limit);
+  auto jit = IntervalJit::compile(*fn);
+  ASSERT_TRUE(jit.ok()) << jit.error().message;
+  IntervalInterpreter ii(*fn);
+  std::mt19937_64 rng(11);
+  std::uniform_real_distribution<double> u(-1, 1);
+  std::vector<double> a(std::max(fn->num_params, 1), 0.0);
+  int failures = 0;
+  for (int bi = 0; bi < 24; ++bi) {
+    std::vector<Interval> box(fn->num_inputs, Interval{0, 0, false});
+    const double w = bi % 3 == 0 ? 1.0 : bi % 3 == 1 ? 0.05 : 0.0;
+    for (int k = 0; k < std::min(fn->num_inputs, 2); ++k) {
+      const double c = u(rng);
+      box[k] = {c - w / 2, c + w / 2, false};
+    }
+    std::vector<uint8_t> cj, ci;
+    Interval got = jit.value()->eval_one(box, a, &cj);
+    Interval ref = ii.eval(box, a, &ci);
+    if (!(got == ref) && failures++ < 5) {
+      ADD_FAILURE() << "box " << bi << ": JIT " << str(got) << ", interpreter " << str(ref);
+    }
+    if (cj != ci && failures++ < 5) ADD_FAILURE() << "box " << bi << ": traces differ";
+  }
+  EXPECT_EQ(failures, 0);
+}
+
 }  // namespace
 }  // namespace hfrt::jit

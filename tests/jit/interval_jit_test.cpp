@@ -57,9 +57,13 @@ const OpCase kOps[] = {
 };
 
 /// Compares JIT and interpreter on `boxes` (SoA over fn.num_inputs); returns failures.
+/// `outlined`: compile every op as a call of its helper (IntervalJit::Options::inline_limit
+/// 0, the code shape of large models) instead of inline.
 int compare(const Function& fn, const std::vector<std::vector<Interval>>& boxes,
-            std::span<const double> a, const std::string& what) {
-  auto jit = IntervalJit::compile(fn);
+            std::span<const double> a, const std::string& what, bool outlined = false) {
+  IntervalJit::Options options;
+  if (outlined) options.inline_limit = 0;
+  auto jit = IntervalJit::compile(fn, options);
   if (!jit.ok()) {
     ADD_FAILURE() << what << ": " << jit.error().message;
     return 1;
@@ -124,6 +128,7 @@ TEST_P(IntervalJitOpTest, SameAsInterpreter) {
       boxes.push_back(box);
     }
     EXPECT_EQ(compare(fn, boxes, {}, std::string(op_name(oc.op))), 0);
+    EXPECT_EQ(compare(fn, boxes, {}, std::string(op_name(oc.op)) + " outlined", true), 0);
   }
 }
 
@@ -152,7 +157,10 @@ TEST(IntervalJitTest, RandomProgramsSameAsInterpreter) {
     }
     std::vector<double> a = {0.5, -1.25};
     a.resize(std::max(fn.num_params, 1), 0.0);
-    failures += compare(fn, boxes, a, "seed " + std::to_string(seed));
+    // Every other program with every op outlined (helpers under control-flow masks).
+    const bool outlined = seed % 2 == 1;
+    failures += compare(fn, boxes, a, "seed " + std::to_string(seed) + (outlined ? " outlined" : ""),
+                        outlined);
   }
   EXPECT_EQ(failures, 0);
 }

@@ -1,9 +1,14 @@
 // The public embedding API (hfrt/model.h): compile, diagnostics, objects, parameters,
-// single points and batches in both precisions and both backends, threads.
+// single points and batches in both precisions and both backends, threads; the interval and
+// gradient domains (soundness on sampled points, central differences, engines, laziness).
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
+#include <cstdio>
+#include <random>
+#include <string>
 #include <thread>
 
 #include "hfrt/model.h"
@@ -142,6 +147,302 @@ TEST(JitModelTest, ManyThreadsEvaluateAtOnce) {
   }
   for (auto& th : threads) th.join();
   for (int t = 0; t < 8; ++t) EXPECT_EQ(bad[t], 0) << t;
+}
+
+// --- Interval and gradient domains -----------------------------------------------------------
+
+const char* kSphereModel =
+    "my_model(x[3], a[1]) {\n"
+    "  array c[3];\n"
+    "  c = [0.5, -1, 0];\n"
+    "  my_model = hfSphere(x, c, a[1]);\n"
+    "}\n";
+
+const char* kTorusModel =
+    "my_model(x[3], a[1]) {\n"
+    "  array c[3];\n"
+    "  c = [0, 0, 1];\n"
+    "  my_model = hfTorusZ(x, c, 3, 1);\n"
+    "}\n";
+
+/// Blends, a division and a square root: loose enclosures, NaN possible (sqrt of x[1]).
+const char* kRoughModel =
+    "my_model(x[3], a[1]) {\n"
+    "  array c[3];\n"
+    "  c = [0, 0, 0];\n"
+    "  b = hfBlendUni(hfSphere(x, c, 2), x[3] - 0.5, 1, 1, 1);\n"
+    "  my_model = b + sqrt(x[1]) / (1 + x[2] * x[2]);\n"
+    "}\n";
+
+Model compile_or_die(const char* source, Backend backend, std::vector<double> params = {3.0}) {
+  ModelOptions mo;
+  mo.backend = backend;
+  CompileResult r = Model::compile(source, mo);
+  EXPECT_TRUE(r.ok()) << r.rendered << r.error;
+  Model m = std::move(*r.model);
+  m.set_params(std::move(params));
+  return m;
+}
+
+TEST(JitModelTest, IntervalContainsSampledPoints) {
+  for (const char* source : {kSphereModel, kTorusModel, kRoughModel}) {
+    for (Backend backend : {Backend::kJit, Backend::kInterp}) {
+      Model m = compile_or_die(source, backend);
+      std::mt19937_64 rng(7);
+      std::uniform_real_distribution<double> u(-4, 4), w(0, 1);
+      int nan_boxes = 0;
+      for (int b = 0; b < 200; ++b) {
+        double lo[3], hi[3];
+        const double width = std::pow(10.0, -3 + 3.5 * w(rng));
+        for (int k = 0; k < 3; ++k) {
+          lo[k] = u(rng);
+          hi[k] = lo[k] + width * w(rng);
+        }
+        IntervalValue iv = m.eval_interval(lo, hi);
+        ASSERT_LE(iv.lo, iv.hi);
+        nan_boxes += iv.maybe_nan;
+        for (int s = 0; s < 40; ++s) {
+          double p[3];
+          for (int k = 0; k < 3; ++k) {
+            // Corners first, then random points inside.
+            p[k] = s < 8 ? ((s >> k) & 1 ? hi[k] : lo[k]) : lo[k] + (hi[k] - lo[k]) * w(rng);
+          }
+          double f = m.eval(std::span<const double>(p, 3)).f;
+          ASSERT_TRUE(iv.contains(f)) << "F = " << f << " outside [" << iv.lo << ", " << iv.hi
+                                      << "]" << (iv.maybe_nan ? " nan" : "") << " at (" << p[0]
+                                      << ", " << p[1] << ", " << p[2] << ")";
+        }
+      }
+      if (source == kRoughModel) {
+        EXPECT_GT(nan_boxes, 0);  // boxes with x[1] < 0 may have no value
+      } else {
+        EXPECT_EQ(nan_boxes, 0);
+      }
+    }
+  }
+}
+
+TEST(JitModelTest, IntervalOfAKnownBoxIsTight) {
+  for (Backend backend : {Backend::kJit, Backend::kInterp}) {
+    Model m = compile_or_die(kSphereModel, backend, {2.0});
+    // hfSphere = r^2 - |x - c|^2; over [0.5, 1.5] x [-1, 0] x [0, 1]: [4 - 3, 4 - 0].
+    IntervalValue iv = m.eval_interval({0.5, -1, 0}, {1.5, 0, 1});
+    EXPECT_NEAR(iv.lo, 1.0, 1e-9);
+    EXPECT_NEAR(iv.hi, 4.0, 1e-9);
+    EXPECT_LE(iv.lo, 1.0);
+    EXPECT_GE(iv.hi, 4.0);
+    EXPECT_FALSE(iv.maybe_nan);
+    // A degenerate box is (about) the point value.
+    IntervalValue pt = m.eval_interval({1, 1, 1}, {1, 1, 1});
+    double f = m.eval({1, 1, 1}).f;
+    EXPECT_TRUE(pt.contains(f));
+    EXPECT_LT(pt.hi - pt.lo, 1e-12);
+  }
+}
+
+TEST(JitModelTest, IntervalBatchMatchesSingleBoxesOnBothBackends) {
+  Model jit = compile_or_die(kRoughModel, Backend::kJit);
+  Model interp = compile_or_die(kRoughModel, Backend::kInterp);
+  EXPECT_EQ(jit.interval_engine(), DomainEngine::kJit);
+  EXPECT_EQ(interp.interval_engine(), DomainEngine::kInterp);
+  const int n = 23;
+  std::vector<double> lo(3 * n), hi(3 * n);
+  std::mt19937_64 rng(3);
+  std::uniform_real_distribution<double> u(-3, 3), w(0, 0.7);
+  for (int i = 0; i < 3 * n; ++i) {
+    lo[i] = u(rng);
+    hi[i] = lo[i] + w(rng);
+  }
+  for (const Model* m : {&jit, &interp}) {
+    std::vector<double> rlo(n), rhi(n);
+    std::vector<uint8_t> rnan(n);
+    m->eval_interval_batch(n, lo.data(), hi.data(), rlo.data(), rhi.data(), rnan.data());
+    for (int i = 0; i < n; ++i) {
+      double blo[3] = {lo[i], lo[n + i], lo[2 * n + i]}, bhi[3] = {hi[i], hi[n + i], hi[2 * n + i]};
+      IntervalValue one = jit.eval_interval(blo, bhi);
+      // The interval JIT and interpreter implement the same op extensions: same bounds.
+      EXPECT_EQ(rlo[i], one.lo) << i;
+      EXPECT_EQ(rhi[i], one.hi) << i;
+      EXPECT_EQ(rnan[i] != 0, one.maybe_nan) << i;
+    }
+  }
+}
+
+TEST(JitModelTest, IntervalTraceTellsWhichOperandDecides) {
+  const char* source = "my_model(x[3], a[1]) { my_model = max(x[1], x[2]); }";
+  for (Backend backend : {Backend::kJit, Backend::kInterp}) {
+    Model m = compile_or_die(source, backend);
+    std::vector<uint8_t> choices;
+    auto count = [&](uint8_t bits) { return std::count(choices.begin(), choices.end(), bits); };
+    m.eval_interval(std::vector<double>{2, 0, 0}, std::vector<double>{3, 1, 0}, &choices);
+    EXPECT_EQ(choices.size(), static_cast<size_t>(m.stats().ir_insts));
+    EXPECT_EQ(count(1), 1);  // x[1] >= 2 > x[2]: only the left operand
+    EXPECT_EQ(count(2) + count(3), 0);
+    m.eval_interval(std::vector<double>{0, 2, 0}, std::vector<double>{1, 3, 0}, &choices);
+    EXPECT_EQ(count(2), 1);
+    EXPECT_EQ(count(1) + count(3), 0);
+    m.eval_interval(std::vector<double>{0, 0, 0}, std::vector<double>{2, 2, 0}, &choices);
+    EXPECT_EQ(count(3), 1);
+    // The batch ORs over its boxes.
+    double lo[2 * 3] = {2, 0, 0, 2, 0, 0}, hi[2 * 3] = {3, 1, 1, 3, 0, 0};
+    double rlo[2], rhi[2];
+    uint8_t rnan[2];
+    choices.assign(choices.size(), 0xff);  // overwritten, not OR-ed into
+    m.eval_interval_batch(2, lo, hi, rlo, rhi, rnan, choices.data());
+    EXPECT_EQ(count(3), 1);
+    EXPECT_EQ(count(0xff), 0);
+  }
+}
+
+/// Central differences of the f64 scalar evaluator.
+void central_differences(const Model& m, const double p[3], double h, double out[3]) {
+  for (int k = 0; k < 3; ++k) {
+    double a[3] = {p[0], p[1], p[2]}, b[3] = {p[0], p[1], p[2]};
+    a[k] += h;
+    b[k] -= h;
+    out[k] = (m.eval(std::span<const double>(a, 3)).f - m.eval(std::span<const double>(b, 3)).f) /
+             (2 * h);
+  }
+}
+
+TEST(JitModelTest, GradientMatchesCentralDifferences) {
+  for (const char* source : {kSphereModel, kTorusModel}) {
+    for (Backend backend : {Backend::kJit, Backend::kInterp}) {
+      Model m = compile_or_die(source, backend);
+      std::mt19937_64 rng(11);
+      std::uniform_real_distribution<double> u(-4, 4);
+      const int n = 50;
+      std::vector<double> xs(3 * n), g(4 * n);
+      std::vector<float> xs32(3 * n), g32(4 * n);
+      for (int i = 0; i < n; ++i) {
+        for (int k = 0; k < 3; ++k) xs32[k * n + i] = static_cast<float>(xs[k * n + i] = u(rng));
+      }
+      m.eval_gradient_batch(n, xs.data(), g.data());
+      m.eval_gradient_batch(n, xs32.data(), g32.data());
+      for (int i = 0; i < n; ++i) {
+        const double p[3] = {xs[i], xs[n + i], xs[2 * n + i]};
+        GradientValue gv = m.eval_gradient(std::span<const double>(p, 3));
+        double fd[3];
+        central_differences(m, p, 1e-5, fd);
+        EXPECT_DOUBLE_EQ(gv.f, m.eval(std::span<const double>(p, 3)).f) << i;
+        EXPECT_DOUBLE_EQ(g[i], gv.f) << i;
+        for (int k = 0; k < 3; ++k) {
+          EXPECT_NEAR(gv.d[k], fd[k], 1e-6 * (1 + std::fabs(fd[k]))) << "point " << i << " d" << k;
+          EXPECT_DOUBLE_EQ(g[(k + 1) * n + i], gv.d[k]) << i;
+          EXPECT_NEAR(g32[(k + 1) * n + i], gv.d[k], 1e-4 * (1 + std::fabs(gv.d[k]))) << i;
+        }
+      }
+    }
+  }
+}
+
+TEST(JitModelTest, GradientOfASphereIsExact) {
+  for (Backend backend : {Backend::kJit, Backend::kInterp}) {
+    Model m = compile_or_die(kSphereModel, backend, {2.0});
+    // F = 4 - (x-0.5)^2 - (y+1)^2 - z^2: grad = -2 (x - 0.5, y + 1, z).
+    GradientValue g = m.eval_gradient({1.5, 1, -2});
+    EXPECT_DOUBLE_EQ(g.f, 4 - 1 - 4 - 4);
+    EXPECT_DOUBLE_EQ(g.d[0], -2);
+    EXPECT_DOUBLE_EQ(g.d[1], -4);
+    EXPECT_DOUBLE_EQ(g.d[2], 4);
+  }
+}
+
+TEST(JitModelTest, GradientOfAPointWithoutValueIsNan) {
+  for (Backend backend : {Backend::kJit, Backend::kInterp}) {
+    Model m = compile_or_die("my_model(x[3], a[1]) { my_model = 1 / x[1]; }", backend);
+    GradientValue g = m.eval_gradient({0, 1, 1});
+    EXPECT_TRUE(std::isnan(g.f));
+    for (double d : g.d) EXPECT_TRUE(std::isnan(d));
+    GradientValue ok = m.eval_gradient({2, 1, 1});
+    EXPECT_DOUBLE_EQ(ok.f, 0.5);
+    EXPECT_DOUBLE_EQ(ok.d[0], -0.25);
+  }
+}
+
+TEST(JitModelTest, DomainJitsCompileLazily) {
+  CompileResult r = Model::compile(kTorusModel);
+  ASSERT_TRUE(r.ok());
+  const Model& m = *r.model;
+  EXPECT_FALSE(m.stats().interval.compiled);
+  EXPECT_FALSE(m.stats().gradient_f64.compiled);
+  m.eval_interval({0, 0, 0}, {1, 1, 1});
+  EXPECT_TRUE(m.stats().interval.compiled);
+  EXPECT_GT(m.stats().interval.compile_ms, 0);
+  EXPECT_FALSE(m.stats().gradient_f64.compiled);
+  EXPECT_TRUE(m.prepare_gradient(Precision::kF32));
+  EXPECT_TRUE(m.stats().gradient_f32.compiled);
+  EXPECT_FALSE(m.stats().gradient_f64.compiled);
+}
+
+TEST(JitModelTest, HeavyObjectsUseTheDomainInterpreters) {
+  // A sum of 1200 distinct terms (no common subexpressions): about 2400 IR instructions,
+  // over the default threshold of 2000.
+  std::string source = "my_model(x[3], a[1]) { t = 1;";
+  double sum = 0, sum_x1 = 0;
+  for (int i = 0; i < 1200; ++i) {
+    const double c = 0.001 + 1e-6 * i;
+    char term[64];
+    std::snprintf(term, sizeof term, " t = t - %.17g * x[%d];", c, i % 3 + 1);
+    source += term;
+    sum += c;
+    if (i % 3 == 0) sum_x1 += c;
+  }
+  source += " my_model = t; }";
+  ModelOptions mo;
+  mo.eager_f64 = false;  // the scalar JIT is not needed here
+  CompileResult heavy = Model::compile(source, mo);
+  ASSERT_TRUE(heavy.ok()) << heavy.rendered;
+  EXPECT_GT(heavy.model->stats().domain_jit_weight, 2000);
+  EXPECT_EQ(heavy.model->interval_engine(), DomainEngine::kInterp);
+  EXPECT_EQ(heavy.model->gradient_engine(), DomainEngine::kInterp);
+  IntervalValue iv = heavy.model->eval_interval({1, 1, 1}, {2, 2, 2});
+  EXPECT_NEAR(iv.lo, 1 - 2 * sum, 1e-9);
+  EXPECT_NEAR(iv.hi, 1 - sum, 1e-9);
+  EXPECT_NEAR(heavy.model->eval_gradient({1, 1, 1}).d[0], -sum_x1, 1e-12);
+  EXPECT_FALSE(heavy.model->stats().interval.compiled);
+
+  // The thresholds are options: 0 forces the interpreters, -1 the JIT.
+  mo.interval_jit_max_insts = 0;
+  mo.gradient_jit_max_insts = 0;
+  CompileResult forced = Model::compile(kTorusModel, mo);
+  ASSERT_TRUE(forced.ok());
+  EXPECT_EQ(forced.model->interval_engine(), DomainEngine::kInterp);
+  EXPECT_EQ(forced.model->gradient_engine(Precision::kF32), DomainEngine::kInterp);
+  mo.interval_jit_max_insts = -1;
+  CompileResult jit = Model::compile(kTorusModel, mo);
+  ASSERT_TRUE(jit.ok());
+  EXPECT_EQ(jit.model->interval_engine(), DomainEngine::kJit);
+  // Both engines give the same enclosure.
+  IntervalValue a = forced.model->eval_interval({0.5, 1, 0}, {2, 3, 1.5});
+  IntervalValue b = jit.model->eval_interval({0.5, 1, 0}, {2, 3, 1.5});
+  EXPECT_EQ(a.lo, b.lo);
+  EXPECT_EQ(a.hi, b.hi);
+}
+
+TEST(JitModelTest, ManyThreadsEvaluateDomainsAtOnce) {
+  for (Backend backend : {Backend::kJit, Backend::kInterp}) {
+    // `m` compiles its domain code lazily, under contention; `ref`, a second model of the
+    // same source, gives the expected values.
+    const Model m = compile_or_die(kTorusModel, backend);
+    const Model ref = compile_or_die(kTorusModel, backend);
+    std::vector<std::thread> threads;
+    std::vector<int> bad(6, 0);
+    for (int t = 0; t < 6; ++t) {
+      threads.emplace_back([&, t] {
+        for (int i = 0; i < 300; ++i) {
+          double lo[3] = {0.01 * i - 2, 0.5 - 0.01 * t, 0}, hi[3] = {lo[0] + 0.3, lo[1] + 0.2, 1.5};
+          IntervalValue a = m.eval_interval(lo, hi), b = ref.eval_interval(lo, hi);
+          bad[t] += a.lo != b.lo || a.hi != b.hi || a.maybe_nan != b.maybe_nan;
+          GradientValue g = m.eval_gradient(std::span<const double>(lo, 3));
+          GradientValue h = ref.eval_gradient(std::span<const double>(lo, 3));
+          bad[t] += g.f != h.f || g.d[0] != h.d[0] || g.d[1] != h.d[1] || g.d[2] != h.d[2];
+        }
+      });
+    }
+    for (auto& th : threads) th.join();
+    for (int t = 0; t < 6; ++t) EXPECT_EQ(bad[t], 0) << t;
+  }
 }
 
 }  // namespace

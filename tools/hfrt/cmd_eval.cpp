@@ -268,9 +268,11 @@ int run_eval(const EvalOptions& opts) {
                                      : model.gradient_engine(f32 ? Precision::kF32 : Precision::kF64) ==
                                            DomainEngine::kJit;
       const ModelStats::Domain& d = opts.interval ? st.interval : f32 ? st.gradient_f32 : st.gradient_f64;
-      std::fprintf(stderr, "stats: object %s, %d IR instructions, %s domain, engine %s\n",
-                   model.object_name().c_str(), st.ir_insts, opts.interval ? "interval" : "gradient",
-                   jit ? "jit" : "interpreter");
+      std::fprintf(stderr,
+                   "stats: object %s, %d IR instructions (domain JIT weight %lld), %s domain, "
+                   "engine %s\n",
+                   model.object_name().c_str(), st.ir_insts, (long long)st.domain_jit_weight,
+                   opts.interval ? "interval" : "gradient", jit ? "jit" : "interpreter");
       std::fprintf(stderr, "stats: compile %.3f ms (front end %.3f ms, lowering %.3f ms)\n",
                    compile_ms, st.frontend_ms, st.lower_ms);
       if (d.compiled) {

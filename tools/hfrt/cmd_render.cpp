@@ -14,6 +14,7 @@
 #include <unistd.h>
 
 #include <CLI/CLI.hpp>
+#include <atomic>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -108,53 +109,80 @@ bool parse_light(const std::string& text, render::Light* out) {
 }
 
 /// Above this many interval evaluations per primary ray (probe average), the interval root
-/// search costs many times the sign-change march, and `auto` takes the march (interval
-/// culling of tiles and shadow rays stays on). Measured at 512x512 on 2 cores: a sphere needs
-/// ~10 per ray (interval search 2.5x the march's time), a torus ~50 (6x), the default example
-/// (R-function blends, whose enclosures are loose) ~500 (60x: 88 s instead of 1.5 s).
+/// search costs many times the sign-change march, and `auto` takes the march. Measured at
+/// 512x512 on 2 cores: a sphere needs ~10 per ray (interval search 2.5x the march's time), a
+/// torus ~50 (6x), the default example (R-function blends, whose enclosures are loose: the
+/// dependency problem of f1 + f2 + sqrt(f1^2 + f2^2)) ~400 (60x: 88 s instead of 1.5 s).
 constexpr double kAutoMaxIntervalEvalsPerRay = 64;
 constexpr int kAutoProbeSize = 24;  ///< the probe image's larger side, in pixels
 
-/// `--root auto`: the interval search (robust: thin shells and tangent touches are not
-/// missed) unless the model has no interval evaluator, its interval engine is the
-/// interpreter (large models: too slow per ray), or a small probe render (same camera and
-/// box, no shadows) shows that its enclosures are too loose for the search to pay. The probe
-/// counts evaluations (deterministic), it does not time them, so the choice does not depend
-/// on the machine or the load. `*why` gets the reason, for the user.
-render::RootMode choose_auto_root(const render::Field& field, const Model& model,
-                                  const render::RenderOptions& opt, std::string* why) {
-  if (!field.has_interval()) {
-    *why = "no interval evaluator for this model";
-    return render::RootMode::kSign;
+/// The field seen by the probe render: counts interval evaluations and, past the budget,
+/// answers "empty" to every further one, so that a model with loose enclosures costs the probe
+/// no more than the budget (the probe's image is thrown away).
+class ProbeField final : public render::Field {
+ public:
+  ProbeField(const render::Field& field, uint64_t budget) : field_(field), budget_(budget) {}
+  void eval(size_t n, const float* x, const float* y, const float* z, float* out_f) const override {
+    field_.eval(n, x, y, z, out_f);
   }
-  if (model.interval_engine() != DomainEngine::kJit) {
-    *why = "the interval evaluator of this model is the interpreter (too slow per ray)";
-    return render::RootMode::kSign;
+  bool has_interval() const override { return true; }
+  render::Interval eval_interval(const render::Box& box, bool* maybe_nan) const override {
+    if (calls_.fetch_add(1, std::memory_order_relaxed) >= budget_) {
+      *maybe_nan = false;
+      return {-1, -1};
+    }
+    return field_.eval_interval(box, maybe_nan);
   }
-  render::RenderOptions probe = opt;
-  const float scale = float(kAutoProbeSize) / float(std::max(opt.width, opt.height));
+  void eval_gradient(size_t n, const float* x, const float* y, const float* z, float* f,
+                     float* dx, float* dy, float* dz) const override {
+    field_.eval_gradient(n, x, y, z, f, dx, dy, dz);
+  }
+  uint64_t calls() const { return calls_.load(); }
+
+ private:
+  const render::Field& field_;
+  uint64_t budget_;
+  mutable std::atomic<uint64_t> calls_{0};
+};
+
+/// Settles `--root auto` in `opt`: the interval search (robust: thin shells and tangent
+/// touches are not missed) with tile culling, unless a small probe render (same camera and
+/// box, no shadows) shows that the model's enclosures are too loose for intervals to pay;
+/// then the sign-change march without interval culling (which would cull nothing and cost
+/// interval evaluations per tile and per shadow ray). The probe counts evaluations, it does
+/// not time them, so the choice does not depend on the machine or its load. Returns the
+/// reason, for the user.
+std::string settle_auto_root(const render::Field& field, render::RenderOptions* opt) {
+  render::RenderOptions probe = *opt;
+  const float scale = float(kAutoProbeSize) / float(std::max(opt->width, opt->height));
   if (scale < 1) {
-    probe.width = std::max(1, int(std::lround(opt.width * scale)));
-    probe.height = std::max(1, int(std::lround(opt.height * scale)));
+    probe.width = std::max(1, int(std::lround(float(opt->width) * scale)));
+    probe.height = std::max(1, int(std::lround(float(opt->height) * scale)));
   }
   probe.spp = 1;
   probe.shadows = false;
   probe.root = render::RootMode::kInterval;
   probe.progress = nullptr;
-  render::RenderResult r = render::render(field, probe);
-  double per_ray = double(r.stats.evals.interval_calls) / double(std::max<uint64_t>(r.stats.primary_rays, 1));
-  char buf[200];
-  if (per_ray > kAutoMaxIntervalEvalsPerRay) {
+  probe.threads = opt->threads;
+  const uint64_t rays = uint64_t(probe.width) * uint64_t(probe.height);
+  const uint64_t budget = uint64_t(kAutoMaxIntervalEvalsPerRay * double(rays)) + 1;
+  ProbeField counted(field, budget);
+  render::render(counted, probe);
+  char buf[220];
+  if (counted.calls() > budget) {
     std::snprintf(buf, sizeof buf,
-                  "the interval enclosures of this model are loose, %.0f interval evaluations per "
-                  "ray; --root interval forces the interval search", per_ray);
-    *why = buf;
-    return render::RootMode::kSign;
+                  "loose interval enclosures, over %.0f interval evaluations per ray in a %dx%d "
+                  "probe; --root interval forces the interval search",
+                  kAutoMaxIntervalEvalsPerRay, probe.width, probe.height);
+    opt->root = render::RootMode::kSign;
+    opt->tile_culling = false;
+    return buf;
   }
-  std::snprintf(buf, sizeof buf, "the model has an interval evaluator, %.0f evaluations per ray",
-                per_ray);
-  *why = buf;
-  return render::RootMode::kInterval;
+  std::snprintf(buf, sizeof buf, "interval evaluator, %.0f evaluations per ray in a %dx%d probe",
+                double(counted.calls()) / double(std::max<uint64_t>(rays, 1)), probe.width,
+                probe.height);
+  opt->root = render::RootMode::kInterval;
+  return buf;
 }
 
 int run_render(const RenderCli& cli) {
@@ -255,13 +283,17 @@ int run_render(const RenderCli& cli) {
   auto loaded = load_model(cli.model, /*eager_f32=*/true, &code);
   if (!loaded) return code;
   const Model& model = *loaded->model;
-  ModelField field(model, cli.model.file);
-  if (opt.root == render::RootMode::kInterval && !field.has_interval()) {
-    return usage_error("--root interval needs an interval evaluator, which is not available for "
-                       "this model; use --root sign (or auto)");
-  }
+  ModelField model_field(model, cli.model.file);
   // Intervals serve framing and tile culling even with --root sign.
-  const double prepare_ms = prepare_render_code(model, field.has_interval(), /*gradient=*/true);
+  const double prepare_ms = prepare_render_code(model, /*interval=*/true, /*gradient=*/true);
+  // The interval interpreter (models above ModelOptions::interval_jit_max_insts) is too slow
+  // for the renderer's many calls: such models are framed by sampling and rendered by the
+  // sign-change march, unless the user asks for --root interval.
+  const bool fast_intervals = model.interval_engine() == DomainEngine::kJit;
+  WithoutIntervals sampled_field(model_field);
+  const render::Field& field = opt.root == render::RootMode::kInterval || fast_intervals
+                                   ? static_cast<const render::Field&>(model_field)
+                                   : sampled_field;
 
   auto t_frame = std::chrono::steady_clock::now();
   bool framed = !cam.eye || !cam.look_at;
@@ -283,10 +315,15 @@ int run_render(const RenderCli& cli) {
   std::string auto_why;
   double probe_ms = 0;
   if (opt.root == render::RootMode::kAuto) {
-    auto t_probe = std::chrono::steady_clock::now();
-    opt.root = choose_auto_root(field, model, opt, &auto_why);
-    probe_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t_probe)
-                   .count();
+    if (!field.has_interval()) {
+      auto_why = "the interval evaluator of this model is the interpreter, too slow per ray";
+      opt.root = render::RootMode::kSign;
+    } else {
+      auto t_probe = std::chrono::steady_clock::now();
+      auto_why = settle_auto_root(field, &opt);
+      probe_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t_probe)
+                     .count();
+    }
   }
 
   render::ProgressBar bar("rendering", isatty(STDERR_FILENO) != 0);
@@ -317,24 +354,29 @@ int run_render(const RenderCli& cli) {
     double mrays = double(st.primary_rays + st.shadow_rays) / std::max(st.seconds, 1e-9) * 1e-6;
     std::fprintf(stderr, "stats: compile %.1f ms (+ %.1f ms interval and gradient code: %s)\n",
                  loaded->compile_ms, prepare_ms, describe_domain_engines(model).c_str());
-    std::fprintf(stderr, "stats: framing %.1f ms%s, auto probe %.1f ms, render %.3f s on %d threads\n",
-                 frame_ms,
+    char probe[64] = "";
+    if (cli.root == "auto") std::snprintf(probe, sizeof probe, ", auto probe %.1f ms", probe_ms);
+    std::fprintf(stderr, "stats: framing %.1f ms%s%s, render %.3f s on %d threads\n", frame_ms,
                  framed ? (extent_by_interval ? " (intervals)" : " (sampling)") : " (camera given)",
-                 probe_ms, st.seconds, st.threads);
+                 probe, st.seconds, st.threads);
     std::fprintf(stderr, "stats: %llu primary + %llu shadow rays, %.2f Mrays/s, %llu hits\n",
                  (unsigned long long)st.primary_rays, (unsigned long long)st.shadow_rays, mrays,
                  (unsigned long long)st.hits);
     std::fprintf(stderr,
                  "stats: evaluator calls: point %llu (%llu points), interval %llu, gradient %llu "
-                 "(%llu points), attributes %llu\n",
+                 "(%llu points), attributes %llu; %llu interval searches finished by marching\n",
                  (unsigned long long)e.eval_calls, (unsigned long long)e.eval_points,
                  (unsigned long long)e.interval_calls, (unsigned long long)e.gradient_calls,
-                 (unsigned long long)e.gradient_points,
-                 (unsigned long long)e.attribute_calls);
+                 (unsigned long long)e.gradient_points, (unsigned long long)e.attribute_calls,
+                 (unsigned long long)e.interval_fallbacks);
+    const bool culled = opt.tile_culling && field.has_interval();
     std::fprintf(stderr,
-                 "stats: tiles %zu (%zu empty by intervals); thread time: culling %.3f s, root "
-                 "search %.3f s, shading %.3f s\n",
-                 st.tiles, st.tiles_empty, st.cull_seconds, st.search_seconds, st.shade_seconds);
+                 "stats: tiles %zu (%s); thread time: culling %.3f s, root search %.3f s, "
+                 "shading %.3f s\n",
+                 st.tiles,
+                 culled ? (std::to_string(st.tiles_empty) + " empty by intervals").c_str()
+                        : "no interval culling",
+                 st.cull_seconds, st.search_seconds, st.shade_seconds);
   }
   return 0;
 }

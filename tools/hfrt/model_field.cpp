@@ -57,6 +57,16 @@ render::Interval ModelField::eval_interval(const render::Box& box, bool* maybe_n
   const double hi[3] = {box.hi.x, box.hi.y, box.hi.z};
   IntervalValue r = model_.eval_interval(lo, hi);
   *maybe_nan = r.maybe_nan;
+  if (r.maybe_nan && r.hi >= 0 && (std::isinf(r.lo) || std::isinf(r.hi))) {
+    // An enclosure with NaN possible and an infinite bound that reaches 0 (an interval loop
+    // that gave up, e.g. the Newton iterations of hfDEllipsoid: [-inf, 0] even over a point)
+    // does not shrink with the box, so it says nothing about where the surface is. Report it
+    // as unknown (NaN ends): the renderer then subdivides and samples, instead of taking a
+    // piece that still reaches 0 at the tolerance for a thin feature (which would fill the
+    // whole box with a false solid).
+    const float nan = std::numeric_limits<float>::quiet_NaN();
+    return {nan, nan};
+  }
   return {round_down(r.lo), round_up(r.hi)};
 }
 

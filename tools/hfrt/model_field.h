@@ -44,6 +44,34 @@ class ModelField final : public render::Field {
   int dims_;
 };
 
+/// A view of a Field without its interval evaluator (has_interval() false; everything else
+/// forwarded): the renderer then frames by sampling and neither culls nor bisects. For models
+/// whose interval evaluator is the interpreter, too slow for the renderer's many calls.
+class WithoutIntervals final : public render::Field {
+ public:
+  explicit WithoutIntervals(const render::Field& field) : field_(field) {}
+  void eval(size_t n, const float* x, const float* y, const float* z, float* out_f) const override {
+    field_.eval(n, x, y, z, out_f);
+  }
+  bool has_interval() const override { return false; }
+  render::Interval eval_interval(const render::Box& box, bool* maybe_nan) const override {
+    return field_.eval_interval(box, maybe_nan);
+  }
+  void eval_gradient(size_t n, const float* x, const float* y, const float* z, float* f,
+                     float* dx, float* dy, float* dz) const override {
+    field_.eval_gradient(n, x, y, z, f, dx, dy, dz);
+  }
+  int num_attributes() const override { return field_.num_attributes(); }
+  void eval_attributes(size_t n, const float* x, const float* y, const float* z,
+                       float* out_s) const override {
+    field_.eval_attributes(n, x, y, z, out_s);
+  }
+  std::string explain_nan(render::Vec3 p) const override { return field_.explain_nan(p); }
+
+ private:
+  const render::Field& field_;
+};
+
 /// Options common to the commands that compile a model.
 struct ModelRequest {
   std::string file;

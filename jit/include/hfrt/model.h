@@ -35,12 +35,15 @@ struct ModelOptions {
   /// Precisions the JIT compiles inside compile(); the others compile on first use.
   bool eager_f64 = true;
   bool eager_f32 = false;
-  /// The interval evaluator is compiled by the JIT only for objects of at most this many IR
-  /// instructions; larger ones use the interval interpreter. The interval JIT's compile time
-  /// grows fast with program size (about 100 s for the 8k-instruction `prospero` corpus
-  /// model) while the interpreter starts at once: below the threshold the JIT pays for itself
-  /// within one render, above it the compile would dominate. Raise it when the interval JIT
-  /// compiles faster; -1 means always the JIT, 0 always the interpreter. (JIT backend only.)
+  /// The interval evaluator is compiled by the JIT only for objects whose weight
+  /// (ModelStats::domain_jit_weight: IR instructions, a dynamic table or array access
+  /// counting one per element) is at most this; heavier ones use the interval interpreter.
+  /// The interval JIT's compile time grows faster than linearly with the weight (about 100 s
+  /// for the 14k-instruction `prospero` corpus model, and as much for a 337-instruction model
+  /// with 30 noise-table loads) while the interpreter starts at once: below the threshold the
+  /// JIT pays for itself within one render, above it the compile would dominate. Raise it when
+  /// the domain JITs compile faster; -1 means always the JIT, 0 always the interpreter.
+  /// (JIT backend only.)
   int interval_jit_max_insts = 2000;
   /// The same for the gradient evaluator.
   int gradient_jit_max_insts = 2000;
@@ -104,6 +107,8 @@ struct ModelStats {
   double frontend_ms = 0;  ///< parse + semantic checks
   double lower_ms = 0;     ///< AST -> hfrt IR
   int ir_insts = 0;
+  /// The weight that ModelOptions::interval_jit_max_insts / gradient_jit_max_insts compare.
+  int64_t domain_jit_weight = 0;
   struct Jit {
     bool compiled = false;
     int lanes = 0;
