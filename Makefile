@@ -3,7 +3,7 @@ BUILD_DIR ?= build
 JOBS ?= $(shell nproc)
 CMAKE_FLAGS ?= -G Ninja -DCMAKE_BUILD_TYPE=Release
 
-.PHONY: all deps configure build demo test bench bench-peers clean format
+.PHONY: all deps configure build demo test bench bench-render bench-peers clean format
 
 all: build
 
@@ -25,6 +25,19 @@ test: build
 
 bench: build
 	@cmake --build $(BUILD_DIR) --target hfrt_bench -j $(JOBS)
+
+# Render times of .hf scenes (bench/render_scenes.txt) at 512x512, by root-search method.
+bench-render: build
+	@bench/render_scenes.sh --hfrt $(BUILD_DIR)/tools/hfrt/hfrt
+
+# hfrt vs POV-Ray 3.7 on the same scenes (installs povray), then prospero's distance to the
+# machine's peak (bench/README.md). PEERS_ARGS: e.g. --size 256 --scenes csg,blend.
+PEERS_ARGS ?= --repeat 2
+bench-peers: configure
+	@scripts/install-deps.sh --bench
+	@cmake --build $(BUILD_DIR) --target hfrt hfrt_bench_maskdiff hfrt_bench_prospero -j $(JOBS)
+	@bench/peers/povray --build-dir $(BUILD_DIR) $(PEERS_ARGS)
+	@$(BUILD_DIR)/bench/hfrt_bench_prospero --frames 3 --interp-rows 4
 
 clean:
 	@rm -rf $(BUILD_DIR) out

@@ -7,6 +7,8 @@
 //
 // The interpreter needs seconds per frame, so by default it evaluates R = 64 evenly spaced
 // rows (all cores) and its frame time is extrapolated from those rows (printed as such).
+// The "physical limit" lines (bench/README.md) compare the brute-force rate, computing IR ops x
+// points per second, with the peak of a tight loop of vector adds measured in the same run.
 // A pixel is inside the solid where F >= 0 (HyperFun's convention; prospero.hf negates the
 // challenge expression, whose inside is < 0).
 
@@ -23,6 +25,10 @@
 #include <vector>
 
 #include "hfrt/model.h"
+#include "jit/ir.h"
+#include "jit/lower.h"
+#include "lang/frontend.h"
+#include "lang/result.h"
 
 namespace {
 
@@ -54,6 +60,91 @@ void parallel_rows(const std::vector<int>& rows, int threads, Fn row) {
     });
   }
   for (auto& th : pool) th.join();
+}
+
+// The machine's limit for the "physical limit" line: a tight loop of independent 8-lane f32
+// vector adds (AVX2 when the CPU has it, else whatever the compiler makes of the vector type),
+// run on every thread at once. 12 accumulator chains (in registers: 16 ymm) hide the add
+// latency on 2 add ports. Returns the lane-adds done (iters x 12 x 8).
+typedef float V8 __attribute__((vector_size(32)));
+#if defined(__x86_64__)
+__attribute__((target("avx2")))
+#endif
+double add_loop_avx2(long iters, float* sink) {
+  V8 a0 = V8{} + 0.f, a1 = V8{} + 1.f, a2 = V8{} + 2.f, a3 = V8{} + 3.f, a4 = V8{} + 4.f,
+     a5 = V8{} + 5.f, a6 = V8{} + 6.f, a7 = V8{} + 7.f, a8 = V8{} + 8.f, a9 = V8{} + 9.f,
+     a10 = V8{} + 10.f, a11 = V8{} + 11.f;
+  const V8 inc = V8{} + 1e-7f;
+  for (long i = 0; i < iters; ++i) {
+    a0 += inc; a1 += inc; a2 += inc; a3 += inc; a4 += inc; a5 += inc;
+    a6 += inc; a7 += inc; a8 += inc; a9 += inc; a10 += inc; a11 += inc;
+    // Keeps the accumulators in registers and the adds as adds (no strength reduction).
+    asm volatile("" : "+x"(a0), "+x"(a1), "+x"(a2), "+x"(a3), "+x"(a4), "+x"(a5), "+x"(a6),
+                 "+x"(a7), "+x"(a8), "+x"(a9), "+x"(a10), "+x"(a11));
+  }
+  V8 sum = a0 + a1 + a2 + a3 + a4 + a5 + a6 + a7 + a8 + a9 + a10 + a11;
+  *sink = sum[0] + sum[7];
+  return double(iters) * 12 * 8;
+}
+
+/// Lane-adds per second of wall time over all threads; *per_cpu_s gets lane-adds per second
+/// of CPU time of one thread (what a core does when it is not shared).
+double peak_vector_adds_per_s(int threads, double* per_cpu_s) {
+  constexpr long kIters = 50'000'000;
+#if defined(__x86_64__)
+  if (!__builtin_cpu_supports("avx2")) return 0;  // the loop is compiled for AVX2
+#endif
+  std::vector<float> sink(threads);
+  std::vector<double> lanes(threads), cpu(threads);
+  float warm = 0;
+  add_loop_avx2(kIters / 50, &warm);
+  // The best of 5 rounds: on a shared machine, the round least disturbed by other work.
+  double best = 0, best_core = 0;
+  for (int round = 0; round < 5; ++round) {
+    std::vector<std::thread> pool;
+    auto t0 = Clock::now();
+    for (int t = 0; t < threads; ++t) {
+      pool.emplace_back([&, t] {
+        timespec c0, c1;
+        clock_gettime(CLOCK_THREAD_CPUTIME_ID, &c0);
+        lanes[t] = add_loop_avx2(kIters, &sink[t]);
+        clock_gettime(CLOCK_THREAD_CPUTIME_ID, &c1);
+        cpu[t] = double(c1.tv_sec - c0.tv_sec) + 1e-9 * double(c1.tv_nsec - c0.tv_nsec);
+      });
+    }
+    for (auto& th : pool) th.join();
+    const double s = ms_since(t0) / 1000.0;
+    double total = 0, total_cpu = 0;
+    for (int t = 0; t < threads; ++t) {
+      total += lanes[t];
+      total_cpu += cpu[t];
+    }
+    best = std::max(best, total / s);
+    best_core = std::max(best_core, total / total_cpu);
+  }
+  *per_cpu_s = best_core;
+  return best;
+}
+
+/// The IR instructions that compute something at every point (everything but constants,
+/// inputs, parameters and control markers), counted on the object the Model evaluates. -1 when
+/// the file cannot be read again.
+int compute_ops(const std::string& path) {
+  hfrt::Result<std::string> text = hfrt::read_file(path);
+  if (!text) return -1;
+  auto file = std::make_shared<const hfrt::lang::SourceFile>(path, std::move(text).value());
+  hfrt::lang::DiagnosticSink diags(file);
+  std::unique_ptr<hfrt::lang::Program> prog = hfrt::lang::compile_source(file, diags);
+  if (!prog) return -1;
+  hfrt::jit::Function fn = hfrt::jit::lower_object(*prog, prog->default_object(), nullptr);
+  int n = 0;
+  for (const hfrt::jit::Inst& in : fn.insts) {
+    using hfrt::jit::Op;
+    if (in.op == Op::kConst || in.op == Op::kInput || in.op == Op::kParam) continue;
+    if (hfrt::jit::op_flags_of(in.op) & hfrt::jit::op_flags::kCtl) continue;
+    ++n;
+  }
+  return n;
 }
 
 template <typename T>
@@ -131,11 +222,11 @@ int main(int argc, char** argv) {
   std::vector<double> img64(pixels);
   // Wall-clock median per frame, and the CPU time of all threads per frame (std::clock is
   // process CPU time): on a busy machine the latter still shows what the code costs.
-  double cpu_ms = 0;
+  double cpu_ms = 0, best_ms = 0;  // of the last frame_ms() call
   auto frame_ms = [&](auto run) {
     run();  // warm-up (page faults, thread start)
     std::vector<double> times;
-    std::clock_t c0 = std::clock();
+    std::clock_t c0 = std::clock();  // process CPU time, all threads
     for (int k = 0; k < o.frames; ++k) {
       auto t = Clock::now();
       run();
@@ -143,19 +234,20 @@ int main(int argc, char** argv) {
     }
     cpu_ms = 1000.0 * static_cast<double>(std::clock() - c0) / CLOCKS_PER_SEC / o.frames;
     std::sort(times.begin(), times.end());
+    best_ms = times.front();
     return times[times.size() / 2];  // median
   };
   double jit32 = frame_ms([&] {
     parallel_rows(all_rows, o.threads,
                   [&](int y) { eval_row<float>(mj, o.size, y, &img32[static_cast<size_t>(y) * o.size]); });
   });
-  const double jit32_cpu = cpu_ms;
+  const double jit32_cpu = cpu_ms, jit32_best = best_ms;
   double jit64 = frame_ms([&] {
     parallel_rows(all_rows, o.threads,
                   [&](int y) { eval_row<double>(mj, o.size, y, &img64[static_cast<size_t>(y) * o.size]); });
   });
 
-  const double jit64_cpu = cpu_ms;
+  const double jit64_cpu = cpu_ms, jit64_best = best_ms;
   // Interpreter on evenly spaced rows; compared with the JIT there.
   std::vector<int> rows;
   for (int k = 0; k < o.interp_rows; ++k) rows.push_back(static_cast<int>((k + 0.5) * o.size / o.interp_rows));
@@ -192,6 +284,38 @@ int main(int argc, char** argv) {
               interp_ms, interp_cpu, rows.size());
   std::printf("ratio interpreter / jit f32: %.1fx; interpreter / jit f64: %.1fx\n", interp_ms / jit32,
               interp_ms / jit64);
+  // Distance to the machine's limit: brute force (no pruning) evaluates every IR instruction
+  // at every pixel, so IR instructions x pixels / time is the achieved lane-op rate, against
+  // the measured peak of vector adds on the same threads, measured now.
+  {
+    const bool avx2 =
+#if defined(__x86_64__)
+        __builtin_cpu_supports("avx2");
+#else
+        false;
+#endif
+    double peak_core = 0;
+    const double peak = peak_vector_adds_per_s(o.threads, &peak_core);
+    // Constants and inputs are not work per point: count the computing instructions (the
+    // run-time error checks included: the JIT evaluates them at every point too).
+    const int per_point = compute_ops(o.model);
+    const double ops = double(per_point > 0 ? per_point : st.ir_insts) * double(pixels);
+    // Best frames against the best peak round (medians are printed above).
+    const double achieved32 = ops / (jit32_best / 1000.0), achieved64 = ops / (jit64_best / 1000.0);
+    // Per core (CPU time): independent of other load on a shared machine.
+    const double core32 = ops / (jit32_cpu / 1000.0), core64 = ops / (jit64_cpu / 1000.0);
+    std::printf("physical limit: %d computing IR ops (of %d IR instructions) x %zu points "
+                "(brute force, no pruning)\n",
+                per_point, st.ir_insts, pixels);
+    std::printf("  wall, %d threads, best frame: jit f32 %.2f, jit f64 %.2f G lane-ops/s; peak vector adds%s "
+                "%.2f G lane-ops/s; f32 at %.1f%% of peak\n",
+                o.threads, achieved32 / 1e9, achieved64 / 1e9, avx2 ? " (8-lane AVX2)" : "",
+                peak / 1e9, 100.0 * achieved32 / peak);
+    std::printf("  per core (CPU time): jit f32 %.2f, jit f64 %.2f G lane-ops/s; peak vector adds "
+                "%.2f G lane-ops/s; f32 at %.1f%%, f64 at %.1f%% of peak\n",
+                core32 / 1e9, core64 / 1e9, peak_core / 1e9, 100.0 * core32 / peak_core,
+                100.0 * core64 / peak_core);
+  }
   std::printf("check: inside pixels f32 %zu, f64 %zu; on the interpreter rows: max |f64 - interp| "
               "= %.3g, f32 sign mismatches %zu\n",
               inside32, inside64, max_diff64, sign_mismatch32);

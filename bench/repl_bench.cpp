@@ -1,14 +1,23 @@
 // `hfrt repl` latency: how long one edit takes to show, driven through the Session as the
 // terminal front end does. Measures (1) a new definition (compile of the whole session
 // source), (2) the same definition again (served by the compile cache), (3) `:eval` of a
-// point, (4) a `:render` at 128x128 with the remembered options. Run:
-//   build/bench/hfrt_bench_repl [--rounds N]
+// point, (4) a `:render` at 128x128 with the remembered options; then (5) the latency the REPL
+// exists for: from a changed definition (10 edits of one constant: a blend radius, a box size,
+// a gear radius) of three corpus models to the finished 512x512 image on all cores, each edit
+// a compile and a `:render` through the Session, with where the time went (parse and lowering,
+// the JIT of the point, interval and gradient code, framing, auto probe, ray tracing, image
+// writing). Run:
+//   build/bench/hfrt_bench_repl [--rounds N] [--edits N] [--size N] [--only NAME]
 #include <chrono>
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
+#include <algorithm>
 #include <filesystem>
+#include <fstream>
+#include <sstream>
 #include <string>
+#include <vector>
 
 #include "tools/hfrt/session.h"
 
@@ -23,12 +32,101 @@ bool check(const hfrt::tools::SessionResult& r) {
   return r.ok;
 }
 
+/// A corpus model and the constant its edits change: `pattern` (with "%g" for the value) is
+/// searched with `first` in the file, replaced with the edited values.
+struct EditCase {
+  const char* name;
+  const char* file;     // under HFRT_CORPUS_DIR/models
+  const char* original; // the exact text changed in the file
+  const char* pattern;  // printf pattern of the replacement, one %g
+  double lo, hi;        // the edited values, evenly spread
+};
+
+const EditCase kCases[] = {
+    {"s3_blend", "github/alexander-penev__FRep-Designer-Bench/s3_blend.hf", "k = 0.25;", "k = %g;", 0.12,
+     0.38},
+    {"s2_csg", "github/alexander-penev__FRep-Designer-Bench/s2_csg.hf", "box = 0.9 - m;", "box = %g - m;",
+     0.8, 0.98},
+    {"c1_gear", "github/alexander-penev__FRep-Designer-Bench/c1_gear.hf", "t6 = 0.850000023842;",
+     "t6 = %g;", 0.8, 0.9},
+};
+
+std::string slurp(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  std::stringstream ss;
+  ss << in.rdbuf();
+  return ss.str();
+}
+
+struct Stat {
+  std::vector<double> v;
+  double min() const { return *std::min_element(v.begin(), v.end()); }
+  double max() const { return *std::max_element(v.begin(), v.end()); }
+  double median() const {
+    std::vector<double> s = v;
+    std::sort(s.begin(), s.end());
+    return s.size() % 2 ? s[s.size() / 2] : 0.5 * (s[s.size() / 2 - 1] + s[s.size() / 2]);
+  }
+  double mean() const {
+    double t = 0;
+    for (double x : v) t += x;
+    return t / double(v.size());
+  }
+};
+
+/// Edits of one model: each a new definition (compile) then `:render` to 512x512. False on error.
+bool bench_edits(const EditCase& c, int edits, int size, const std::string& extra, const std::string& out) {
+  const std::string text = slurp(std::string(HFRT_CORPUS_DIR) + "/models/" + c.file);
+  const size_t at = text.find(c.original);
+  if (text.empty() || at == std::string::npos) {
+    std::fprintf(stderr, "%s: cannot find '%s' in %s\n", c.name, c.original, c.file);
+    return false;
+  }
+  hfrt::tools::Session s;
+  // The benchmark scenes' domain is [-1.6, 1.6]^3 (FRep-Designer-Bench scenes/MATH.md).
+  const std::string opts = " --size " + std::to_string(size) + "x" + std::to_string(size) + " --bbox 1.6" + extra;
+  if (!check(s.run(text)) || !check(s.run(":render " + out + opts))) return false;  // warm-up
+  Stat total, compile, prepare, frame, probe, render, write, first;
+  // The coarse picture a terminal shows first (1/8 of the size, see Session::on_coarse).
+  std::chrono::steady_clock::time_point t0;
+  double coarse_ms = 0;
+  s.on_coarse = [&](const hfrt::render::Image&) { coarse_ms = ms_since(t0); };
+  for (int i = 0; i < edits; ++i) {
+    char value[64];
+    std::snprintf(value, sizeof value, c.pattern, c.lo + (c.hi - c.lo) * i / std::max(1, edits - 1));
+    std::string edited = text;
+    edited.replace(at, std::strlen(c.original), value);
+    t0 = std::chrono::steady_clock::now();
+    if (!check(s.run(edited)) || !check(s.run(":render " + out))) return false;
+    total.v.push_back(ms_since(t0));
+    first.v.push_back(coarse_ms);
+    const hfrt::tools::SessionTimings& t = s.timings();
+    compile.v.push_back(t.compile);
+    prepare.v.push_back(t.prepare);
+    frame.v.push_back(t.frame);
+    probe.v.push_back(t.probe);
+    render.v.push_back(t.render);
+    write.v.push_back(t.write);
+  }
+  std::printf("%-9s edit -> %dx%d image: min %6.1f  median %6.1f  max %6.1f ms; coarse picture first: "
+              "median %.1f ms\n          (median: parse+lower %.1f, "
+              "JIT of point+interval+gradient code %.1f, framing %.1f, auto probe %.1f, ray tracing %.1f, "
+              "write %.1f)\n",
+              c.name, size, size, total.min(), total.median(), total.max(), first.median(), compile.median(),
+              prepare.median(), frame.median(), probe.median(), render.median(), write.median());
+  return true;
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
-  int rounds = 5;
+  int rounds = 5, edits = 10, size = 512;
+  std::string only;
   for (int i = 1; i + 1 < argc; ++i) {
     if (std::strcmp(argv[i], "--rounds") == 0) rounds = std::atoi(argv[i + 1]);
+    if (std::strcmp(argv[i], "--edits") == 0) edits = std::max(1, std::atoi(argv[i + 1]));
+    if (std::strcmp(argv[i], "--size") == 0) size = std::max(8, std::atoi(argv[i + 1]));
+    if (std::strcmp(argv[i], "--only") == 0) only = argv[i + 1];
   }
   const std::string out = (std::filesystem::temp_directory_path() / "hfrt_bench_repl.png").string();
   hfrt::tools::Session s;
@@ -56,5 +154,18 @@ int main(int argc, char** argv) {
               ":render 128x128 %.2f ms (means)\n",
               rounds, define_ms / rounds, cached_ms / rounds, eval_ms / rounds, render_ms / rounds);
   std::filesystem::remove(out);
+
+  const std::string out512 = (std::filesystem::temp_directory_path() / "hfrt_bench_repl_edit.png").string();
+  // The default options (shadows, `--root auto`), then the quick look: the sign-change march
+  // without shadow rays.
+  for (const char* extra : {"", " --root sign --no-shadows"}) {
+    std::printf("%d edits of one constant each, compile + :render%s on all cores:\n", edits,
+                *extra ? extra : " (default options)");
+    for (const EditCase& c : kCases) {
+      if (!only.empty() && only != c.name) continue;
+      if (!bench_edits(c, edits, size, extra, out512)) return 1;
+    }
+  }
+  std::filesystem::remove(out512);
   return 0;
 }

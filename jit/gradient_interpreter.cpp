@@ -7,6 +7,7 @@
 
 #include "jit/gradient.h"
 #include "jit/scalar_ops.h"
+#include "jit/surface_ops.h"
 #include "lang/check.h"
 
 namespace hfrt::jit {
@@ -94,6 +95,7 @@ Dual apply_dual(Op op, const Dual& a, const Dual& b, const Dual& c) {
     case Op::kConst: case Op::kInput: case Op::kParam: case Op::kLoadSlot: case Op::kStoreSlot:
     case Op::kLoadIdx: case Op::kStoreIdx: case Op::kTableLoad: case Op::kCheck: case Op::kIf:
     case Op::kElse: case Op::kEndIf: case Op::kLoop: case Op::kLoopTest: case Op::kEndLoop:
+    case Op::kSurface:  // needs Function::surfaces: surface_dual (surface_ops.h)
       break;
   }
   HFRT_CHECK_MSG(false, "apply_dual: op without arguments " << op_name(op));
@@ -180,6 +182,10 @@ Dual GradientInterpreter::eval(std::span<const double> x, std::span<const double
         values_[i] = flat(t[static_cast<size_t>(idx)]);
         break;
       }
+      case Op::kSurface:
+        values_[i] = surface_dual(*fn_.surfaces[in.aux], values_[in.args[0]],
+                                  values_[in.args[1]], values_[in.args[2]]);
+        break;
       case Op::kCheck:
         if (values_[in.args[0]].v != 0) error_ = true;
         break;

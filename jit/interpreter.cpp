@@ -5,6 +5,7 @@
 #include <limits>
 
 #include "jit/scalar_ops.h"
+#include "jit/surface_ops.h"
 #include "lang/check.h"
 
 namespace hfrt::jit {
@@ -115,6 +116,9 @@ EvalResult Interpreter::eval(std::span<const double> x, std::span<const double> 
         }
         break;
       }
+      case Op::kSurface:
+        val[pc] = surface_value(*fn_.surfaces[in.aux], a0, a1, a2);
+        break;
       case Op::kCheck:
         if (a0 != 0) raise(static_cast<ErrorKind>(in.aux), in);
         break;

@@ -12,6 +12,7 @@
 #include <limits>
 
 #include "jit/interval.h"
+#include "jit/surface_ops.h"
 #include "jit/scalar_ops.h"
 #include "lang/check.h"
 
@@ -489,6 +490,7 @@ Interval apply_interval(Op op, Interval a, Interval b, Interval c, bool same_arg
     case Op::kConst: case Op::kInput: case Op::kParam: case Op::kLoadSlot: case Op::kStoreSlot:
     case Op::kLoadIdx: case Op::kStoreIdx: case Op::kTableLoad: case Op::kCheck: case Op::kIf:
     case Op::kElse: case Op::kEndIf: case Op::kLoop: case Op::kLoopTest: case Op::kEndLoop:
+    case Op::kSurface:  // needs Function::surfaces: surface_interval (surface_ops.h)
       break;
   }
   HFRT_CHECK_MSG(false, "apply_interval: op without arguments " << op_name(op));
@@ -612,6 +614,9 @@ void IntervalInterpreter::run(size_t begin, size_t end) {
         values_[i] = r;
         break;
       }
+      case Op::kSurface:
+        values_[i] = surface_interval(*fn_.surfaces[in.aux], arg(0), arg(1), arg(2));
+        break;
       case Op::kCheck:
         if (nonzero(arg(0)).can_true) error_possible_ = true;
         break;

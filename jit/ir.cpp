@@ -167,6 +167,12 @@ std::string verify(const Function& fn) {
       case Op::kCheck:
         if (in.aux < 0 || in.aux >= error_kind_count()) return fail(i, "unknown error kind");
         break;
+      case Op::kSurface:
+        if (in.aux < 0 || in.aux >= static_cast<int32_t>(fn.surfaces.size()) ||
+            !fn.surfaces[in.aux]) {
+          return fail(i, "surface " + std::to_string(in.aux) + " does not exist");
+        }
+        break;
       case Op::kIf: {
         control_flow = true;
         int r = static_cast<int>(region_open.size());
@@ -268,6 +274,9 @@ std::string print(const Function& fn) {
         line += " $" + std::to_string(in.aux) + "[" + format_double(in.imm) + "], " + arg(0) + ", " + arg(1);
         break;
       case Op::kTableLoad: line += " T" + std::to_string(in.aux) + ", " + arg(0); break;
+      case Op::kSurface:
+        line += " S" + std::to_string(in.aux) + ", " + arg(0) + ", " + arg(1) + ", " + arg(2);
+        break;
       case Op::kCheck:
         line += " " + arg(0) + ", " + std::string(error_kind_name(static_cast<ErrorKind>(in.aux)));
         break;

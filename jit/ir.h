@@ -12,6 +12,10 @@
 #include "jit/ir_ops.h"
 #include "lang/source.h"
 
+namespace hfrt::geom {
+class Surface;  // geom/surface.h: the IR only holds shared pointers to it
+}  // namespace hfrt::geom
+
 namespace hfrt::jit {
 
 namespace op_flags {
@@ -72,6 +76,12 @@ struct Function {
   ValueId result = kNoValue;      ///< F: a value defined at the outermost level
   std::vector<int32_t> s_slots;   ///< slots holding s[1..k] at the end of the evaluation
   std::vector<std::vector<double>> tables;  ///< constant tables for kTableLoad
+  /// The mesh and patch surfaces of kSurface (aux indexes this list). Shared (one loaded file
+  /// serves every leaf and every model that uses it) and immutable; compiled code holds raw
+  /// pointers to them, so the Function must outlive its code (it does: see jit/model.cpp).
+  std::vector<std::shared_ptr<const geom::Surface>> surfaces;
+  /// Per surface, how many kSurface leaves use it (instancing, `hfrt render --stats`).
+  std::vector<int> surface_uses;
   bool has_control_flow = false;  ///< any kIf/kLoop (else the list is a straight-line tape)
   std::shared_ptr<const lang::SourceFile> source;  ///< for locating run-time errors
 };
@@ -106,6 +116,10 @@ class IrBuilder {
   ValueId select(ValueId cond, ValueId a, ValueId b);
   ValueId table_load(int table, ValueId index0);
   int add_table(std::vector<double> values);
+  /// kSurface of surfaces[index] at (x, y, z); never folded (the value comes from geom/).
+  ValueId surface(int index, ValueId x, ValueId y, ValueId z);
+  /// The index of `s` in Function::surfaces, adding it when new; counts one more use.
+  int add_surface(std::shared_ptr<const geom::Surface> s);
 
   // Shorthands for library code.
   ValueId add(ValueId a, ValueId b) { return binary(Op::kAdd, a, b); }

@@ -187,6 +187,25 @@ int IrBuilder::add_table(std::vector<double> values) {
   return static_cast<int>(fn_.tables.size() - 1);
 }
 
+ValueId IrBuilder::surface(int index, ValueId x, ValueId y, ValueId z) {
+  HFRT_CHECK(index >= 0 && index < static_cast<int>(fn_.surfaces.size()));
+  return emit_pure(fn_, *impl_, loc_, Op::kSurface, x, y, z, 0, index);
+}
+
+int IrBuilder::add_surface(std::shared_ptr<const geom::Surface> s) {
+  HFRT_CHECK(s != nullptr);
+  fn_.surface_uses.resize(fn_.surfaces.size(), 0);
+  for (size_t i = 0; i < fn_.surfaces.size(); ++i) {
+    if (fn_.surfaces[i] == s) {
+      ++fn_.surface_uses[i];
+      return static_cast<int>(i);
+    }
+  }
+  fn_.surfaces.push_back(std::move(s));
+  fn_.surface_uses.push_back(1);
+  return static_cast<int>(fn_.surfaces.size() - 1);
+}
+
 int IrBuilder::new_slot(double init) {
   fn_.slot_init.push_back(init);
   impl_->ever_stored.push_back(false);

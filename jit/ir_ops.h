@@ -32,6 +32,10 @@
 //  kTruth            |a| >= 1e-6 -> 1/0 (HyperFun truth value)
 //  kAnd kOr kNot     on truth values (|v| >= 1e-6) -> 1/0
 //  kSelect           arg0 != 0 ? arg1 : arg2 (arg0 is 0/1)
+//  kSurface          signed distance (positive inside) of the mesh or patch surface
+//                    Function::surfaces[aux] at the point (arg0, arg1, arg2), evaluated in
+//                    single precision by geom/ (hfMesh, hfTriangles, hfBezierSurface,
+//                    hfBezierPatches; docs/meshes.md)
 //  kCheck            run-time error aux (ErrorKind) when arg0 != 0; evaluation of the point
 //                    goes on but its result becomes NaN (the interpreter records the first
 //                    error and the instruction's location)
@@ -98,6 +102,7 @@
   X(Or, 2, kPure | kValue)          \
   X(Not, 1, kPure | kValue)         \
   X(Select, 3, kPure | kValue)      \
+  X(Surface, 3, kPure | kValue)     \
   X(Check, 1, 0)                    \
   X(If, 1, kCtl)                    \
   X(Else, 0, kCtl)                  \

@@ -178,6 +178,43 @@ llvm::Value* VectorEmitter::call_lanes(llvm::FunctionCallee f, llvm::Value* a, l
   return r;
 }
 
+llvm::Value* VectorEmitter::surface_pointer(int index) {
+  HFRT_CHECK(index >= 0 && index < static_cast<int>(fn_.surfaces.size()));
+  const auto addr = reinterpret_cast<uintptr_t>(fn_.surfaces[index].get());
+  return llvm::ConstantExpr::getIntToPtr(llvm::ConstantInt::get(i64_, addr), ptr_);
+}
+
+llvm::FunctionCallee VectorEmitter::surface_helper(const char* name) {
+  auto* ty = llvm::FunctionType::get(llvm::Type::getVoidTy(ctx_), {ptr_, ptr_, ptr_}, false);
+  llvm::FunctionCallee callee = m_.getOrInsertFunction(name, ty);
+  if (auto* f = llvm::dyn_cast<llvm::Function>(callee.getCallee())) f->setDoesNotThrow();
+  return callee;
+}
+
+llvm::Value* VectorEmitter::surface_lanes(int index, llvm::Value* x, llvm::Value* y,
+                                          llvm::Value* z, bool sign_only) {
+  auto* ty = llvm::FunctionType::get(st_, {ptr_, st_, st_, st_}, false);
+  llvm::FunctionCallee f = m_.getOrInsertFunction(
+      sign_only ? pick_name("hfrt_surface_sign_f64", "hfrt_surface_sign_f32")
+                : pick_name("hfrt_surface_f64", "hfrt_surface_f32"),
+      ty);
+  if (auto* fn = llvm::dyn_cast<llvm::Function>(f.getCallee())) {
+    // Reads the immutable surface only: no side effect the optimiser must keep.
+    fn->setDoesNotThrow();
+    fn->setWillReturn();
+    fn->setOnlyReadsMemory();
+  }
+  llvm::Value* s = surface_pointer(index);
+  llvm::Value* r = llvm::PoisonValue::get(vt_);
+  for (int i = 0; i < w_; ++i) {
+    auto e = [&](llvm::Value* v) { return b_.CreateExtractElement(v, uint64_t(i)); };
+    llvm::CallInst* call = b_.CreateCall(f, {s, e(x), e(y), e(z)});
+    call->setDoesNotThrow();
+    r = b_.CreateInsertElement(r, call, uint64_t(i));
+  }
+  return r;
+}
+
 llvm::Value* VectorEmitter::scalar_op(Op op, llvm::Value* a, llvm::Value* b, llvm::Value* c) {
   auto unary = [&](llvm::Intrinsic::ID id) { return b_.CreateUnaryIntrinsic(id, a); };
   auto libm1 = [&](const char* f64, const char* f32) {
@@ -245,7 +282,7 @@ llvm::Value* VectorEmitter::scalar_op(Op op, llvm::Value* a, llvm::Value* b, llv
     case Op::kConst: case Op::kInput: case Op::kParam: case Op::kLoadSlot:
     case Op::kStoreSlot: case Op::kLoadIdx: case Op::kStoreIdx: case Op::kTableLoad:
     case Op::kCheck: case Op::kIf: case Op::kElse: case Op::kEndIf: case Op::kLoop:
-    case Op::kLoopTest: case Op::kEndLoop:
+    case Op::kLoopTest: case Op::kEndLoop: case Op::kSurface:
       break;
   }
   HFRT_CHECK_MSG(false, "scalar_op: not a pure op with arguments: " << op_name(op));

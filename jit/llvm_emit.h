@@ -89,6 +89,15 @@ class VectorEmitter {
   /// results of inactive lanes are never stored).
   llvm::Value* call_lanes(llvm::FunctionCallee f, llvm::Value* a, llvm::Value* b = nullptr);
 
+  /// Function::surfaces[index] as a constant pointer of the code (the Function owns it).
+  llvm::Value* surface_pointer(int index);
+  /// A C-ABI helper `void name(ptr surface, ptr in, ptr out)` (jit/surface_ops.h).
+  llvm::FunctionCallee surface_helper(const char* name);
+  /// kSurface's value on every lane: hfrt_surface_f64 / _f32 per lane (surface_ops.h), or
+  /// with `sign_only` hfrt_surface_sign_f64 / _f32 (+1 / -1, JitOptions::surface_sign_only).
+  llvm::Value* surface_lanes(int index, llvm::Value* x, llvm::Value* y, llvm::Value* z,
+                             bool sign_only = false);
+
   /// The value of a pure op (kAdd ... kSelect, no kTableLoad) on vectors, exactly as
   /// scalar_ops.h apply_op computes it: IEEE instructions and intrinsics without fast-math
   /// flags, per-lane calls of the interpreter's own libm functions and hf_pow.

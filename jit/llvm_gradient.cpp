@@ -132,6 +132,39 @@ class GradientEmitter : public VectorEmitter {
     b_.CreateStore(b_.CreateOr(b_.CreateLoad(mt_, err_), and_mask(mask(), lanes)), err_);
   }
 
+  /// kSurface: hfrt_surface_dual per lane (in f64; f32 code converts), jit/surface_ops.h.
+  DV surface_dual_lanes(int index, const DV& x, const DV& y, const DV& z) {
+    llvm::FunctionCallee f = surface_helper("hfrt_surface_dual");
+    llvm::Type* dt = llvm::Type::getDoubleTy(ctx_);
+    auto* in_ty = llvm::ArrayType::get(dt, 12);
+    auto* out_ty = llvm::ArrayType::get(dt, 4);
+    llvm::AllocaInst* in_buf = entry_alloca(in_ty, "surf_in");
+    llvm::AllocaInst* out_buf = entry_alloca(out_ty, "surf_out");
+    llvm::Value* s = surface_pointer(index);
+    const DV* args[3] = {&x, &y, &z};
+    DV r;
+    r.v = llvm::PoisonValue::get(vt_);
+    for (int k = 0; k < 3; ++k) r.d[k] = llvm::PoisonValue::get(vt_);
+    for (int lane = 0; lane < w_; ++lane) {
+      for (int a = 0; a < 3; ++a) {
+        for (int c = 0; c < 4; ++c) {
+          llvm::Value* vec = c == 0 ? args[a]->v : args[a]->d[c - 1];
+          llvm::Value* e = b_.CreateExtractElement(vec, uint64_t(lane));
+          if (is_f32_) e = b_.CreateFPExt(e, dt);
+          b_.CreateStore(e, b_.CreateConstInBoundsGEP2_32(in_ty, in_buf, 0, unsigned(4 * a + c)));
+        }
+      }
+      b_.CreateCall(f, {s, in_buf, out_buf})->setDoesNotThrow();
+      for (int c = 0; c < 4; ++c) {
+        llvm::Value* e = b_.CreateLoad(dt, b_.CreateConstInBoundsGEP2_32(out_ty, out_buf, 0, unsigned(c)));
+        if (is_f32_) e = b_.CreateFPTrunc(e, st_);
+        llvm::Value*& dst = c == 0 ? r.v : r.d[c - 1];
+        dst = b_.CreateInsertElement(dst, e, uint64_t(lane));
+      }
+    }
+    return r;
+  }
+
   void emit_inst(size_t i) {
     const Inst& in = fn_.insts[i];
     auto arg = [&](int k) -> const DV& { return values_[in.args[k]]; };
@@ -185,6 +218,7 @@ class GradientEmitter : public VectorEmitter {
         values_[i] = flat(r);
         return;
       }
+      case Op::kSurface: values_[i] = surface_dual_lanes(in.aux, arg(0), arg(1), arg(2)); return;
       case Op::kCheck: add_error(b_.CreateFCmpUNE(arg(0).v, splat(0))); return;
       case Op::kIf: begin_if(nonzero(arg(0).v)); return;
       case Op::kElse: begin_else(); return;

@@ -288,6 +288,38 @@ class IntervalEmitter : public VectorEmitter {
     return {le(a.lo, b.hi), OR(b_.CreateFCmpOGT(a.hi, b.lo), OR(a.nan, b.nan))};
   }
 
+  /// kSurface: hfrt_surface_interval per lane (jit/surface_ops.h).
+  IV surface_iv(int index, const IV& x, const IV& y, const IV& z) {
+    llvm::FunctionCallee f = surface_helper("hfrt_surface_interval");
+    auto* in_ty = llvm::ArrayType::get(dt_, 9);
+    auto* out_ty = llvm::ArrayType::get(dt_, 3);
+    llvm::AllocaInst* in_buf = entry_alloca(in_ty, "surf_in");
+    llvm::AllocaInst* out_buf = entry_alloca(out_ty, "surf_out");
+    llvm::Value* s = surface_pointer(index);
+    const IV* args[3] = {&x, &y, &z};
+    llvm::Value* nans[3];
+    for (int a = 0; a < 3; ++a) nans[a] = b_.CreateUIToFP(args[a]->nan, vt_);
+    IV r{llvm::PoisonValue::get(vt_), llvm::PoisonValue::get(vt_), llvm::PoisonValue::get(vt_)};
+    for (int lane = 0; lane < w_; ++lane) {
+      for (int a = 0; a < 3; ++a) {
+        llvm::Value* parts[3] = {args[a]->lo, args[a]->hi, nans[a]};
+        for (int c = 0; c < 3; ++c) {
+          b_.CreateStore(b_.CreateExtractElement(parts[c], uint64_t(lane)),
+                         b_.CreateConstInBoundsGEP2_32(in_ty, in_buf, 0, unsigned(3 * a + c)));
+        }
+      }
+      b_.CreateCall(f, {s, in_buf, out_buf})->setDoesNotThrow();
+      auto part = [&](unsigned k) {
+        return b_.CreateLoad(dt_, b_.CreateConstInBoundsGEP2_32(out_ty, out_buf, 0, k));
+      };
+      r.lo = b_.CreateInsertElement(r.lo, part(0), uint64_t(lane));
+      r.hi = b_.CreateInsertElement(r.hi, part(1), uint64_t(lane));
+      r.nan = b_.CreateInsertElement(r.nan, part(2), uint64_t(lane));
+    }
+    r.nan = b_.CreateFCmpUNE(r.nan, splat(0));
+    return r;
+  }
+
   /// The per-lane helper (apply_interval) for the libm-based ops.
   IV lane_call(Op op, const IV& a, const IV& b) {
     auto* fty = llvm::FunctionType::get(llvm::Type::getVoidTy(ctx_),
@@ -599,6 +631,7 @@ class IntervalEmitter : public VectorEmitter {
         define(i, select_iv(empty, point(std::nan("")), r));
         return;
       }
+      case Op::kSurface: define(i, surface_iv(in.aux, arg(0), arg(1), arg(2))); return;
       case Op::kCheck: add_error(nonzero(arg(0)).can_true); return;
       case Op::kIf: begin_if(i); return;
       case Op::kElse: begin_else(); return;

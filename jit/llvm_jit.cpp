@@ -73,11 +73,13 @@ namespace {
 
 class Emitter : public VectorEmitter {
  public:
-  Emitter(llvm::Module& module, const Function& fn, Precision precision, int lanes)
+  Emitter(llvm::Module& module, const Function& fn, Precision precision, int lanes,
+          bool surface_sign_only = false)
       : VectorEmitter(module, fn,
                       precision == Precision::kF64 ? llvm::Type::getDoubleTy(module.getContext())
                                                    : llvm::Type::getFloatTy(module.getContext()),
-                      lanes) {}
+                      lanes),
+        surface_sign_only_(surface_sign_only) {}
 
   /// Emits the body and the exported batch function `entry_name`.
   void emit(const std::string& entry_name) {
@@ -86,6 +88,8 @@ class Emitter : public VectorEmitter {
   }
 
  private:
+  const bool surface_sign_only_;  ///< JitOptions::surface_sign_only
+
   // --- Slots ---------------------------------------------------------------------------
   // Arrays accessed with dynamic indices larger than this live in memory (gathers);
   // smaller ones use select chains over their slots' registers.
@@ -259,6 +263,9 @@ class Emitter : public VectorEmitter {
         case Op::kLoadIdx: v = load_idx(inst, arg(0)); break;
         case Op::kStoreIdx: store_idx(inst, arg(0), arg(1)); break;
         case Op::kTableLoad: v = table_load(inst, arg(0)); break;
+        case Op::kSurface:
+          v = surface_lanes(inst.aux, arg(0), arg(1), arg(2), surface_sign_only_);
+          break;
         case Op::kCheck: {
           llvm::Value* fired = and_mask(mask(), nonzero(arg(0)));
           b_.CreateStore(b_.CreateOr(b_.CreateLoad(mt_, err_), fired), err_);
@@ -429,7 +436,7 @@ Result<std::unique_ptr<JitFunction>> JitFunction::compile(const Function& fn, Pr
       session.value()->new_module(precision == Precision::kF64 ? "hfrt_eval_f64" : "hfrt_eval_f32");
   const std::string name = unit.name;
   auto t0 = std::chrono::steady_clock::now();
-  Emitter(*unit.module, fn, precision, lanes).emit(name);
+  Emitter(*unit.module, fn, precision, lanes, options.surface_sign_only).emit(name);
   impl->stats.emit_ms = ms_since(t0);
 
   PipelineOptions po;

@@ -30,6 +30,12 @@ using BatchFn = void (*)(int64_t n, const T* xs, const T* a, T* out_f, T* out_s)
 struct JitOptions {
   int opt_level = 2;  ///< new pass manager pipeline O0..O3 (and the codegen level to match)
   int lanes = 0;      ///< SIMD width in lanes; 0 = the host's (vector bytes / sizeof(T))
+  /// kSurface gives +1 inside / -1 outside (the winding number's side, the sign of its
+  /// distance) instead of the signed distance: a fraction of the cost, and F keeps its sign
+  /// wherever the mesh and patch leaves sit on a set-operation skeleton (the renderer's
+  /// analytic search only looks at signs). Other models get other values: see
+  /// Model::eval_batch_sign.
+  bool surface_sign_only = false;
 };
 
 /// Compile-latency figures of one JitFunction (`hfrt eval --stats`).

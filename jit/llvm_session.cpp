@@ -16,6 +16,7 @@
 #include <llvm/Transforms/Scalar/EarlyCSE.h>
 #include <llvm/Transforms/Scalar/SROA.h>
 
+#include "jit/surface_ops.h"
 #include "lang/check.h"
 
 namespace hfrt::jit {
@@ -171,6 +172,13 @@ Result<LlvmSession*> LlvmSession::create() {
   for (const HostSymbol& h : libc_symbols()) add(h);
   for (const HostSymbol& h : scalar_jit_symbols()) add(h);
   for (const HostSymbol& h : interval_jit_symbols()) add(h);
+  // kSurface's helpers (jit/surface_ops.h).
+  add({"hfrt_surface_f64", fn_addr(&hfrt_surface_f64)});
+  add({"hfrt_surface_f32", fn_addr(&hfrt_surface_f32)});
+  add({"hfrt_surface_sign_f64", fn_addr(&hfrt_surface_sign_f64)});
+  add({"hfrt_surface_sign_f32", fn_addr(&hfrt_surface_sign_f32)});
+  add({"hfrt_surface_interval", fn_addr(&hfrt_surface_interval)});
+  add({"hfrt_surface_dual", fn_addr(&hfrt_surface_dual)});
   if (auto err = s->jit_->getMainJITDylib().define(llvm::orc::absoluteSymbols(symbols))) {
     return Error{"cannot register host symbols: " + llvm_error_text(std::move(err))};
   }

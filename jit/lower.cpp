@@ -347,6 +347,8 @@ class Lowerer {
           default: break;
         }
         break;
+      case ExprKind::kString:
+        break;  // only a file argument, which lower_library reads as text
     }
     HFRT_CHECK_MSG(false, "unresolved expression '" << e.name << "' reached the lowering");
     return kNoValue;
@@ -518,6 +520,9 @@ class Lowerer {
         la.is_array = true;
         la.base_slot = arr.base;
         la.size = arr.size;
+      } else if (kinds[i] == 'F') {
+        HFRT_CHECK(arg.kind == ExprKind::kString);
+        la.text = arg.name;
       } else {
         la.value = lower_expr(f, arg);
       }

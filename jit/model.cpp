@@ -9,10 +9,12 @@
 #include <cstring>
 #include <mutex>
 
+#include "geom/surface.h"
 #include "jit/gradient.h"
 #include "jit/interpreter.h"
 #include "jit/interval.h"
 #include "jit/llvm_jit.h"
+#include "jit/poly.h"
 #include "lang/check.h"
 #include "lang/frontend.h"
 #include "lang/result.h"
@@ -151,10 +153,33 @@ struct Compiled {
   bool interval_jit = false;  ///< the interval domain uses the JIT (else the interpreter)
   bool gradient_jit = false;
   mutable LazySlot<jit::JitFunction> jit[2];
+  /// f32 code with JitOptions::surface_sign_only (Model::eval_batch_sign).
+  mutable LazySlot<jit::JitFunction> jit_sign;
   mutable LazySlot<jit::IntervalJit> interval;
   mutable LazySlot<jit::GradientJit> gradient[2];
   mutable Pool<jit::IntervalInterpreter> interval_pool;
   mutable Pool<jit::GradientInterpreter> gradient_pool;
+  /// The polynomial domain's analysis, computed on first use (analytic_info, ray_polynomials).
+  mutable std::once_flag poly_once;
+  mutable jit::PolyAnalysis poly;
+  mutable std::unique_ptr<jit::PolyInterpreter> poly_interp;
+
+  const jit::PolyAnalysis& get_poly() const {
+    std::call_once(poly_once, [&] {
+      poly = jit::analyze_polynomial(fn);
+      poly_interp = std::make_unique<jit::PolyInterpreter>(fn, poly.program);
+    });
+    return poly;
+  }
+
+  /// The polynomial JIT (one ray per call), or null: the interpreter backend, an object that
+  /// does not qualify, or a failed compile.
+  bool poly_jit_enabled = false;
+  mutable LazySlot<jit::PolyJit> poly_jit;
+  const jit::PolyJit* get_poly_jit() const {
+    if (!poly_jit_enabled || !get_poly().qualifies) return nullptr;
+    return poly_jit.get([&] { return jit::PolyJit::compile(fn, poly.program, 1, opt_level); });
+  }
 
   const jit::JitFunction* get(Precision p) const {
     return jit[p == Precision::kF64 ? 0 : 1].get([&] {
@@ -226,12 +251,19 @@ struct Model::Impl {
       if (diags) diags->push_back(convert(d, file->name()));
     }
     if (rendered && !sink.diagnostics().empty()) *rendered += sink.render(false);
+    // Errors found while lowering: a mesh or patch file that does not load (the surfaces are
+    // built at compile time). No model then, like a front-end error.
+    if (sink.has_errors()) {
+      if (!rendered && error) *error = sink.render(false);
+      return nullptr;
+    }
     c->interp = std::make_unique<jit::Interpreter>(c->fn);
     const int64_t weight = domain_jit_weight(c->fn);
     stats.domain_jit_weight = weight;
     auto within = [&](int max_weight) { return max_weight < 0 || weight <= max_weight; };
     c->interval_jit = options.backend == Backend::kJit && within(options.interval_jit_max_insts);
     c->gradient_jit = options.backend == Backend::kJit && within(options.gradient_jit_max_insts);
+    c->poly_jit_enabled = options.backend == Backend::kJit;
     if (options.backend == Backend::kJit) {
       for (Precision p : {Precision::kF64, Precision::kF32}) {
         bool eager = p == Precision::kF64 ? options.eager_f64 : options.eager_f32;
@@ -414,6 +446,29 @@ void Model::eval_batch(int64_t n, const float* xs, float* out_f, float* out_s) c
   }
 }
 
+void Model::eval_batch_sign(int64_t n, const float* xs, float* out_f) const {
+  const Compiled& c = *impl_->compiled;
+  if (c.fn.surfaces.empty() || impl_->options.backend != Backend::kJit) {
+    eval_batch(n, xs, out_f, nullptr);
+    return;
+  }
+  const jit::JitFunction* code = c.jit_sign.get([&] {
+    jit::JitOptions options;
+    options.opt_level = c.opt_level;
+    // One lane: the caller (the analytic root search) passes a few points per call, and a
+    // wide block would evaluate its padding lanes' winding numbers too, which dominate the
+    // cost; the rest of the code is cheap next to them.
+    options.lanes = 1;
+    options.surface_sign_only = true;
+    return jit::JitFunction::compile(c.fn, jit::Precision::kF32, options);
+  });
+  if (!code) {
+    eval_batch(n, xs, out_f, nullptr);
+    return;
+  }
+  code->f32()(n, xs, impl_->params_f32.data(), out_f, nullptr);
+}
+
 bool Model::prepare(Precision precision, std::string* error) const {
   if (impl_->options.backend != Backend::kJit) return true;
   const Compiled& c = *impl_->compiled;
@@ -583,6 +638,106 @@ bool Model::prepare_gradient(Precision precision, std::string* error) const {
   return false;
 }
 
+// --- Polynomial domain ----------------------------------------------------------------------
+
+AnalyticInfo Model::analytic_info() const {
+  const jit::PolyAnalysis& p = impl_->compiled->get_poly();
+  AnalyticInfo info;
+  info.qualifies = p.qualifies;
+  info.num_leaves = p.program.num_poly_leaves;
+  info.num_surface_leaves = static_cast<int>(p.program.surfaces.size());
+  info.max_degree = p.max_degree;
+  info.reason = p.reason;
+  info.line = static_cast<int>(p.loc.line);
+  info.col = static_cast<int>(p.loc.col);
+  return info;
+}
+
+namespace {
+/// Every leaf of the polynomial program (the polynomial ones, then the surface leaves'
+/// points) for one ray, into per-thread scratch.
+const double* all_leaves(const Compiled& c, const std::vector<double>& a, const double o[3],
+                         const double d[3]) {
+  const jit::PolyAnalysis& p = c.get_poly();
+  thread_local std::vector<double> scratch;
+  scratch.resize(p.program.leaves.size() * jit::kPolyCoeffs + 1);
+  if (const jit::PolyJit* code = c.get_poly_jit()) {
+    code->eval_one(o, d, a, scratch.data());
+  } else {
+    c.poly_interp->eval(o, d, a, scratch.data());
+  }
+  return scratch.data();
+}
+}  // namespace
+
+void Model::ray_polynomials(const double o[3], const double d[3], double* out) const {
+  const Compiled& c = *impl_->compiled;
+  const jit::PolyAnalysis& p = c.get_poly();
+  HFRT_CHECK_MSG(p.qualifies, "ray_polynomials on an object that does not qualify: " << p.reason);
+  if (p.program.surfaces.empty()) {
+    if (const jit::PolyJit* code = c.get_poly_jit()) {
+      code->eval_one(o, d, impl_->params_f64, out);
+      return;
+    }
+    c.poly_interp->eval(o, d, impl_->params_f64, out);
+    return;
+  }
+  // The surface leaves' points follow the polynomial leaves: the caller gets the latter only.
+  const double* all = all_leaves(c, impl_->params_f64, o, d);
+  std::copy(all, all + size_t(p.program.num_poly_leaves) * jit::kPolyCoeffs, out);
+}
+
+void Model::ray_surface_crossings(const double o[3], const double d[3], double t0, double t1,
+                                  std::vector<double>* out) const {
+  const Compiled& c = *impl_->compiled;
+  const jit::PolyAnalysis& p = c.get_poly();
+  HFRT_CHECK_MSG(p.qualifies, "ray_surface_crossings on an object that does not qualify");
+  if (p.program.surfaces.empty() || !(t0 < t1)) return;
+  const double* all = all_leaves(c, impl_->params_f64, o, d);
+  thread_local std::vector<geom::Crossing> crossings;
+  // Rays are traced in float: clamp an unbounded segment to what float holds.
+  const float tmin = float(std::max(t0, -3e38)), tmax = float(std::min(t1, 3e38));
+  for (const jit::PolySurfaceLeaf& s : p.program.surfaces) {
+    geom::Ray ray;
+    for (int k = 0; k < 3; ++k) {
+      const double* coeffs = all + size_t(s.first_leaf + k) * jit::kPolyCoeffs;
+      ray.org[k] = float(coeffs[0]);
+      ray.dir[k] = float(coeffs[1]);
+    }
+    if (!geom::is_finite(ray.org) || !geom::is_finite(ray.dir)) continue;
+    if (ray.dir.x == 0 && ray.dir.y == 0 && ray.dir.z == 0) continue;  // F constant on the ray
+    c.fn.surfaces[s.surface]->crossings(ray, tmin, tmax, &crossings);
+    for (const geom::Crossing& x : crossings) out->push_back(x.t);
+  }
+}
+
+std::vector<SurfaceStats> Model::surface_stats() const {
+  const jit::Function& fn = impl_->compiled->fn;
+  std::vector<SurfaceStats> out;
+  for (size_t i = 0; i < fn.surfaces.size(); ++i) {
+    const geom::SurfaceStats st = fn.surfaces[i]->stats();
+    SurfaceStats s;
+    s.source = st.source;
+    s.triangles = st.triangles;
+    s.patches = st.patches;
+    s.degenerate_skipped = st.degenerate_skipped;
+    s.bvh_nodes = st.bvh_nodes;
+    s.bvh_depth = st.bvh_depth;
+    s.build_seconds = st.build_seconds;
+    s.memory_bytes = st.memory_bytes;
+    s.leaves = i < fn.surface_uses.size() ? fn.surface_uses[i] : 1;
+    out.push_back(std::move(s));
+  }
+  return out;
+}
+
+bool Model::prepare_polynomial(std::string* error) const {
+  const Compiled& c = *impl_->compiled;
+  if (!c.poly_jit_enabled || !c.get_poly().qualifies || c.get_poly_jit()) return true;
+  if (error) *error = c.poly_jit.error;
+  return false;
+}
+
 std::string Model::ir_text() const { return jit::print(impl_->compiled->fn); }
 
 std::string Model::llvm_ir(Precision precision) const {
@@ -616,6 +771,9 @@ ModelStats Model::stats() const {
     d->compile_ms = slot.compile_ms;
   };
   if (const jit::IntervalJit* code = c.interval.peek()) domain(c.interval, code->lanes(), &s.interval);
+  if (const jit::PolyJit* code = c.poly_jit.peek()) {
+    domain(c.poly_jit, code->lanes(), &s.polynomial);
+  }
   if (const jit::GradientJit* code = c.gradient[0].peek()) {
     domain(c.gradient[0], code->lanes(), &s.gradient_f64);
   }

@@ -96,6 +96,7 @@ inline double apply_op(Op op, double a, double b, double c) {
     case Op::kConst: case Op::kInput: case Op::kParam: case Op::kLoadSlot: case Op::kStoreSlot:
     case Op::kLoadIdx: case Op::kStoreIdx: case Op::kTableLoad: case Op::kCheck: case Op::kIf:
     case Op::kElse: case Op::kEndIf: case Op::kLoop: case Op::kLoopTest: case Op::kEndLoop:
+    case Op::kSurface:  // needs Function::surfaces (jit/surface_ops.h)
       break;
   }
   return std::nan("");

@@ -51,6 +51,7 @@ enum class ExprKind {
   kUnary,   ///< unary_op args[0]
   kBinary,  ///< args[0] binary_op args[1]
   kCall,    ///< name(args...): built-in, library function or earlier object
+  kString,  ///< "text": only the file argument of hfMesh / hfBezierSurface (name = the text)
 };
 
 struct Expr;
@@ -60,7 +61,7 @@ struct Expr {
   ExprKind kind = ExprKind::kNumber;
   SourceRange range;        ///< the whole expression
   double number = 0;        ///< kNumber
-  std::string name;         ///< kName, kIndex, kCall: as written in the source
+  std::string name;         ///< kName, kIndex, kCall: as written; kString: the text between the quotes
   SourceRange name_range;   ///< kName, kIndex, kCall
   Symbol symbol;            ///< kName, kIndex, kCall (after checking)
   UnaryOp unary_op = UnaryOp::kNeg;

@@ -204,6 +204,9 @@ class Dumper {
       case ExprKind::kCall:
         line(indent, "call " + e.name + " (" + symbol(e.symbol) + ")");
         break;
+      case ExprKind::kString:
+        line(indent, "string \"" + e.name + "\"");
+        return;
     }
     for (const ExprPtr& a : e.args) {
       if (a) expr(*a, indent + 1);

@@ -230,7 +230,10 @@ Token Lexer::next() {
       // Skip the whole string literal (to the closing quote on this line) as one token.
       ++pos_;
       while (pos_ < n && s[pos_] != '"' && s[pos_] != '\n') ++pos_;
-      if (pos_ < n && s[pos_] == '"') ++pos_;
+      if (pos_ < n && s[pos_] == '"') {
+        ++pos_;
+        if (allow_strings_) return make(TokenKind::kString, start);
+      }
       error(start, pos_ - start, "strings are not part of HyperFun",
             "arguments are numbers, expressions or array names");
       return make(TokenKind::kInvalid, start);

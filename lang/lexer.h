@@ -18,6 +18,7 @@ namespace hfrt::lang {
   X(kIdent, "a name")         \
   X(kNumber, "a number")      \
   X(kInvalid, "invalid text") \
+  X(kString, "a string")      \
   X(kArray, "'array'")        \
   X(kIf, "'if'")              \
   X(kThen, "'then'")          \
@@ -92,6 +93,11 @@ class Lexer {
   uint32_t position() const { return pos_; }
   void rewind(uint32_t pos) { pos_ = pos; }
 
+  /// While set, a string literal `"..."` (on one line) lexes as one kString token instead of
+  /// the error "strings are not part of HyperFun". The parser sets it only to read the file
+  /// argument of hfMesh / hfBezierSurface (an hfrt extension, docs/meshes.md).
+  void set_allow_strings(bool allow) { allow_strings_ = allow; }
+
   /// The text of a token.
   std::string_view text(const Token& t) const { return file_.text().substr(t.offset, t.length); }
 
@@ -105,6 +111,7 @@ class Lexer {
   const SourceFile& file_;
   ErrorFn on_error_;
   uint32_t pos_ = 0;
+  bool allow_strings_ = false;
 };
 
 }  // namespace hfrt::lang

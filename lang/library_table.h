@@ -8,7 +8,8 @@
 namespace hfrt::lang {
 
 // X(enum_name, spelled_name, kinds). kinds: one letter per argument in call order,
-// 'A' = an array name (passed by reference), 'R' = a real expression.
+// 'A' = an array name (passed by reference), 'R' = a real expression, 'F' = a file name as a
+// string literal (the only place a string is accepted; an hfrt extension).
 #define HFRT_LIBRARY(X)                                 \
   X(kSphere, "hfSphere", "AAR")                         \
   X(kEllipsoid, "hfEllipsoid", "AARRR")                 \
@@ -94,7 +95,12 @@ namespace hfrt::lang {
   X(kDSub, "hfDSub", "RRRR")                            \
   X(kDBlendUni, "hfDBlendUni", "RRR")                   \
   X(kDBlendInt, "hfDBlendInt", "RRR")                   \
-  X(kSawtooth, "hfSawtooth", "RRRR")
+  X(kSawtooth, "hfSawtooth", "RRRR")                   \
+  /* hfrt extensions (issue 10, docs/meshes.md): mesh and Bezier patch leaves */ \
+  X(kMesh, "hfMesh", "AF")                              \
+  X(kTriangles, "hfTriangles", "AAA")                   \
+  X(kBezierSurface, "hfBezierSurface", "AF")            \
+  X(kBezierPatches, "hfBezierPatches", "AA")
 
 enum class LibraryFn {
 #define HFRT_X(e, s, k) e,
@@ -113,7 +119,13 @@ inline constexpr int kLibraryFnCount = 0
 std::optional<LibraryFn> find_library_fn(std::string_view name);
 /// The name as the original library spells it ("hfSphere").
 std::string_view library_fn_name(LibraryFn f);
-/// One 'A' or 'R' per argument.
+/// One 'A', 'R' or 'F' per argument.
 std::string_view library_fn_kinds(LibraryFn f);
+/// hfMesh, hfTriangles, hfBezierSurface, hfBezierPatches: the leaves whose field comes from a
+/// geom::Surface (an hfrt extension, docs/meshes.md).
+inline bool is_surface_leaf(LibraryFn f) {
+  return f == LibraryFn::kMesh || f == LibraryFn::kTriangles || f == LibraryFn::kBezierSurface ||
+         f == LibraryFn::kBezierPatches;
+}
 
 }  // namespace hfrt::lang

@@ -15,12 +15,14 @@
 
 #include <algorithm>
 #include <cmath>
+#include <optional>
 #include <string>
 #include <vector>
 
 #include "lang/check.h"
 #include "lang/frontend.h"
 #include "lang/lexer.h"
+#include "lang/library_table.h"
 #include "lang/names.h"
 
 namespace hfrt::lang {
@@ -35,6 +37,15 @@ struct Node {
   ExprPtr expr;
   int height = 1;
 };
+
+// True when argument `index` (0-based) of the library function `name` is a file name
+// (kind 'F' in library_table.h: hfMesh, hfBezierSurface).
+bool takes_file_argument(std::string_view name, size_t index) {
+  std::optional<LibraryFn> f = find_library_fn(name);
+  if (!f) return false;
+  std::string_view kinds = library_fn_kinds(*f);
+  return index < kinds.size() && kinds[index] == 'F';
+}
 
 bool is_relop(TokenKind k) {
   return k == TokenKind::kLt || k == TokenKind::kLe || k == TokenKind::kGt || k == TokenKind::kGe ||
@@ -301,6 +312,7 @@ class Parser {
   Node parse_power();
   Node parse_unary();
   Node parse_primary();
+  Node parse_string();
 
   std::shared_ptr<const SourceFile> file_;
   DiagnosticSink& sink_;
@@ -827,6 +839,17 @@ Node Parser::parse_unary() {
   return {std::move(e), h};
 }
 
+// A string literal (only ever lexed as the file argument of hfMesh / hfBezierSurface).
+Node Parser::parse_string() {
+  auto e = std::make_unique<Expr>();
+  e->kind = ExprKind::kString;
+  e->range = range_of(tok_);
+  std::string_view t = text(tok_);
+  e->name = std::string(t.substr(1, t.size() >= 2 ? t.size() - 2 : 0));
+  advance();
+  return {std::move(e), 1};
+}
+
 Node Parser::parse_primary() {
   const uint32_t begin = tok_.offset;
   switch (tok_.kind) {
@@ -871,13 +894,16 @@ Node Parser::parse_primary() {
         e->kind = ExprKind::kCall;
         if (!at(TokenKind::kRParen)) {
           for (;;) {
-            Node arg = parse_expr();
+            Node arg = at(TokenKind::kString) ? parse_string() : parse_expr();
             h = std::max(h, arg.height + 1);
             e->args.push_back(std::move(arg.expr));
-            if (panic_ || accept(TokenKind::kComma)) {
-              if (panic_) break;
-              continue;
-            }
+            if (panic_) break;
+            // The token after this comma may be a file name: the lexer reads a string
+            // literal there only (anywhere else it stays the original's error).
+            lexer_.set_allow_strings(takes_file_argument(e->name, e->args.size()));
+            const bool comma = accept(TokenKind::kComma);
+            lexer_.set_allow_strings(false);
+            if (comma) continue;
             if (!at(TokenKind::kRParen)) {
               syntax_error("expected ',' or ')' in the arguments of '" + e->name + "', found " +
                            describe(tok_));

@@ -384,6 +384,12 @@ class Checker {
       }
       case ExprKind::kCall:
         return check_call(e, assigned);
+      case ExprKind::kString:
+        // The parser only reads strings where a file name may go; a file argument in the
+        // wrong call (an object or built-in of the same arity) is still an error.
+        diags_.error(e.range, "strings are not part of HyperFun",
+                     "arguments are numbers, expressions or array names");
+        return;
     }
   }
 
@@ -425,6 +431,22 @@ class Checker {
     std::string guess = closest(n, visible_names());
     if (!guess.empty()) hint = "did you mean '" + guess + "'?";
     diags_.error(e.name_range, "'" + n + "' is used but never assigned", hint);
+  }
+
+  // A file name argument (hfMesh, hfBezierSurface): a non-empty string literal.
+  void check_file_arg(Expr& arg, int position, const std::string& fn) {
+    if (arg.kind != ExprKind::kString) {
+      diags_.error(arg.range,
+                   "argument " + std::to_string(position) + " of '" + fn +
+                       "' must be a file name in double quotes",
+                   "for example " + fn + "(x, \"model.off\"); the path is relative to the "
+                   "model file's folder");
+      return;
+    }
+    if (arg.name.empty()) {
+      diags_.error(arg.range, "the file name of '" + fn + "' is empty",
+                   "write the path of the file, relative to the model file's folder");
+    }
   }
 
   // A real-valued argument: anything but a bare array name.
@@ -485,7 +507,7 @@ class Checker {
       std::string signature = std::string(library_fn_name(*f)) + "(";
       for (int i = 0; i < arity; ++i) {
         signature += i ? ", " : "";
-        signature += kinds[i] == 'A' ? "array" : "real";
+        signature += kinds[i] == 'A' ? "array" : kinds[i] == 'F' ? "\"file\"" : "real";
       }
       signature += ")";
       if (count != arity) {
@@ -497,7 +519,15 @@ class Checker {
       for (int i = 0; i < count; ++i) {
         if (!e.args[i]) continue;
         if (i < arity && kinds[i] == 'A') {
-          check_array_arg(*e.args[i], i + 1, n);
+          const int size = check_array_arg(*e.args[i], i + 1, n);
+          if (i == 0 && size >= 0 && size < 3 && is_surface_leaf(*f)) {
+            diags_.error(e.args[i]->range,
+                         "'" + n + "' needs a point of 3 coordinates, but '" + e.args[i]->name +
+                             "' has " + plural(size, "element"),
+                         "pass x of a 3-D object, e.g. 'my_model(x[3], a[1])'");
+          }
+        } else if (i < arity && kinds[i] == 'F') {
+          check_file_arg(*e.args[i], i + 1, n);
         } else {
           check_real_arg(*e.args[i], i + 1, n, assigned);
         }

@@ -9,6 +9,7 @@
 
 #include <cstddef>
 #include <string>
+#include <vector>
 
 #include "render/vec.h"
 
@@ -76,6 +77,16 @@ class Field {
   /// Why F has no value at `p`, as one line of text (e.g. "division by zero at model.hf:3:7"),
   /// or "" when unknown. Called once per render, on the first NaN sample, to explain it.
   virtual std::string explain_nan(Vec3 p) const { return {}; }
+
+  /// True when ray_candidates() is available: for any ray it lists a finite set of parameters
+  /// that contains every crossing of F's zero set (analytic leaves of a set-operation
+  /// skeleton). When false, ray_candidates() is never called.
+  virtual bool has_ray_candidates() const { return false; }
+
+  /// Appends to `out` (unsorted, may repeat) every candidate t in [t0, t1] for the ray o + t d:
+  /// each parameter where F may change sign on the ray must be listed (to rounding).
+  virtual void ray_candidates(Vec3 o, Vec3 d, float t0, float t1,
+                              std::vector<double>* out) const {}
 };
 
 }  // namespace hfrt::render

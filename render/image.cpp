@@ -28,6 +28,33 @@ std::string sibling(const std::string& path, const std::string& what) {
   return path.substr(0, dot) + "." + what + path.substr(dot);
 }
 
+/// 8-bit encoding of linear values without a pow per sample: thresholds[k] is the linear value
+/// at which the rounded code (round(255 * srgb(v))) steps from k to k + 1, so the code of v is
+/// the number of thresholds <= v. Gives the same codes as encoding then rounding (up to ties
+/// within one float ulp of a threshold) and makes writing a 512x512 PNG about 3x faster.
+class Srgb8Encoder {
+ public:
+  Srgb8Encoder() {
+    for (int k = 0; k < 255; ++k) {
+      double e = (k + 0.5) / 255.0;  // the encoded value halfway between codes k and k + 1
+      double lin = e <= 0.04045 ? e / 12.92 : std::pow((e + 0.055) / 1.055, 2.4);
+      thresholds_[k] = float(lin);
+    }
+  }
+  uint8_t encode(float v) const {
+    if (!(v > 0)) return 0;  // also NaN
+    return uint8_t(std::upper_bound(thresholds_, thresholds_ + 255, v) - thresholds_);
+  }
+
+ private:
+  float thresholds_[255];
+};
+
+uint8_t linear_to_unorm8(float v) {
+  if (!std::isfinite(v)) return 0;
+  return uint8_t(std::lround(std::clamp(v, 0.0f, 1.0f) * 255.0f));
+}
+
 }  // namespace
 
 void Image::resize(int w, int h) {
@@ -68,20 +95,34 @@ Result<std::vector<std::string>> write_pixels(const std::string& path, int width
     spec.attribute("oiio:ColorSpace", "sRGB");
   }
   if (ext == "jpg" || ext == "jpeg") spec.attribute("Compression", "jpeg:95");
+  // zlib level 3 instead of OIIO's 6: a fifth of the time for a few percent more bytes, which
+  // matters for the REPL's edit-to-image latency.
+  if (ext == "png") spec.attribute("png:compressionLevel", 3);
   if (!out->open(path, spec)) {
     return Error{"cannot write '" + path + "': " + out->geterror()};
   }
-  std::vector<float> pixels(data.size());
-  for (size_t i = 0; i < data.size(); ++i) {
-    float v = data[i];
-    if (!is_float) {
-      // Integer formats: sRGB-encode colour; clamp everything (OIIO maps [0, 1] to the range).
-      if (encode_srgb && (channels < 4 || int(i % channels) < 3)) v = linear_to_srgb(v);
-      v = std::isfinite(v) ? std::clamp(v, 0.0f, 1.0f) : 0.0f;
+  bool ok = false;
+  if (type == OIIO::TypeDesc::UINT8) {
+    static const Srgb8Encoder srgb8;
+    std::vector<uint8_t> pixels(data.size());
+    for (size_t i = 0; i < data.size(); ++i) {
+      bool colour = encode_srgb && (channels < 4 || int(i % channels) < 3);
+      pixels[i] = colour ? srgb8.encode(data[i]) : linear_to_unorm8(data[i]);
     }
-    pixels[i] = v;
+    ok = out->write_image(OIIO::TypeDesc::UINT8, pixels.data());
+  } else {
+    std::vector<float> pixels(data.size());
+    for (size_t i = 0; i < data.size(); ++i) {
+      float v = data[i];
+      if (!is_float) {
+        // 16 bits: sRGB-encode colour; clamp everything (OIIO maps [0, 1] to the range).
+        if (encode_srgb && (channels < 4 || int(i % channels) < 3)) v = linear_to_srgb(v);
+        v = std::isfinite(v) ? std::clamp(v, 0.0f, 1.0f) : 0.0f;
+      }
+      pixels[i] = v;
+    }
+    ok = out->write_image(OIIO::TypeDesc::FLOAT, pixels.data());
   }
-  bool ok = out->write_image(OIIO::TypeDesc::FLOAT, pixels.data());
   std::string err = ok ? "" : out->geterror();
   if (!out->close() && ok) {
     ok = false;

@@ -81,8 +81,11 @@ class TileRenderer {
         image_(image) {
     step_ = effective_step(options);
     eps_ = effective_epsilon(options);
-    use_interval_ = options.root == RootMode::kInterval ||
-                    (options.root == RootMode::kAuto && field.has_interval());
+    use_analytic_ = options.root == RootMode::kAnalytic ||
+                    (options.root == RootMode::kAuto && field.has_ray_candidates());
+    use_interval_ = !use_analytic_ &&
+                    (options.root == RootMode::kInterval ||
+                     (options.root == RootMode::kAuto && field.has_interval()));
     cull_ = options.tile_culling && field.has_interval();
     lights_ = options.lights.empty() ? default_lights(frame_) : options.lights;
     frame_.depth_range(options.bbox, &t_min_, &t_max_);
@@ -99,7 +102,10 @@ class TileRenderer {
     shadow_bias_ = 1e-3f * options.bbox.max_extent();
   }
 
-  bool uses_interval() const { return use_interval_; }
+  RootMode root_used() const {
+    return use_analytic_ ? RootMode::kAnalytic
+                         : (use_interval_ ? RootMode::kInterval : RootMode::kSign);
+  }
 
   void render_tile(int tx0, int ty0, int tx1, int ty1, ThreadState& ts) {
     auto t_start = Clock::now();
@@ -208,6 +214,19 @@ class TileRenderer {
       te = 0;
       axis = -1;  // the eye is inside the box
     }
+    if (use_analytic_) {
+      // One search over all spans: the candidates are exact, and the gaps between spans (proven
+      // outside) cannot hold a hit, so only the first span's start matters.
+      float a = std::max(ts.spans.front().a, te), b = std::min(ts.spans.back().b, tx);
+      if (!(a <= b)) return;
+      RootHit h = ts.searcher.analytic_search(s.ray, a, b);
+      if (!h.hit) return;
+      s.hit = true;
+      s.t = h.t;
+      s.cap = h.at_start && a == te && axis >= 0;
+      s.cap_axis = axis;
+      return;
+    }
     float dlen = length(s.ray.d);
     for (const Span& span : ts.spans) {
       float a = std::max(span.a, te), b = std::min(span.b, tx);
@@ -242,7 +261,8 @@ class TileRenderer {
     tx = std::min(tx, dist);
     if (!(te <= tx)) return false;
     ts.shadow_rays++;
-    RootHit h = use_interval_ ? ts.searcher.interval_search(r, te, tx, eps_, step_, true)
+    RootHit h = use_analytic_ ? ts.searcher.analytic_search(r, te, tx)
+                : use_interval_ ? ts.searcher.interval_search(r, te, tx, eps_, step_, true)
                 : cull_       ? ts.searcher.pruned_sign_search(r, te, tx, step_, eps_, true)
                               : ts.searcher.sign_search(r, te, tx, step_, eps_, true);
     return h.hit;
@@ -350,7 +370,7 @@ class TileRenderer {
   Image* image_;
   std::vector<Light> lights_;
   float step_ = 0, eps_ = 0;
-  bool use_interval_ = false, cull_ = false, attrs_ = false;
+  bool use_interval_ = false, use_analytic_ = false, cull_ = false, attrs_ = false;
   float t_min_ = 0, t_max_ = 0;
   float footprint_a_ = 0, footprint_b_ = 0;
   float shadow_bias_ = 0;
@@ -363,6 +383,7 @@ const char* root_mode_name(RootMode mode) {
     case RootMode::kSign: return "sign";
     case RootMode::kInterval: return "interval";
     case RootMode::kAuto: return "auto";
+    case RootMode::kAnalytic: return "analytic";
   }
   return "?";
 }
@@ -389,6 +410,8 @@ RenderResult render(const Field& field, const RenderOptions& options) {
   HFRT_CHECK(!options.bbox.empty());
   HFRT_CHECK_MSG(options.root != RootMode::kInterval || field.has_interval(),
                  "--root interval needs an interval evaluator");
+  HFRT_CHECK_MSG(options.root != RootMode::kAnalytic || field.has_ray_candidates(),
+                 "--root analytic needs a field with ray candidates");
   auto start = Clock::now();
   RenderResult result;
   result.image.resize(options.width, options.height);
@@ -398,6 +421,7 @@ RenderResult render(const Field& field, const RenderOptions& options) {
   const int ntx = (options.width + ts - 1) / ts, nty = (options.height + ts - 1) / ts;
   const size_t ntiles = size_t(ntx) * nty;
   std::atomic<size_t> done{0};
+  std::atomic<bool> cancelled{false};
   std::mutex nan_mutex;
   size_t nan_tile = std::numeric_limits<size_t>::max();
   Vec3 nan_point;
@@ -412,6 +436,10 @@ RenderResult render(const Field& field, const RenderOptions& options) {
     tbb::parallel_for(tbb::blocked_range<size_t>(0, ntiles, 1), [&](const tbb::blocked_range<size_t>& r) {
       ThreadState& st = states.local();
       for (size_t ti = r.begin(); ti != r.end(); ++ti) {
+        if (options.cancel && options.cancel->load(std::memory_order_relaxed)) {
+          cancelled.store(true, std::memory_order_relaxed);
+          return;
+        }
         int tx = int(ti % ntx), ty = int(ti / ntx);
         int x0 = tx * ts, y0 = ty * ts;
         int x1 = std::min(options.width, x0 + ts), y1 = std::min(options.height, y0 + ts);
@@ -432,9 +460,10 @@ RenderResult render(const Field& field, const RenderOptions& options) {
   });
 
   RenderStats& s = result.stats;
-  s.root_used = tiles.uses_interval() ? RootMode::kInterval : RootMode::kSign;
+  s.root_used = tiles.root_used();
   s.tiles = ntiles;
   s.threads = threads;
+  s.cancelled = cancelled.load();
   for (ThreadState& st : states) {
     s.evals += st.searcher.counters();
     s.primary_rays += st.primary_rays;

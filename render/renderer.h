@@ -5,6 +5,7 @@
 // tile it belongs to, whose layout does not depend on the thread count), so the image is
 // bit-identical for any number of threads.
 
+#include <atomic>
 #include <cstdint>
 #include <functional>
 #include <string>
@@ -17,10 +18,12 @@
 
 namespace hfrt::render {
 
-/// How rays find the surface (`--root`).
-enum class RootMode { kSign, kInterval, kAuto };
+/// How rays find the surface (`--root`). kAnalytic needs Field::has_ray_candidates(); kAuto
+/// picks analytic when the field has ray candidates, else interval when it has intervals, else
+/// sign.
+enum class RootMode { kSign, kInterval, kAuto, kAnalytic };
 
-/// "sign", "interval" or "auto".
+/// "sign", "interval", "auto" or "analytic".
 const char* root_mode_name(RootMode mode);
 
 /// A light. `v` is the position of a point light, or the direction *towards* a directional one.
@@ -62,11 +65,15 @@ struct RenderOptions {
   /// Per-tile interval culling of empty space (used only when the field has intervals).
   bool tile_culling = true;
   ProgressFn progress;
+  /// When set and it becomes true, the render stops: tiles not yet started are skipped (it is
+  /// read once per tile), and RenderStats::cancelled tells the image is incomplete. The REPL
+  /// sets it from its SIGINT handler (Ctrl-C).
+  const std::atomic<bool>* cancel = nullptr;
 };
 
 struct RenderStats {
   double seconds = 0;
-  /// Root mode actually used (kSign or kInterval, never kAuto).
+  /// Root mode actually used (kSign, kInterval or kAnalytic, never kAuto).
   RootMode root_used = RootMode::kSign;
   uint64_t primary_rays = 0, shadow_rays = 0, hits = 0;
   EvalCounters evals;
@@ -81,6 +88,8 @@ struct RenderStats {
   bool has_nan_point = false;
   Vec3 nan_point;
   std::string nan_explanation;
+  /// The render was stopped by RenderOptions::cancel: some tiles were not rendered.
+  bool cancelled = false;
 };
 
 struct RenderResult {

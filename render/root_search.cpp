@@ -15,6 +15,8 @@ EvalCounters& EvalCounters::operator+=(const EvalCounters& o) {
   attribute_points += o.attribute_points;
   nan_samples += o.nan_samples;
   interval_fallbacks += o.interval_fallbacks;
+  candidate_calls += o.candidate_calls;
+  candidates += o.candidates;
   return *this;
 }
 
@@ -177,6 +179,39 @@ RootHit RootSearcher::interval_search(const Ray& ray, float t0, float t1, float 
     // No sample is inside but the interval still reaches 0 at the tolerance: a feature thinner
     // than eps or a tangent touch. Report it rather than punch a hole.
     if (known && iv.hi >= 0) return {true, mid, false};
+  }
+  return {};
+}
+
+RootHit RootSearcher::analytic_search(const Ray& ray, float t0, float t1) {
+  if (!(t0 <= t1)) return {};
+  std::vector<double>& c = candidates_;
+  c.clear();
+  field_.ray_candidates(ray.o, ray.d, t0, t1, &c);
+  counters_.candidate_calls++;
+  counters_.candidates += c.size();
+  // Sorted, distinct, strictly inside (t0, t1]: a candidate at t0 is covered by F(t0).
+  std::sort(c.begin(), c.end());
+  size_t n = 0;
+  for (double t : c) {
+    if (!(t > double(t0) && t <= double(t1))) continue;
+    if (n > 0 && c[n - 1] == t) continue;
+    c[n++] = t;
+  }
+  c.resize(n);
+  // Samples: t0, then the midpoint of each gap (c[k], c[k+1]) with c[n] = t1. F keeps its sign
+  // on each gap (every sign change is at a candidate), so one sample per gap decides it.
+  size_t m = 1 + n;
+  if (ts_.size() < m) ts_.resize(m);
+  ts_[0] = t0;
+  for (size_t k = 0; k < n; ++k) {
+    double next = k + 1 < n ? c[k + 1] : double(t1);
+    ts_[k + 1] = float(0.5 * (c[k] + next));
+  }
+  eval_params(ray, m);
+  if (fs_[0] >= 0) return {true, t0, true};
+  for (size_t k = 0; k < n; ++k) {
+    if (fs_[k + 1] >= 0) return {true, float(c[k]), false};
   }
   return {};
 }

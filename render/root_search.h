@@ -11,6 +11,10 @@
 //    tolerance counts as a hit even when no sample inside it is >= 0: that is what keeps thin
 //    shells and tangent touches from being missed (at worst a hit is reported within about
 //    the tolerance of the true surface).
+//  - analytic: the Field lists every parameter where F may change sign on the ray (the real
+//    roots of its polynomial leaves, Field::ray_candidates); F is evaluated once between
+//    consecutive candidates, and the hit is the first candidate after which F >= 0. Exact to
+//    the precision of the roots, no step or tolerance, and thin parts cannot be missed.
 
 #include <cstddef>
 #include <cstdint>
@@ -31,6 +35,8 @@ struct EvalCounters {
   uint64_t nan_samples = 0;
   /// Interval searches that ran out of budget and finished with the sign-change march.
   uint64_t interval_fallbacks = 0;
+  /// Analytic search: calls of Field::ray_candidates() and candidates they returned.
+  uint64_t candidate_calls = 0, candidates = 0;
 
   EvalCounters& operator+=(const EvalCounters& o);
 };
@@ -72,6 +78,13 @@ class RootSearcher {
                              bool any_hit);
   static constexpr int kPrunedSpan = 32;
 
+  /// Analytic search (needs field.has_ray_candidates()): gathers the candidates in [t0, t1],
+  /// sorts them, evaluates F at t0 and at the midpoints between consecutive candidates (and
+  /// between the last one and t1) in one batch call, and reports the first candidate after
+  /// which F >= 0, or t0 itself (at_start) when F(t0) >= 0. A candidate where F only touches 0
+  /// (a tangent ray) is not a hit. Shadow rays use it unchanged: there is nothing to refine.
+  RootHit analytic_search(const Ray& ray, float t0, float t1);
+
   EvalCounters& counters() { return counters_; }
 
   /// The first point where a sample had no value, if any was seen since the last reset.
@@ -92,6 +105,7 @@ class RootSearcher {
     float a, b;
   };
   std::vector<Piece> stack_;
+  std::vector<double> candidates_;
   bool has_nan_point_ = false;
   Vec3 nan_point_;
 };

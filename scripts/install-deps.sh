@@ -18,7 +18,8 @@ packages=(
   zlib1g-dev libzstd-dev
 )
 if [[ "${1:-}" == "--bench" ]]; then
-  packages+=(povray)
+  packages+=(povray python3)  # bench/peers/povray is a Python 3 script
+  packages+=(libembree-dev)   # optional: hfrt_bench_mesh compares against Embree when found
 fi
 
 missing=()

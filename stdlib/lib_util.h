@@ -128,6 +128,10 @@ class Call {
 
   /// A located warning at argument i (or at the call when i < 0).
   void warn(int i, const std::string& message, const std::string& hint = {});
+  /// A located error at argument i (or at the call when i < 0): the model does not compile.
+  void error(int i, const std::string& message, const std::string& hint = {});
+  /// File argument i ('F'): the string literal's text.
+  const std::string& text(int i) const;
   /// The source text of argument i ("x"), or "argument N" without source.
   std::string arg_text(int i) const;
 
@@ -147,6 +151,7 @@ V lower_distance(Call& c);      // distance.cpp: hfDCone*, hfDCylinder, hfDEllip
 V lower_sardf(Call& c);         // sardf.cpp: hfDUni, hfDInt, hfDSub
 V lower_attribute(Call& c);     // attributes.cpp: hfA_* without noise
 V lower_noise(Call& c);         // noise.cpp: hfA_NoiseG, hfA_NoiseP, hfA_Turbulence, hfA_Crackles
+V lower_surface(Call& c);       // surfaces.cpp: hfMesh, hfTriangles, hfBezier{Surface,Patches}
 
 /// glibc's rand() with its default seed 1, the k-th call (k = 0, 1, ...) (library.md §10).
 class GlibcRand {

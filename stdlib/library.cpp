@@ -20,6 +20,7 @@ Call::Call(LibraryFn fn, LibContext& ctx, std::span<const LibArg> args)
     const bool want_array = kinds[i] == 'A';
     HFRT_CHECK_MSG(args[i].is_array == want_array,
                    name() << " argument " << i + 1 << " has the wrong kind");
+    if (kinds[i] == 'F') continue;  // a file name: LibArg::text
     if (want_array) {
       HFRT_CHECK(args[i].size >= 0 && args[i].base_slot >= 0);
       HFRT_CHECK_LE(args[i].base_slot + args[i].size, ctx.b.function().num_slots);
@@ -81,6 +82,13 @@ bool Call::need(int i, int count, std::string_view what) {
   warn(i, msg.str(), "declare the array with enough elements");
   return false;
 }
+
+void Call::error(int i, const std::string& message, const std::string& hint) {
+  if (ctx_.diags == nullptr) return;
+  ctx_.diags->error(i < 0 ? ctx_.call_range : args_[i].range, message, hint);
+}
+
+const std::string& Call::text(int i) const { return args_[i].text; }
 
 void Call::warn(int i, const std::string& message, const std::string& hint) {
   if (ctx_.diags == nullptr) return;
@@ -219,6 +227,12 @@ jit::ValueId lower_library_call(lang::LibraryFn fn, LibContext& ctx, std::span<c
     case LibraryFn::kARGBToHSV:
     case LibraryFn::kAHSVToRGB:
       v = detail::lower_attribute(call);
+      break;
+    case LibraryFn::kMesh:
+    case LibraryFn::kTriangles:
+    case LibraryFn::kBezierSurface:
+    case LibraryFn::kBezierPatches:
+      v = detail::lower_surface(call);
       break;
   }
   HFRT_CHECK_MSG(v.id != jit::kNoValue, "no IR for " << lang::library_fn_name(fn));

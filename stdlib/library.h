@@ -3,6 +3,7 @@
 // every evaluator (interpreter, scalar JIT, interval, gradient, polynomial) gets every function.
 
 #include <span>
+#include <string>
 
 #include "jit/ir.h"
 #include "lang/diagnostics.h"
@@ -17,6 +18,7 @@ struct LibArg {
   int base_slot = -1;                  ///< array argument: slots base_slot .. base_slot+size-1
   int size = 0;                        ///< array argument: its declared size
   lang::SourceRange range;             ///< the argument's text, for warnings
+  std::string text;                    ///< file argument ('F'): the string literal's text
 };
 
 /// Per-compilation state shared by the calls of one model (e.g. which Perlin table each
@@ -34,7 +36,9 @@ struct LibState {
 
 struct LibContext {
   jit::IrBuilder& b;
-  lang::DiagnosticSink* diags = nullptr;  ///< located warnings (array size mismatches); may be null
+  /// Located warnings (array size mismatches) and the errors of the mesh and patch leaves
+  /// (a file that does not load: the Model fails to compile); may be null.
+  lang::DiagnosticSink* diags = nullptr;
   lang::SourceRange call_range;
   LibState& state;
 };

@@ -115,6 +115,8 @@ TEST(JitRandomTest, EveryOpIsGenerated) {
     for (const Inst& in : random_program(seed).insts) seen.insert(in.op);
   }
   for (int k = 0; k < kOpCount; ++k) {
+    // kSurface needs a loaded surface: surface_test.cpp checks its evaluators against each other.
+    if (static_cast<Op>(k) == Op::kSurface) continue;
     EXPECT_TRUE(seen.count(static_cast<Op>(k))) << op_name(static_cast<Op>(k)) << " never generated";
   }
 }

@@ -66,6 +66,27 @@ TEST(Parser, ParenthesesAndCalls) {
   EXPECT_EQ(result_of("hfSphere(x, c, 1)", "array c[3]; c = [0, 0, 0];\n"), "(hfSphere x c 1)");
 }
 
+// hfrt extension (issue 10): a string literal is read only as the file argument of hfMesh and
+// hfBezierSurface (the other places keep the original's error: diagnostics_test.cpp).
+TEST(Parser, FileArgumentsOfMeshAndPatchLeaves) {
+  EXPECT_EQ(result_of("hfMesh(x, \"data/bunny.off\")"), "(hfMesh x \"data/bunny.off\")");
+  EXPECT_EQ(result_of("HFMESH(x, \"a b.obj\") | hfBezierSurface(x, \"t.bpt\")"),
+            "(| (HFMESH x \"a b.obj\") (hfBezierSurface x \"t.bpt\"))");
+  Compiled c = compile(model("my_model = hfMesh(x, \"m.off\");"));
+  ASSERT_TRUE(c.ok()) << c.rendered();
+  const Expr& call = *c.program->objects[0].result;
+  ASSERT_EQ(call.args.size(), 2u);
+  EXPECT_EQ(call.args[1]->kind, ExprKind::kString);
+  EXPECT_EQ(call.args[1]->name, "m.off");
+  EXPECT_EQ(call.args[1]->range.begin.col, 22u);
+  EXPECT_EQ(call.args[1]->range.length, 7u);  // with the quotes
+  EXPECT_NE(dump_ast(*c.program).find("string \"m.off\""), std::string::npos);
+  // An unterminated string is still the original's error, even in the file position.
+  Compiled bad = compile(model("my_model = hfMesh(x, \"m.off);"));
+  ASSERT_FALSE(bad.errors().empty());
+  EXPECT_EQ(bad.errors()[0]->message, "strings are not part of HyperFun");
+}
+
 TEST(Parser, ConditionsAndOrAreOneLevelLeftToRight) {
   EXPECT_EQ(condition_of("1 or 1 and 0"), "(and (or 1 1) 0)");
   EXPECT_EQ(condition_of("v > 0 and w < 1 or v = w"), "(or (and (> v 0) (< w 1)) (= v w))");

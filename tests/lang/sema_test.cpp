@@ -186,7 +186,8 @@ TEST(Sema, LibraryArgumentKinds) {
 }
 
 TEST(Sema, EveryLibraryFunctionAcceptsItsSignature) {
-  // Generated calls for all 85 signatures: array names for 'A', numbers for 'R'.
+  // Generated calls for every signature: array names for 'A', numbers for 'R', a file name for
+  // 'F' (the mesh and patch leaves of issue 10).
   std::string body = "array p[3];\np = [1, 2, 3];\nv = 0;\n";
 #define HFRT_X(e, s, k)                         \
   {                                             \
@@ -194,7 +195,9 @@ TEST(Sema, EveryLibraryFunctionAcceptsItsSignature) {
     std::string_view kinds = k;                 \
     for (size_t i = 0; i < kinds.size(); ++i) { \
       call += i ? ", " : "";                    \
-      call += kinds[i] == 'A' ? "p" : "0.5";    \
+      call += kinds[i] == 'A'   ? "p"           \
+              : kinds[i] == 'F' ? "\"m.off\""    \
+                                : "0.5";        \
     }                                           \
     body += "v = v + " + call + ");\n";         \
   }

@@ -70,6 +70,8 @@ inline std::string sexpr(const Expr& e) {
     case ExprKind::kBinary:
       return std::string("(") + kBinary[static_cast<int>(e.binary_op)] + " " + sexpr(*e.args[0]) +
              " " + sexpr(*e.args[1]) + ")";
+    case ExprKind::kString:
+      return "\"" + e.name + "\"";
     case ExprKind::kCall: {
       std::string s = "(" + e.name;
       for (const ExprPtr& a : e.args) s += " " + sexpr(*a);

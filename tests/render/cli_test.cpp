@@ -154,7 +154,12 @@ TEST(RenderCli, IntervalRenderIsTheSameForAnyThreadCount) {
 }
 
 TEST(RenderCli, AutoPicksIntervalsUnlessTheyAreLoose) {
-  fs::path model = write_model("sphere5.hf", kSphereModel);
+  // A ball with a sine ripple is not a polynomial: auto falls back from analytic, says why and
+  // where, and takes the interval search (its enclosures are tight).
+  fs::path model = write_model("sin_sphere.hf",
+                               "my_model(x[3], a[1]) {\n"
+                               "  my_model = 16 - x[1]*x[1] - x[2]*x[2] - x[3]*x[3] + 0.5 * sin(x[1]);\n"
+                               "}\n");
   fs::path out = temp_dir() / "auto.png";
   std::string err;
   ASSERT_EQ(run_hfrt("render " + model.string() + " -o " + out.string() + " --size 32x32 --stats", &err), 0)
@@ -162,15 +167,100 @@ TEST(RenderCli, AutoPicksIntervalsUnlessTheyAreLoose) {
   EXPECT_NE(err.find("root search interval (auto:"), std::string::npos) << err;
   EXPECT_NE(err.find("interval JIT"), std::string::npos) << err;
   EXPECT_EQ(err.find("no interval culling"), std::string::npos) << err;
+  EXPECT_NE(err.find("\nroot: interval\n"), std::string::npos) << err;
+  EXPECT_NE(err.find("\nroot fallback: not analytic: 'sin' is not a polynomial at "), std::string::npos)
+      << err;
+  EXPECT_NE(err.find("sin_sphere.hf:2:61"), std::string::npos) << err;
   // The default example's R-function blends have loose enclosures: the march is cheaper.
   fs::path def = fs::path(HFRT_SOURCE_DIR) / "examples" / "default.hf";
   ASSERT_EQ(run_hfrt("render " + def.string() + " -o " + out.string() + " --size 32x32 --stats", &err), 0)
       << err;
   EXPECT_NE(err.find("root search sign (auto: loose interval enclosures"), std::string::npos) << err;
+  EXPECT_NE(err.find("\nroot: sign\n"), std::string::npos) << err;
+  EXPECT_NE(err.find("\nroot fallback: not analytic: 'hfBlendUni'"), std::string::npos) << err;
   // Forcing the interval search still works for it.
   ASSERT_EQ(run_hfrt("render " + def.string() + " -o " + out.string() + " --size 16x16 --root interval", &err), 0)
       << err;
   EXPECT_NE(err.find("root search interval"), std::string::npos) << err;
+}
+
+TEST(RenderCli, AutoPicksAnalyticForPolynomialModels) {
+  fs::path model = write_model("sphere_auto.hf", kSphereModel);
+  fs::path out = temp_dir() / "analytic.png";
+  std::string err;
+  for (const char* root : {"auto", "analytic"}) {
+    ASSERT_EQ(run_hfrt("render " + model.string() + " -o " + out.string() +
+                           " --size 32x32 --stats --root " + root,
+                       &err),
+              0)
+        << err;
+    EXPECT_NE(err.find("root search analytic"), std::string::npos) << err;
+    EXPECT_NE(err.find("\nroot: analytic\n"), std::string::npos) << err;
+    EXPECT_EQ(err.find("root fallback"), std::string::npos) << err;
+    EXPECT_NE(err.find("analytic candidates:"), std::string::npos) << err;
+  }
+  // The polynomial examples qualify too.
+  for (const char* name : {"analytic_torus", "analytic_csg", "analytic_block"}) {
+    fs::path ex = fs::path(HFRT_SOURCE_DIR) / "examples" / (std::string(name) + ".hf");
+    ASSERT_EQ(run_hfrt("render " + ex.string() + " -o " + out.string() + " --size 24x24 --stats", &err), 0)
+        << err;
+    EXPECT_NE(err.find("\nroot: analytic\n"), std::string::npos) << name << ": " << err;
+  }
+}
+
+TEST(RenderCli, RootAnalyticOnABlendIsALocatedError) {
+  fs::path model = write_model("blended.hf",
+                               "my_model(x[3], a[1]) {\n"
+                               "  array c[3];\n"
+                               "  c = [0, 0, 0];\n"
+                               "  b = hfSphere(x, c, 3);\n"
+                               "  my_model = hfBlendUni(b, hfTorusZ(x, c, 4, 1), 1, 1, 1);\n"
+                               "}\n");
+  std::string err;
+  EXPECT_EQ(run_hfrt("render " + model.string() + " -o " + (temp_dir() / "blend.png").string() +
+                         " --root analytic",
+                     &err),
+            1);
+  // file:line:col: error: message, the source line, a caret under the construct, a hint.
+  EXPECT_NE(err.find("blended.hf:5:14: error: --root analytic:"), std::string::npos) << err;
+  EXPECT_NE(err.find("'hfBlendUni'"), std::string::npos) << err;
+  EXPECT_NE(err.find("  my_model = hfBlendUni(b, hfTorusZ"), std::string::npos) << err;
+  EXPECT_NE(err.find("\n" + std::string(14, ' ') + "^"), std::string::npos) << err;
+  EXPECT_NE(err.find("hint: "), std::string::npos) << err;
+  EXPECT_FALSE(fs::exists(temp_dir() / "blend.png"));
+}
+
+TEST(RenderCli, DepthGoesToTheZChannelOfTheExr) {
+  // Orthographic view of the ball of radius 4 from z = 20: Z = 20 - sqrt(16 - x^2 - y^2) along
+  // the pixel-centre rays of the camera contract, +inf off the ball.
+  fs::path model = write_model("sphere_z.hf", kSphereModel);
+  fs::path out = temp_dir() / "z.exr";
+  std::string err;
+  ASSERT_EQ(run_hfrt("render " + model.string() + " -o " + out.string() +
+                         " --size 40x40 --ortho 10 --eye 0,0,20 --look-at 0,0,0 --aov depth --root analytic",
+                     &err),
+            0)
+      << err;
+  int w, h, c;
+  auto img = read_image(out.string(), &w, &h, &c);
+  ASSERT_TRUE(img.ok());
+  ASSERT_EQ(c, 5);  // R G B A Z, in one file
+  EXPECT_FALSE(fs::exists(temp_dir() / "z.depth.exr"));
+  int checked = 0;
+  for (int j = 0; j < h; ++j) {
+    for (int i = 0; i < w; ++i) {
+      double x = ((i + 0.5) / w - 0.5) * 10, y = (0.5 - (j + 0.5) / h) * 10;
+      float z = img.value()[(size_t(j) * w + i) * 5 + 4];
+      double r2 = x * x + y * y;
+      if (r2 < 15.9) {
+        EXPECT_NEAR(z, 20 - std::sqrt(16 - r2), 2e-5) << i << "," << j;
+        ++checked;
+      } else if (r2 > 16.1) {
+        EXPECT_TRUE(std::isinf(z) && z > 0) << i << "," << j << " " << z;
+      }
+    }
+  }
+  EXPECT_GT(checked, 500);
 }
 
 TEST(RenderCli, CompileErrorsExitOneWithDiagnostics) {

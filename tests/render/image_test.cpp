@@ -2,8 +2,11 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <filesystem>
+#include <limits>
+#include <vector>
 
 namespace hfrt::render {
 namespace {
@@ -67,6 +70,41 @@ TEST(Image, PngIsSrgbEncodedAndAovsGoToSiblingFiles) {
   for (const auto& p : written.value()) {
     EXPECT_TRUE(std::filesystem::exists(p));
     std::filesystem::remove(p);
+  }
+}
+
+TEST(Image, EightBitCodesAreTheRoundedEncoding) {
+  // Every value gets the code round(255 * srgb(v)) for colour (the writer finds it by
+  // thresholds, not by pow) and round(255 * v) for other data: a ramp over [0, 1] that crosses
+  // every code several times, plus values off the range and NaN. (RGB and grey files: OIIO
+  // associates colour with alpha in RGBA PNGs, which would hide the encoding.)
+  const int w = 1024, h = 3;
+  for (int channels : {3, 1}) {
+    const bool srgb = channels == 3;
+    std::vector<float> data(size_t(w) * h * channels);
+    for (size_t i = 0; i < data.size(); ++i) data[i] = float(i) / float(data.size() - 1);
+    data[0] = -0.5f;
+    data[1] = std::nanf("");
+    data[2] = 7.0f;
+    data[3] = std::numeric_limits<float>::infinity();
+    std::string path = temp_path("codes.png");
+    ASSERT_TRUE(write_pixels(path, w, h, channels, data, srgb).ok());
+    int rw, rh, c;
+    auto back = read_image(path, &rw, &rh, &c);
+    ASSERT_TRUE(back.ok()) << back.error().message;
+    ASSERT_EQ(c, channels);
+    int mismatches = 0;
+    for (size_t i = 0; i < data.size(); ++i) {
+      float v = data[i];
+      float clamped = std::isnan(v) ? 0.0f : std::clamp(v, 0.0f, 1.0f);
+      long want = std::lround(255.0f * (srgb ? linear_to_srgb(clamped) : clamped));
+      if (std::isinf(v)) want = srgb ? 255 : 0;  // colour clamps; other data: not a value
+      long got = std::lround(255.0f * back.value()[i]);
+      if (got != want) ++mismatches;
+    }
+    EXPECT_EQ(mismatches, 0) << channels << " channels";
+    EXPECT_EQ(std::lround(255.0f * back.value()[2]), 255);  // 7.0 clamps
+    std::filesystem::remove(path);
   }
 }
 

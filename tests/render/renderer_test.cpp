@@ -41,7 +41,9 @@ TEST_P(SphereOrtho, AreaDepthAndNormalsMatchTheAnalyticSphere) {
   o.root = GetParam();
   RenderResult res = render(sphere, o);
   const Image& img = res.image;
-  EXPECT_EQ(res.stats.root_used, GetParam() == RootMode::kSign ? RootMode::kSign : RootMode::kInterval);
+  // auto picks the analytic search: the sphere lists its ray candidates.
+  RootMode expected_mode = GetParam() == RootMode::kAuto ? RootMode::kAnalytic : GetParam();
+  EXPECT_EQ(res.stats.root_used, expected_mode);
 
   // Area: pixels covered times pixel area vs pi r^2, within 0.5 %.
   double pixel_area = (8.0 / 400) * (8.0 / 400);
@@ -79,12 +81,14 @@ TEST_P(SphereOrtho, AreaDepthAndNormalsMatchTheAnalyticSphere) {
 }
 
 INSTANTIATE_TEST_SUITE_P(Roots, SphereOrtho,
-                         ::testing::Values(RootMode::kSign, RootMode::kInterval, RootMode::kAuto),
+                         ::testing::Values(RootMode::kSign, RootMode::kInterval, RootMode::kAuto,
+                                           RootMode::kAnalytic),
                          [](const auto& info) { return std::string(root_mode_name(info.param)); });
 
 TEST(Renderer, SignModeWithoutIntervalsStillFindsTheSphere) {
   SphereField sphere({0, 0, 0}, 3);
   sphere.set_has_interval(false);
+  sphere.set_has_ray_candidates(false);
   RenderOptions o = ortho_options(200, 8);
   RenderResult res = render(sphere, o);
   EXPECT_EQ(res.stats.root_used, RootMode::kSign);

@@ -107,6 +107,50 @@ TEST(RootSearch, NanSamplesCountAsOutsideAndAreRecorded) {
   EXPECT_TRUE(s.sign_search(left, 0, 40, 0.1f, 1e-5f, false).hit);
 }
 
+TEST(RootSearch, AnalyticFindsSphereExactly) {
+  SphereField sphere({0, 0, 0}, 3);
+  RootSearcher s(sphere);
+  Ray ray{{0.5f, 1.0f, 20}, {0, 0, -1}};
+  RootHit h = s.analytic_search(ray, 0, 40);
+  ASSERT_TRUE(h.hit);
+  EXPECT_FALSE(h.at_start);
+  EXPECT_NEAR(h.t, 20 - std::sqrt(9.0 - 0.25 - 1.0), 2e-6);
+  // One candidate call, one batch of F samples (t0 and the gaps between the two roots and t1).
+  EXPECT_EQ(s.counters().candidate_calls, 1u);
+  EXPECT_EQ(s.counters().candidates, 2u);
+  EXPECT_EQ(s.counters().eval_calls, 1u);
+  EXPECT_EQ(s.counters().eval_points, 3u);
+}
+
+TEST(RootSearch, AnalyticMissStartInsideAndTangent) {
+  SphereField sphere({0, 0, 0}, 2);
+  RootSearcher s(sphere);
+  EXPECT_FALSE(s.analytic_search({{3, 0, 20}, {0, 0, -1}}, 0, 40).hit);
+  RootHit in = s.analytic_search({{0, 0, 1}, {0, 0, -1}}, 0, 10);
+  ASSERT_TRUE(in.hit);
+  EXPECT_TRUE(in.at_start);
+  EXPECT_EQ(in.t, 0);
+  // Range ending before the surface: no hit; starting past the near root, inside: at start.
+  EXPECT_FALSE(s.analytic_search({{0, 0, 20}, {0, 0, -1}}, 0, 17).hit);
+  RootHit mid = s.analytic_search({{0, 0, 20}, {0, 0, -1}}, 19, 30);
+  EXPECT_TRUE(mid.hit && mid.at_start);
+  // A ray touching the ball at one point is not a hit (F < 0 on both sides of the double root).
+  EXPECT_FALSE(s.analytic_search({{2, 0, 10}, {0, 0, -1}}, 0, 20).hit);
+}
+
+TEST(RootSearch, AnalyticNeverMissesAThinShell) {
+  // Shell 0.001 thick: every ray through it is hit at the outer sphere, to float precision.
+  ShellField shell(5, 0.001);
+  RootSearcher s(shell);
+  for (int i = 0; i < 200; ++i) {
+    Ray ray{{0.0249f * float(i), 0.3f, 20}, {0, 0, -1}};
+    RootHit h = s.analytic_search(ray, 0, 40);
+    ASSERT_TRUE(h.hit) << i;
+    double rho2 = double(ray.o.x) * ray.o.x + 0.09;
+    EXPECT_NEAR(h.t, 20 - std::sqrt(25 - rho2), 1e-5) << i;
+  }
+}
+
 TEST(RootSearch, SegmentBoxEnclosesSamples) {
   Ray ray{{1.1f, -3.3f, 7.7f}, {0.3f, 0.77f, -1.9f}};
   Box b = segment_box(ray, 0.25f, 9.5f);

@@ -3,7 +3,6 @@
 
 #include <gtest/gtest.h>
 #include <sys/wait.h>
-
 #include <unistd.h>
 
 #include <algorithm>
@@ -16,30 +15,22 @@
 #include <string>
 #include <vector>
 
+#include "tests/tools/cli_fixture.h"
+
 namespace hfrt::tools {
 namespace {
 
 namespace fs = std::filesystem;
 
-struct CliRun {
-  int exit_code = -1;
-  std::string out, err;
-};
+using testing::CliFixture;
+using testing::CliRun;
+using testing::slurp;
 
-std::string slurp(const fs::path& p) {
-  std::ifstream in(p, std::ios::binary);
-  std::stringstream ss;
-  ss << in.rdbuf();
-  return ss.str();
-}
-
-class EvalCliTest : public ::testing::Test {
+class EvalCliTest : public CliFixture {
  protected:
+  EvalCliTest() : CliFixture("hfrt_eval_cli") {}
   void SetUp() override {
-    dir_ = fs::temp_directory_path() /
-           ("hfrt_eval_cli_" + std::to_string(::getpid()) + "_" +
-            ::testing::UnitTest::GetInstance()->current_test_info()->name());
-    fs::create_directories(dir_);
+    CliFixture::SetUp();
     write("m.hf",
           "my_model(x[3], a[2], s[2])\n"
           "{\n"
@@ -53,26 +44,9 @@ class EvalCliTest : public ::testing::Test {
           "  other = x[1] + 10 * x[2];\n"
           "}\n");
   }
-  void TearDown() override { fs::remove_all(dir_); }
-
-  void write(const std::string& name, const std::string& text) {
-    std::ofstream(dir_ / name, std::ios::binary) << text;
-  }
-
   CliRun run(const std::string& args, const std::string& input) {
-    write("stdin.txt", input);
-    std::string cmd = std::string(HFRT_BINARY_DIR "/tools/hfrt/hfrt eval ") + args + " < '" +
-                      (dir_ / "stdin.txt").string() + "' > '" + (dir_ / "out.txt").string() +
-                      "' 2> '" + (dir_ / "err.txt").string() + "'";
-    int status = std::system(("cd '" + dir_.string() + "' && " + cmd).c_str());
-    CliRun r;
-    r.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-    r.out = slurp(dir_ / "out.txt");
-    r.err = slurp(dir_ / "err.txt");
-    return r;
+    return hfrt("eval " + args, input);
   }
-
-  fs::path dir_;
 };
 
 TEST_F(EvalCliTest, OneLinePerPointWithSValues) {

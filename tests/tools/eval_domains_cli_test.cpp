@@ -14,22 +14,16 @@
 #include <string>
 #include <vector>
 
+#include "tests/tools/cli_fixture.h"
+
 namespace hfrt::tools {
 namespace {
 
 namespace fs = std::filesystem;
 
-struct CliRun {
-  int exit_code = -1;
-  std::string out, err;
-};
-
-std::string slurp(const fs::path& p) {
-  std::ifstream in(p, std::ios::binary);
-  std::stringstream ss;
-  ss << in.rdbuf();
-  return ss.str();
-}
+using testing::CliFixture;
+using testing::CliRun;
+using testing::slurp;
 
 /// The numbers of one output line (and whether it ends with the ` nan` flag).
 std::vector<double> numbers(const std::string& line, bool* nan_flag = nullptr) {
@@ -56,13 +50,11 @@ std::vector<std::string> lines(const std::string& text) {
   return out;
 }
 
-class EvalDomainsCliTest : public ::testing::Test {
+class EvalDomainsCliTest : public CliFixture {
  protected:
+  EvalDomainsCliTest() : CliFixture("hfrt_eval_domains") {}
   void SetUp() override {
-    dir_ = fs::temp_directory_path() /
-           ("hfrt_eval_domains_" + std::to_string(::getpid()) + "_" +
-            ::testing::UnitTest::GetInstance()->current_test_info()->name());
-    fs::create_directories(dir_);
+    CliFixture::SetUp();
     // F = 16 - |x|^2: over [0,1]^3 exactly [13, 16]; gradient -2x.
     write("sphere.hf",
           "my_model(x[3], a[1]) {\n  array c[3];\n  c = [0, 0, 0];\n"
@@ -70,26 +62,9 @@ class EvalDomainsCliTest : public ::testing::Test {
     // No value where x[1] < 0 (sqrt) or x[2] = 0 (division).
     write("partial.hf", "my_model(x[3], a[1]) {\n  my_model = sqrt(x[1]) + 1 / x[2];\n}\n");
   }
-  void TearDown() override { fs::remove_all(dir_); }
-
-  void write(const std::string& name, const std::string& text) {
-    std::ofstream(dir_ / name, std::ios::binary) << text;
-  }
-
   CliRun run(const std::string& args, const std::string& input) {
-    write("stdin.txt", input);
-    std::string cmd = std::string(HFRT_BINARY_DIR "/tools/hfrt/hfrt eval ") + args + " < '" +
-                      (dir_ / "stdin.txt").string() + "' > '" + (dir_ / "out.txt").string() +
-                      "' 2> '" + (dir_ / "err.txt").string() + "'";
-    int status = std::system(("cd '" + dir_.string() + "' && " + cmd).c_str());
-    CliRun r;
-    r.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-    r.out = slurp(dir_ / "out.txt");
-    r.err = slurp(dir_ / "err.txt");
-    return r;
+    return hfrt("eval " + args, input);
   }
-
-  fs::path dir_;
 };
 
 TEST_F(EvalDomainsCliTest, IntervalOfAKnownSphereBox) {

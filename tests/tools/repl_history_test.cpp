@@ -14,6 +14,7 @@
 #include <fstream>
 #include <sstream>
 #include <string>
+#include <thread>
 
 namespace {
 
@@ -85,6 +86,116 @@ TEST(ReplHistory, WrittenAsYouGoAndReadBack) {
   EXPECT_NE(text.find("ball(x[3],"), std::string::npos) << text;
   EXPECT_NE(text.find(":eval"), std::string::npos) << text;
   EXPECT_NE(text.find(":quit"), std::string::npos) << text;
+  fs::remove_all(dir);
+}
+
+
+/// hfrt repl in a pseudo terminal (TERM=dumb: no preview), killed at the end if still running.
+struct PtyRepl {
+  int fd = -1;
+  pid_t pid = -1;
+  std::string all;
+
+  explicit PtyRepl(const fs::path& hist) {
+    const std::string bin = HFRT_BINARY_DIR "/tools/hfrt/hfrt";
+    pid = forkpty(&fd, nullptr, nullptr, nullptr);
+    if (pid == 0) {
+      setenv("HFRT_HISTORY", hist.c_str(), 1);
+      setenv("TERM", "dumb", 1);
+      setenv("NO_COLOR", "1", 1);
+      execl(bin.c_str(), bin.c_str(), "repl", static_cast<char*>(nullptr));
+      _exit(127);
+    }
+  }
+  ~PtyRepl() {
+    if (pid > 0) {
+      kill(pid, SIGKILL);
+      waitpid(pid, nullptr, 0);
+    }
+    if (fd >= 0) close(fd);
+  }
+  void send(const std::string& text) { ASSERT_EQ(write(fd, text.data(), text.size()), ssize_t(text.size())); }
+  bool wait_for(const std::string& needle, int count) { return read_until(fd, &all, needle, count); }
+  /// Waits for the process to exit; its exit status, or -1.
+  int wait_exit() {
+    int status = 0;
+    waitpid(pid, &status, 0);
+    pid = -1;
+    return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+  }
+};
+
+fs::path temp_dir(const std::string& name) {
+  fs::path dir = fs::temp_directory_path() / ("hfrt_repl_" + name + "_" + std::to_string(getpid()));
+  fs::create_directories(dir);
+  return dir;
+}
+
+TEST(ReplTerminal, CtrlCClearsThePromptLineAndCancelsARender) {
+  fs::path dir = temp_dir("ctrlc");
+  PtyRepl repl(dir / "history");
+  ASSERT_GT(repl.pid, 0);
+  ASSERT_TRUE(repl.wait_for("hfrt> ", 1)) << repl.all;
+  // At the prompt: the half-typed line is dropped, the session goes on. (Typed as a person
+  // types: after libedit has set the terminal up; keys sent before that, in cooked mode, are
+  // the kernel's to echo or flush.)
+  std::this_thread::sleep_for(std::chrono::milliseconds(300));
+  repl.send(":eval 1 2");
+  std::this_thread::sleep_for(std::chrono::milliseconds(200));
+  repl.send("\x03");
+  ASSERT_TRUE(repl.wait_for("hfrt> ", 2)) << repl.all;
+  // Also inside a multi-line definition: the open definition is dropped.
+  repl.send("half(x[3], a[1])\n{\n");
+  ASSERT_TRUE(repl.wait_for("...> ", 2)) << repl.all;
+  std::this_thread::sleep_for(std::chrono::milliseconds(200));
+  repl.send("\x03");
+  ASSERT_TRUE(repl.wait_for("hfrt> ", 3)) << repl.all;
+  repl.send("ball(x[3], a[1]) { ball = 1 - x[1]*x[1] - x[2]*x[2] - x[3]*x[3]; }\n");
+  ASSERT_TRUE(repl.wait_for("defined ball", 1)) << repl.all;
+  ASSERT_TRUE(repl.wait_for("hfrt> ", 4)) << repl.all;
+  // A render of about a billion rays (minutes), cancelled by Ctrl-C.
+  auto t0 = std::chrono::steady_clock::now();
+  repl.send(":render " + (dir / "long.png").string() + " --size 4096x4096 --spp 64 --root sign\n");
+  std::this_thread::sleep_for(std::chrono::milliseconds(800));
+  repl.send("\x03");
+  ASSERT_TRUE(repl.wait_for("render cancelled", 1)) << repl.all;
+  EXPECT_LT(std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count(), 15.0);
+  ASSERT_TRUE(repl.wait_for("hfrt> ", 5)) << repl.all;
+  // The session is intact: the Ctrl-C at the prompt did not leave a pending definition.
+  repl.send(":eval 0.5 0 0\n");
+  ASSERT_TRUE(repl.wait_for("0.75 0", 1)) << repl.all;
+  repl.send(":quit\n");
+  EXPECT_EQ(repl.wait_exit(), 0);
+  EXPECT_FALSE(fs::exists(dir / "long.png"));
+  fs::remove_all(dir);
+}
+
+TEST(ReplTerminal, WatchPicksUpChangesAndEndsOnCtrlC) {
+  fs::path dir = temp_dir("watchc");
+  fs::path model = dir / "w.hf";
+  std::ofstream(model) << "my_model(x[3], a[1]) { my_model = 1 - x[1]; }\n";
+  const std::string image = (dir / "w.png").string();
+  PtyRepl repl(dir / "history");
+  ASSERT_GT(repl.pid, 0);
+  ASSERT_TRUE(repl.wait_for("hfrt> ", 1)) << repl.all;
+  repl.send(":load " + model.string() + "\n");
+  ASSERT_TRUE(repl.wait_for("hfrt> ", 2)) << repl.all;
+  repl.send(":render " + image + " --size 16x16 --bbox 2\n");
+  ASSERT_TRUE(repl.wait_for(image + " 16x16", 1)) << repl.all;
+  repl.send(":watch " + model.string() + "\n");
+  ASSERT_TRUE(repl.wait_for("watching", 1)) << repl.all;
+  ASSERT_TRUE(repl.wait_for(image + " 16x16", 2)) << repl.all;  // the watch's first render
+  // An editor writes the file: the watch reloads it and renders again.
+  std::this_thread::sleep_for(std::chrono::milliseconds(50));
+  std::ofstream(model) << "my_model(x[3], a[1]) { my_model = 5 - x[1]; }\n";
+  ASSERT_TRUE(repl.wait_for(image + " 16x16", 3)) << repl.all;
+  repl.send("\x03");
+  ASSERT_TRUE(repl.wait_for("watch ended", 1)) << repl.all;
+  ASSERT_TRUE(repl.wait_for("hfrt> ", 4)) << repl.all;
+  repl.send(":eval 3 0 0\n");
+  ASSERT_TRUE(repl.wait_for("\n2 0", 1)) << repl.all;  // 5 - 3: the new definition
+  repl.send(":quit\n");
+  EXPECT_EQ(repl.wait_exit(), 0);
   fs::remove_all(dir);
 }
 

@@ -48,6 +48,8 @@ int run_ir(const IrOptions& opts) {
   jit::Function fn = jit::lower_object(*prog, index, &diags);
   // Warnings of the front end and of the lowering (library argument sizes, ...).
   std::fputs(diags.render(color).c_str(), stderr);
+  // Errors of the lowering: a mesh or patch file that does not load (issue 10).
+  if (diags.has_errors()) return 1;
   std::string out = jit::print(fn);
   std::fwrite(out.data(), 1, out.size(), stdout);
   std::fflush(stdout);

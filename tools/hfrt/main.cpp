@@ -35,6 +35,7 @@ int main(int argc, char** argv) {
   add(hfrt::tools::register_render);
   add(hfrt::tools::register_slice);
   add(hfrt::tools::register_repl);
+  add(hfrt::tools::register_emit);
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {

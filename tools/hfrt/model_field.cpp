@@ -8,6 +8,8 @@
 #include <limits>
 #include <thread>
 
+#include "render/poly_solve.h"
+
 namespace hfrt::tools {
 
 namespace {
@@ -41,13 +43,57 @@ void pack(int dims, size_t n, const float* x, const float* y, const float* z,
 }  // namespace
 
 ModelField::ModelField(const Model& model, std::string file)
-    : model_(model), file_(std::move(file)), dims_(model.num_inputs()) {}
+    : model_(model), file_(std::move(file)), dims_(model.num_inputs()),
+      analytic_(model.analytic_info()) {}
+
+void ModelField::ray_candidates(render::Vec3 o, render::Vec3 d, float t0, float t1,
+                                std::vector<double>* out) const {
+  if (!analytic_.qualifies || !(t0 <= t1)) return;
+  const int n = analytic_.num_leaves;
+  thread_local std::vector<double> coeffs;
+  coeffs.resize(size_t(n) * 5);
+  const double od[3] = {o.x, o.y, o.z}, dd[3] = {d.x, d.y, d.z};
+  model_.ray_polynomials(od, dd, coeffs.data());
+  const bool finite = std::isfinite(t0) && std::isfinite(t1);
+  // t = mid + half s: the segment becomes s in [-1, 1]; p(t) = sum c_j (mid + half s)^j.
+  const double mid = finite ? 0.5 * (double(t0) + double(t1)) : 0.0;
+  const double half = finite ? std::max(0.5 * (double(t1) - double(t0)), 1e-30) : 1.0;
+  const double slack = 1e-9;  // roots a rounding error outside the segment still count
+  for (int i = 0; i < n; ++i) {
+    const double* c = &coeffs[size_t(i) * 5];
+    double s[5] = {c[0], c[1], c[2], c[3], c[4]};
+    if (finite) {
+      // Taylor shift to mid (Horner-like synthetic division), then scale by half^k.
+      for (int k = 0; k < 5; ++k) {
+        for (int j = 3; j >= k; --j) s[j] += mid * s[j + 1];
+      }
+      double h = 1;
+      for (int k = 0; k < 5; ++k, h *= half) s[k] *= h;
+    }
+    double roots[4];
+    const int count = render::solve_polynomial(s, roots);
+    for (int r = 0; r < count; ++r) {
+      if (finite) {
+        if (roots[r] < -1 - slack || roots[r] > 1 + slack) continue;
+        out->push_back(std::clamp(mid + half * roots[r], double(t0), double(t1)));
+      } else if (roots[r] >= t0 && roots[r] <= t1) {
+        out->push_back(roots[r]);
+      }
+    }
+  }
+  // Mesh and patch leaves: their crossings with the ray, traced in their own space.
+  if (analytic_.num_surface_leaves > 0) model_.ray_surface_crossings(od, dd, t0, t1, out);
+}
 
 void ModelField::eval(size_t n, const float* x, const float* y, const float* z,
                       float* out_f) const {
   if (n == 0) return;
   Scratch& sc = t_scratch;
   pack(dims_, n, x, y, z, &sc.xs);
+  if (sign_only_) {
+    model_.eval_batch_sign(int64_t(n), sc.xs.data(), out_f);
+    return;
+  }
   model_.eval_batch(int64_t(n), sc.xs.data(), out_f, nullptr);
 }
 
@@ -145,6 +191,29 @@ std::string describe_domain_engines(const Model& model) {
   };
   return one("interval", model.interval_engine(), st.interval) + ", " +
          one("gradient f32", model.gradient_engine(Precision::kF32), st.gradient_f32);
+}
+
+std::string describe_surfaces(const Model& model) {
+  const std::vector<SurfaceStats> surfaces = model.surface_stats();
+  if (surfaces.empty()) return "";
+  std::string out;
+  int leaves = 0, shared = 0;
+  for (const SurfaceStats& s : surfaces) {
+    char buf[512];
+    std::snprintf(buf, sizeof buf,
+                  "  surface %s: %zu triangles%s, %zu patches, %zu degenerate skipped, %zu BVH "
+                  "nodes (depth %d), built in %.1f ms, %.1f MiB, used by %d leaf%s\n",
+                  s.source.c_str(), s.triangles, s.patches > 0 ? " (field tessellation)" : "",
+                  s.patches, s.degenerate_skipped, s.bvh_nodes, s.bvh_depth, s.build_seconds * 1e3,
+                  double(s.memory_bytes) / (1 << 20), s.leaves, s.leaves == 1 ? "" : "s");
+    out += buf;
+    leaves += s.leaves;
+    if (s.leaves > 1) shared += s.leaves - 1;
+  }
+  char buf[200];
+  std::snprintf(buf, sizeof buf, "  surfaces: %zu loaded, %d leaves, %d shared instances\n",
+                surfaces.size(), leaves, shared);
+  return out + buf;
 }
 
 bool parse_doubles(const std::string& text, std::vector<double>* out, size_t count) {

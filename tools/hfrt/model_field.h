@@ -37,11 +37,29 @@ class ModelField final : public render::Field {
   void eval_attributes(size_t n, const float* x, const float* y, const float* z,
                        float* out_s) const override;
   std::string explain_nan(render::Vec3 p) const override;
+  /// True when the model qualifies for analytic roots (Model::analytic_info()).
+  bool has_ray_candidates() const override { return analytic_.qualifies; }
+  /// The real roots in [t0, t1] of every leaf polynomial (Model::ray_polynomials), found by
+  /// render::solve_polynomial after t is mapped to s in [-1, 1] over [t0, t1] (so that the
+  /// solver sees coefficients of one scale, whatever the box size and distance), and the
+  /// crossings of the mesh and patch leaves (Model::ray_surface_crossings).
+  void ray_candidates(render::Vec3 o, render::Vec3 d, float t0, float t1,
+                      std::vector<double>* out) const override;
+  /// The model's analysis, taken once at construction (why it does or does not qualify).
+  const AnalyticInfo& analytic_info() const { return analytic_; }
+  /// For a render with the analytic root search, which only looks at F's sign: eval() then
+  /// uses Model::eval_batch_sign when the model has mesh or patch leaves on its skeleton
+  /// (a winding number per leaf instead of a distance query). Set before rendering.
+  void set_sign_only_eval(bool on) {
+    sign_only_ = on && analytic_.qualifies && analytic_.num_surface_leaves > 0;
+  }
 
  private:
   const Model& model_;
   std::string file_;
   int dims_;
+  AnalyticInfo analytic_;
+  bool sign_only_ = false;
 };
 
 /// A view of a Field without its interval evaluator (has_interval() false; everything else
@@ -67,6 +85,11 @@ class WithoutIntervals final : public render::Field {
     field_.eval_attributes(n, x, y, z, out_s);
   }
   std::string explain_nan(render::Vec3 p) const override { return field_.explain_nan(p); }
+  bool has_ray_candidates() const override { return field_.has_ray_candidates(); }
+  void ray_candidates(render::Vec3 o, render::Vec3 d, float t0, float t1,
+                      std::vector<double>* out) const override {
+    field_.ray_candidates(o, d, t0, t1, out);
+  }
 
  private:
   const render::Field& field_;
@@ -100,6 +123,10 @@ double prepare_render_code(const Model& model, bool interval, bool gradient);
 /// One line describing the engines of the interval and gradient domains with their compile
 /// times, e.g. "interval JIT (4 lanes, 85.2 ms), gradient f32 JIT (8 lanes, 40.1 ms)".
 std::string describe_domain_engines(const Model& model);
+
+/// The mesh and patch surfaces of the model for --stats, one line each (triangles, patches,
+/// BVH nodes, build time, memory, leaves sharing it) and a total; "" without surfaces.
+std::string describe_surfaces(const Model& model);
 
 /// Parses "v1,v2,..." (exactly `count` numbers when count > 0). False when malformed.
 bool parse_doubles(const std::string& text, std::vector<double>* out, size_t count = 0);

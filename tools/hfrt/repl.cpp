@@ -1,8 +1,18 @@
 // The terminal front end of `hfrt repl`: line editing, persistent history and completion with
-// libedit (its readline interface), the inline ANSI preview, and `:watch`. With stdin not a
-// terminal it runs the lines as a script: no prompt, no colour, no preview, results on stdout,
-// errors on stderr, exit 1 when any command failed. The session logic is in session.h.
+// libedit (its readline interface), the inline preview (kitty, sixel or ANSI half blocks,
+// preview.h), Ctrl-C, and `:watch`. With stdin not a terminal it runs the lines as a script: no
+// prompt, no colour, no preview, results on stdout, errors on stderr, exit 1 when any command
+// failed. The session logic is in session.h.
+//
+// Ctrl-C: one SIGINT handler for the whole interactive session, installed without SA_RESTART
+// and with libedit's own signal handling off (rl_catch_signals = 0). While a command runs, it
+// sets the Session's cancel flag (a running render stops at its next tile) and ends a :watch;
+// at the prompt, the interrupted read() in our rl_getc_function ends the line with a newline
+// that is then thrown away (the line, or an unfinished multi-line definition, is cleared and a
+// fresh prompt appears) instead of the default action, which would end the process.
 #include <editline/readline.h>
+#include <errno.h>
+#include <poll.h>
 #include <signal.h>
 #include <sys/ioctl.h>
 #include <sys/stat.h>
@@ -14,6 +24,7 @@
 #include <cstdlib>
 #include <cstring>
 #include <algorithm>
+#include <atomic>
 #include <iostream>
 #include <optional>
 #include <string>
@@ -28,7 +39,53 @@ namespace hfrt::tools {
 namespace {
 
 volatile std::sig_atomic_t g_interrupted = 0;
-void on_sigint(int) { g_interrupted = 1; }
+/// 1 while a command runs (then Ctrl-C cancels it), 0 at the prompt.
+volatile std::sig_atomic_t g_busy = 0;
+/// The session's cancel flag, set from the handler: an atomic store is async-signal-safe when
+/// lock-free.
+std::atomic<bool>* g_cancel = nullptr;
+static_assert(std::atomic<bool>::is_always_lock_free);
+
+void on_sigint(int) {
+  g_interrupted = 1;
+  if (g_busy && g_cancel) g_cancel->store(true);
+}
+
+/// Set when the prompt's line was ended by Ctrl-C: the line read is then thrown away.
+bool g_discard_line = false;
+
+/// libedit's character source. SIGINT is blocked except inside ppoll(), which unblocks it
+/// atomically: a Ctrl-C that comes before the wait (while libedit draws the prompt, or before it
+/// has put the terminal in raw mode) is pending and interrupts ppoll at once, instead of being
+/// lost ahead of a blocking read().
+int getc_interruptible(FILE*) {
+  sigset_t block, old;
+  sigemptyset(&block);
+  sigaddset(&block, SIGINT);
+  while (true) {
+    sigprocmask(SIG_BLOCK, &block, &old);
+    if (g_interrupted) {
+      sigprocmask(SIG_SETMASK, &old, nullptr);
+      g_interrupted = 0;
+      g_discard_line = true;
+      return '\n';
+    }
+    pollfd p{STDIN_FILENO, POLLIN, 0};
+    sigset_t wait_mask = old;
+    sigdelset(&wait_mask, SIGINT);
+    int ready = ppoll(&p, 1, nullptr, &wait_mask);
+    sigprocmask(SIG_SETMASK, &old, nullptr);
+    if (ready < 0) {
+      if (errno == EINTR) continue;  // the loop's first check sees a Ctrl-C
+      return EOF;
+    }
+    unsigned char c;
+    ssize_t n = read(STDIN_FILENO, &c, 1);
+    if (n == 1) return c;
+    if (n == 0) return EOF;
+    if (errno != EINTR && errno != EAGAIN) return EOF;
+  }
+}
 
 /// The history file: $HFRT_HISTORY, else ~/.hfrt_history ("" when there is no home).
 std::string history_path() {
@@ -62,10 +119,32 @@ char** complete(const char* text, int start, int /*end*/) {
   return rl_completion_matches(text, word_generator);
 }
 
-int terminal_columns() {
+/// The terminal's size in pixels (0 when it does not say) and in text cells.
+winsize terminal_size() {
   winsize ws{};
-  if (ioctl(STDOUT_FILENO, TIOCGWINSZ, &ws) == 0 && ws.ws_col > 0) return ws.ws_col;
-  return 80;
+  if (ioctl(STDOUT_FILENO, TIOCGWINSZ, &ws) != 0) ws = winsize{};
+  if (ws.ws_col == 0) ws.ws_col = 80;
+  if (ws.ws_row == 0) ws.ws_row = 24;
+  return ws;
+}
+
+/// The preview of `image` for the terminal: about half the terminal's width and at most its
+/// height (kitty and sixel: pixels; half blocks: columns of two pixel rows each).
+std::string preview_text(const render::Image& image, PreviewMode mode, bool keep_cursor = false) {
+  if (mode == PreviewMode::kOff || image.width <= 0 || image.height <= 0) return "";
+  const winsize ws = terminal_size();
+  const double aspect = double(image.width) / double(image.height);
+  if (mode == PreviewMode::kAnsi) {
+    int cols = std::min<int>(ws.ws_col, 120);
+    cols = std::min(cols, std::max(8, int(2 * (ws.ws_row - 3) * aspect)));  // fits in height
+    return ansi_preview(image, cols);
+  }
+  const int cell_w = ws.ws_xpixel > 0 ? ws.ws_xpixel / ws.ws_col : 8;
+  const int cell_h = ws.ws_ypixel > 0 ? ws.ws_ypixel / ws.ws_row : 16;
+  int width = std::max(64, cell_w * ws.ws_col / 2);
+  width = std::min(width, std::max(64, int(cell_h * (ws.ws_row - 3) * aspect)));
+  return mode == PreviewMode::kKitty ? kitty_preview(image, width, keep_cursor)
+                                     : sixel_preview(image, width);
 }
 
 int64_t mtime_ns(const std::string& file) {
@@ -77,10 +156,56 @@ int64_t mtime_ns(const std::string& file) {
 struct Frontend {
   Session session;
   bool interactive = false;
-  bool preview = false;
+  PreviewMode preview = PreviewMode::kOff;
   bool failed = false;
+  /// A coarse picture is on screen where the full one goes (see show_coarse).
+  bool coarse_shown = false;
+
+  /// Session::on_coarse: the coarse render, scaled up to the full size, shown where the full
+  /// picture will replace it (kitty: placed without moving the cursor; half blocks: the cursor
+  /// goes back up over it). Sixel pictures have no size in text rows that we could know, so
+  /// they show only the full picture.
+  void show_coarse(const render::Image& coarse) {
+    const render::RenderOptions& o = session.render_settings().options;
+    if (preview != PreviewMode::kAnsi && preview != PreviewMode::kKitty) return;
+    render::Image full = resize_nearest(coarse, o.width, o.height);
+    std::string text = preview_text(full, preview, /*keep_cursor=*/true);
+    if (preview == PreviewMode::kAnsi) {
+      const size_t rows = size_t(std::count(text.begin(), text.end(), '\n'));
+      text += "\x1b[" + std::to_string(rows) + "A";
+    }
+    std::fputs(text.c_str(), stdout);
+    std::fflush(stdout);
+    coarse_shown = true;
+  }
+
+  /// The coarse picture is worth its render only when it can be shown in place.
+  void update_coarse_hook() {
+    if (interactive && (preview == PreviewMode::kAnsi || preview == PreviewMode::kKitty)) {
+      session.on_coarse = [this](const render::Image& coarse) { show_coarse(coarse); };
+    } else {
+      session.on_coarse = nullptr;
+    }
+  }
+
+  void show_preview() {
+    if (preview == PreviewMode::kOff || !session.last_image()) return;
+    std::fputs(preview_text(*session.last_image(), preview).c_str(), stdout);
+    std::fflush(stdout);
+  }
 
   void print(const SessionResult& r) {
+    const bool show = r.ok && r.rendered && preview != PreviewMode::kOff;
+    // The full picture first where the coarse one is; else the result line first.
+    if (coarse_shown) {
+      if (show) {
+        show_preview();
+      } else if (preview == PreviewMode::kAnsi) {
+        std::fputs("\x1b[J", stdout);  // a cancelled render: clear the coarse picture
+      } else {
+        std::fputs("\x1b_Ga=d,d=C,q=2\x1b\\", stdout);  // kitty: delete it (it is at the cursor)
+      }
+    }
     if (!r.out.empty()) std::fputs(r.out.c_str(), stdout);
     std::fflush(stdout);
     if (!r.err.empty()) {
@@ -90,21 +215,14 @@ struct Frontend {
       if (color) std::fputs("\x1b[0m", stderr);
     }
     if (!r.ok) failed = true;
-    if (r.ok && r.rendered && preview && session.last_image()) {
-      std::fputs(ansi_preview(*session.last_image(), std::min(terminal_columns(), 120)).c_str(), stdout);
-      std::fflush(stdout);
-    }
+    if (show && !coarse_shown) show_preview();
+    coarse_shown = false;
   }
 
   /// Reloads and re-renders FILE whenever it changes, until Ctrl-C.
   void watch(const std::string& file) {
-    // Ctrl-C ends the watch, not the session: our handler only while watching (elsewhere
-    // the default, so that Ctrl-C at the prompt cannot leave libedit in a half-read line).
-    struct sigaction sa{}, old{};
-    sa.sa_handler = on_sigint;
-    sigemptyset(&sa.sa_mask);
-    sigaction(SIGINT, &sa, &old);
-    g_interrupted = 0;
+    // Ctrl-C ends the watch (and cancels a render it started), not the session: the handler
+    // is installed by run_repl for the whole interactive session.
     std::fprintf(stderr, "watching %s (Ctrl-C stops)\n", file.c_str());
     int64_t seen = mtime_ns(file);
     while (!g_interrupted) {
@@ -115,7 +233,7 @@ struct Frontend {
       print(session.watch_step(file));
     }
     g_interrupted = 0;
-    sigaction(SIGINT, &old, nullptr);
+    std::fputs("watch ended\n", stderr);
   }
 
   /// Handles one line; false when the session ends.
@@ -126,12 +244,18 @@ struct Frontend {
       std::string arg = t.substr(b + 8);
       arg.erase(0, arg.find_first_not_of(" \t"));
       arg.erase(arg.find_last_not_of(" \t\r") + 1);
-      if (arg == "off" || arg == "ansi") {
-        preview = interactive && arg == "ansi";
-      } else {
-        std::fputs("hfrt: :preview expects off or ansi\n", stderr);
+      PreviewMode mode = PreviewMode::kOff;
+      if (arg == "auto" || arg.empty()) {
+        mode = detect_preview([](const char* name) { return std::getenv(name); });
+      } else if (!parse_preview_mode(arg, &mode)) {
+        std::fputs("hfrt: :preview expects off, ansi, sixel, kitty or auto\n", stderr);
         failed = true;
+        return true;
       }
+      // A script shows no pictures: the command is accepted and changes nothing.
+      if (interactive && isatty(STDOUT_FILENO)) preview = mode;
+      update_coarse_hook();
+      if (interactive) std::printf("preview %s\n", preview_mode_name(preview));
       return true;
     }
     std::optional<SessionResult> r = session.feed_line(text);
@@ -148,7 +272,9 @@ struct Frontend {
 int run_repl(const std::string& model_file) {
   Frontend fe;
   fe.interactive = isatty(STDIN_FILENO) != 0;
-  fe.preview = fe.interactive && isatty(STDOUT_FILENO) != 0;
+  if (fe.interactive && isatty(STDOUT_FILENO)) {
+    fe.preview = detect_preview([](const char* name) { return std::getenv(name); });
+  }
   if (!model_file.empty()) fe.print(fe.session.run(":load " + model_file));
 
   if (!fe.interactive) {
@@ -170,21 +296,40 @@ int run_repl(const std::string& model_file) {
 #undef HFRT_REPL_NAME
   rl_readline_name = "hfrt";
   rl_attempted_completion_function = complete;
+  // Ctrl-C is ours (see the top of this file).
+  rl_catch_signals = 0;
+  rl_getc_function = getc_interruptible;
+  g_cancel = &fe.session.cancel_flag();
+  fe.update_coarse_hook();
+  struct sigaction sa{};
+  sa.sa_handler = on_sigint;
+  sigemptyset(&sa.sa_mask);
+  sa.sa_flags = 0;  // no SA_RESTART: the prompt's read() must see EINTR
+  sigaction(SIGINT, &sa, nullptr);
   const std::string hist = history_path();
   using_history();
   if (!hist.empty()) read_history(hist.c_str());
   std::fputs("hfrt repl: type a HyperFun object, or :help\n", stdout);
   while (true) {
+    g_interrupted = 0;
+    g_discard_line = false;
     char* raw = readline(fe.session.pending() ? "...> " : "hfrt> ");
     if (!raw) break;  // EOF (Ctrl-D)
     std::string text = raw;
     std::free(raw);
+    if (g_discard_line) {  // Ctrl-C at the prompt: the line (and an open definition) is dropped
+      fe.session.discard_pending();
+      continue;
+    }
     if (text.find_first_not_of(" \t") != std::string::npos) {
       add_history(text.c_str());
       // Written as we go: nothing typed is lost if the session dies.
       if (!hist.empty()) write_history(hist.c_str());
     }
-    if (!fe.line(text)) break;
+    g_busy = 1;
+    const bool go_on = fe.line(text);
+    g_busy = 0;
+    if (!go_on) break;
   }
   return 0;
 }

@@ -1,6 +1,7 @@
 #include "tools/hfrt/session.h"
 
 #include <algorithm>
+#include <CLI/CLI.hpp>
 #include <cctype>
 #include <chrono>
 #include <cmath>
@@ -8,7 +9,9 @@
 #include <cstdlib>
 #include <fstream>
 #include <sstream>
+#include <thread>
 
+#include "lang/check.h"
 #include "tools/hfrt/model_field.h"
 
 namespace hfrt::tools {
@@ -47,17 +50,6 @@ bool parse_double(const std::string& s, double* v) {
   char* end = nullptr;
   *v = std::strtod(s.c_str(), &end);
   return !s.empty() && *end == '\0';
-}
-
-bool parse_float_list(const std::string& s, size_t count, std::vector<float>* out) {
-  return parse_floats(s, out, count);
-}
-
-bool parse_vec3(const std::string& s, render::Vec3* v) {
-  std::vector<float> f;
-  if (!parse_float_list(s, 3, &f)) return false;
-  *v = render::Vec3{f[0], f[1], f[2]};
-  return true;
 }
 
 /// The name of the object a definition defines: its first identifier (comments skipped).
@@ -143,12 +135,15 @@ const char* kHelp =
     "Type a HyperFun object definition to add or replace it (it becomes current), or a command:\n"
     "  :load FILE                 load all objects of FILE (my_model, else the last, is current)\n"
     "  :eval X Y Z [A1 ...]       value of the current model at a point (then s[])\n"
-    "  :render OUT [options]      render to OUT; options (as hfrt render) are remembered\n"
-    "  :set OPTION VALUE          set a render option (size, bbox, eye, look-at, up, fov, ortho,\n"
-    "                             root, spp, threads, step, epsilon, background, shadows)\n"
+    "  :render OUT [options]      render to OUT; options (as hfrt render) are remembered;\n"
+    "                             edits of the same object keep its camera (:set frames anew)\n"
+    "  :set OPTION VALUE...       set any option of hfrt render (size, bbox, eye, look-at, up,\n"
+    "                             fov, ortho, root, spp, threads, a, object, light, step, epsilon,\n"
+    "                             aov, background, no-shadows, backend, stats; flags take on|off;\n"
+    "                             VALUE 'default' restores the default; light takes several)\n"
     "  :show  :objects  :stats    session state\n"
     "  :watch FILE                reload and re-render whenever FILE changes (Ctrl-C stops)\n"
-    "  :preview off|ansi          inline preview in a terminal\n"
+    "  :preview off|ansi|sixel|kitty|auto   inline preview in a terminal (auto: detected)\n"
     "  :help  :quit\n";
 
 }  // namespace
@@ -163,35 +158,12 @@ int brace_delta(std::string_view line) {
   return d;
 }
 
-std::string ansi_preview(const render::Image& image, int max_cols) {
-  if (image.width <= 0 || image.height <= 0 || image.rgb.empty()) return "";
-  const int cols = std::max(1, std::min(max_cols, image.width));
-  const double scale = double(image.width) / cols;
-  const int rows = std::max(1, int(image.height / scale));  // pixel rows after scaling
-  auto pixel = [&](int col, int row, int c) {
-    int x = std::min(image.width - 1, int(col * scale));
-    int y = std::min(image.height - 1, int(row * scale));
-    float v = image.rgb[(size_t(y) * image.width + x) * 3 + c];
-    v = v <= 0.0031308f ? 12.92f * v : 1.055f * std::pow(std::max(v, 0.0f), 1 / 2.4f) - 0.055f;
-    return std::clamp(int(std::lround(v * 255)), 0, 255);
-  };
-  std::string out;
-  char buf[64];
-  for (int r = 0; r < rows; r += 2) {
-    for (int c = 0; c < cols; ++c) {
-      int lower = std::min(r + 1, rows - 1);
-      std::snprintf(buf, sizeof buf, "\x1b[38;2;%d;%d;%dm\x1b[48;2;%d;%d;%dm", pixel(c, r, 0),
-                    pixel(c, r, 1), pixel(c, r, 2), pixel(c, lower, 0), pixel(c, lower, 1),
-                    pixel(c, lower, 2));
-      out += buf;
-      out += "\xe2\x96\x80";  // U+2580 upper half block: fg = upper pixel, bg = lower pixel
-    }
-    out += "\x1b[0m\n";
-  }
-  return out;
+Session::Session() {
+  std::string err;
+  HFRT_CHECK(translate_render_options(cli_, &setup_, &err));
+  settings_.options = setup_.options;
+  settings_.camera = setup_.camera;
 }
-
-Session::Session() = default;
 
 const std::vector<std::string>& Session::command_names() {
   static const std::vector<std::string> names = {":load",    ":eval",  ":render", ":set",
@@ -201,8 +173,9 @@ const std::vector<std::string>& Session::command_names() {
 }
 
 std::vector<std::string> Session::option_names() {
-  return {"size", "bbox", "eye", "look-at", "up", "fov", "ortho", "root", "spp", "threads",
-          "step", "epsilon", "background", "shadows", "no-shadows"};
+  std::vector<std::string> names = render_option_names();
+  names.push_back("shadows");
+  return names;
 }
 
 std::string Session::source() const {
@@ -233,6 +206,12 @@ std::optional<SessionResult> Session::feed_line(std::string_view line) {
 }
 
 SessionResult Session::run(std::string_view input) {
+  SessionResult r = dispatch(input);
+  cancel_.store(false);  // a cancel ends with the command that saw it
+  return r;
+}
+
+SessionResult Session::dispatch(std::string_view input) {
   std::string t = trim(input);
   if (t.empty()) return SessionResult{};
   if (t[0] != ':') return define(input);
@@ -264,12 +243,18 @@ SessionResult Session::run(std::string_view input) {
 
 const Model* Session::model_for(const std::string& source, const std::string& object,
                                 std::string* err, int line_offset, std::string_view file) {
-  auto key = std::make_pair(source, object);
+  // The backend is part of the key: `:set backend interp` compiles anew.
+  const bool interp = cli_.model.backend == "interp";
+  auto key = std::make_pair(source, interp ? object + "\n@interp" : object);
   auto it = cache_.find(key);
   if (it != cache_.end()) return &it->second;
   ModelOptions mo;
   mo.object = object;
-  mo.eager_f32 = true;
+  mo.backend = interp ? Backend::kInterp : Backend::kJit;
+  // No JIT inside compile(): a definition only needs its diagnostics; a render compiles the
+  // evaluators it needs in parallel (prepare_for_render), :eval its f64 code on first use.
+  mo.eager_f64 = false;
+  mo.eager_f32 = false;
   auto t0 = std::chrono::steady_clock::now();
   CompileResult r = Model::compile(source, mo, "<session>");
   ++compiles_;
@@ -278,6 +263,7 @@ const Model* Session::model_for(const std::string& source, const std::string& ob
     return nullptr;
   }
   last_compile_ms_ = ms_since(t0);
+  timings_.compile = last_compile_ms_;
   // A small cache: the session's models change rarely, but keep memory bounded.
   if (cache_.size() >= 16) cache_.clear();
   return &cache_.emplace(std::move(key), std::move(*r.model)).first->second;
@@ -317,7 +303,10 @@ SessionResult Session::cmd_load(const std::vector<std::string>& args) {
   std::string text = ss.str();
   // The file alone first, so its diagnostics name its own lines.
   ModelOptions mo;
-  mo.eager_f32 = true;
+  // No JIT inside compile(): a definition only needs its diagnostics; a render compiles the
+  // evaluators it needs in parallel (prepare_for_render), :eval its f64 code on first use.
+  mo.eager_f64 = false;
+  mo.eager_f32 = false;
   auto t0 = std::chrono::steady_clock::now();
   CompileResult alone = Model::compile(text, mo, args[0]);
   ++compiles_;
@@ -344,7 +333,7 @@ SessionResult Session::cmd_load(const std::vector<std::string>& args) {
     if (src.back() != '\n') src += '\n';
   }
   // Into an empty session the file is the whole source: its model serves (no second compile).
-  if (src == text && alone.model->object_name() == current) {
+  if (src == text && alone.model->object_name() == current && cli_.model.backend != "interp") {
     if (cache_.size() >= 16) cache_.clear();
     cache_.emplace(std::make_pair(src, current), std::move(*alone.model));
   }
@@ -397,87 +386,125 @@ SessionResult Session::cmd_eval(const std::vector<std::string>& args) {
   return r;
 }
 
-bool Session::apply_option(const std::string& name_in, const std::string& value, std::string* err) {
-  std::string name = name_in;
-  while (!name.empty() && name[0] == '-') name.erase(0, 1);
-  render::RenderOptions& o = settings_.options;
-  render::CameraRequest& c = settings_.camera;
-  render::Vec3 v;
-  std::vector<float> f;
-  double d = 0;
-  auto bad = [&](const char* what) {
-    *err = "hfrt: " + name + " expects " + what + " (got '" + value + "')";
-    return false;
-  };
-  if (name == "size") {
-    int w = 0, h = 0;
-    char x = 0, extra = 0;
-    if (std::sscanf(value.c_str(), "%d%c%d%c", &w, &x, &h, &extra) != 3 || x != 'x' || w < 1 || h < 1 ||
-        w > 16384 || h > 16384) {
-      return bad("WxH");
-    }
-    o.width = w;
-    o.height = h;
-  } else if (name == "bbox") {
-    if (!parse_float_list(value, 6, &f) || !(f[0] < f[3] && f[1] < f[4] && f[2] < f[5])) {
-      return bad("xmin,ymin,zmin,xmax,ymax,zmax with min < max");
-    }
-    o.bbox = render::Box{{f[0], f[1], f[2]}, {f[3], f[4], f[5]}};
-  } else if (name == "eye" || name == "look-at" || name == "up" || name == "background") {
-    if (value == "auto" && name != "background") {
-      (name == "eye" ? c.eye : name == "up" ? c.up : c.look_at).reset();
-      return true;
-    }
-    if (!parse_vec3(value, &v)) return bad("x,y,z");
-    if (name == "eye") c.eye = v;
-    if (name == "look-at") c.look_at = v;
-    if (name == "up") c.up = v;
-    if (name == "background") o.background = v;
-  } else if (name == "fov") {
-    if (!parse_double(value, &d) || !(d > 0 && d < 180)) return bad("degrees in (0, 180)");
-    c.fov_deg = float(d);
-  } else if (name == "ortho") {
-    if (value == "off") {
-      c.ortho_width.reset();
-      return true;
-    }
-    if (!parse_double(value, &d) || !(d > 0)) return bad("a positive view width, or off");
-    c.ortho_width = float(d);
-  } else if (name == "root") {
-    if (value == "sign") {
-      o.root = render::RootMode::kSign;
-    } else if (value == "interval") {
-      o.root = render::RootMode::kInterval;
-    } else if (value == "auto") {
-      o.root = render::RootMode::kAuto;
-    } else {
-      return bad("sign, interval or auto");
-    }
-  } else if (name == "spp") {
-    if (!parse_double(value, &d) || d != std::floor(d) || d < 1 || d > 4096) return bad("1..4096");
-    o.spp = int(d);
-  } else if (name == "threads") {
-    if (!parse_double(value, &d) || d != std::floor(d) || d < 0) return bad("a count (0: all cores)");
-    o.threads = int(d);
-  } else if (name == "step" || name == "epsilon") {
-    if (!parse_double(value, &d) || d < 0) return bad("a non-negative length (0: default)");
-    (name == "step" ? o.step : o.epsilon) = float(d);
-  } else if (name == "shadows") {
-    if (value != "on" && value != "off") return bad("on or off");
-    o.shadows = value == "on";
+namespace {
+
+/// What `:set NAME default` restores: the option's value in a fresh RenderCli.
+bool reset_option(const std::string& name, RenderCli* cli) {
+  const RenderCli d;
+  if (name == "size") cli->size = d.size;
+  else if (name == "bbox") cli->bbox = d.bbox;
+  else if (name == "eye") cli->eye = d.eye;
+  else if (name == "look-at") cli->look_at = d.look_at;
+  else if (name == "up") cli->up = d.up;
+  else if (name == "fov") cli->fov = d.fov;
+  else if (name == "ortho") cli->ortho = d.ortho;
+  else if (name == "root") cli->root = d.root;
+  else if (name == "spp") cli->spp = d.spp;
+  else if (name == "threads") cli->threads = d.threads;
+  else if (name == "a") cli->model.params = d.model.params;
+  else if (name == "object") cli->model.object = d.model.object;
+  else if (name == "light") cli->lights = d.lights;
+  else if (name == "step") cli->step = d.step;
+  else if (name == "epsilon") cli->epsilon = d.epsilon;
+  else if (name == "aov") cli->aov = d.aov;
+  else if (name == "background") cli->background = d.background;
+  else if (name == "no-shadows") cli->no_shadows = d.no_shadows;
+  else if (name == "shadows") cli->no_shadows = d.no_shadows;
+  else if (name == "backend") cli->model.backend = d.model.backend;
+  else if (name == "stats") cli->stats = d.stats;
+  else return false;
+  return true;
+}
+
+/// on/off (true/false, yes/no, 1/0) for the flags; false when it is none of them.
+bool parse_switch(const std::string& value, bool* on) {
+  if (value == "on" || value == "true" || value == "yes" || value == "1") {
+    *on = true;
+  } else if (value == "off" || value == "false" || value == "no" || value == "0") {
+    *on = false;
   } else {
-    *err = "hfrt: unknown render option '" + name_in + "'";
     return false;
   }
   return true;
 }
 
+}  // namespace
+
+bool Session::apply_options(const std::vector<std::string>& words, std::string* err) {
+  RenderCli cli = cli_;
+  CLI::App app{"render options", ":render"};
+  app.set_help_flag();  // no --help here: :help is the session's
+  app.allow_extras(false);
+  add_render_options(app, &cli);
+  try {
+    std::vector<std::string> args(words.rbegin(), words.rend());  // CLI11 parses from the back
+    app.parse(args);
+  } catch (const CLI::ParseError& e) {
+    *err = std::string("hfrt: ") + e.what();
+    return false;
+  }
+  RenderSetup setup;
+  if (!translate_render_options(cli, &setup, err)) {
+    *err = "hfrt: " + *err;
+    return false;
+  }
+  cli_ = std::move(cli);
+  setup_ = std::move(setup);
+  view_.key.clear();  // a changed option frames anew
+  settings_.options = setup_.options;
+  settings_.camera = setup_.camera;
+  return true;
+}
+
 SessionResult Session::cmd_set(const std::vector<std::string>& args) {
-  if (args.size() != 2) return failure("hfrt: :set expects OPTION VALUE");
+  if (args.size() < 2) return failure("hfrt: :set expects OPTION VALUE (:help lists the options)");
+  std::string name = args[0];
+  while (!name.empty() && name[0] == '-') name.erase(0, 1);
+  const std::vector<std::string>& known = render_option_names();
+  if (name != "shadows" && std::find(known.begin(), known.end(), name) == known.end()) {
+    return failure("hfrt: unknown render option '" + args[0] + "' (:help lists them)");
+  }
   std::string err;
-  SessionRenderSettings saved = settings_;
-  if (!apply_option(args[0], args[1], &err)) {
-    settings_ = saved;
+  RenderCli saved = cli_;
+  if (args.size() == 2 && args[1] == "default") {
+    reset_option(name, &cli_);
+    RenderSetup setup;
+    if (!translate_render_options(cli_, &setup, &err)) {  // cannot fail: defaults are valid
+      cli_ = saved;
+      return failure("hfrt: " + err);
+    }
+    setup_ = std::move(setup);
+    settings_.options = setup_.options;
+    settings_.camera = setup_.camera;
+    view_.key.clear();
+    return success("");
+  }
+  // The spellings of the first REPL: "auto" for a framed camera, "off" for perspective.
+  std::vector<std::string> values(args.begin() + 1, args.end());
+  if (values.size() == 1 && ((values[0] == "auto" && (name == "eye" || name == "look-at" || name == "up")) ||
+                             (values[0] == "off" && name == "ortho"))) {
+    values[0] = name == "ortho" ? "0" : "";
+  }
+  std::vector<std::string> words;
+  if (render_option_is_flag(name) || name == "shadows") {
+    bool on = false;
+    if (values.size() != 1 || !parse_switch(values[0], &on)) {
+      return failure("hfrt: " + name + " expects on or off (got '" + values[0] + "')");
+    }
+    if (name == "shadows") {
+      name = "no-shadows";
+      on = !on;
+    }
+    // A flag can only be raised by the parser: lower it first.
+    reset_option(name, &cli_);
+    if (on) words.push_back("--" + name);
+  } else {
+    words.push_back(name == "a" ? "-a" : "--" + name);
+    if (name == "light") reset_option(name, &cli_);  // :set replaces the lights
+    for (const std::string& v : values) words.push_back(v);
+  }
+  if (!apply_options(words, &err)) {
+    cli_ = saved;
     return failure(err);
   }
   return success("");
@@ -486,72 +513,163 @@ SessionResult Session::cmd_set(const std::vector<std::string>& args) {
 SessionResult Session::cmd_render(const std::vector<std::string>& args) {
   if (args.empty() && last_output_.empty()) return failure("hfrt: :render expects OUT [options]");
   if (current_.empty()) return failure("hfrt: no current object (define one or :load a file)");
-  // Options first (all or nothing), then the render.
-  SessionRenderSettings saved = settings_;
+  // Options first (all or nothing), then the render; a failed render keeps the old options.
+  RenderCli saved_cli = cli_;
+  RenderSetup saved_setup = setup_;
   std::string out = args.empty() ? last_output_ : args[0];
+  if (!out.empty() && out[0] == '-') return failure("hfrt: :render expects OUT first, then options");
   std::string err;
-  for (size_t i = 1; i < args.size(); ++i) {
-    std::string name = args[i];
-    if (name == "--no-shadows") {
-      settings_.options.shadows = false;
-      continue;
-    }
-    std::string value;
-    size_t eq = name.find('=');
-    if (eq != std::string::npos) {
-      value = name.substr(eq + 1);
-      name = name.substr(0, eq);
-    } else if (i + 1 < args.size()) {
-      value = args[++i];
-    } else {
-      settings_ = saved;
-      return failure("hfrt: " + name + " needs a value");
-    }
-    if (!apply_option(name, value, &err)) {
-      settings_ = saved;
+  if (args.size() > 1) {
+    // A repeated option given here replaces the remembered list (as on the command line).
+    std::vector<std::string> words(args.begin() + 1, args.end());
+    if (std::find(words.begin(), words.end(), "--light") != words.end()) cli_.lights.clear();
+    if (!apply_options(words, &err)) {
+      cli_ = saved_cli;
       return failure(err);
     }
   }
-  const Model* m = model_for(source(), current_, &err, 0, "<session>");
-  if (!m) {
-    settings_ = saved;
-    return failure(err);
+  SessionResult r = render_to(out);
+  if (!r.ok) {
+    cli_ = saved_cli;
+    setup_ = saved_setup;
+    settings_.options = setup_.options;
+    settings_.camera = setup_.camera;
   }
+  return r;
+}
+
+namespace {
+
+/// Compiles the three evaluators a render needs (f32 points, intervals, f32 gradients) at once,
+/// on three threads: after an edit this is most of the compile latency, and the three LLVM
+/// compiles are independent (the process-wide LLJIT takes modules from several threads).
+/// Returns the wall time in ms. A JIT failure is not fatal: the interpreters take over.
+double prepare_for_render(const Model& model) {
   auto t0 = std::chrono::steady_clock::now();
-  ModelField field(*m, "<session>");
-  prepare_render_code(*m, field.has_interval(), /*gradient=*/true);
-  render::RenderOptions opt = settings_.options;
-  render::Box extent = opt.bbox;
-  if (!settings_.camera.eye || !settings_.camera.look_at) extent = render::find_extent(field, opt.bbox, 6);
-  opt.camera = render::resolve_camera(settings_.camera, extent, float(opt.width) / float(opt.height));
-  render::Vec3 view = opt.camera.look_at - opt.camera.eye;
-  if (length(view) == 0 || length(cross(normalize(view), normalize(opt.camera.up))) < 1e-6f) {
-    settings_ = saved;
-    return failure("hfrt: the camera is degenerate (eye = look-at, or up parallel to the view)");
+  std::string errors[3];
+  bool ok[3] = {true, true, true};
+  std::thread interval([&] { ok[1] = model.prepare_interval(&errors[1]); });
+  std::thread gradient([&] { ok[2] = model.prepare_gradient(Precision::kF32, &errors[2]); });
+  ok[0] = model.prepare(Precision::kF32, &errors[0]);
+  interval.join();
+  gradient.join();
+  const char* what[3] = {"point", "interval", "gradient"};
+  for (int i = 0; i < 3; ++i) {
+    if (!ok[i]) {
+      std::fprintf(stderr, "hfrt: warning: %s JIT failed (%s); using the %s interpreter\n", what[i],
+                   errors[i].c_str(), what[i]);
+    }
   }
+  return ms_since(t0);
+}
+
+}  // namespace
+
+SessionResult Session::render_to(const std::string& out) {
+  const std::string object = cli_.model.object.empty() ? current_ : cli_.model.object;
+  std::string err;
+  const Model* m = model_for(source(), object, &err, 0, "<session>");
+  if (!m) return failure(err);
+  auto t0 = std::chrono::steady_clock::now();
+  // -a: the cached model gets the parameters for this render and its own back afterwards.
+  Model& model = const_cast<Model&>(*m);
+  const std::vector<double> saved_params = model.params();
+  model.set_params(setup_.params);
+  struct RestoreParams {
+    Model& m;
+    const std::vector<double>& p;
+    ~RestoreParams() { m.set_params(p); }
+  } restore{model, saved_params};
+
+  RenderReport report;
+  report.compile_ms = last_compile_ms_;
+  ModelField model_field(model, "<session>");
+  report.prepare_ms = prepare_for_render(model);
+  WithoutIntervals sampled(model_field);
+  render::RenderOptions opt = setup_.options;
+  const render::Field& field = render_field(model, model_field, sampled, opt.root);
+  // The view of the last render of this object with these options (see ViewCache).
+  std::string key = object + '\x1f' + cli_.size + '\x1f' + cli_.bbox + '\x1f' + cli_.eye + '\x1f' +
+                    cli_.look_at + '\x1f' + cli_.up + '\x1f' + std::to_string(cli_.fov) + '\x1f' +
+                    std::to_string(cli_.ortho) + '\x1f' + cli_.root + '\x1f' + cli_.model.params + '\x1f' +
+                    cli_.model.backend + '\x1f' + std::to_string(cli_.threads);
+  // --root analytic on a model that does not qualify: its located diagnostic, as hfrt render.
+  if (opt.root == render::RootMode::kAnalytic) {
+    std::string diag = analytic_root_diagnostic(model_field.analytic_info(), "<session>");
+    if (!diag.empty()) return failure(diag);
+  }
+  // The decision stays valid only while the evaluators it chose exist (an edit may make the
+  // model non-polynomial, or too large for the interval JIT).
+  const bool reuse = view_.key == key && view_.has_interval == field.has_interval() &&
+                     view_.ray_candidates == field.has_ray_candidates();
+  if (!frame_camera(field, setup_.camera, &opt, &report.framing, &err, reuse ? &view_.extent : nullptr)) {
+    return failure("hfrt: " + err);
+  }
+  if (reuse) {
+    opt.root = view_.root;
+    opt.tile_culling = view_.tile_culling;
+    report.root.why = view_.why;
+  } else {
+    report.root = settle_root(field, &opt, &model_field.analytic_info(), "<session>");
+    view_ = ViewCache{key,     report.framing.extent, field.has_interval(), field.has_ray_candidates(),
+                      opt.root, opt.tile_culling,        report.root.why};
+  }
+  report.auto_root = cli_.root == "auto";
+  opt.cancel = &cancel_;
+  if (on_coarse && opt.width >= 64 && opt.height >= 8) {
+    render::RenderOptions coarse = opt;
+    coarse.width = std::max(1, opt.width / 8);
+    coarse.height = std::max(1, opt.height / 8);
+    coarse.spp = 1;
+    coarse.shadows = false;
+    render::RenderResult preview = render::render(field, coarse);
+    if (preview.stats.cancelled) return failure("hfrt: render cancelled");
+    on_coarse(preview.image);
+  }
+  auto t_render = std::chrono::steady_clock::now();
   render::RenderResult result = render::render(field, opt);
-  auto written = render::write_image(result.image, out);
-  if (!written.ok()) {
-    settings_ = saved;
-    return failure("hfrt: " + written.error().message);
-  }
+  timings_.prepare = report.prepare_ms;
+  timings_.frame = report.framing.ms;
+  timings_.probe = report.root.probe_ms;
+  timings_.render = ms_since(t_render);
+  if (result.stats.cancelled) return failure("hfrt: render cancelled");
+  auto t_write = std::chrono::steady_clock::now();
+  auto written = render::write_image(result.image, out, setup_.aovs);
+  timings_.write = ms_since(t_write);
+  if (!written.ok()) return failure("hfrt: " + written.error().message);
   last_render_ms_ = ms_since(t0);
   last_output_ = out;
   last_image_ = std::move(result.image);
   ++renders_;
-  char buf[128];
+  char buf[160];
   std::snprintf(buf, sizeof buf, "%s %dx%d %.1f ms", out.c_str(), opt.width, opt.height, last_render_ms_);
-  SessionResult r = success(buf);
+  std::string text = buf;
+  for (size_t i = 1; i < written.value().size(); ++i) text += "\n" + written.value()[i];
+  if (cli_.stats) {
+    report.engines = describe_domain_engines(model);
+    report.culled = opt.tile_culling && field.has_interval();
+    report.stats = result.stats;
+    text += "\n" + format_render_stats(report);
+  }
+  SessionResult r = success(text);
+  if (result.stats.evals.nan_samples > 0) {
+    r.err = "hfrt: warning: F has no value at " + std::to_string(result.stats.evals.nan_samples) +
+            " samples (counted as outside)\n";
+  }
   r.rendered = true;
   return r;
 }
 
 SessionResult Session::watch_step(const std::string& file) {
   SessionResult r = cmd_load({file});
-  if (!r.ok || last_output_.empty()) return r;
+  if (!r.ok || last_output_.empty()) {
+    cancel_.store(false);
+    return r;
+  }
   SessionResult rr = cmd_render({});
   rr.out = r.out + rr.out;
   rr.err = r.err + rr.err;
+  cancel_.store(false);
   return rr;
 }
 
@@ -577,6 +695,16 @@ SessionResult Session::cmd_show() const {
   s << "ortho " << (c.ortho_width ? std::to_string(*c.ortho_width) : "off") << "\n";
   s << "root " << render::root_mode_name(o.root) << "\nspp " << o.spp << "\nthreads " << o.threads << "\n";
   s << "shadows " << (o.shadows ? "on" : "off") << "\n";
+  auto typed = [&s](const char* name, const std::string& v) { s << name << ' ' << (v.empty() ? "default" : v) << "\n"; };
+  std::string lights;
+  for (const std::string& l : cli_.lights) lights += (lights.empty() ? "" : " ") + l;
+  typed("light", lights);
+  typed("a", cli_.model.params);
+  typed("object", cli_.model.object.empty() ? "" : cli_.model.object);
+  typed("aov", cli_.aov);
+  typed("background", cli_.background);
+  s << "step " << o.step << "\nepsilon " << o.epsilon << "\n";
+  s << "backend " << cli_.model.backend << "\nstats " << (cli_.stats ? "on" : "off") << "\n";
   if (!last_output_.empty()) s << "output " << last_output_ << "\n";
   return success(s.str());
 }

@@ -7,6 +7,8 @@
 // order, a redefined object replaced in place), so an object may call earlier ones. Compiled
 // models are cached by (source text, object): only a change recompiles.
 
+#include <atomic>
+#include <functional>
 #include <map>
 #include <optional>
 #include <string>
@@ -18,6 +20,8 @@
 #include "render/framing.h"
 #include "render/image.h"
 #include "render/renderer.h"
+#include "tools/hfrt/preview.h"  // ansi_preview() and the other inline previews
+#include "tools/hfrt/render_options.h"
 
 namespace hfrt::tools {
 
@@ -32,10 +36,22 @@ struct SessionResult {
   std::string watch_file;      ///< `:watch FILE`: the front end polls FILE (see Session::watch_step)
 };
 
-/// The render settings a session remembers between `:render` calls.
+/// The render settings a session remembers between `:render` calls, translated from the
+/// options as typed (Session::render_cli()) by translate_render_options().
 struct SessionRenderSettings {
   render::RenderOptions options;
   render::CameraRequest camera;
+};
+
+/// Where the time of the last compile and the last `:render` went (for `:stats` and the
+/// benchmark), in ms.
+struct SessionTimings {
+  double compile = 0;  ///< the last compile that was not served by the cache (parse, lowering)
+  double prepare = 0;  ///< the JIT of the rendered model's point, interval and gradient code
+  double frame = 0;    ///< finding the solid's extent and the camera
+  double probe = 0;    ///< the `--root auto` probe
+  double render = 0;   ///< the ray tracing
+  double write = 0;    ///< encoding and writing the image
 };
 
 class Session {
@@ -47,6 +63,11 @@ class Session {
   std::optional<SessionResult> feed_line(std::string_view line);
   /// True inside an unfinished multi-line definition (the front end shows a continuation prompt).
   bool pending() const { return !pending_.empty(); }
+  /// Drops an unfinished multi-line definition (Ctrl-C at the continuation prompt).
+  void discard_pending() {
+    pending_.clear();
+    pending_depth_ = 0;
+  }
 
   /// Runs one complete input (a definition or a command).
   SessionResult run(std::string_view input);
@@ -60,8 +81,22 @@ class Session {
   /// The whole session source (what is compiled).
   std::string source() const;
   const SessionRenderSettings& render_settings() const { return settings_; }
+  /// The render options as typed (`:render` options and `:set`), as `hfrt render` has them.
+  const RenderCli& render_cli() const { return cli_; }
+
+  /// Cancellation: while this flag is true a running (or starting) `:render` stops at the next
+  /// tile and fails with "render cancelled", leaving the previous image. It may be set from
+  /// any thread or from a signal handler (a lock-free atomic store); the session clears it when
+  /// the command that saw it returns, so a cancel never outlives one command.
+  std::atomic<bool>& cancel_flag() { return cancel_; }
+
+  /// When set, `:render` first renders a coarse picture (1/8 of the size, same camera, no
+  /// shadows: about 1/64 of the work) and passes it here before the full render, so that a
+  /// terminal shows something at once and then the refined picture.
+  std::function<void(const render::Image&)> on_coarse;
   /// Number of compiles that were not served by the cache (for tests and `:stats`).
   int compiles() const { return compiles_; }
+  const SessionTimings& timings() const { return timings_; }
 
   /// For `:watch`: reloads FILE and re-renders with the remembered output (when there was a
   /// `:render`). Called by the front end when FILE's modification time changes.
@@ -69,10 +104,12 @@ class Session {
 
   /// Command names, for completion (with the leading ':').
   static const std::vector<std::string>& command_names();
-  /// Render option names accepted by `:render` and `:set` (without "--").
+  /// Render option names accepted by `:render` and `:set` (without "--"): those of `hfrt
+  /// render` (render_option_names()) and the `:set` spellings "shadows".
   static std::vector<std::string> option_names();
 
  private:
+  SessionResult dispatch(std::string_view input);
   SessionResult define(std::string_view text);
   SessionResult cmd_load(const std::vector<std::string>& args);
   SessionResult cmd_eval(const std::vector<std::string>& args);
@@ -86,8 +123,12 @@ class Session {
   /// compile error fills `err` with the diagnostics.
   const Model* model_for(const std::string& source, const std::string& object, std::string* err,
                          int line_offset, std::string_view file);
-  /// Applies one render option (name without "--"); false with `err` when invalid.
-  bool apply_option(const std::string& name, const std::string& value, std::string* err);
+  /// Parses render options (command-line words, e.g. {"--size", "64x64"}) over the remembered
+  /// ones with the `hfrt render` parser, then translates them all; on success they become the
+  /// remembered ones, else `err` holds the message and nothing changes.
+  bool apply_options(const std::vector<std::string>& words, std::string* err);
+  /// Renders the current (or --object) model to `out` with the remembered options.
+  SessionResult render_to(const std::string& out);
 
   std::string pending_;
   int pending_depth_ = 0;
@@ -95,18 +136,33 @@ class Session {
   std::string current_;
   std::map<std::pair<std::string, std::string>, Model> cache_;
   int compiles_ = 0;
+  RenderCli cli_;
+  RenderSetup setup_;
+  /// The view of the last render, kept while the same object is edited with the same options:
+  /// its framed extent and the `--root auto` decision. Edits are then seen from the same
+  /// camera (what changed is what moved in the picture), and the framing and auto probe are
+  /// not paid again. Any option change (`:set`, options on `:render`) or another object
+  /// frames anew.
+  struct ViewCache {
+    std::string key;  ///< the object and the options it was made for ("" = none)
+    render::Box extent;
+    bool has_interval = false;
+    bool ray_candidates = false;
+    render::RootMode root = render::RootMode::kSign;
+    bool tile_culling = true;
+    std::string why;
+  } view_;
   SessionRenderSettings settings_;
+  std::atomic<bool> cancel_{false};
   std::string last_output_;
   std::optional<render::Image> last_image_;
   double last_compile_ms_ = 0, last_render_ms_ = 0;
+  SessionTimings timings_;
   int evals_ = 0, renders_ = 0;
 };
 
 /// The change in brace depth of a line of HyperFun (comments `--` skipped).
 int brace_delta(std::string_view line);
 
-/// The image as 24-bit colour ANSI half blocks (two pixel rows per text row), scaled down to
-/// at most `max_cols` columns. Ends with a colour reset and a newline.
-std::string ansi_preview(const render::Image& image, int max_cols);
 
 }  // namespace hfrt::tools

@@ -102,6 +102,21 @@ enum class DomainEngine {
   kInterp,  ///< the interpreter (backend kInterp, a large object, or a failed JIT compile)
 };
 
+/// One mesh or patch surface of the object (hfMesh, hfTriangles, hfBezierSurface,
+/// hfBezierPatches), for `hfrt render --stats`.
+struct SurfaceStats {
+  std::string source;      ///< the file, or the inline function's name
+  size_t triangles = 0;    ///< triangles (for patches: of the field's tessellation)
+  size_t patches = 0;
+  size_t degenerate_skipped = 0;
+  size_t bvh_nodes = 0;
+  int bvh_depth = 0;
+  double build_seconds = 0;
+  size_t memory_bytes = 0;
+  /// How many leaves of the object use this one loaded surface (> 1: instancing).
+  int leaves = 0;
+};
+
 /// Compile-latency figures, in milliseconds.
 struct ModelStats {
   double frontend_ms = 0;  ///< parse + semantic checks
@@ -123,6 +138,27 @@ struct ModelStats {
     double compile_ms = 0;
   };
   Domain interval, gradient_f64, gradient_f32;
+  /// The polynomial JIT (analytic ray tracing), once compiled on the first ray_polynomials.
+  Domain polynomial;
+};
+
+/// Whether the object can be ray traced by analytic roots (docs/api.md, docs/rendering.md):
+/// F is a set-operation skeleton (min, max, unary minus, the R-function operators |, &, \, `if` on
+/// constants) over leaves that are polynomials of degree <= 4 in x along any ray (x entering
+/// affinely), or library primitives with an algebraic zero set (hfTorusX/Y/Z, hfBlock, ...:
+/// a leaf A + B sqrt(C) is replaced by A^2 - B^2 C, which has the same zeros and maybe more).
+struct AnalyticInfo {
+  bool qualifies = false;
+  int num_leaves = 0;  ///< polynomial leaves (ray_polynomials)
+  int max_degree = 0;  ///< the highest leaf degree along a ray (<= 4)
+  /// Mesh and patch leaves (hfMesh, ... under x or an affine map of x) whose crossings with a
+  /// ray are candidates too (ray_surface_crossings).
+  int num_surface_leaves = 0;
+  /// When it does not qualify: the first construct that is not polynomial or not a set
+  /// operation ("'sqrt' is not a polynomial", "division by a variable", "'hfBlendUni' is not
+  /// a set operation nor a polynomial (...)") and its 1-based location (0 when unknown).
+  std::string reason;
+  int line = 0, col = 0;
 };
 
 struct CompileResult;
@@ -224,6 +260,39 @@ class Model {
   /// Compiles the JIT code of a precision now instead of on first use. Returns false (with
   /// `error`) when the JIT fails; evaluation then falls back to the interpreter.
   bool prepare(Precision precision, std::string* error = nullptr) const;
+
+  // --- The polynomial domain (analytic ray tracing) -----------------------------------------
+
+  /// The compile-time analysis of the object (computed once, on first call; thread-safe).
+  AnalyticInfo analytic_info() const;
+  /// For the ray x = o + t d: the coefficients of every leaf, out[5*i + k] = coefficient of
+  /// t^k of leaf i (analytic_info().num_leaves * 5 doubles). F's zero crossings along the ray
+  /// are among the leaves' real roots. Requires analytic_info().qualifies. Const and
+  /// thread-safe. Engine: the polynomial JIT with the JIT backend (compiled on the first
+  /// call, like the other domains; the interpreter when that compile fails), else the
+  /// reference polynomial interpreter; both give the same values.
+  void ray_polynomials(const double o[3], const double d[3], double* out) const;
+  /// Compiles the polynomial JIT now instead of on the first ray_polynomials call (no-op with
+  /// the interpreter backend or an object that does not qualify). False (with `error`) when
+  /// the JIT fails; ray_polynomials then uses the interpreter.
+  bool prepare_polynomial(std::string* error = nullptr) const;
+  /// For the ray x = o + t d: appends to `out` every t in (t0, t1) where a mesh or patch leaf
+  /// of the skeleton (AnalyticInfo::num_surface_leaves) crosses its surface; the ray is
+  /// mapped into the leaf's own space by the leaf's affine map (t is unchanged). With
+  /// ray_polynomials' roots these are all the places where F may change sign. Requires
+  /// analytic_info().qualifies. Const and thread-safe.
+  void ray_surface_crossings(const double o[3], const double d[3], double t0, double t1,
+                             std::vector<double>* out) const;
+
+  /// The mesh and patch surfaces of the object (empty for most models).
+  std::vector<SurfaceStats> surface_stats() const;
+  /// Like the f32 eval_batch (no attributes), except that each mesh or patch leaf gives +1
+  /// inside and -1 outside instead of its signed distance: the winding number without the
+  /// distance query, several times cheaper. When analytic_info().qualifies, F's sign is a
+  /// function of the leaves' signs (set operations), so these values have exactly F's sign
+  /// (what the analytic root search samples). Without mesh or patch leaves, or with the
+  /// interpreter backend, this is eval_batch. The JIT code is compiled on first use.
+  void eval_batch_sign(int64_t n, const float* xs, float* out_f) const;
 
   /// The object's hfrt IR as text (`hfrt ir`).
   std::string ir_text() const;

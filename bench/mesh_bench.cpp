@@ -1,0 +1,296 @@
+// Mesh and patch ray tracing throughput (issue 10), a timed CLI:
+//   * armadillo primary rays per second, 1024^2 perspective rays on all cores, hfrt's BVH and,
+//     when Embree was found at configure time, Embree's rtcIntersect1 on the same rays in the
+//     same run (with the hit/miss agreement of the two);
+//   * teapot frames per second, 512x512 primary rays on all cores (direct Newton ray–patch);
+//   * BVH build time per million triangles (the armadillo replicated to ~1M triangles), and the
+//     memory per triangle of the built MeshSurface.
+// Run: build/bench/hfrt_bench_mesh [--threads T] [--frames K] [--copies C] [--out DIR]
+
+#include <tbb/blocked_range2d.h>
+#include <tbb/global_control.h>
+#include <tbb/parallel_for.h>
+#include <tbb/parallel_reduce.h>
+
+#include <chrono>
+#include <ctime>
+#include <cstdio>
+#include <cstring>
+#include <fstream>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include "geom/bezier.h"
+#include "geom/mesh.h"
+#include "geom/mesh_surface.h"
+#include "geom/patch_surface.h"
+
+#ifdef HFRT_HAVE_EMBREE
+#include <embree3/rtcore.h>
+#endif
+
+using namespace hfrt::geom;
+
+namespace {
+
+using Clock = std::chrono::steady_clock;
+double seconds_since(Clock::time_point t) {
+  return std::chrono::duration<double>(Clock::now() - t).count();
+}
+// Process CPU time (all threads): on a machine shared with other jobs, rays per CPU-second is
+// the steadier figure; wall-clock rates are printed too.
+double cpu_seconds() { return double(std::clock()) / CLOCKS_PER_SEC; }
+
+// A pinhole camera looking at the box from the front (-y side, z up), framing it.
+struct Camera {
+  Vec3 eye, forward, right, up;
+  int width, height;
+  Ray ray(int x, int y) const {
+    const float sx = (2.0f * (x + 0.5f) / width - 1.0f);
+    const float sy = (1.0f - 2.0f * (y + 0.5f) / height);
+    return {eye, forward + right * sx + up * sy};
+  }
+};
+
+Camera frame(const Bounds3& b, int w, int h, Vec3 view_dir, Vec3 world_up) {
+  const Vec3 c = b.center();
+  const float r = 0.5f * length(b.diagonal());
+  const float fov_tan = 0.45f;  // half-angle tangent
+  const Vec3 f = normalize(view_dir);
+  const Vec3 right = normalize(cross(f, world_up));
+  const Vec3 up = cross(right, f);
+  const float dist = r / fov_tan * 1.05f;
+  return {c - f * dist, f, right * fov_tan, up * fov_tan, w, h};
+}
+
+// Renders one frame with `trace(ray, &t, &normal_dot)` over tiles; returns hits.
+template <typename Trace>
+size_t render(const Camera& cam, std::vector<float>* image, Trace&& trace) {
+  image->assign(size_t(cam.width) * cam.height, 0.0f);
+  return tbb::parallel_reduce(
+      tbb::blocked_range2d<int>(0, cam.height, 16, 0, cam.width, 16), size_t{0},
+      [&](const tbb::blocked_range2d<int>& r, size_t hits) {
+        for (int y = r.rows().begin(); y != r.rows().end(); ++y)
+          for (int x = r.cols().begin(); x != r.cols().end(); ++x) {
+            float shade;
+            if (trace(cam.ray(x, y), &shade)) {
+              (*image)[size_t(y) * cam.width + x] = shade;
+              ++hits;
+            }
+          }
+        return hits;
+      },
+      std::plus<>());
+}
+
+void write_pgm(const std::string& path, const std::vector<float>& img, int w, int h) {
+  std::ofstream out(path, std::ios::binary);
+  out << "P5\n" << w << " " << h << "\n255\n";
+  for (float v : img) out.put(static_cast<char>(std::clamp(v, 0.0f, 1.0f) * 255.0f));
+}
+
+TriangleMesh replicate(const TriangleMesh& m, int copies) {
+  TriangleMesh out;
+  out.source = m.source + " x" + std::to_string(copies);
+  const Vec3 step{m.bounds().diagonal().x * 1.1f, 0, 0};
+  for (int c = 0; c < copies; ++c) {
+    const uint32_t base = static_cast<uint32_t>(out.vertices.size());
+    for (Vec3 v : m.vertices) out.vertices.push_back(v + step * float(c % 5) + Vec3{0, 0, 150.0f * (c / 5)});
+    for (auto t : m.triangles) out.triangles.push_back({t[0] + base, t[1] + base, t[2] + base});
+  }
+  return out;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  int threads = static_cast<int>(std::thread::hardware_concurrency());
+  int frames = 5, copies = 20;
+  std::string out_dir;
+  std::string corpus = HFRT_CORPUS_DIR;
+  for (int i = 1; i < argc; ++i) {
+    std::string a = argv[i];
+    auto next = [&] { return i + 1 < argc ? std::string(argv[++i]) : std::string(); };
+    if (a == "--threads") threads = std::stoi(next());
+    else if (a == "--frames") frames = std::stoi(next());
+    else if (a == "--copies") copies = std::stoi(next());
+    else if (a == "--out") out_dir = next();
+    else if (a == "--corpus") corpus = next();
+    else {
+      std::fprintf(stderr, "usage: %s [--threads T] [--frames K] [--copies C] [--out DIR]\n", argv[0]);
+      return 2;
+    }
+  }
+  tbb::global_control gc(tbb::global_control::max_allowed_parallelism, threads);
+  std::printf("threads: %d\n", threads);
+
+  // ---- Armadillo: load + build, then primary rays.
+  auto t0 = Clock::now();
+  hfrt::Result<TriangleMesh> arm = load_mesh(corpus + "/meshes/armadillo.off");
+  if (!arm) {
+    std::fprintf(stderr, "%s\n", arm.error().message.c_str());
+    return 1;
+  }
+  const double load_s = seconds_since(t0);
+  auto surf = MeshSurface::build(*arm);
+  std::printf("armadillo: %zu triangles, load %.3f s, build %.3f s, %zu BVH nodes, depth %d, "
+              "%.1f bytes/triangle\n",
+              surf->num_triangles(), load_s, surf->stats().build_seconds, surf->nodes().size(),
+              surf->stats().bvh_depth, double(surf->memory_bytes()) / surf->num_triangles());
+  const int res = 1024;
+  const Camera cam = frame(surf->bounds(), res, res, {0, 0, -1}, {0, 1, 0});
+  std::vector<float> img;
+  auto hfrt_trace = [&](const Ray& r, float* shade) {
+    SurfaceHit h;
+    if (!surf->intersect(r, 0, std::numeric_limits<float>::infinity(), &h)) return false;
+    *shade = std::abs(dot(h.normal, normalize(r.dir)));
+    return true;
+  };
+  render(cam, &img, hfrt_trace);  // warm-up
+  t0 = Clock::now();
+  double c0 = cpu_seconds();
+  size_t hits = 0;
+  for (int f = 0; f < frames; ++f) hits = render(cam, &img, hfrt_trace);
+  const double hfrt_s = seconds_since(t0) / frames;
+  const double hfrt_cpu = (cpu_seconds() - c0) / frames;
+  const double hfrt_mrays = res * double(res) / hfrt_s / 1e6;
+  std::printf("armadillo %dx%d primary rays, hfrt:   %7.2f Mrays/s (%.1f ms/frame, %zu hits; "
+              "%.2f Mrays per CPU-second)\n",
+              res, res, hfrt_mrays, hfrt_s * 1e3, hits, res * double(res) / hfrt_cpu / 1e6);
+  if (!out_dir.empty()) write_pgm(out_dir + "/armadillo_hfrt.pgm", img, res, res);
+  std::vector<float> hfrt_img = img;
+
+#ifdef HFRT_HAVE_EMBREE
+  {
+    RTCDevice device = rtcNewDevice(nullptr);
+    RTCScene scene = rtcNewScene(device);
+    RTCGeometry geom = rtcNewGeometry(device, RTC_GEOMETRY_TYPE_TRIANGLE);
+    auto* vb = static_cast<float*>(rtcSetNewGeometryBuffer(
+        geom, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3, 3 * sizeof(float), arm->vertices.size()));
+    for (size_t i = 0; i < arm->vertices.size(); ++i) {
+      vb[3 * i] = arm->vertices[i].x, vb[3 * i + 1] = arm->vertices[i].y,
+      vb[3 * i + 2] = arm->vertices[i].z;
+    }
+    auto* ib = static_cast<unsigned*>(rtcSetNewGeometryBuffer(
+        geom, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3, 3 * sizeof(unsigned), arm->triangles.size()));
+    for (size_t i = 0; i < arm->triangles.size(); ++i)
+      for (int k = 0; k < 3; ++k) ib[3 * i + k] = arm->triangles[i][k];
+    rtcCommitGeometry(geom);
+    rtcAttachGeometry(scene, geom);
+    rtcReleaseGeometry(geom);
+    auto tb = Clock::now();
+    rtcCommitScene(scene);
+    const double embree_build = seconds_since(tb);
+    auto embree_trace = [&](const Ray& r, float* shade) {
+      RTCIntersectContext ctx;
+      rtcInitIntersectContext(&ctx);
+      RTCRayHit rh;
+      rh.ray.org_x = r.org.x, rh.ray.org_y = r.org.y, rh.ray.org_z = r.org.z;
+      rh.ray.dir_x = r.dir.x, rh.ray.dir_y = r.dir.y, rh.ray.dir_z = r.dir.z;
+      rh.ray.tnear = 0, rh.ray.tfar = std::numeric_limits<float>::infinity();
+      rh.ray.mask = ~0u, rh.ray.flags = 0, rh.ray.time = 0;
+      rh.hit.geomID = RTC_INVALID_GEOMETRY_ID;
+      rtcIntersect1(scene, &ctx, &rh);
+      if (rh.hit.geomID == RTC_INVALID_GEOMETRY_ID) return false;
+      const Vec3 n = normalize(Vec3{rh.hit.Ng_x, rh.hit.Ng_y, rh.hit.Ng_z});
+      *shade = std::abs(dot(n, normalize(r.dir)));
+      return true;
+    };
+    render(cam, &img, embree_trace);
+    t0 = Clock::now();
+    c0 = cpu_seconds();
+    size_t ehits = 0;
+    for (int f = 0; f < frames; ++f) ehits = render(cam, &img, embree_trace);
+    const double e_s = seconds_since(t0) / frames;
+    const double e_cpu = (cpu_seconds() - c0) / frames;
+    const double e_mrays = res * double(res) / e_s / 1e6;
+    size_t differ = 0;
+    for (size_t i = 0; i < img.size(); ++i) differ += (img[i] > 0) != (hfrt_img[i] > 0);
+    std::printf("armadillo %dx%d primary rays, Embree: %7.2f Mrays/s (%.1f ms/frame, %zu hits; "
+                "%.2f Mrays per CPU-second; build %.3f s)\n",
+                res, res, e_mrays, e_s * 1e3, ehits, res * double(res) / e_cpu / 1e6,
+                embree_build);
+    std::printf("hfrt / Embree time ratio: %.2fx wall, %.2fx CPU (goal <= 1.5x); pixels whose "
+                "hit/miss differ: %zu\n",
+                e_mrays / hfrt_mrays, hfrt_cpu / e_cpu, differ);
+    if (!out_dir.empty()) write_pgm(out_dir + "/armadillo_embree.pgm", img, res, res);
+    rtcReleaseScene(scene);
+    rtcReleaseDevice(device);
+  }
+#else
+  std::printf("Embree: not found at configure time (install libembree-dev to compare)\n");
+#endif
+
+  // ---- Teapot: 512x512 frames per second.
+  {
+    hfrt::Result<PatchSet> tp = load_bpt(corpus + "/bezier/teapot.bpt");
+    if (!tp) {
+      std::fprintf(stderr, "%s\n", tp.error().message.c_str());
+      return 1;
+    }
+    auto ts = PatchSurface::build(*tp);
+    std::printf("teapot: %zu patches, %zu flat pieces, build %.3f s (incl. field tessellation "
+                "of %zu triangles, error %.2g)\n",
+                tp->patches.size(), ts->num_pieces(), ts->stats().build_seconds,
+                ts->stats().triangles, ts->field_error());
+    const Camera tcam = frame(ts->bounds(), 512, 512, {-1, 2, -0.8f}, {0, 0, 1});
+    auto patch_trace = [&](const Ray& r, float* shade) {
+      SurfaceHit h;
+      if (!ts->intersect(r, 0, std::numeric_limits<float>::infinity(), &h)) return false;
+      *shade = std::abs(dot(h.normal, normalize(r.dir)));
+      return true;
+    };
+    render(tcam, &img, patch_trace);
+    t0 = Clock::now();
+    const double c0t = cpu_seconds();
+    size_t th = 0;
+    for (int f = 0; f < frames; ++f) th = render(tcam, &img, patch_trace);
+    const double s = seconds_since(t0) / frames;
+    const double cpu = (cpu_seconds() - c0t) / frames;
+    std::printf("teapot 512x512 primary rays: %.1f frames/s (%.1f ms/frame, %zu hits, %.2f Mrays/s;"
+                " %.1f frames per CPU-second, so %.1f frames/s on %d idle cores)\n",
+                1 / s, s * 1e3, th, 512.0 * 512 / s / 1e6, 1 / cpu, threads / cpu, threads);
+    if (!out_dir.empty()) write_pgm(out_dir + "/teapot.pgm", img, 512, 512);
+  }
+
+  // ---- BVH build per million triangles.
+  {
+    const TriangleMesh big = replicate(*arm, copies);
+    const double mtris = big.triangles.size() / 1e6;
+    std::vector<Bounds3> boxes(big.triangles.size());
+    for (size_t i = 0; i < boxes.size(); ++i) {
+      Bounds3 b;
+      for (int k = 0; k < 3; ++k) b.extend(big.corner(i, k));
+      boxes[i] = b;
+    }
+    auto tb = Clock::now();
+    Bvh bvh = build_bvh(boxes);
+    const double bvh_s = seconds_since(tb);
+    BvhBuildOptions serial;
+    serial.parallel = false;
+    tb = Clock::now();
+    Bvh bvh1 = build_bvh(boxes, serial);
+    const double bvh1_s = seconds_since(tb);
+    auto big_surf = MeshSurface::build(big);
+    std::printf("BVH build, %.2fM triangles: %.3f s parallel (%.3f s per million), %.3f s one "
+                "thread; full MeshSurface build %.3f s (%.3f s per million), %.1f bytes/triangle\n",
+                mtris, bvh_s, bvh_s / mtris, bvh1_s, big_surf->stats().build_seconds,
+                big_surf->stats().build_seconds / mtris,
+                double(big_surf->memory_bytes()) / big_surf->num_triangles());
+    const Camera bcam = frame(big_surf->bounds(), 512, 512, {0, 0, -1}, {0, 1, 0});
+    auto big_trace = [&](const Ray& r, float* shade) {
+      SurfaceHit h;
+      if (!big_surf->intersect(r, 0, std::numeric_limits<float>::infinity(), &h)) return false;
+      *shade = std::abs(dot(h.normal, normalize(r.dir)));
+      return true;
+    };
+    t0 = Clock::now();
+    const size_t bh = render(bcam, &img, big_trace);
+    const double s = seconds_since(t0);
+    std::printf("%.2fM-triangle mesh 512x512: %.1f ms/frame, %zu hits, %.2f Mrays/s\n", mtris,
+                s * 1e3, bh, 512.0 * 512 / s / 1e6);
+    if (!out_dir.empty()) write_pgm(out_dir + "/replicated.pgm", img, 512, 512);
+  }
+  return 0;
+}

@@ -1,0 +1,83 @@
+#pragma once
+// Bézier patches: the BPT text format (hfBezierSurface(x, "file.bpt")), inline bicubic
+// patches (hfBezierPatches(x, P), 48 numbers each), evaluation with derivatives, sub-patch
+// extraction (de Casteljau) and uniform tessellation.
+//
+// BPT: the number of patches; then per patch its two degrees du dv (1 to 3 each) and
+// (du+1)(dv+1) control points of 3 coordinates, row by row: dv+1 rows of du+1 points, so
+// point (i, j) -- i along u, j along v -- is the (j*(du+1) + i)-th of the patch. Whitespace and
+// line breaks are free; '#' starts a comment. The Utah teapot (32 bicubic patches) is
+// /work/shared/corpus/bezier/teapot.bpt.
+
+#include <array>
+#include <span>
+#include <string>
+#include <vector>
+
+#include "geom/mesh.h"
+#include "geom/vec.h"
+#include "lang/result.h"
+
+namespace hfrt::geom {
+
+/// A 3-vector in double, for Newton iteration on patches (hits exact to 1e-7 of the patch).
+struct DVec3 {
+  double x = 0, y = 0, z = 0;
+};
+inline DVec3 to_d(Vec3 v) { return {v.x, v.y, v.z}; }
+inline Vec3 to_f(DVec3 v) {
+  return {static_cast<float>(v.x), static_cast<float>(v.y), static_cast<float>(v.z)};
+}
+
+/// A tensor-product Bézier patch of degrees du, dv in 1..3 over [0,1]^2.
+struct BezierPatch {
+  int du = 3, dv = 3;
+  std::array<Vec3, 16> cp{};  ///< cp[j*(du+1) + i]: i along u, j along v
+
+  Vec3 control(int i, int j) const { return cp[j * (du + 1) + i]; }
+  Vec3& control(int i, int j) { return cp[j * (du + 1) + i]; }
+  int num_control_points() const { return (du + 1) * (dv + 1); }
+
+  /// The point at (u, v) and, when not null, the partial derivatives.
+  DVec3 eval(double u, double v, DVec3* pu = nullptr, DVec3* pv = nullptr) const;
+
+  /// The bounding box of the control points (contains the patch: convex hull property).
+  Bounds3 control_bounds() const;
+
+  /// The same surface restricted to [u0,u1] x [v0,v1], reparametrised over [0,1]^2.
+  BezierPatch sub_patch(double u0, double u1, double v0, double v1) const;
+
+  /// The largest distance of a control point from the bilinear interpolation of the four
+  /// corners: 0 for a bilinear patch; how far the patch is from "flat enough".
+  float flatness() const;
+};
+
+/// A set of patches and where they came from.
+struct PatchSet {
+  std::vector<BezierPatch> patches;
+  std::string source;
+
+  Bounds3 bounds() const;
+};
+
+/// Parses BPT text; `name` is used in messages ("teapot.bpt:17: ..."). Errors: malformed
+/// numbers, degrees outside 1..3, non-finite coordinates, a truncated file, trailing data,
+/// zero patches.
+Result<PatchSet> parse_bpt(const std::string& text, const std::string& name);
+
+/// Reads a BPT file (missing or unreadable files are errors naming the path).
+Result<PatchSet> load_bpt(const std::string& path);
+
+/// Inline bicubic patches as hfBezierPatches(x, P) passes them: 48 numbers (16 control points,
+/// row by row) per patch.
+Result<PatchSet> patches_from_array(std::span<const double> p,
+                                    const std::string& what = "inline patches");
+
+/// An n x n grid of quads (2 triangles each) per patch, vertices shared within a patch.
+/// Degenerate triangles (at collapsed patch edges such as the teapot lid's pole) are dropped
+/// and counted by finish_mesh(). `max_error`, when not null, receives an estimate of the
+/// largest distance between the patches and the triangles (sampled at quad centres and edge
+/// midpoints).
+TriangleMesh tessellate(const PatchSet& set, int n, float* max_error = nullptr);
+
+}  // namespace hfrt::geom

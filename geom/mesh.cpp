@@ -1,0 +1,318 @@
+#include "geom/mesh.h"
+
+#include <assimp/postprocess.h>
+#include <assimp/scene.h>
+
+#include <algorithm>
+#include <assimp/Importer.hpp>
+#include <cctype>
+#include <cmath>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <optional>
+#include <sstream>
+
+namespace hfrt::geom {
+
+Bounds3 TriangleMesh::bounds() const {
+  Bounds3 b;
+  for (Vec3 v : vertices) b.extend(v);
+  return b;
+}
+
+namespace {
+
+std::string lower_extension(const std::string& path) {
+  std::string ext = std::filesystem::path(path).extension().string();
+  std::transform(ext.begin(), ext.end(), ext.begin(),
+                 [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
+  return ext;
+}
+
+Error located(const std::string& path, size_t line, const std::string& what) {
+  return Error{path + ":" + std::to_string(line) + ": " + what};
+}
+
+// Splits a line into whitespace-separated tokens, dropping a trailing '#' comment.
+std::vector<std::string> tokens_of(const std::string& line) {
+  std::vector<std::string> out;
+  std::string s = line.substr(0, line.find('#'));
+  std::istringstream is(s);
+  std::string tok;
+  while (is >> tok) out.push_back(tok);
+  return out;
+}
+
+// A whole token as a real (strtod accepts "nan" and "inf": the caller checks finiteness).
+std::optional<double> parse_real(const std::string& tok) {
+  char* end = nullptr;
+  double v = std::strtod(tok.c_str(), &end);
+  if (end == tok.c_str() || *end != '\0') return std::nullopt;
+  return v;
+}
+
+std::optional<long long> parse_int(const std::string& tok) {
+  char* end = nullptr;
+  long long v = std::strtoll(tok.c_str(), &end, 10);
+  if (end == tok.c_str() || *end != '\0') return std::nullopt;
+  return v;
+}
+
+// Line-located checks of a text OFF file (Assimp reports malformed numbers without a line and
+// accepts out-of-range indices). Returns an error or nothing.
+std::optional<Error> precheck_off(const std::string& path, const std::string& text) {
+  std::istringstream in(text);
+  std::string line;
+  size_t lineno = 0;
+  enum { kHeader, kCounts, kVertices, kFaces, kDone } state = kHeader;
+  long long nv = 0, nf = 0, seen_v = 0, seen_f = 0;
+  while (std::getline(in, line)) {
+    ++lineno;
+    std::vector<std::string> tok = tokens_of(line);
+    if (tok.empty()) continue;
+    if (state == kHeader) {
+      const std::string& h = tok[0];
+      if (h.size() < 3 || h.substr(h.size() - 3) != "OFF")
+        return located(path, lineno, "expected the OFF header, found '" + h + "'");
+      state = kCounts;
+      tok.erase(tok.begin());
+      if (tok.empty()) continue;
+    }
+    if (state == kCounts) {
+      if (tok.size() < 2) return located(path, lineno, "expected '#vertices #faces #edges'");
+      auto a = parse_int(tok[0]), b = parse_int(tok[1]);
+      if (!a || !b || *a < 0 || *b < 0)
+        return located(path, lineno, "malformed vertex/face counts '" + line + "'");
+      nv = *a;
+      nf = *b;
+      if (nf == 0) return located(path, lineno, "empty mesh (the header declares no faces)");
+      state = nv > 0 ? kVertices : (nf > 0 ? kFaces : kDone);
+      continue;
+    }
+    if (state == kVertices) {
+      if (tok.size() < 3) return located(path, lineno, "a vertex needs 3 coordinates");
+      for (int k = 0; k < 3; ++k) {
+        auto v = parse_real(tok[k]);
+        if (!v) return located(path, lineno, "malformed coordinate '" + tok[k] + "'");
+        if (!std::isfinite(*v) || !std::isfinite(static_cast<float>(*v)))
+          return located(path, lineno, "non-finite coordinate '" + tok[k] + "'");
+      }
+      if (++seen_v == nv) state = nf > 0 ? kFaces : kDone;
+      continue;
+    }
+    if (state == kFaces) {
+      auto n = parse_int(tok[0]);
+      if (!n || *n < 1) return located(path, lineno, "malformed face size '" + tok[0] + "'");
+      if (static_cast<long long>(tok.size()) < 1 + *n)
+        return located(path, lineno, "a face of " + tok[0] + " vertices lists fewer indices");
+      for (long long k = 1; k <= *n; ++k) {
+        auto idx = parse_int(tok[k]);
+        if (!idx) return located(path, lineno, "malformed vertex index '" + tok[k] + "'");
+        if (*idx < 0 || *idx >= nv)
+          return located(path, lineno,
+                         "vertex index " + tok[k] + " out of range 0.." + std::to_string(nv - 1));
+      }
+      if (++seen_f == nf) state = kDone;
+      continue;
+    }
+  }
+  if (state == kHeader) return Error{path + ": empty file (no OFF header)"};
+  if (state == kCounts) return located(path, lineno, "missing vertex/face counts");
+  if (state == kVertices)
+    return located(path, lineno, "file ends after " + std::to_string(seen_v) + " of " +
+                                     std::to_string(nv) + " vertices");
+  if (state == kFaces)
+    return located(path, lineno, "file ends after " + std::to_string(seen_f) + " of " +
+                                     std::to_string(nf) + " faces");
+  return std::nullopt;
+}
+
+// Line-located checks of a text OBJ file: vertex coordinates and face indices (1-based, or
+// negative = relative to the last vertex so far, in the forms i, i/j, i//k, i/j/k).
+std::optional<Error> precheck_obj(const std::string& path, const std::string& text) {
+  std::istringstream in(text);
+  std::string line;
+  size_t lineno = 0;
+  long long nv = 0;
+  while (std::getline(in, line)) {
+    ++lineno;
+    std::vector<std::string> tok = tokens_of(line);
+    if (tok.empty()) continue;
+    if (tok[0] == "v") {
+      if (tok.size() < 4) return located(path, lineno, "a vertex needs 3 coordinates");
+      for (int k = 1; k <= 3; ++k) {
+        auto v = parse_real(tok[k]);
+        if (!v) return located(path, lineno, "malformed coordinate '" + tok[k] + "'");
+        if (!std::isfinite(*v) || !std::isfinite(static_cast<float>(*v)))
+          return located(path, lineno, "non-finite coordinate '" + tok[k] + "'");
+      }
+      ++nv;
+    } else if (tok[0] == "f") {
+      if (tok.size() < 4) return located(path, lineno, "a face needs at least 3 vertices");
+      for (size_t k = 1; k < tok.size(); ++k) {
+        std::string first = tok[k].substr(0, tok[k].find('/'));
+        auto idx = parse_int(first);
+        if (!idx) return located(path, lineno, "malformed vertex index '" + tok[k] + "'");
+        long long i = *idx < 0 ? nv + *idx + 1 : *idx;
+        if (*idx == 0 || i < 1 || i > nv)
+          return located(path, lineno,
+                         "vertex index " + first + " out of range 1.." + std::to_string(nv) +
+                             " (vertices defined so far)");
+      }
+    }
+  }
+  return std::nullopt;
+}
+
+// The header of a PLY file must be complete before Assimp sees it: Assimp 5.2 loops forever
+// on a header without "end_header".
+std::optional<Error> precheck_ply_header(const std::string& path, const std::string& text) {
+  std::istringstream in(text);
+  std::string line;
+  size_t lineno = 0;
+  while (std::getline(in, line)) {
+    ++lineno;
+    if (!line.empty() && line.back() == '\r') line.pop_back();
+    if (lineno == 1 && line != "ply") return located(path, 1, "expected the PLY magic 'ply'");
+    if (line == "end_header") return std::nullopt;
+    if (lineno > 1000 || in.tellg() > 65536) break;
+  }
+  return Error{path + ": malformed PLY header (no end_header line)"};
+}
+
+bool is_degenerate(const TriangleMesh& m, const std::array<uint32_t, 3>& t) {
+  if (t[0] == t[1] || t[1] == t[2] || t[0] == t[2]) return true;
+  // Exact test in double: products of floats are exact there, so a zero cross product means
+  // the three corners are (nearly exactly) collinear.
+  auto d = [&](int k) {
+    Vec3 v = m.vertices[t[k]];
+    return std::array<double, 3>{v.x, v.y, v.z};
+  };
+  auto a = d(0), b = d(1), c = d(2);
+  double e1[3] = {b[0] - a[0], b[1] - a[1], b[2] - a[2]};
+  double e2[3] = {c[0] - a[0], c[1] - a[1], c[2] - a[2]};
+  double n0 = e1[1] * e2[2] - e1[2] * e2[1];
+  double n1 = e1[2] * e2[0] - e1[0] * e2[2];
+  double n2 = e1[0] * e2[1] - e1[1] * e2[0];
+  return n0 == 0 && n1 == 0 && n2 == 0;
+}
+
+}  // namespace
+
+Result<TriangleMesh> finish_mesh(TriangleMesh mesh) {
+  for (size_t i = 0; i < mesh.vertices.size(); ++i) {
+    if (!is_finite(mesh.vertices[i]))
+      return Error{mesh.source + ": vertex " + std::to_string(i + 1) +
+                   " has a non-finite coordinate"};
+  }
+  std::vector<std::array<uint32_t, 3>> kept;
+  kept.reserve(mesh.triangles.size());
+  for (size_t i = 0; i < mesh.triangles.size(); ++i) {
+    const auto& t = mesh.triangles[i];
+    for (int k = 0; k < 3; ++k) {
+      if (t[k] >= mesh.vertices.size())
+        return Error{mesh.source + ": triangle " + std::to_string(i + 1) + " uses vertex " +
+                     std::to_string(t[k] + 1) + " of " + std::to_string(mesh.vertices.size())};
+    }
+    if (is_degenerate(mesh, t)) {
+      ++mesh.degenerate_skipped;
+      continue;
+    }
+    kept.push_back(t);
+  }
+  if (kept.empty()) {
+    std::string why = mesh.triangles.empty()
+                          ? "no triangles"
+                          : "all " + std::to_string(mesh.triangles.size()) +
+                                " triangles are degenerate";
+    return Error{mesh.source + ": empty mesh (" + why + ")"};
+  }
+  mesh.triangles = std::move(kept);
+  return mesh;
+}
+
+Result<TriangleMesh> load_mesh(const std::string& path) {
+  std::error_code ec;
+  if (!std::filesystem::exists(path, ec)) return Error{path + ": no such file"};
+  if (std::filesystem::is_directory(path, ec)) return Error{path + ": is a directory"};
+  Result<std::string> text = read_file(path);
+  if (!text) return Error{path + ": cannot read: " + text.error().message};
+  const std::string ext = lower_extension(path);
+  if (ext != ".off" && ext != ".obj" && ext != ".ply" && ext != ".stl")
+    return Error{path + ": unknown mesh format '" + ext + "' (expected .off, .obj, .ply or .stl)"};
+  if (text->empty()) return Error{path + ": empty file"};
+  // Text formats get line-located checks before Assimp sees them.
+  if (ext == ".off") {
+    if (auto err = precheck_off(path, *text)) return *err;
+  } else if (ext == ".obj") {
+    if (auto err = precheck_obj(path, *text)) return *err;
+  } else if (ext == ".ply") {
+    if (auto err = precheck_ply_header(path, *text)) return *err;
+  }
+
+  Assimp::Importer importer;
+  // Points and lines are removed so that only polygons (triangulated) remain.
+  importer.SetPropertyInteger(AI_CONFIG_PP_SBP_REMOVE, aiPrimitiveType_POINT | aiPrimitiveType_LINE);
+  const aiScene* scene = importer.ReadFileFromMemory(
+      text->data(), text->size(),
+      aiProcess_Triangulate | aiProcess_JoinIdenticalVertices | aiProcess_PreTransformVertices |
+          aiProcess_SortByPType,
+      ext.c_str() + 1);
+  if (!scene) return Error{path + ": malformed mesh: " + importer.GetErrorString()};
+
+  TriangleMesh mesh;
+  mesh.source = path;
+  for (unsigned m = 0; m < scene->mNumMeshes; ++m) {
+    const aiMesh* am = scene->mMeshes[m];
+    const uint32_t base = static_cast<uint32_t>(mesh.vertices.size());
+    for (unsigned i = 0; i < am->mNumVertices; ++i) {
+      const aiVector3D& v = am->mVertices[i];
+      mesh.vertices.push_back({v.x, v.y, v.z});
+    }
+    for (unsigned f = 0; f < am->mNumFaces; ++f) {
+      const aiFace& face = am->mFaces[f];
+      if (face.mNumIndices != 3) continue;  // points and lines: not part of a surface
+      mesh.triangles.push_back(
+          {base + face.mIndices[0], base + face.mIndices[1], base + face.mIndices[2]});
+    }
+  }
+  return finish_mesh(std::move(mesh));
+}
+
+Result<TriangleMesh> mesh_from_arrays(std::span<const double> v, std::span<const double> t,
+                                      const std::string& what) {
+  if (v.size() % 3 != 0)
+    return Error{what + ": the vertex array has " + std::to_string(v.size()) +
+                 " numbers, not a multiple of 3"};
+  if (t.size() % 3 != 0)
+    return Error{what + ": the triangle array has " + std::to_string(t.size()) +
+                 " numbers, not a multiple of 3"};
+  TriangleMesh mesh;
+  mesh.source = what;
+  const size_t nv = v.size() / 3;
+  for (size_t i = 0; i < nv; ++i) {
+    Vec3 p{static_cast<float>(v[3 * i]), static_cast<float>(v[3 * i + 1]),
+           static_cast<float>(v[3 * i + 2])};
+    if (!is_finite(p))
+      return Error{what + ": vertex " + std::to_string(i + 1) + " has a non-finite coordinate"};
+    mesh.vertices.push_back(p);
+  }
+  for (size_t i = 0; i < t.size() / 3; ++i) {
+    std::array<uint32_t, 3> tri{};
+    for (int k = 0; k < 3; ++k) {
+      double idx = t[3 * i + k];
+      if (!(idx >= 1 && idx <= static_cast<double>(nv)) || idx != std::floor(idx)) {
+        std::ostringstream os;
+        os << what << ": triangle " << i + 1 << " has vertex index " << idx
+           << ", expected an integer in 1.." << nv;
+        return Error{os.str()};
+      }
+      tri[k] = static_cast<uint32_t>(idx) - 1;
+    }
+    mesh.triangles.push_back(tri);
+  }
+  return finish_mesh(std::move(mesh));
+}
+
+}  // namespace hfrt::geom

@@ -1,0 +1,419 @@
+#include "geom/mesh_surface.h"
+
+#include <algorithm>
+#include <chrono>
+#include <numbers>
+
+#include "geom/triangle.h"
+#include "lang/check.h"
+
+namespace hfrt::geom {
+namespace {
+
+// Deep enough for any BVH the binned builder makes from 2^31 primitives (the builder halves
+// ranges it cannot split, so depth stays logarithmic in practice; 128 leaves a large margin).
+constexpr int kStackSize = 128;
+
+}  // namespace
+
+std::unique_ptr<MeshSurface> MeshSurface::build(const TriangleMesh& mesh, const Options& options) {
+  HFRT_CHECK(!mesh.triangles.empty());
+  const auto start = std::chrono::steady_clock::now();
+  std::unique_ptr<MeshSurface> s(new MeshSurface());
+  const size_t n = mesh.triangles.size();
+  std::vector<Bounds3> boxes(n);
+  for (size_t i = 0; i < n; ++i) {
+    Bounds3 b;
+    for (int k = 0; k < 3; ++k) b.extend(mesh.corner(i, k));
+    boxes[i] = b;
+  }
+  Bvh bvh = build_bvh(boxes, options.bvh);
+  boxes = {};
+  s->nodes_ = std::move(bvh.nodes);
+  s->prim_order_ = std::move(bvh.prim_order);
+  s->corners_.resize(3 * n);
+  for (size_t slot = 0; slot < n; ++slot)
+    for (int k = 0; k < 3; ++k) s->corners_[3 * slot + k] = mesh.corner(s->prim_order_[slot], k);
+  s->beta_ = options.winding_beta;
+  s->build_dipoles();
+  s->wide_ = WideBvh::collapse(s->nodes_);
+  const auto end = std::chrono::steady_clock::now();
+
+  s->stats_.source = mesh.source;
+  s->stats_.triangles = n;
+  s->stats_.degenerate_skipped = mesh.degenerate_skipped;
+  s->stats_.bvh_nodes = s->nodes_.size();
+  s->stats_.bvh_depth = bvh.depth;
+  s->stats_.build_seconds = std::chrono::duration<double>(end - start).count();
+  s->stats_.memory_bytes = s->memory_bytes();
+  return s;
+}
+
+void MeshSurface::build_dipoles() {
+  dipoles_.assign(nodes_.size(), Dipole{});
+  std::vector<double> area(nodes_.size(), 0.0);
+  // Children are always allocated after their parent, so a reverse sweep is bottom-up.
+  for (size_t i = nodes_.size(); i-- > 0;) {
+    const BvhNode& node = nodes_[i];
+    Dipole& d = dipoles_[i];
+    double a_sum = 0, cx = 0, cy = 0, cz = 0, nx = 0, ny = 0, nz = 0;
+    if (node.is_leaf()) {
+      for (uint32_t s = node.index; s < node.index + node.count; ++s) {
+        const Vec3 a = corners_[3 * s], b = corners_[3 * s + 1], c = corners_[3 * s + 2];
+        const Vec3 cr = cross(b - a, c - a);
+        const double ar = 0.5 * length(cr);
+        const Vec3 m = (a + b + c) / 3.0f;
+        a_sum += ar;
+        cx += ar * m.x, cy += ar * m.y, cz += ar * m.z;
+        nx += 0.5 * cr.x, ny += 0.5 * cr.y, nz += 0.5 * cr.z;
+      }
+    } else {
+      for (uint32_t c = node.index; c < node.index + 2; ++c) {
+        const double ar = area[c];
+        a_sum += ar;
+        cx += ar * dipoles_[c].center.x, cy += ar * dipoles_[c].center.y,
+            cz += ar * dipoles_[c].center.z;
+        nx += dipoles_[c].area_normal.x, ny += dipoles_[c].area_normal.y,
+            nz += dipoles_[c].area_normal.z;
+      }
+    }
+    area[i] = a_sum;
+    d.center = a_sum > 0 ? Vec3(float(cx / a_sum), float(cy / a_sum), float(cz / a_sum))
+                         : node.bounds().center();
+    d.area_normal = Vec3(float(nx), float(ny), float(nz));
+  }
+}
+
+bool MeshSurface::intersect(const Ray& ray, float tmin, float tmax, SurfaceHit* hit) const {
+  if (wide_.empty()) return intersect_binary(ray, tmin, tmax, hit);
+  const WatertightRay r(ray);
+  uint32_t best_slot = ~0u;
+  TriangleHitInfo best{};
+  float closest = tmax;
+  wide_.traverse(nodes_, r, tmin, &closest, [&](const BvhNode& n, float* limit) {
+    for (uint32_t s = n.index; s < n.index + n.count; ++s) {
+      TriangleHitInfo h;
+      if (intersect_triangle(r, corners_[3 * s], corners_[3 * s + 1], corners_[3 * s + 2], tmin,
+                             *limit, &h)) {
+        *limit = h.t;
+        best = h;
+        best_slot = s;
+      }
+    }
+  });
+  if (best_slot == ~0u) return false;
+  hit->t = best.t;
+  hit->prim = prim_order_[best_slot];
+  hit->u = best.b1;
+  hit->v = best.b2;
+  const Vec3 a = corners_[3 * best_slot], b = corners_[3 * best_slot + 1],
+             c = corners_[3 * best_slot + 2];
+  hit->normal = normalize(cross(b - a, c - a));
+  return true;
+}
+
+bool MeshSurface::intersect_binary(const Ray& ray, float tmin, float tmax,
+                                   SurfaceHit* hit) const {
+  const WatertightRay r(ray);
+  float tnear;
+  if (!slab_hit(r, nodes_[0].lo, nodes_[0].hi, tmin, tmax, &tnear)) return false;
+  // Front-to-back: the nearer child first, the farther one on the stack with its entry
+  // distance so that it is dropped when a closer hit has been found meanwhile.
+  struct Entry {
+    uint32_t node;
+    float tnear;
+  };
+  Entry stack[kStackSize];
+  int sp = 0;
+  uint32_t node = 0;
+  uint32_t best_slot = ~0u;
+  TriangleHitInfo best{};
+  float closest = tmax;
+  while (true) {
+    const BvhNode& n = nodes_[node];
+    if (n.is_leaf()) {
+      for (uint32_t s = n.index; s < n.index + n.count; ++s) {
+        TriangleHitInfo h;
+        if (intersect_triangle(r, corners_[3 * s], corners_[3 * s + 1], corners_[3 * s + 2],
+                               tmin, closest, &h)) {
+          closest = h.t;
+          best = h;
+          best_slot = s;
+        }
+      }
+    } else {
+      const uint32_t c0 = n.index, c1 = n.index + 1;
+      float t0, t1;
+      const bool h0 = slab_hit(r, nodes_[c0].lo, nodes_[c0].hi, tmin, closest, &t0);
+      const bool h1 = slab_hit(r, nodes_[c1].lo, nodes_[c1].hi, tmin, closest, &t1);
+      if (h0 && h1) {
+        const bool first0 = t0 <= t1;
+        HFRT_CHECK_LT(sp, kStackSize);
+        stack[sp++] = first0 ? Entry{c1, t1} : Entry{c0, t0};
+        node = first0 ? c0 : c1;
+        continue;
+      }
+      if (h0 || h1) {
+        node = h0 ? c0 : c1;
+        continue;
+      }
+    }
+    // Pop the next node that can still hold a closer hit.
+    while (sp > 0 && stack[sp - 1].tnear > closest) --sp;
+    if (sp == 0) break;
+    node = stack[--sp].node;
+  }
+  if (best_slot == ~0u) return false;
+  hit->t = best.t;
+  hit->prim = prim_order_[best_slot];
+  hit->u = best.b1;
+  hit->v = best.b2;
+  const Vec3 a = corners_[3 * best_slot], b = corners_[3 * best_slot + 1],
+             c = corners_[3 * best_slot + 2];
+  hit->normal = normalize(cross(b - a, c - a));
+  return true;
+}
+
+bool MeshSurface::occluded(const Ray& ray, float tmin, float tmax) const {
+  const WatertightRay r(ray);
+  float tnear;
+  uint32_t stack[kStackSize];
+  int sp = 0;
+  stack[sp++] = 0;
+  while (sp > 0) {
+    const BvhNode& n = nodes_[stack[--sp]];
+    if (!slab_hit(r, n.lo, n.hi, tmin, tmax, &tnear)) continue;
+    if (n.is_leaf()) {
+      for (uint32_t s = n.index; s < n.index + n.count; ++s) {
+        TriangleHitInfo h;
+        if (intersect_triangle(r, corners_[3 * s], corners_[3 * s + 1], corners_[3 * s + 2],
+                               tmin, tmax, &h))
+          return true;
+      }
+    } else {
+      HFRT_CHECK_LT(sp + 1, kStackSize);
+      stack[sp++] = n.index + 1;
+      stack[sp++] = n.index;
+    }
+  }
+  return false;
+}
+
+void MeshSurface::crossings(const Ray& ray, float tmin, float tmax,
+                            std::vector<Crossing>* out) const {
+  out->clear();
+  const WatertightRay r(ray);
+  auto leaf = [&](const BvhNode& n) {
+    for (uint32_t s = n.index; s < n.index + n.count; ++s) {
+      TriangleHitInfo h;
+      if (intersect_triangle(r, corners_[3 * s], corners_[3 * s + 1], corners_[3 * s + 2], tmin,
+                             tmax, &h))
+        out->push_back({h.t, h.facing, prim_order_[s]});
+    }
+  };
+  if (!wide_.empty()) {
+    float limit = tmax;  // never shrinks: every crossing is wanted
+    wide_.traverse(nodes_, r, tmin, &limit, [&](const BvhNode& n, float*) { leaf(n); });
+  } else {
+    float tnear;
+    if (slab_hit(r, nodes_[0].lo, nodes_[0].hi, tmin, tmax, &tnear)) leaf(nodes_[0]);
+  }
+  std::sort(out->begin(), out->end(), [](const Crossing& a, const Crossing& b) {
+    return a.t < b.t || (a.t == b.t && a.prim < b.prim);
+  });
+  // Crossings at the same t, up to rounding (a ray touching the surface at a silhouette edge or vertex counts
+  // twice, once each way) are ordered so that the sequence alternates enter / exit whenever
+  // it can: entering first while outside, exiting first while inside.
+  int depth = 0;
+  for (size_t i = 0; i < out->size();) {
+    size_t j = i + 1;
+    // "The same t" up to rounding: two triangles through one vertex compute t = T / det with
+    // different rounding.
+    while (j < out->size() && (*out)[j].t - (*out)[j - 1].t <= 1e-6f * std::abs((*out)[j].t)) ++j;
+    if (j - i > 1) {
+      const int first = depth > 0 ? -1 : 1;
+      std::stable_partition(out->begin() + i, out->begin() + j,
+                            [first](const Crossing& c) { return c.facing == first; });
+      // Interleave: first, other, first, other, ...
+      std::vector<Crossing> group(out->begin() + i, out->begin() + j);
+      size_t a = 0, b = 0;
+      const size_t na = std::count_if(group.begin(), group.end(),
+                                      [first](const Crossing& c) { return c.facing == first; });
+      for (size_t k = i; k < j; ++k) {
+        const bool take_first = ((k - i) % 2 == 0 && a < na) || b >= group.size() - na;
+        (*out)[k] = take_first ? group[a++] : group[na + b++];
+      }
+    }
+    for (size_t k = i; k < j; ++k) depth += (*out)[k].facing;
+    i = j;
+  }
+}
+
+ClosestPoint MeshSurface::closest_point(Vec3 p, float max_distance) const {
+  ClosestPoint best;
+  float best_d2 = max_distance < std::numeric_limits<float>::infinity()
+                      ? max_distance * max_distance
+                      : std::numeric_limits<float>::infinity();
+  struct Entry {
+    uint32_t node;
+    float d2;
+  };
+  Entry stack[kStackSize];
+  int sp = 0;
+  stack[sp++] = {0, nodes_[0].bounds().distance2(p)};
+  uint32_t best_slot = ~0u;
+  while (sp > 0) {
+    const Entry e = stack[--sp];
+    if (e.d2 >= best_d2) continue;
+    const BvhNode& n = nodes_[e.node];
+    if (n.is_leaf()) {
+      for (uint32_t s = n.index; s < n.index + n.count; ++s) {
+        const Vec3 q = closest_point_on_triangle(p, corners_[3 * s], corners_[3 * s + 1],
+                                                 corners_[3 * s + 2]);
+        const float d2 = length2(q - p);
+        if (d2 < best_d2) {
+          best_d2 = d2;
+          best.point = q;
+          best_slot = s;
+        }
+      }
+    } else {
+      const uint32_t c0 = n.index, c1 = n.index + 1;
+      const float d0 = nodes_[c0].bounds().distance2(p), d1 = nodes_[c1].bounds().distance2(p);
+      HFRT_CHECK_LT(sp + 1, kStackSize);
+      // The nearer child goes on top so it is searched first and tightens best_d2.
+      if (d0 <= d1) {
+        stack[sp++] = {c1, d1};
+        stack[sp++] = {c0, d0};
+      } else {
+        stack[sp++] = {c0, d0};
+        stack[sp++] = {c1, d1};
+      }
+    }
+  }
+  if (best_slot != ~0u) {
+    best.prim = prim_order_[best_slot];
+    best.distance = std::sqrt(best_d2);
+  }
+  return best;
+}
+
+double MeshSurface::winding_number(Vec3 p) const {
+  double omega = 0;
+  uint32_t stack[kStackSize];
+  int sp = 0;
+  stack[sp++] = 0;
+  const double beta2 = beta_ * beta_;
+  while (sp > 0) {
+    const uint32_t i = stack[--sp];
+    const Dipole& d = dipoles_[i];
+    const double rx = double(d.center.x) - p.x, ry = double(d.center.y) - p.y,
+                 rz = double(d.center.z) - p.z;
+    const double dist2 = rx * rx + ry * ry + rz * rz;
+    const BvhNode& n = nodes_[i];
+    if (dist2 > beta2 * n.bounds().max_distance2(d.center)) {
+      // Far field: the node seen as one dipole (first order of Barill et al. 2018).
+      omega += (d.area_normal.x * rx + d.area_normal.y * ry + d.area_normal.z * rz) /
+               (dist2 * std::sqrt(dist2));
+      continue;
+    }
+    if (n.is_leaf()) {
+      for (uint32_t s = n.index; s < n.index + n.count; ++s)
+        omega += solid_angle(p, corners_[3 * s], corners_[3 * s + 1], corners_[3 * s + 2]);
+    } else {
+      HFRT_CHECK_LT(sp + 1, kStackSize);
+      stack[sp++] = n.index;
+      stack[sp++] = n.index + 1;
+    }
+  }
+  return omega / (4 * std::numbers::pi);
+}
+
+double MeshSurface::winding_number_exact(Vec3 p) const {
+  double omega = 0;
+  for (size_t s = 0; s < prim_order_.size(); ++s)
+    omega += solid_angle(p, corners_[3 * s], corners_[3 * s + 1], corners_[3 * s + 2]);
+  return omega / (4 * std::numbers::pi);
+}
+
+float MeshSurface::signed_distance(Vec3 p, Vec3* gradient) const {
+  const ClosestPoint c = closest_point(p);
+  const bool inside = winding_number(p) >= 0.5;
+  if (gradient) {
+    if (c.distance > 0) {
+      const Vec3 away = (p - c.point) / c.distance;  // grows the distance
+      *gradient = inside ? away : -away;
+    } else {
+      // On the surface: the inward normal of the closest triangle (outward orientation).
+      Vec3 n{0, 0, 0};
+      for (size_t s = 0; s < prim_order_.size(); ++s) {
+        if (prim_order_[s] != c.prim) continue;
+        const Vec3 a = corners_[3 * s], b = corners_[3 * s + 1], cc = corners_[3 * s + 2];
+        n = -normalize(cross(b - a, cc - a));
+        break;
+      }
+      *gradient = n;
+    }
+  }
+  return inside ? c.distance : -c.distance;
+}
+
+float MeshSurface::distance_lower_bound(const Bounds3& box) const {
+  float best = std::numeric_limits<float>::infinity();
+  struct Entry {
+    uint32_t node;
+    float d2;
+  };
+  Entry stack[kStackSize];
+  int sp = 0;
+  stack[sp++] = {0, nodes_[0].bounds().distance2(box)};
+  while (sp > 0) {
+    const Entry e = stack[--sp];
+    if (e.d2 >= best) continue;
+    const BvhNode& n = nodes_[e.node];
+    if (n.is_leaf()) {
+      for (uint32_t s = n.index; s < n.index + n.count; ++s) {
+        Bounds3 tb;
+        for (int k = 0; k < 3; ++k) tb.extend(corners_[3 * s + k]);
+        best = std::min(best, tb.distance2(box));
+      }
+      if (best == 0) return 0;
+    } else {
+      const uint32_t c0 = n.index, c1 = n.index + 1;
+      const float d0 = nodes_[c0].bounds().distance2(box), d1 = nodes_[c1].bounds().distance2(box);
+      HFRT_CHECK_LT(sp + 1, kStackSize);
+      if (d0 <= d1) {
+        stack[sp++] = {c1, d1};
+        stack[sp++] = {c0, d0};
+      } else {
+        stack[sp++] = {c0, d0};
+        stack[sp++] = {c1, d1};
+      }
+    }
+  }
+  // Rounding in the squared distance: shrink slightly so the bound stays a lower bound.
+  return std::sqrt(best) * (1.0f - 1e-6f);
+}
+
+DistanceBounds MeshSurface::signed_distance_bounds(const Bounds3& box) const {
+  const Vec3 c = box.center();
+  const float half_diag = 0.5f * length(box.diagonal()) * (1.0f + 1e-6f);
+  const float dc = closest_point(c).distance;
+  const float upper = dc + half_diag;
+  const float lower = std::max(distance_lower_bound(box), dc - half_diag);
+  if (lower <= 0) return {-upper, upper};
+  // The box touches no triangle: the sign is the sign at its centre (exact for closed meshes,
+  // whose winding number is constant off the surface).
+  if (winding_number(c) >= 0.5) return {lower, upper};
+  return {-upper, -lower};
+}
+
+SurfaceStats MeshSurface::stats() const { return stats_; }
+
+size_t MeshSurface::memory_bytes() const {
+  return sizeof(*this) + nodes_.capacity() * sizeof(BvhNode) +
+         corners_.capacity() * sizeof(Vec3) + prim_order_.capacity() * sizeof(uint32_t) +
+         dipoles_.capacity() * sizeof(Dipole) + wide_.memory_bytes();
+}
+
+}  // namespace hfrt::geom

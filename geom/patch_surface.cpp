@@ -1,0 +1,344 @@
+#include "geom/patch_surface.h"
+
+#include <algorithm>
+#include <chrono>
+
+#include "geom/triangle.h"
+#include "lang/check.h"
+
+namespace hfrt::geom {
+namespace {
+
+constexpr int kMaxRefine = 3;     // extra on-the-fly splits of a piece where Newton fails
+constexpr int kMaxNewton = 10;
+constexpr double kHitTolerance = 1e-7;  // residual, relative to the patch size
+
+// Ray vs triangle in double (Möller–Trumbore), only for Newton's starting point: no need to be
+// watertight, a miss just means starting from the piece's centre.
+bool start_triangle(const DVec3& o, const DVec3& d, Vec3 a, Vec3 b, Vec3 c, double* b1,
+                    double* b2) {
+  const double e1x = double(b.x) - a.x, e1y = double(b.y) - a.y, e1z = double(b.z) - a.z;
+  const double e2x = double(c.x) - a.x, e2y = double(c.y) - a.y, e2z = double(c.z) - a.z;
+  const double px = d.y * e2z - d.z * e2y, py = d.z * e2x - d.x * e2z, pz = d.x * e2y - d.y * e2x;
+  const double det = e1x * px + e1y * py + e1z * pz;
+  if (std::abs(det) < 1e-30) return false;
+  const double inv = 1 / det;
+  const double tx = o.x - a.x, ty = o.y - a.y, tz = o.z - a.z;
+  const double u = (tx * px + ty * py + tz * pz) * inv;
+  if (u < 0 || u > 1) return false;
+  const double qx = ty * e1z - tz * e1y, qy = tz * e1x - tx * e1z, qz = tx * e1y - ty * e1x;
+  const double v = (d.x * qx + d.y * qy + d.z * qz) * inv;
+  if (v < 0 || u + v > 1) return false;
+  *b1 = u;
+  *b2 = v;
+  return true;
+}
+
+// How far a (sub)patch can be from the two triangles of its corner quad: the control points'
+// distance from the bilinear patch through the corners (the patch lies in their hull), plus the
+// bilinear patch's largest distance from the triangles (at the quad centre, where the two
+// diagonals' midpoints differ), with a 1% + tiny margin for rounding.
+float piece_delta(const BezierPatch& b) {
+  const Vec3 p00 = b.control(0, 0), p10 = b.control(b.du, 0), p01 = b.control(0, b.dv),
+             p11 = b.control(b.du, b.dv);
+  const float twist = 0.5f * length((p00 + p11) * 0.5f - (p10 + p01) * 0.5f);
+  const float size = length(b.control_bounds().diagonal());
+  return (b.flatness() + twist) * 1.01f + 1e-6f * size;
+}
+
+// The distance between the line o + t d (d unit) and the segment [a, b], and the segment
+// parameter of the nearest point.
+double line_segment_distance(const DVec3& o, const DVec3& d, Vec3 a, Vec3 b, double* s_out) {
+  const double ex = double(b.x) - a.x, ey = double(b.y) - a.y, ez = double(b.z) - a.z;
+  const double wx = double(a.x) - o.x, wy = double(a.y) - o.y, wz = double(a.z) - o.z;
+  const double dd = 1.0, de = d.x * ex + d.y * ey + d.z * ez, ee = ex * ex + ey * ey + ez * ez;
+  const double dw = d.x * wx + d.y * wy + d.z * wz, ew = ex * wx + ey * wy + ez * wz;
+  const double den = dd * ee - de * de;
+  double s = den > 1e-30 * ee ? (de * dw - dd * ew) / den : 0.0;
+  s = std::clamp(s, 0.0, 1.0);
+  // The nearest line point to the segment point a + s e.
+  const double px = wx + s * ex, py = wy + s * ey, pz = wz + s * ez;
+  const double t = d.x * px + d.y * py + d.z * pz;
+  const double rx = px - t * d.x, ry = py - t * d.y, rz = pz - t * d.z;
+  *s_out = s;
+  return std::sqrt(rx * rx + ry * ry + rz * rz);
+}
+
+}  // namespace
+
+std::unique_ptr<PatchSurface> PatchSurface::build(const PatchSet& set, const Options& options) {
+  HFRT_CHECK(!set.patches.empty());
+  const auto start = std::chrono::steady_clock::now();
+  std::unique_ptr<PatchSurface> s(new PatchSurface());
+  s->set_ = set;
+  s->bounds_ = set.bounds();
+  std::vector<Piece> pieces;
+  std::vector<BezierPatch> piece_cp;
+  for (uint32_t p = 0; p < set.patches.size(); ++p) {
+    const BezierPatch& patch = set.patches[p];
+    const float size = std::max(length(patch.control_bounds().diagonal()), 1e-30f);
+    s->patch_size_.push_back(size);
+    // Split in parameter space until flat (quadtree, leaves in any order).
+    struct Todo {
+      float u0, u1, v0, v1;
+      int depth;
+    };
+    std::vector<Todo> todo{{0, 1, 0, 1, 0}};
+    while (!todo.empty()) {
+      const Todo t = todo.back();
+      todo.pop_back();
+      const BezierPatch sub = patch.sub_patch(t.u0, t.u1, t.v0, t.v1);
+      if (t.depth < options.max_split_depth && sub.flatness() > options.flatness * size) {
+        const float um = 0.5f * (t.u0 + t.u1), vm = 0.5f * (t.v0 + t.v1);
+        todo.push_back({t.u0, um, t.v0, vm, t.depth + 1});
+        todo.push_back({um, t.u1, t.v0, vm, t.depth + 1});
+        todo.push_back({t.u0, um, vm, t.v1, t.depth + 1});
+        todo.push_back({um, t.u1, vm, t.v1, t.depth + 1});
+        continue;
+      }
+      pieces.push_back({p, t.u0, t.u1, t.v0, t.v1, piece_delta(sub)});
+      piece_cp.push_back(sub);
+    }
+  }
+  std::vector<Bounds3> boxes(pieces.size());
+  for (size_t i = 0; i < pieces.size(); ++i) boxes[i] = piece_cp[i].control_bounds();
+  Bvh bvh = build_bvh(boxes, BvhBuildOptions{.max_leaf_size = 2});
+  s->nodes_ = std::move(bvh.nodes);
+  s->wide_ = WideBvh::collapse(s->nodes_);
+  s->pieces_.resize(pieces.size());
+  s->piece_cp_.resize(pieces.size());
+  for (size_t i = 0; i < pieces.size(); ++i) {
+    s->pieces_[i] = pieces[bvh.prim_order[i]];
+    s->piece_cp_[i] = piece_cp[bvh.prim_order[i]];
+  }
+
+  // The field goes through a tessellation.
+  float err = 0;
+  TriangleMesh mesh = tessellate(set, options.field_tessellation, &err);
+  Result<TriangleMesh> clean = finish_mesh(std::move(mesh));
+  HFRT_CHECK_MSG(clean.ok(), "tessellating patches: " << clean.error().message);
+  s->field_ = MeshSurface::build(*clean);
+  s->field_error_ = err;
+  const auto end = std::chrono::steady_clock::now();
+
+  s->stats_.source = set.source;
+  s->stats_.patches = set.patches.size();
+  s->stats_.triangles = s->field_->num_triangles();
+  s->stats_.degenerate_skipped = clean->degenerate_skipped;
+  s->stats_.bvh_nodes = s->nodes_.size() + s->field_->nodes().size();
+  s->stats_.bvh_depth = bvh.depth;
+  s->stats_.build_seconds = std::chrono::duration<double>(end - start).count();
+  s->stats_.memory_bytes = sizeof(*s) + s->nodes_.capacity() * sizeof(BvhNode) +
+                           s->wide_.memory_bytes() +
+                           s->pieces_.capacity() * sizeof(Piece) +
+                           s->piece_cp_.capacity() * sizeof(BezierPatch) +
+                           s->field_->memory_bytes();
+  return s;
+}
+
+Vec3 PatchSurface::normal(uint32_t prim, double u, double v) const {
+  const BezierPatch& patch = set_.patches[prim];
+  const double size = patch_size_[prim];
+  for (int attempt = 0; attempt < 4; ++attempt) {
+    DVec3 pu, pv;
+    patch.eval(u, v, &pu, &pv);
+    const double nx = pu.y * pv.z - pu.z * pv.y, ny = pu.z * pv.x - pu.x * pv.z,
+                 nz = pu.x * pv.y - pu.y * pv.x;
+    const double len = std::sqrt(nx * nx + ny * ny + nz * nz);
+    if (len > 1e-10 * size * size) return {float(nx / len), float(ny / len), float(nz / len)};
+    // A collapsed edge (a pole): the normal is the limit from inside the patch.
+    u += (0.5 - u) * 1e-4 * (1 << (3 * attempt));
+    v += (0.5 - v) * 1e-4 * (1 << (3 * attempt));
+  }
+  return {0, 0, 0};
+}
+
+template <typename Visit>
+void PatchSurface::solve_piece(const Ray& ray, const double plane[2][4], uint32_t patch_id,
+                               double u0, double u1, double v0, double v1,
+                               const BezierPatch& sub, float delta, int depth, float tmin,
+                               float tmax, Visit&& visit) const {
+  const BezierPatch& patch = set_.patches[patch_id];
+  const DVec3 o = to_d(ray.org), d = to_d(ray.dir);
+  // Start where the ray meets the corner quad's two triangles, else at the centre.
+  const Vec3 p00 = sub.control(0, 0), p10 = sub.control(sub.du, 0), p01 = sub.control(0, sub.dv),
+             p11 = sub.control(sub.du, sub.dv);
+  double s = 0.5, t = 0.5, b1, b2;
+  if (start_triangle(o, d, p00, p10, p11, &b1, &b2)) {
+    s = b1 + b2, t = b2;
+  } else if (start_triangle(o, d, p00, p11, p01, &b1, &b2)) {
+    s = b1, t = b1 + b2;
+  } else {
+    // The ray misses the quad: the piece (within delta of it) can only be hit if the ray
+    // passes within delta of the quad's border; start from the nearest border point.
+    const double dl = std::sqrt(d.x * d.x + d.y * d.y + d.z * d.z);
+    const DVec3 dn{d.x / dl, d.y / dl, d.z / dl};
+    const Vec3 e0[5] = {p00, p10, p11, p01, p00};
+    const Vec3 e1[5] = {p10, p11, p01, p00, p11};
+    // (s, t) of each edge's start and end in the piece's parameter square.
+    const double es[5][4] = {{0, 0, 1, 0}, {1, 0, 1, 1}, {1, 1, 0, 1}, {0, 1, 0, 0}, {0, 0, 1, 1}};
+    double best = std::numeric_limits<double>::infinity();
+    for (int k = 0; k < 5; ++k) {
+      double a;
+      const double dist = line_segment_distance(o, dn, e0[k], e1[k], &a);
+      if (dist < best) {
+        best = dist;
+        s = es[k][0] + a * (es[k][2] - es[k][0]);
+        t = es[k][1] + a * (es[k][3] - es[k][1]);
+      }
+    }
+    if (best > delta) return;
+  }
+  double u = u0 + s * (u1 - u0), v = v0 + t * (v1 - v0);
+  const double eps = kHitTolerance * patch_size_[patch_id];
+  const double wu = u1 - u0, wv = v1 - v0;
+  bool converged = false;
+  DVec3 p;
+  for (int it = 0; it < kMaxNewton; ++it) {
+    DVec3 pu, pv;
+    p = patch.eval(u, v, &pu, &pv);
+    const double f1 = plane[0][0] * p.x + plane[0][1] * p.y + plane[0][2] * p.z + plane[0][3];
+    const double f2 = plane[1][0] * p.x + plane[1][1] * p.y + plane[1][2] * p.z + plane[1][3];
+    if (std::abs(f1) < eps && std::abs(f2) < eps) {
+      converged = true;
+      break;
+    }
+    const double j11 = plane[0][0] * pu.x + plane[0][1] * pu.y + plane[0][2] * pu.z;
+    const double j12 = plane[0][0] * pv.x + plane[0][1] * pv.y + plane[0][2] * pv.z;
+    const double j21 = plane[1][0] * pu.x + plane[1][1] * pu.y + plane[1][2] * pu.z;
+    const double j22 = plane[1][0] * pv.x + plane[1][1] * pv.y + plane[1][2] * pv.z;
+    const double det = j11 * j22 - j12 * j21;
+    if (!(std::abs(det) > 0)) break;
+    u -= (j22 * f1 - j12 * f2) / det;
+    v -= (j11 * f2 - j21 * f1) / det;
+    // Far outside the piece: the root (if any) belongs to another piece.
+    if (!(u > u0 - wu && u < u1 + wu && v > v0 - wv && v < v1 + wv)) break;
+  }
+  const double slack = 1e-9;
+  const bool inside = converged && u >= std::max(0.0, u0 - slack) &&
+                      u <= std::min(1.0, u1 + slack) && v >= std::max(0.0, v0 - slack) &&
+                      v <= std::min(1.0, v1 + slack);
+  if (inside) {
+    const double dd = d.x * d.x + d.y * d.y + d.z * d.z;
+    const double th = ((p.x - o.x) * d.x + (p.y - o.y) * d.y + (p.z - o.z) * d.z) / dd;
+    if (th > tmin && th < tmax)
+      visit(RawHit{th, std::clamp(u, 0.0, 1.0), std::clamp(v, 0.0, 1.0), patch_id});
+    return;
+  }
+  // Converged to a root outside the piece: the piece that owns it reports it (a ray passing
+  // near a shared border starts Newton in both pieces). Only a failure to converge -- a grazing
+  // ray, a silhouette -- is worth refining.
+  if (converged || depth >= kMaxRefine) return;
+  // Newton failed (grazing ray, silhouette): split and retry in the sub-pieces the ray meets.
+  const WatertightRay wr(ray);
+  const double um = 0.5 * (u0 + u1), vm = 0.5 * (v0 + v1);
+  const double cu[3] = {u0, um, u1}, cv[3] = {v0, vm, v1};
+  for (int j = 0; j < 2; ++j)
+    for (int i = 0; i < 2; ++i) {
+      const BezierPatch child = sub.sub_patch(0.5 * i, 0.5 * (i + 1), 0.5 * j, 0.5 * (j + 1));
+      const Bounds3 b = child.control_bounds();
+      const float lo[3] = {b.lo.x, b.lo.y, b.lo.z}, hi[3] = {b.hi.x, b.hi.y, b.hi.z};
+      float tn;
+      if (!slab_hit(wr, lo, hi, tmin, tmax, &tn)) continue;
+      solve_piece(ray, plane, patch_id, cu[i], cu[i + 1], cv[j], cv[j + 1], child,
+                  piece_delta(child), depth + 1, tmin, tmax, visit);
+    }
+}
+
+template <typename Visit>
+void PatchSurface::trace(const Ray& ray, float tmin, float* tmax,
+                         Visit&& visit) const {
+  // Two planes whose intersection is the ray: set up at the first leaf only, as most rays of
+  // a frame never reach one.
+  double plane[2][4];
+  bool have_planes = false;
+  auto make_planes = [&] {
+    const DVec3 d = to_d(normalize(ray.dir));
+    DVec3 n1 = std::abs(d.x) > std::abs(d.y) && std::abs(d.x) > std::abs(d.z)
+                   ? DVec3{d.y, -d.x, 0}
+                   : DVec3{0, d.z, -d.y};
+    const double l1 = std::sqrt(n1.x * n1.x + n1.y * n1.y + n1.z * n1.z);
+    n1 = {n1.x / l1, n1.y / l1, n1.z / l1};
+    const DVec3 n2{d.y * n1.z - d.z * n1.y, d.z * n1.x - d.x * n1.z, d.x * n1.y - d.y * n1.x};
+    const DVec3 o = to_d(ray.org);
+    const double p[2][4] = {{n1.x, n1.y, n1.z, -(n1.x * o.x + n1.y * o.y + n1.z * o.z)},
+                            {n2.x, n2.y, n2.z, -(n2.x * o.x + n2.y * o.y + n2.z * o.z)}};
+    std::copy(&p[0][0], &p[0][0] + 8, &plane[0][0]);
+    have_planes = true;
+  };
+
+  const WatertightRay r(ray);
+  auto leaf = [&](const BvhNode& n, float* closest) {
+    if (!have_planes) make_planes();
+    for (uint32_t k = n.index; k < n.index + n.count; ++k) {
+      const Piece& pc = pieces_[k];
+      solve_piece(ray, plane, pc.patch, pc.u0, pc.u1, pc.v0, pc.v1, piece_cp_[k], pc.delta, 0,
+                  tmin, *closest, visit);
+    }
+  };
+  if (!wide_.empty()) {
+    wide_.traverse(nodes_, r, tmin, tmax, leaf);
+    return;
+  }
+  float tn;
+  if (slab_hit(r, nodes_[0].lo, nodes_[0].hi, tmin, *tmax, &tn)) leaf(nodes_[0], tmax);
+}
+
+bool PatchSurface::intersect(const Ray& ray, float tmin, float tmax, SurfaceHit* hit) const {
+  float limit = tmax;
+  bool found = false;
+  RawHit best{};
+  trace(ray, tmin, &limit, [&](const RawHit& h) {
+    if (h.t < limit) {
+      // Keep the hit in double until the end; the float limit only prunes the traversal.
+      if (!found || h.t < best.t) best = h;
+      found = true;
+      limit = static_cast<float>(h.t);
+      // The float rounding of limit must not prune this very hit's neighbours below it.
+      limit = std::nextafter(limit, std::numeric_limits<float>::infinity());
+    }
+  });
+  if (!found) return false;
+  hit->t = static_cast<float>(best.t);
+  hit->prim = best.patch;
+  hit->u = static_cast<float>(best.u);
+  hit->v = static_cast<float>(best.v);
+  hit->normal = normal(best.patch, best.u, best.v);
+  return true;
+}
+
+void PatchSurface::crossings(const Ray& ray, float tmin, float tmax,
+                             std::vector<Crossing>* out) const {
+  out->clear();
+  std::vector<RawHit> raw;
+  float limit = tmax;
+  trace(ray, tmin, &limit, [&](const RawHit& h) { raw.push_back(h); });
+  std::sort(raw.begin(), raw.end(), [](const RawHit& a, const RawHit& b) { return a.t < b.t; });
+  const double dl = length(ray.dir);
+  std::vector<RawHit> kept;
+  for (const RawHit& h : raw) {
+    const Vec3 n = normal(h.patch, h.u, h.v);
+    const int facing = dot(n, ray.dir) < 0 ? 1 : -1;
+    bool dup = false;
+    // The same point found by two pieces (on their shared border) or by two patches sharing
+    // an edge: same facing, same place.
+    for (size_t k = kept.size(); k-- > 0;) {
+      const RawHit& q = kept[k];
+      const double tol = 1e-6 * patch_size_[h.patch] / std::max(dl, 1e-30);
+      if (h.t - q.t > tol) break;
+      const int qf = dot(normal(q.patch, q.u, q.v), ray.dir) < 0 ? 1 : -1;
+      if (qf == facing) dup = true;
+    }
+    if (dup) continue;
+    kept.push_back(h);
+    out->push_back({static_cast<float>(h.t), facing, h.patch});
+  }
+}
+
+DistanceBounds PatchSurface::signed_distance_bounds(const Bounds3& box) const {
+  DistanceBounds b = field_->signed_distance_bounds(box);
+  // The field is the tessellation's: widen by its distance to the true patches.
+  return {b.lo - field_error_, b.hi + field_error_};
+}
+
+}  // namespace hfrt::geom

@@ -1,0 +1,102 @@
+#pragma once
+// PatchSurface: Bézier patches ray-traced directly, not through a tessellation.
+//
+// Build: every patch is split (de Casteljau, in parameter space) until each piece is nearly
+// flat -- its control points within `flatness` x the patch's size of the bilinear patch through
+// its corners -- and a binned-SAH BVH is built over the pieces' control-point boxes (which
+// contain the piece: convex hull property).
+// Ray: for every piece whose box the ray meets, Newton's method in double solves
+// P(u, v) on the ray -- two equations, the distances from P to two planes through the ray
+// (Martin et al. 2000, "Practical ray tracing of trimmed NURBS") -- started where the ray meets
+// the two triangles of the piece's corner quad, or at the point of the quad's border nearest to
+// the ray when the ray passes within the piece's flatness bound of it (otherwise the piece is
+// skipped: it lies within that bound of its quad, and a line's distance to a triangle is
+// attained on its border unless they intersect). A root is accepted when it
+// lies in the piece's parameter rectangle, so each hit is found by the piece that owns it; it is
+// exact to 1e-7 of the patch size. A piece where Newton does not converge (grazing rays at
+// silhouettes, where the Jacobian is nearly singular) is split in four again, on the fly, down
+// to kMaxRefine more levels. Normals come from the patch derivatives Pu x Pv.
+// Field (distance, winding number, bounds): approximated through a fine tessellation
+// (`field_tessellation` quads per patch side, MeshSurface), whose error is stats'd as
+// field_error(); the ray queries never use it.
+
+#include <memory>
+
+#include "geom/bezier.h"
+#include "geom/mesh_surface.h"
+#include "geom/surface.h"
+#include "geom/wide_bvh.h"
+
+namespace hfrt::geom {
+
+class PatchSurface final : public Surface {
+ public:
+  struct Options {
+    float flatness = 2e-3f;       ///< relative to each patch's bounding-box diagonal
+    int max_split_depth = 6;      ///< per patch side: at most 2^6 x 2^6 pieces
+    int field_tessellation = 32;  ///< quads per patch side for distance and winding number
+  };
+
+  static std::unique_ptr<PatchSurface> build(const PatchSet& set, const Options& options);
+  static std::unique_ptr<PatchSurface> build(const PatchSet& set) {
+    return build(set, Options{});
+  }
+
+  Bounds3 bounds() const override { return bounds_; }
+  bool intersect(const Ray& ray, float tmin, float tmax, SurfaceHit* hit) const override;
+  void crossings(const Ray& ray, float tmin, float tmax,
+                 std::vector<Crossing>* out) const override;
+  double winding_number(Vec3 p) const override { return field_->winding_number(p); }
+  float signed_distance(Vec3 p, Vec3* gradient = nullptr) const override {
+    return field_->signed_distance(p, gradient);
+  }
+  DistanceBounds signed_distance_bounds(const Bounds3& box) const override;
+  SurfaceStats stats() const override { return stats_; }
+
+  const PatchSet& patches() const { return set_; }
+  size_t num_pieces() const { return pieces_.size(); }
+  /// Largest measured distance between the field tessellation and the patches.
+  float field_error() const { return field_error_; }
+  const MeshSurface& field_mesh() const { return *field_; }
+
+  /// The unit normal of patch `prim` at (u, v) (from Pu x Pv; near a collapsed edge, from a
+  /// point nudged towards the patch centre).
+  Vec3 normal(uint32_t prim, double u, double v) const;
+
+ private:
+  PatchSurface() = default;
+
+  struct Piece {
+    uint32_t patch;
+    float u0, u1, v0, v1;
+    /// How far the piece may be from the two triangles of its corner quad: its control points'
+    /// distance from the bilinear patch plus the bilinear patch's distance from the triangles.
+    float delta;
+  };
+  struct RawHit {
+    double t, u, v;
+    uint32_t patch;
+  };
+  template <typename Visit>
+  // Visits every root in the pieces whose boxes the ray meets up to *tmax; a visitor that
+  // lowers *tmax (nearest hit) prunes the rest of the traversal.
+  void trace(const Ray& ray, float tmin, float* tmax, Visit&& visit) const;
+  // Newton on `patch` restricted to [u0,u1]x[v0,v1]; refines by splitting when it fails.
+  template <typename Visit>
+  void solve_piece(const Ray& ray, const double plane[2][4], uint32_t patch, double u0,
+                   double u1, double v0, double v1, const BezierPatch& sub, float delta,
+                   int depth, float tmin, float tmax, Visit&& visit) const;
+
+  PatchSet set_;
+  std::vector<float> patch_size_;
+  std::vector<BvhNode> nodes_;
+  WideBvh wide_;  // 4-wide upper levels of nodes_, for rays
+  std::vector<Piece> pieces_;  // in leaf order
+  std::vector<BezierPatch> piece_cp_;  // control points of each piece (for on-the-fly refinement)
+  std::unique_ptr<MeshSurface> field_;
+  float field_error_ = 0;
+  Bounds3 bounds_;
+  SurfaceStats stats_;
+};
+
+}  // namespace hfrt::geom

@@ -1,0 +1,82 @@
+#pragma once
+// Surface: what a mesh or patch leaf of a HyperFun model needs from geom/, whatever the
+// primitive. One Surface is built per loaded file and shared, immutable, by every leaf and
+// thread that uses it (instancing: a transformed leaf maps its points or rays into the
+// surface's own space before calling it). All methods are const and thread-safe.
+//
+// Field convention (as HyperFun): positive inside. Inside is decided by the generalised
+// winding number w >= 1/2 (Jacobson et al. 2013), so meshes with small holes and patch sets
+// that are not closed (the Utah teapot) still have a sensible inside.
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "geom/vec.h"
+
+namespace hfrt::geom {
+
+/// The nearest surface point along a ray.
+struct SurfaceHit {
+  float t = 0;
+  Vec3 normal;        ///< unit geometric normal, facing outward for an outward-oriented surface
+  uint32_t prim = 0;  ///< triangle or patch index, in the order of the input
+  float u = 0, v = 0; ///< barycentrics (triangles: of corners 1, 2) or patch parameters
+};
+
+/// One crossing of a ray with the surface. facing = +1 when the ray enters (against the
+/// outward normal), -1 when it exits. For an outward-oriented closed surface and a ray starting
+/// outside, crossings alternate +1, -1 and their count is even.
+struct Crossing {
+  float t = 0;
+  int facing = 0;
+  uint32_t prim = 0;
+};
+
+/// Counts for `hfrt render --stats`.
+struct SurfaceStats {
+  std::string source;
+  size_t triangles = 0;         ///< triangles (for patches: of the field tessellation)
+  size_t patches = 0;
+  size_t degenerate_skipped = 0;
+  size_t bvh_nodes = 0;
+  int bvh_depth = 0;
+  double build_seconds = 0;
+  size_t memory_bytes = 0;
+};
+
+/// A closed interval of signed-distance values.
+struct DistanceBounds {
+  float lo = 0, hi = 0;
+};
+
+class Surface {
+ public:
+  virtual ~Surface() = default;
+
+  virtual Bounds3 bounds() const = 0;
+
+  /// The nearest hit with tmin < t < tmax; false when none.
+  virtual bool intersect(const Ray& ray, float tmin, float tmax, SurfaceHit* hit) const = 0;
+
+  /// Every crossing with tmin < t < tmax, sorted by t, appended to `out` (cleared first). A
+  /// ray through a shared edge or vertex counts once (see geom/triangle.h).
+  virtual void crossings(const Ray& ray, float tmin, float tmax,
+                         std::vector<Crossing>* out) const = 0;
+
+  /// Generalised winding number at p (about 1 inside a closed outward surface, 0 outside).
+  virtual double winding_number(Vec3 p) const = 0;
+
+  /// Signed distance: +distance to the closest surface point when winding_number(p) >= 1/2,
+  /// -distance otherwise. When `gradient` is not null it receives the gradient of that field:
+  /// the unit vector from the closest point (pointing into the solid, as HyperFun's).
+  virtual float signed_distance(Vec3 p, Vec3* gradient = nullptr) const = 0;
+
+  /// Sound bounds of signed_distance over `box` (for closed surfaces; for open ones the sign
+  /// part assumes w does not cross 1/2 inside a box that touches no primitive).
+  virtual DistanceBounds signed_distance_bounds(const Bounds3& box) const = 0;
+
+  virtual SurfaceStats stats() const = 0;
+};
+
+}  // namespace hfrt::geom

@@ -1,0 +1,237 @@
+// Bézier patches: the BPT loader and its errors, evaluation and sub-patches, ray hits against
+// a dense tessellation (within its error), exactness of the hits, silhouettes, normals.
+
+#include "geom/bezier.h"
+
+#include <gtest/gtest.h>
+
+#include <random>
+
+#include "geom/patch_surface.h"
+#include "test_meshes.h"
+
+namespace hfrt::geom {
+namespace {
+
+constexpr float kInf = std::numeric_limits<float>::infinity();
+
+std::string teapot_path() { return std::string(HFRT_CORPUS_DIR) + "/bezier/teapot.bpt"; }
+
+const PatchSet& teapot() {
+  static const PatchSet set = [] {
+    Result<PatchSet> r = load_bpt(teapot_path());
+    HFRT_CHECK_MSG(r.ok(), r.error().message);
+    return std::move(r).value();
+  }();
+  return set;
+}
+
+const PatchSurface& teapot_surface() {
+  static const std::unique_ptr<PatchSurface> s = PatchSurface::build(teapot());
+  return *s;
+}
+
+TEST(Bpt, LoadsTheTeapot) {
+  const PatchSet& t = teapot();
+  ASSERT_EQ(t.patches.size(), 32u);
+  for (const BezierPatch& p : t.patches) {
+    EXPECT_EQ(p.du, 3);
+    EXPECT_EQ(p.dv, 3);
+  }
+  const Bounds3 b = t.bounds();
+  EXPECT_NEAR(b.lo.z, 0.0f, 1e-5f);   // the base at z = 0
+  EXPECT_NEAR(b.hi.z, 4.2f, 1e-5f);   // the lid's knob (corpus README)
+}
+
+std::string bpt_error(const std::string& text) {
+  Result<PatchSet> r = parse_bpt(text, "m.bpt");
+  EXPECT_FALSE(r.ok()) << text;
+  return r.ok() ? std::string() : r.error().message;
+}
+
+TEST(Bpt, ErrorsHaveTheirLine) {
+  EXPECT_NE(bpt_error("").find("empty"), std::string::npos);
+  EXPECT_NE(bpt_error("0\n").find("positive"), std::string::npos);
+  EXPECT_NE(bpt_error("1\n4 1\n").find("m.bpt:2:"), std::string::npos);
+  std::string e = bpt_error("1\n1 1\n0 0 0\n1 0 0\n0 1 0\n1 1 oops\n");
+  EXPECT_NE(e.find("m.bpt:6:"), std::string::npos) << e;
+  EXPECT_NE(e.find("oops"), std::string::npos) << e;
+  e = bpt_error("1\n1 1\n0 0 0\n1 0 0\n0 inf 0\n1 1 0\n");
+  EXPECT_NE(e.find("m.bpt:5: non-finite"), std::string::npos) << e;
+  e = bpt_error("1\n1 1\n0 0 0\n1 0 0\n0 1 0\n");
+  EXPECT_NE(e.find("file ends inside patch 1"), std::string::npos) << e;
+  e = bpt_error("1\n1 1\n0 0 0\n1 0 0\n0 1 0\n1 1 0\n\n7\n");
+  EXPECT_NE(e.find("m.bpt:8:"), std::string::npos) << e;
+  Result<PatchSet> missing = load_bpt("/nonexistent/x.bpt");
+  ASSERT_FALSE(missing.ok());
+  EXPECT_NE(missing.error().message.find("/nonexistent/x.bpt"), std::string::npos);
+}
+
+TEST(Bpt, MixedDegreesRowByRow) {
+  // du = 2, dv = 1: two rows of three points; row 0 at y = 0, row 1 at y = 1.
+  Result<PatchSet> r = parse_bpt("1\n2 1\n0 0 0  1 0 1  2 0 0\n0 1 0  1 1 1  2 1 0\n", "m");
+  ASSERT_TRUE(r.ok()) << r.error().message;
+  const BezierPatch& p = r->patches[0];
+  const DVec3 mid = p.eval(0.5, 0.5);
+  EXPECT_NEAR(mid.x, 1.0, 1e-12);
+  EXPECT_NEAR(mid.y, 0.5, 1e-12);
+  EXPECT_NEAR(mid.z, 0.5, 1e-12);  // quadratic in u: 2 * 0.5 * 0.5 * 1
+}
+
+TEST(Bezier, InlinePatchesAndErrors) {
+  std::vector<double> p;
+  for (int j = 0; j < 4; ++j)
+    for (int i = 0; i < 4; ++i) p.insert(p.end(), {double(i), double(j), 0.0});
+  Result<PatchSet> r = patches_from_array(p);
+  ASSERT_TRUE(r.ok());
+  EXPECT_NEAR(r->patches[0].eval(0.5, 0.25).y, 0.75, 1e-12);
+  p.pop_back();
+  EXPECT_NE(patches_from_array(p).error().message.find("multiple of 48"), std::string::npos);
+}
+
+TEST(Bezier, SubPatchReproducesTheSurface) {
+  const BezierPatch& p = teapot().patches[5];
+  const BezierPatch s = p.sub_patch(0.25, 0.75, 0.1, 0.4);
+  for (double a : {0.0, 0.3, 1.0})
+    for (double b : {0.0, 0.6, 1.0}) {
+      const DVec3 x = s.eval(a, b), y = p.eval(0.25 + 0.5 * a, 0.1 + 0.3 * b);
+      EXPECT_NEAR(x.x, y.x, 1e-5);
+      EXPECT_NEAR(x.y, y.y, 1e-5);
+      EXPECT_NEAR(x.z, y.z, 1e-5);
+    }
+}
+
+TEST(Bezier, DerivativesMatchFiniteDifferences) {
+  const BezierPatch& p = teapot().patches[9];
+  DVec3 pu, pv;
+  p.eval(0.3, 0.7, &pu, &pv);
+  const double h = 1e-6;
+  const DVec3 a = p.eval(0.3 + h, 0.7), b = p.eval(0.3 - h, 0.7);
+  EXPECT_NEAR(pu.x, (a.x - b.x) / (2 * h), 1e-4);
+  EXPECT_NEAR(pu.z, (a.z - b.z) / (2 * h), 1e-4);
+  const DVec3 c = p.eval(0.3, 0.7 + h), d = p.eval(0.3, 0.7 - h);
+  EXPECT_NEAR(pv.y, (c.y - d.y) / (2 * h), 1e-4);
+}
+
+// Rays at the teapot from all around.
+Ray random_ray(std::mt19937& rng, const Bounds3& box) {
+  const Vec3 org = box.center() + testing::random_direction(rng) * (2 * length(box.diagonal()));
+  return {org, testing::random_point(rng, box) - org};
+}
+
+TEST(PatchSurface, HitsAreExactAndMatchADenseTessellation) {
+  const PatchSurface& s = teapot_surface();
+  float err = 0;
+  const TriangleMesh dense = finish_mesh(tessellate(teapot(), 96, &err)).value();
+  const auto mesh = MeshSurface::build(dense);
+  ASSERT_LT(err, 2e-3f);
+  std::mt19937 rng(12);
+  const Bounds3 box = s.bounds();
+  int both = 0, disagree = 0, n = 4000;
+  for (int i = 0; i < n; ++i) {
+    const Ray ray = random_ray(rng, box);
+    const Vec3 d = normalize(ray.dir);
+    SurfaceHit ph, mh;
+    const bool p = s.intersect(ray, 0, kInf, &ph);
+    const bool m = mesh->intersect(ray, 0, kInf, &mh);
+    if (p) {
+      // Exact: the patch point at (u, v) is on the ray, to 1e-6 of the patch size.
+      const BezierPatch& patch = teapot().patches[ph.prim];
+      const DVec3 q = patch.eval(ph.u, ph.v);
+      const Vec3 on_ray = ray.org + ray.dir * ph.t;
+      const float size = length(patch.control_bounds().diagonal());
+      EXPECT_LT(length(to_f(q) - on_ray), 1e-6f * size * 4) << "ray " << i;
+      // The normal is unit and perpendicular to the patch derivatives.
+      EXPECT_NEAR(length(ph.normal), 1.0f, 1e-4f);
+    }
+    if (p && m) {
+      ++both;
+      const float cos = std::abs(dot(d, ph.normal));
+      // Same surface point up to the tessellation error (stretched at grazing angles).
+      const Vec3 a = ray.org + ray.dir * ph.t, b = ray.org + ray.dir * mh.t;
+      if (cos > 0.2f) {
+        EXPECT_LT(length(a - b), 2 * err / cos + 1e-4f) << "ray " << i;
+        // Normals agree up to the facet angle (the sign depends on each patch's orientation).
+        const float c = dot(ph.normal, mh.normal);
+        EXPECT_GT(c * c, 0.98f) << "ray " << i;
+      }
+    } else if (p != m) {
+      // Only a ray grazing the surface (a silhouette within the tessellation error) may differ.
+      const SurfaceHit& h = p ? ph : mh;
+      const float cos = std::abs(dot(d, h.normal));
+      EXPECT_LT(cos, 0.25f) << "ray " << i << (p ? " patch-only" : " mesh-only");
+      ++disagree;
+    }
+  }
+  EXPECT_GT(both, n / 5);
+  EXPECT_LT(disagree, n / 100);
+}
+
+TEST(PatchSurface, SilhouetteRays) {
+  // Rays tangent to the body (patches 4..11, convex around the z axis), pushed inwards by
+  // delta: they must cross the wall near the tangent point.
+  const PatchSurface& s = teapot_surface();
+  std::mt19937 rng(21);
+  std::uniform_real_distribution<double> uv(0.2, 0.8);
+  int tested = 0;
+  for (int i = 0; i < 400; ++i) {
+    const uint32_t patch_id = 4 + rng() % 8;  // the body patches
+    const double u = uv(rng), v = uv(rng);
+    const BezierPatch& patch = teapot().patches[patch_id];
+    DVec3 pu, pv;
+    const Vec3 p = to_f(patch.eval(u, v, &pu, &pv));
+    const Vec3 n = s.normal(patch_id, u, v);
+    // A tangent direction, and the centre of the body (on the z axis) decides "inwards".
+    const Vec3 tangent = normalize(cross(n, Vec3{0, 0, 1}));
+    const Vec3 axis_point{0, 0, p.z};
+    const Vec3 inward = normalize(axis_point - p);
+    for (float delta : {1e-2f, 1e-3f}) {
+      const Vec3 q = p + inward * delta;
+      const Ray ray{q - tangent * 5.0f, tangent};
+      // The crossing near the tangent point (the handle or spout may come first): on the near
+      // side of the chord through q, within sqrt(2 R delta) of it (R < 2, the body's radius).
+      std::vector<Crossing> cr;
+      s.crossings(ray, 0, kInf, &cr);
+      bool found = false;
+      for (const Crossing& c : cr) found |= std::abs(c.t - 5.0f) < 1.5f * std::sqrt(4.0f * delta);
+      EXPECT_TRUE(found) << "grazing ray missed: patch " << patch_id << " u " << u << " v " << v
+                         << " delta " << delta;
+      ++tested;
+    }
+  }
+  EXPECT_GT(tested, 700);
+}
+
+TEST(PatchSurface, CrossingsAreSortedAndDeduplicated) {
+  const PatchSurface& s = teapot_surface();
+  std::vector<Crossing> cr;
+  // Straight down the middle: knob, lid, ... bottom has no patch (open teapot).
+  s.crossings({{0, 0, 10}, {0, 0, -1}}, 0, kInf, &cr);
+  ASSERT_FALSE(cr.empty());
+  for (size_t k = 1; k < cr.size(); ++k) EXPECT_LT(cr[k - 1].t, cr[k].t);
+  SurfaceHit h;
+  ASSERT_TRUE(s.intersect({{0, 0, 10}, {0, 0, -1}}, 0, kInf, &h));
+  EXPECT_FLOAT_EQ(cr[0].t, h.t);
+  // Horizontally through the body: in and out of the body wall on each side (4 crossings,
+  // maybe more through the spout or handle: an even number far from them).
+  s.crossings({{0, -10, 1.0f}, {0, 1, 0}}, 0, kInf, &cr);
+  EXPECT_EQ(cr.size(), 2u);  // a single wall each side (the wall has no thickness)
+}
+
+TEST(PatchSurface, FieldIsTheTessellationsWithinItsError) {
+  const PatchSurface& s = teapot_surface();
+  EXPECT_LT(s.field_error(), 0.01f);
+  // The teapot is not watertight (the lid sits on the rim with a gap), yet the body is
+  // clearly inside and far points clearly outside.
+  const double w = s.winding_number({0, 0, 1.2f});
+  EXPECT_GT(w, 0.5);
+  EXPECT_LT(s.winding_number({0, 0, 8}), 0.1);
+  EXPECT_GT(s.signed_distance({0, 0, 1.2f}), 0.0f);
+  EXPECT_LT(s.signed_distance({5, 5, 5}), 0.0f);
+  const SurfaceStats st = s.stats();
+  EXPECT_EQ(st.patches, 32u);
+  EXPECT_GT(st.triangles, 32u * 32 * 32);
+}
+
+}  // namespace
+}  // namespace hfrt::geom

@@ -1,0 +1,174 @@
+// Mesh loading: every format through Assimp, polygons triangulated, degenerate triangles
+// skipped and counted, and every kind of bad input reported with the file (and line).
+
+#include "geom/mesh.h"
+
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <fstream>
+#include <unistd.h>
+
+#include "test_meshes.h"
+
+namespace hfrt::geom {
+namespace {
+
+class MeshFiles : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    dir_ = std::filesystem::temp_directory_path() /
+           ("hfrt_geom_mesh_test_" + std::to_string(::getpid()));
+    std::filesystem::create_directories(dir_);
+  }
+  void TearDown() override { std::filesystem::remove_all(dir_); }
+  std::string write(const std::string& name, const std::string& text) {
+    const std::string path = (dir_ / name).string();
+    std::ofstream(path, std::ios::binary) << text;
+    return path;
+  }
+  std::string error_of(const std::string& name, const std::string& text) {
+    Result<TriangleMesh> m = load_mesh(write(name, text));
+    EXPECT_FALSE(m.ok()) << name;
+    return m.ok() ? std::string() : m.error().message;
+  }
+  std::filesystem::path dir_;
+};
+
+const char* kTetraOff =
+    "OFF\n# a tetrahedron\n4 4 6\n0 0 0\n1 0 0\n0 1 0\n0 0 1\n3 0 2 1\n3 0 1 3\n3 0 3 2\n3 1 2 3\n";
+
+TEST_F(MeshFiles, LoadsOffWithTriangles) {
+  Result<TriangleMesh> m = load_mesh(write("t.off", kTetraOff));
+  ASSERT_TRUE(m.ok()) << m.error().message;
+  EXPECT_EQ(m->vertices.size(), 4u);
+  EXPECT_EQ(m->triangles.size(), 4u);
+  EXPECT_EQ(m->degenerate_skipped, 0u);
+  EXPECT_EQ(m->bounds().hi.x, 1.0f);
+}
+
+TEST_F(MeshFiles, TriangulatesObjQuadsAndJoinsVertices) {
+  Result<TriangleMesh> m = load_mesh(
+      write("q.obj", "v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nv 0 0 1\nf 1 2 3 4\nf 1 2 5\n"));
+  ASSERT_TRUE(m.ok()) << m.error().message;
+  EXPECT_EQ(m->triangles.size(), 3u);  // the quad becomes two triangles
+  double area = 0;
+  for (size_t t = 0; t < m->triangles.size(); ++t)
+    area += 0.5 * length(cross(m->corner(t, 1) - m->corner(t, 0), m->corner(t, 2) - m->corner(t, 0)));
+  EXPECT_NEAR(area, 1.5, 1e-6);
+}
+
+TEST_F(MeshFiles, LoadsAsciiPlyAndStl) {
+  Result<TriangleMesh> ply = load_mesh(write(
+      "t.ply",
+      "ply\nformat ascii 1.0\nelement vertex 4\nproperty float x\nproperty float y\n"
+      "property float z\nelement face 2\nproperty list uchar int vertex_indices\nend_header\n"
+      "0 0 0\n1 0 0\n1 1 0\n0 1 0\n3 0 1 2\n3 0 2 3\n"));
+  ASSERT_TRUE(ply.ok()) << ply.error().message;
+  EXPECT_EQ(ply->triangles.size(), 2u);
+  Result<TriangleMesh> stl = load_mesh(write(
+      "t.stl",
+      "solid t\nfacet normal 0 0 1\nouter loop\nvertex 0 0 0\nvertex 1 0 0\nvertex 0 1 0\n"
+      "endloop\nendfacet\nfacet normal 0 0 1\nouter loop\nvertex 1 0 0\nvertex 1 1 0\n"
+      "vertex 0 1 0\nendloop\nendfacet\nendsolid t\n"));
+  ASSERT_TRUE(stl.ok()) << stl.error().message;
+  EXPECT_EQ(stl->triangles.size(), 2u);
+  EXPECT_EQ(stl->vertices.size(), 4u);  // identical STL corners are joined
+}
+
+TEST_F(MeshFiles, LoadsTheArmadillo) {
+  const TriangleMesh& m = testing::armadillo();
+  EXPECT_EQ(m.triangles.size() + m.degenerate_skipped, 52000u);
+  EXPECT_EQ(m.vertices.size(), 26002u);
+}
+
+TEST_F(MeshFiles, SkipsAndCountsDegenerateTriangles) {
+  Result<TriangleMesh> m = load_mesh(write(
+      "d.off", "OFF\n5 4 0\n0 0 0\n1 0 0\n0 1 0\n2 0 0\n0 0 1\n3 0 1 2\n3 0 1 3\n3 0 1 4\n"
+               "3 2 2 4\n"));
+  ASSERT_TRUE(m.ok()) << m.error().message;
+  // (0,1,3) is collinear; (2,2,4) repeats a vertex.
+  EXPECT_EQ(m->triangles.size(), 2u);
+  EXPECT_EQ(m->degenerate_skipped, 2u);
+}
+
+TEST_F(MeshFiles, MissingFileNamesThePath) {
+  Result<TriangleMesh> m = load_mesh((dir_ / "nope.off").string());
+  ASSERT_FALSE(m.ok());
+  EXPECT_NE(m.error().message.find("nope.off"), std::string::npos) << m.error().message;
+  EXPECT_NE(m.error().message.find("no such file"), std::string::npos) << m.error().message;
+}
+
+TEST_F(MeshFiles, MalformedNumberHasItsLine) {
+  const std::string e = error_of("bad.off", "OFF\n3 1 0\n0 0 0\n1 zz 0\n0 1 0\n3 0 1 2\n");
+  EXPECT_NE(e.find("bad.off:4:"), std::string::npos) << e;
+  EXPECT_NE(e.find("zz"), std::string::npos) << e;
+  const std::string o = error_of("bad.obj", "v 0 0 0\nv 1 x 0\nv 0 1 0\nf 1 2 3\n");
+  EXPECT_NE(o.find("bad.obj:2:"), std::string::npos) << o;
+}
+
+TEST_F(MeshFiles, OutOfRangeIndexHasItsLine) {
+  const std::string e = error_of("oor.off", "OFF\n3 1 0\n0 0 0\n1 0 0\n0 1 0\n3 0 1 5\n");
+  EXPECT_NE(e.find("oor.off:6:"), std::string::npos) << e;
+  EXPECT_NE(e.find("out of range"), std::string::npos) << e;
+  const std::string o = error_of("oor.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\n\nf 1 2 7\n");
+  EXPECT_NE(o.find("oor.obj:5:"), std::string::npos) << o;
+  EXPECT_NE(o.find("out of range"), std::string::npos) << o;
+}
+
+TEST_F(MeshFiles, NonFiniteCoordinateHasItsLine) {
+  const std::string e = error_of("nan.off", "OFF\n3 1 0\n0 0 0\n1 nan 0\n0 1 0\n3 0 1 2\n");
+  EXPECT_NE(e.find("nan.off:4:"), std::string::npos) << e;
+  EXPECT_NE(e.find("non-finite"), std::string::npos) << e;
+  const std::string big = error_of("big.obj", "v 0 0 0\nv 1e39 0 0\nv 0 1 0\nf 1 2 3\n");
+  EXPECT_NE(big.find("big.obj:2:"), std::string::npos) << big;
+}
+
+TEST_F(MeshFiles, EmptyAndTruncatedMeshes) {
+  EXPECT_NE(error_of("e.off", "OFF\n0 0 0\n").find("empty mesh"), std::string::npos);
+  EXPECT_NE(error_of("z.off", "").find("empty file"), std::string::npos);
+  const std::string t = error_of("t.off", "OFF\n3 2 0\n0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n");
+  EXPECT_NE(t.find("1 of 2 faces"), std::string::npos) << t;
+  const std::string d = error_of("deg.off", "OFF\n3 1 0\n0 0 0\n1 0 0\n2 0 0\n3 0 1 2\n");
+  EXPECT_NE(d.find("degenerate"), std::string::npos) << d;
+  const std::string h = error_of("h.off", "hello world\n");
+  EXPECT_NE(h.find("h.off:1:"), std::string::npos) << h;
+}
+
+TEST_F(MeshFiles, UnknownFormatAndAssimpErrorsNameTheFile) {
+  EXPECT_NE(error_of("x.xyz", "1 2 3\n").find("unknown mesh format"), std::string::npos);
+  const std::string p = error_of("b.ply", "ply\nformat ascii 1.0\nelement vertex 2\nend\n");
+  EXPECT_NE(p.find("b.ply"), std::string::npos) << p;
+}
+
+TEST(InlineMesh, OneBasedIndices) {
+  const double v[] = {0, 0, 0, 1, 0, 0, 0, 1, 0, 0, 0, 1};
+  const double t[] = {1, 3, 2, 1, 2, 4, 1, 4, 3, 2, 3, 4};
+  Result<TriangleMesh> m = mesh_from_arrays(v, t);
+  ASSERT_TRUE(m.ok()) << m.error().message;
+  EXPECT_EQ(m->triangles.size(), 4u);
+  EXPECT_EQ(m->triangles[0][0], 0u);
+  EXPECT_EQ(m->triangles[0][1], 2u);
+}
+
+TEST(InlineMesh, Errors) {
+  const double v[] = {0, 0, 0, 1, 0, 0, 0, 1, 0};
+  const double bad_t[] = {1, 2, 4};
+  Result<TriangleMesh> a = mesh_from_arrays(v, bad_t, "hfTriangles at m.hf:3:5");
+  ASSERT_FALSE(a.ok());
+  EXPECT_NE(a.error().message.find("m.hf:3:5"), std::string::npos);
+  EXPECT_NE(a.error().message.find("1..3"), std::string::npos) << a.error().message;
+  const double zero_t[] = {0, 1, 2};
+  EXPECT_FALSE(mesh_from_arrays(v, zero_t).ok());
+  const double frac_t[] = {1, 2.5, 3};
+  EXPECT_FALSE(mesh_from_arrays(v, frac_t).ok());
+  const double short_v[] = {0, 0, 0, 1};
+  const double t[] = {1, 2, 3};
+  EXPECT_NE(mesh_from_arrays(short_v, t).error().message.find("multiple of 3"), std::string::npos);
+  const double nan_v[] = {0, 0, 0, 1, std::nan(""), 0, 0, 1, 0};
+  EXPECT_NE(mesh_from_arrays(nan_v, t).error().message.find("vertex 2"), std::string::npos);
+  EXPECT_NE(mesh_from_arrays(v, {}).error().message.find("empty mesh"), std::string::npos);
+}
+
+}  // namespace
+}  // namespace hfrt::geom

@@ -1,0 +1,169 @@
+// Winding numbers against crossing parity, and the signed distance against brute force.
+
+#include <gtest/gtest.h>
+
+#include <random>
+
+#include "geom/mesh_surface.h"
+#include "geom/triangle.h"
+#include "test_meshes.h"
+
+namespace hfrt::geom {
+namespace {
+
+constexpr float kInf = std::numeric_limits<float>::infinity();
+
+// Inside by parity: the number of crossings of a ray from p, in a random direction.
+bool inside_by_parity(const MeshSurface& s, Vec3 p, std::mt19937& rng) {
+  std::vector<Crossing> cr;
+  s.crossings({p, testing::random_direction(rng)}, 0, kInf, &cr);
+  return cr.size() % 2 == 1;
+}
+
+TEST(Winding, HeightfieldBoxIsOneInsideZeroOutside) {
+  const auto s = MeshSurface::build(testing::heightfield_box(12, 1));
+  // The hierarchical sum is first order (dipoles) in the far field: within 0.1 at beta = 2.
+  EXPECT_NEAR(s->winding_number({6, 6, 2}), 1.0, 0.1);
+  EXPECT_NEAR(s->winding_number({6, 6, -2}), 0.0, 0.1);
+  EXPECT_NEAR(s->winding_number({6, 6, 12}), 0.0, 0.1);
+  EXPECT_NEAR(s->winding_number({100, 6, 2}), 0.0, 1e-3);
+  EXPECT_NEAR(s->winding_number_exact({6, 6, 2}), 1.0, 1e-9);
+  EXPECT_NEAR(s->winding_number_exact({6, 6, 12}), 0.0, 1e-9);
+}
+
+TEST(Winding, ArmadilloWindingAgreesWithCrossingParity) {
+  const MeshSurface& s = testing::armadillo_surface();
+  std::mt19937 rng(77);
+  const Bounds3 box = testing::grown(s.bounds(), 0.05f);
+  int inside = 0, n = 4000;
+  for (int i = 0; i < n; ++i) {
+    const Vec3 p = testing::random_point(rng, box);
+    const double w = s.winding_number(p);
+    const bool parity = inside_by_parity(s, p, rng);
+    ASSERT_EQ(w >= 0.5, parity) << "p=(" << p.x << "," << p.y << "," << p.z << ") w=" << w;
+    // Closed mesh: the winding number is an integer up to the far-field approximation.
+    EXPECT_NEAR(w, parity ? 1.0 : 0.0, 0.1);
+    inside += parity;
+  }
+  EXPECT_GT(inside, n / 20);  // enough points inside for the test to mean something
+}
+
+TEST(Winding, HierarchicalConvergesToTheExactSum) {
+  // The far-field dipole error shrinks as the acceptance ratio beta grows (measured on the
+  // armadillo: 0.08 at beta = 2, 0.03 at 3, 0.017 at 4).
+  std::mt19937 rng(5);
+  const Bounds3 box = testing::grown(testing::armadillo_surface().bounds(), 0.3f);
+  std::vector<Vec3> points;
+  for (int i = 0; i < 100; ++i) points.push_back(testing::random_point(rng, box));
+  double previous = 1;
+  for (double beta : {2.0, 4.0, 8.0}) {
+    MeshSurface::Options o;
+    o.winding_beta = beta;
+    const auto s = MeshSurface::build(testing::armadillo(), o);
+    double worst = 0;
+    for (Vec3 p : points)
+      worst = std::max(worst, std::abs(s->winding_number(p) - s->winding_number_exact(p)));
+    EXPECT_LT(worst, 0.2 / beta) << "beta " << beta;
+    EXPECT_LT(worst, previous) << "beta " << beta;
+    previous = worst;
+  }
+}
+
+// Brute-force distance: every triangle.
+float brute_distance(const TriangleMesh& m, Vec3 p) {
+  float best = kInf;
+  for (size_t i = 0; i < m.triangles.size(); ++i)
+    best = std::min(best, length(closest_point_on_triangle(p, m.corner(i, 0), m.corner(i, 1),
+                                                           m.corner(i, 2)) - p));
+  return best;
+}
+
+TEST(SignedDistance, ArmadilloEqualsBruteForce) {
+  const TriangleMesh& m = testing::armadillo();
+  const MeshSurface& s = testing::armadillo_surface();
+  std::mt19937 rng(99);
+  const Bounds3 box = testing::grown(s.bounds(), 0.2f);
+  for (int i = 0; i < 400; ++i) {
+    // Half the points near the surface (a vertex plus a small offset).
+    Vec3 p = i % 2 ? testing::random_point(rng, box)
+                   : m.vertices[rng() % m.vertices.size()] + testing::random_direction(rng) * 0.7f;
+    const float d = brute_distance(m, p);
+    const bool inside = inside_by_parity(s, p, rng);
+    Vec3 g;
+    const float sd = s.signed_distance(p, &g);
+    ASSERT_NEAR(std::abs(sd), d, 1e-5f * (1 + d)) << i;
+    ASSERT_EQ(sd >= 0, inside) << i << " d=" << d;
+    // The gradient is unit and points away from the closest point (inside) or towards it.
+    EXPECT_NEAR(length(g), 1.0f, 1e-4f);
+    const ClosestPoint c = s.closest_point(p);
+    EXPECT_NEAR(length(c.point - p), d, 1e-5f * (1 + d));
+    if (d > 1e-3f) {
+      const Vec3 towards = normalize(c.point - p);
+      EXPECT_NEAR(dot(g, towards), inside ? -1.0f : 1.0f, 1e-3f);
+    }
+  }
+}
+
+TEST(SignedDistance, GradientMatchesFiniteDifferences) {
+  const MeshSurface& s = testing::armadillo_surface();
+  std::mt19937 rng(4);
+  const Bounds3 box = testing::grown(s.bounds(), 0.1f);
+  int good = 0, n = 300;
+  const float h = 1e-2f;
+  for (int i = 0; i < n; ++i) {
+    const Vec3 p = testing::random_point(rng, box);
+    Vec3 g;
+    const float f = s.signed_distance(p, &g);
+    const float f2 = s.signed_distance(p + g * h);
+    // Along its gradient a distance field grows at rate 1 (off the medial axis).
+    good += std::abs((f2 - f) / h - 1.0f) < 0.05f;
+  }
+  EXPECT_GT(good, n * 9 / 10);
+}
+
+TEST(SignedDistance, BoxBoundsEncloseSamples) {
+  const MeshSurface& s = testing::armadillo_surface();
+  std::mt19937 rng(8);
+  const Bounds3 box = testing::grown(s.bounds(), 0.2f);
+  const float scale = box.diagonal().x;
+  int constant_sign = 0;
+  for (int i = 0; i < 300; ++i) {
+    const Vec3 c = testing::random_point(rng, box);
+    const float half = scale * std::pow(2.0f, -2.0f - static_cast<float>(i % 8));
+    const Bounds3 b{c - Vec3{half, half, half}, c + Vec3{half, half, half}};
+    const DistanceBounds db = s.signed_distance_bounds(b);
+    ASSERT_LE(db.lo, db.hi);
+    constant_sign += db.lo > 0 || db.hi < 0;
+    for (int k = 0; k < 20; ++k) {
+      const Vec3 p = testing::random_point(rng, b);
+      const float f = s.signed_distance(p);
+      ASSERT_GE(f, db.lo) << "box " << i;
+      ASSERT_LE(f, db.hi) << "box " << i;
+    }
+  }
+  EXPECT_GT(constant_sign, 50);  // small boxes away from the surface get one sign
+}
+
+TEST(Winding, OpenMeshHasAFractionalWindingNumber) {
+  // One triangle: 0 far away, +-1/2 just behind / in front of its centre.
+  const double v[] = {0, 0, 0, 1, 0, 0, 0, 1, 0};
+  const double t[] = {1, 2, 3};
+  auto s = MeshSurface::build(mesh_from_arrays(v, t).value());
+  EXPECT_NEAR(s->winding_number({0.25f, 0.25f, -1e-4f}), 0.5, 1e-3);
+  EXPECT_NEAR(s->winding_number({0.25f, 0.25f, 1e-4f}), -0.5, 1e-3);
+  EXPECT_NEAR(s->winding_number({50, 50, 50}), 0.0, 1e-4);
+  // A single leaf (no wide BVH): rays still work.
+  SurfaceHit h;
+  ASSERT_TRUE(s->intersect({{0.25f, 0.25f, 1}, {0, 0, -1}}, 0, kInf, &h));
+  EXPECT_FLOAT_EQ(h.t, 1.0f);
+  EXPECT_FLOAT_EQ(h.normal.z, 1.0f);
+  std::vector<Crossing> cr;
+  s->crossings({{0.25f, 0.25f, 1}, {0, 0, -1}}, 0, kInf, &cr);
+  ASSERT_EQ(cr.size(), 1u);
+  EXPECT_EQ(cr[0].facing, 1);
+  s->crossings({{0.75f, 0.75f, 1}, {0, 0, -1}}, 0, kInf, &cr);
+  EXPECT_TRUE(cr.empty());
+}
+
+}  // namespace
+}  // namespace hfrt::geom

@@ -1,0 +1,150 @@
+// ModelField's analytic ray candidates (tools/hfrt/model_field.h): the leaf roots that
+// Model::ray_polynomials + render::solve_polynomial give must contain every zero crossing of F
+// on the segment, for thin and tilted tori, set operations and boxes, and must stay inside it.
+#include "tools/hfrt/model_field.h"
+
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <random>
+#include <string>
+#include <vector>
+
+#include "hfrt/model.h"
+
+namespace hfrt::tools {
+namespace {
+
+struct Seg {
+  render::Vec3 o, d;
+  float t0, t1;
+};
+
+/// A ray from outside the box [-2, 2]^3 through `target`, as the renderer would clip it.
+Seg ray_through(std::mt19937& rng, render::Vec3 target) {
+  std::normal_distribution<float> g;
+  render::Vec3 d{g(rng), g(rng), g(rng)};
+  const float n = std::sqrt(d.x * d.x + d.y * d.y + d.z * d.z);
+  d = {d.x / n, d.y / n, d.z / n};
+  render::Vec3 o{target.x - 4 * d.x, target.y - 4 * d.y, target.z - 4 * d.z};
+  return {o, d, 0.5f, 7.5f};
+}
+
+/// Sign changes of F (f64 scalar evaluator) along the segment, refined by bisection.
+std::vector<double> crossings(const Model& m, const Seg& s, int samples) {
+  auto f = [&](double t) {
+    return m.eval({s.o.x + t * s.d.x, s.o.y + t * s.d.y, s.o.z + t * s.d.z}).f;
+  };
+  std::vector<double> out;
+  double pt = s.t0, pv = f(pt);
+  for (int i = 1; i <= samples; ++i) {
+    const double t = s.t0 + (double(s.t1) - s.t0) * i / samples, v = f(t);
+    if ((pv < 0) != (v < 0) && !std::isnan(v) && !std::isnan(pv)) {
+      double a = pt, b = t, fa = pv;
+      for (int k = 0; k < 60 && b - a > 1e-12; ++k) {
+        const double mid = 0.5 * (a + b), fm = f(mid);
+        if ((fa < 0) == (fm < 0)) {
+          a = mid;
+          fa = fm;
+        } else {
+          b = mid;
+        }
+      }
+      out.push_back(0.5 * (a + b));
+    }
+    pt = t;
+    pv = v;
+  }
+  return out;
+}
+
+struct Scene {
+  const char* name;
+  const char* text;
+  float target_radius;  ///< rays aim near points of a circle of this radius in the y = 0 plane
+  float tilt;           ///< ... or, when non-zero, of the circle x^2 + y^2 = r^2 rotated about x
+};
+
+const Scene kScenes[] = {
+    {"thin_torus",
+     "my_model(x[3], a[1]) { array c[3]; c = [0, 0, 0]; d = hfRotate3DX(x, 0.4);\n"
+     "  my_model = hfTorusZ(x, c, 1, 0.01); }",
+     1.0f, 0.4f},
+    {"torus_union_quadrics",
+     "my_model(x[3], a[1]) { array c[3], e[3]; c = [0, 0, 0]; e = [0, 0, 0.8];\n"
+     "  t = hfTorusY(x, c, 1, 0.3); sp = hfSphere(x, e, 0.5); k = hfCylinderX(x, c, 0.2);\n"
+     "  my_model = (t | sp) | (k & (1.5 - x[1]) & (x[1] + 1.5)); }",
+     1.0f, 0.0f},
+    {"box_with_hole",
+     "my_model(x[3], a[1]) { array v[3], c[3]; v = [-1, -1, -0.5]; c = [0, 0, 0];\n"
+     "  my_model = hfBlock(x, v, 2, 2, 1) \\ hfCylinderZ(x, c, 0.5); }",
+     0.6f, 0.0f},
+};
+
+TEST(ModelFieldAnalytic, CandidatesContainEveryCrossing) {
+  for (const Scene& sc : kScenes) {
+    auto compiled = Model::compile(sc.text);
+    ASSERT_TRUE(compiled.ok()) << compiled.rendered;
+    ModelField field(*compiled.model, sc.name);
+    ASSERT_TRUE(field.has_ray_candidates()) << field.analytic_info().reason;
+    std::mt19937 rng(5);
+    std::uniform_real_distribution<float> ang(0, 6.2831853f), jitter(-0.02f, 0.02f);
+    int hits = 0;
+    for (int r = 0; r < 300; ++r) {
+      const float a = ang(rng);
+      // Points on the (untilted) circle plus jitter: many rays meet a thin tube.
+      const float ca = sc.target_radius * std::cos(a), sa = sc.target_radius * std::sin(a);
+      render::Vec3 target = sc.tilt == 0
+                                ? render::Vec3{ca, 0, sa}
+                                : render::Vec3{ca, sa * std::cos(sc.tilt), sa * std::sin(sc.tilt)};
+      target = {target.x + jitter(rng), target.y + jitter(rng), target.z + jitter(rng)};
+      Seg s = ray_through(rng, target);
+      std::vector<double> cand;
+      field.ray_candidates(s.o, s.d, s.t0, s.t1, &cand);
+      for (double t : cand) {
+        EXPECT_GE(t, s.t0);
+        EXPECT_LE(t, s.t1);
+      }
+      for (double t : crossings(*compiled.model, s, 20000)) {
+        double best = INFINITY;
+        for (double c : cand) best = std::min(best, std::fabs(c - t));
+        EXPECT_LT(best, 1e-6) << sc.name << " ray " << r << " crossing t=" << t;
+        ++hits;
+      }
+    }
+    EXPECT_GT(hits, 20) << sc.name;  // the rays do meet the surface
+  }
+}
+
+TEST(ModelFieldAnalytic, NonPolynomialModelHasNoCandidates) {
+  auto compiled = Model::compile(
+      "my_model(x[3], a[1]) { f1 = 1 - x[1]^2; f2 = 0.5 - x[2]^2 - x[3];\n"
+      "  my_model = hfBlendUni(f1, f2, 0.5, 1.5, 2); }");
+  ASSERT_TRUE(compiled.ok()) << compiled.rendered;
+  ModelField field(*compiled.model, "blend");
+  EXPECT_FALSE(field.has_ray_candidates());
+  EXPECT_NE(field.analytic_info().reason.find("hfBlendUni"), std::string::npos);
+  EXPECT_EQ(field.analytic_info().line, 2);
+}
+
+TEST(ModelFieldAnalytic, SphereRootsAreExact) {
+  auto compiled =
+      Model::compile("my_model(x[3], a[1]) { my_model = 4 - x[1]^2 - x[2]^2 - x[3]^2; }");
+  ASSERT_TRUE(compiled.ok()) << compiled.rendered;
+  ModelField field(*compiled.model, "sphere");
+  std::vector<double> cand;
+  // Along x from x = -10: the sphere of radius 2 is met at t = 8 and t = 12.
+  field.ray_candidates({-10, 0.5f, 0}, {1, 0, 0}, 0, 100, &cand);
+  std::sort(cand.begin(), cand.end());
+  ASSERT_EQ(cand.size(), 2u);
+  const double h = std::sqrt(4.0 - 0.25);
+  EXPECT_NEAR(cand[0], 10 - h, 1e-12);
+  EXPECT_NEAR(cand[1], 10 + h, 1e-12);
+  cand.clear();
+  field.ray_candidates({-10, 0.5f, 0}, {1, 0, 0}, 0, 9, &cand);  // the segment ends before the exit
+  EXPECT_EQ(cand.size(), 1u);
+}
+
+}  // namespace
+}  // namespace hfrt::tools
