@@ -61,13 +61,20 @@ int main(int argc, char** argv) {
   int inline_limit = jit::IntervalJit::Options{}.inline_limit;
   std::setvbuf(stdout, nullptr, _IOLBF, 0);
   for (int i = 1; i < argc; ++i) {
-    if (!std::strcmp(argv[i], "--grid") && i + 1 < argc) grid = std::atoi(argv[++i]);
-    else if (!std::strcmp(argv[i], "-O") && i + 1 < argc) opt_level = std::atoi(argv[++i]);
-    else if (!std::strcmp(argv[i], "--no-trace")) trace = false;
-    else if (!std::strcmp(argv[i], "--compile-only")) compile_only = true;
-    else if (!std::strcmp(argv[i], "--inline-limit") && i + 1 < argc) inline_limit = std::atoi(argv[++i]);
-    else if (!std::strcmp(argv[i], "--seconds") && i + 1 < argc) min_s = std::atof(argv[++i]);
-    else path = argv[i];
+    if (!std::strcmp(argv[i], "--grid") && i + 1 < argc)
+      grid = std::atoi(argv[++i]);
+    else if (!std::strcmp(argv[i], "-O") && i + 1 < argc)
+      opt_level = std::atoi(argv[++i]);
+    else if (!std::strcmp(argv[i], "--no-trace"))
+      trace = false;
+    else if (!std::strcmp(argv[i], "--compile-only"))
+      compile_only = true;
+    else if (!std::strcmp(argv[i], "--inline-limit") && i + 1 < argc)
+      inline_limit = std::atoi(argv[++i]);
+    else if (!std::strcmp(argv[i], "--seconds") && i + 1 < argc)
+      min_s = std::atof(argv[++i]);
+    else
+      path = argv[i];
   }
   Result<std::string> text = read_file(path);
   if (!text.ok()) {
@@ -106,9 +113,10 @@ int main(int argc, char** argv) {
   std::vector<double> a(std::max(fn.num_params, 1), 0.0);
 
   auto print_stats = [](const char* what, double wall_ms, const jit::JitStats& st) {
-    std::printf("%s compile: %.0f ms (emit %.0f, optimise %.0f, codegen+link %.0f; %zu LLVM "
-                "instructions)\n",
-                what, wall_ms, st.emit_ms, st.optimize_ms, st.codegen_ms, st.llvm_insts_after);
+    std::printf(
+        "%s compile: %.0f ms (emit %.0f, optimise %.0f, codegen+link %.0f; %zu LLVM "
+        "instructions)\n",
+        what, wall_ms, st.emit_ms, st.optimize_ms, st.codegen_ms, st.llvm_insts_after);
   };
 
   // Interval interpreter.
@@ -143,8 +151,8 @@ int main(int argc, char** argv) {
         std::vector<double> olo(n), ohi(n);
         std::vector<uint8_t> onan(n), choices(fn.insts.size());
         ij_rate = rate(min_s, n, [&] {
-          ij.value()->eval(static_cast<int64_t>(n), lo.data(), hi.data(), a, olo.data(),
-                           ohi.data(), onan.data(), choices.data());
+          ij.value()->eval(static_cast<int64_t>(n), lo.data(), hi.data(), a, olo.data(), ohi.data(),
+                           onan.data(), choices.data());
         });
         std::printf("interval JIT (%d lanes, O%d, trace %s, ops %s): %12.0f boxes/s\n",
                     ij.value()->lanes(), o.opt_level, o.trace ? "on" : "off",
@@ -182,8 +190,7 @@ int main(int argc, char** argv) {
         gj_rate = rate(min_s, n, [&] {
           gj.value()->eval(static_cast<int64_t>(n), centre.data(), a, out.data());
         });
-        std::printf("gradient JIT f64 (%d lanes): %12.0f points/s\n", gj.value()->lanes(),
-                    gj_rate);
+        std::printf("gradient JIT f64 (%d lanes): %12.0f points/s\n", gj.value()->lanes(), gj_rate);
       }
     } else {
       std::printf("gradient JIT: unavailable (%s)\n", gj.error().message.c_str());

@@ -13,9 +13,9 @@
 #include <tbb/parallel_reduce.h>
 
 #include <chrono>
-#include <ctime>
 #include <cstdio>
 #include <cstring>
+#include <ctime>
 #include <fstream>
 #include <string>
 #include <thread>
@@ -40,7 +40,9 @@ double seconds_since(Clock::time_point t) {
 }
 // Process CPU time (all threads): on a machine shared with other jobs, rays per CPU-second is
 // the steadier figure; wall-clock rates are printed too.
-double cpu_seconds() { return double(std::clock()) / CLOCKS_PER_SEC; }
+double cpu_seconds() {
+  return double(std::clock()) / CLOCKS_PER_SEC;
+}
 
 // A pinhole camera looking at the box from the front (-y side, z up), framing it.
 struct Camera {
@@ -96,7 +98,8 @@ TriangleMesh replicate(const TriangleMesh& m, int copies) {
   const Vec3 step{m.bounds().diagonal().x * 1.1f, 0, 0};
   for (int c = 0; c < copies; ++c) {
     const uint32_t base = static_cast<uint32_t>(out.vertices.size());
-    for (Vec3 v : m.vertices) out.vertices.push_back(v + step * float(c % 5) + Vec3{0, 0, 150.0f * (c / 5)});
+    for (Vec3 v : m.vertices)
+      out.vertices.push_back(v + step * float(c % 5) + Vec3{0, 0, 150.0f * (c / 5)});
     for (auto t : m.triangles) out.triangles.push_back({t[0] + base, t[1] + base, t[2] + base});
   }
   return out;
@@ -112,13 +115,19 @@ int main(int argc, char** argv) {
   for (int i = 1; i < argc; ++i) {
     std::string a = argv[i];
     auto next = [&] { return i + 1 < argc ? std::string(argv[++i]) : std::string(); };
-    if (a == "--threads") threads = std::stoi(next());
-    else if (a == "--frames") frames = std::stoi(next());
-    else if (a == "--copies") copies = std::stoi(next());
-    else if (a == "--out") out_dir = next();
-    else if (a == "--corpus") corpus = next();
+    if (a == "--threads")
+      threads = std::stoi(next());
+    else if (a == "--frames")
+      frames = std::stoi(next());
+    else if (a == "--copies")
+      copies = std::stoi(next());
+    else if (a == "--out")
+      out_dir = next();
+    else if (a == "--corpus")
+      corpus = next();
     else {
-      std::fprintf(stderr, "usage: %s [--threads T] [--frames K] [--copies C] [--out DIR]\n", argv[0]);
+      std::fprintf(stderr, "usage: %s [--threads T] [--frames K] [--copies C] [--out DIR]\n",
+                   argv[0]);
       return 2;
     }
   }
@@ -134,10 +143,11 @@ int main(int argc, char** argv) {
   }
   const double load_s = seconds_since(t0);
   auto surf = MeshSurface::build(*arm);
-  std::printf("armadillo: %zu triangles, load %.3f s, build %.3f s, %zu BVH nodes, depth %d, "
-              "%.1f bytes/triangle\n",
-              surf->num_triangles(), load_s, surf->stats().build_seconds, surf->nodes().size(),
-              surf->stats().bvh_depth, double(surf->memory_bytes()) / surf->num_triangles());
+  std::printf(
+      "armadillo: %zu triangles, load %.3f s, build %.3f s, %zu BVH nodes, depth %d, "
+      "%.1f bytes/triangle\n",
+      surf->num_triangles(), load_s, surf->stats().build_seconds, surf->nodes().size(),
+      surf->stats().bvh_depth, double(surf->memory_bytes()) / surf->num_triangles());
   const int res = 1024;
   const Camera cam = frame(surf->bounds(), res, res, {0, 0, -1}, {0, 1, 0});
   std::vector<float> img;
@@ -155,9 +165,10 @@ int main(int argc, char** argv) {
   const double hfrt_s = seconds_since(t0) / frames;
   const double hfrt_cpu = (cpu_seconds() - c0) / frames;
   const double hfrt_mrays = res * double(res) / hfrt_s / 1e6;
-  std::printf("armadillo %dx%d primary rays, hfrt:   %7.2f Mrays/s (%.1f ms/frame, %zu hits; "
-              "%.2f Mrays per CPU-second)\n",
-              res, res, hfrt_mrays, hfrt_s * 1e3, hits, res * double(res) / hfrt_cpu / 1e6);
+  std::printf(
+      "armadillo %dx%d primary rays, hfrt:   %7.2f Mrays/s (%.1f ms/frame, %zu hits; "
+      "%.2f Mrays per CPU-second)\n",
+      res, res, hfrt_mrays, hfrt_s * 1e3, hits, res * double(res) / hfrt_cpu / 1e6);
   if (!out_dir.empty()) write_pgm(out_dir + "/armadillo_hfrt.pgm", img, res, res);
   std::vector<float> hfrt_img = img;
 
@@ -166,14 +177,16 @@ int main(int argc, char** argv) {
     RTCDevice device = rtcNewDevice(nullptr);
     RTCScene scene = rtcNewScene(device);
     RTCGeometry geom = rtcNewGeometry(device, RTC_GEOMETRY_TYPE_TRIANGLE);
-    auto* vb = static_cast<float*>(rtcSetNewGeometryBuffer(
-        geom, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3, 3 * sizeof(float), arm->vertices.size()));
+    auto* vb = static_cast<float*>(rtcSetNewGeometryBuffer(geom, RTC_BUFFER_TYPE_VERTEX, 0,
+                                                           RTC_FORMAT_FLOAT3, 3 * sizeof(float),
+                                                           arm->vertices.size()));
     for (size_t i = 0; i < arm->vertices.size(); ++i) {
       vb[3 * i] = arm->vertices[i].x, vb[3 * i + 1] = arm->vertices[i].y,
-      vb[3 * i + 2] = arm->vertices[i].z;
+             vb[3 * i + 2] = arm->vertices[i].z;
     }
-    auto* ib = static_cast<unsigned*>(rtcSetNewGeometryBuffer(
-        geom, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3, 3 * sizeof(unsigned), arm->triangles.size()));
+    auto* ib = static_cast<unsigned*>(
+        rtcSetNewGeometryBuffer(geom, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3,
+                                3 * sizeof(unsigned), arm->triangles.size()));
     for (size_t i = 0; i < arm->triangles.size(); ++i)
       for (int k = 0; k < 3; ++k) ib[3 * i + k] = arm->triangles[i][k];
     rtcCommitGeometry(geom);
@@ -207,13 +220,14 @@ int main(int argc, char** argv) {
     const double e_mrays = res * double(res) / e_s / 1e6;
     size_t differ = 0;
     for (size_t i = 0; i < img.size(); ++i) differ += (img[i] > 0) != (hfrt_img[i] > 0);
-    std::printf("armadillo %dx%d primary rays, Embree: %7.2f Mrays/s (%.1f ms/frame, %zu hits; "
-                "%.2f Mrays per CPU-second; build %.3f s)\n",
-                res, res, e_mrays, e_s * 1e3, ehits, res * double(res) / e_cpu / 1e6,
-                embree_build);
-    std::printf("hfrt / Embree time ratio: %.2fx wall, %.2fx CPU (goal <= 1.5x); pixels whose "
-                "hit/miss differ: %zu\n",
-                e_mrays / hfrt_mrays, hfrt_cpu / e_cpu, differ);
+    std::printf(
+        "armadillo %dx%d primary rays, Embree: %7.2f Mrays/s (%.1f ms/frame, %zu hits; "
+        "%.2f Mrays per CPU-second; build %.3f s)\n",
+        res, res, e_mrays, e_s * 1e3, ehits, res * double(res) / e_cpu / 1e6, embree_build);
+    std::printf(
+        "hfrt / Embree time ratio: %.2fx wall, %.2fx CPU (goal <= 1.5x); pixels whose "
+        "hit/miss differ: %zu\n",
+        e_mrays / hfrt_mrays, hfrt_cpu / e_cpu, differ);
     if (!out_dir.empty()) write_pgm(out_dir + "/armadillo_embree.pgm", img, res, res);
     rtcReleaseScene(scene);
     rtcReleaseDevice(device);
@@ -230,10 +244,11 @@ int main(int argc, char** argv) {
       return 1;
     }
     auto ts = PatchSurface::build(*tp);
-    std::printf("teapot: %zu patches, %zu flat pieces, build %.3f s (incl. field tessellation "
-                "of %zu triangles, error %.2g)\n",
-                tp->patches.size(), ts->num_pieces(), ts->stats().build_seconds,
-                ts->stats().triangles, ts->field_error());
+    std::printf(
+        "teapot: %zu patches, %zu flat pieces, build %.3f s (incl. field tessellation "
+        "of %zu triangles, error %.2g)\n",
+        tp->patches.size(), ts->num_pieces(), ts->stats().build_seconds, ts->stats().triangles,
+        ts->field_error());
     const Camera tcam = frame(ts->bounds(), 512, 512, {-1, 2, -0.8f}, {0, 0, 1});
     auto patch_trace = [&](const Ray& r, float* shade) {
       SurfaceHit h;
@@ -248,9 +263,10 @@ int main(int argc, char** argv) {
     for (int f = 0; f < frames; ++f) th = render(tcam, &img, patch_trace);
     const double s = seconds_since(t0) / frames;
     const double cpu = (cpu_seconds() - c0t) / frames;
-    std::printf("teapot 512x512 primary rays: %.1f frames/s (%.1f ms/frame, %zu hits, %.2f Mrays/s;"
-                " %.1f frames per CPU-second, so %.1f frames/s on %d idle cores)\n",
-                1 / s, s * 1e3, th, 512.0 * 512 / s / 1e6, 1 / cpu, threads / cpu, threads);
+    std::printf(
+        "teapot 512x512 primary rays: %.1f frames/s (%.1f ms/frame, %zu hits, %.2f Mrays/s;"
+        " %.1f frames per CPU-second, so %.1f frames/s on %d idle cores)\n",
+        1 / s, s * 1e3, th, 512.0 * 512 / s / 1e6, 1 / cpu, threads / cpu, threads);
     if (!out_dir.empty()) write_pgm(out_dir + "/teapot.pgm", img, 512, 512);
   }
 
@@ -273,11 +289,12 @@ int main(int argc, char** argv) {
     Bvh bvh1 = build_bvh(boxes, serial);
     const double bvh1_s = seconds_since(tb);
     auto big_surf = MeshSurface::build(big);
-    std::printf("BVH build, %.2fM triangles: %.3f s parallel (%.3f s per million), %.3f s one "
-                "thread; full MeshSurface build %.3f s (%.3f s per million), %.1f bytes/triangle\n",
-                mtris, bvh_s, bvh_s / mtris, bvh1_s, big_surf->stats().build_seconds,
-                big_surf->stats().build_seconds / mtris,
-                double(big_surf->memory_bytes()) / big_surf->num_triangles());
+    std::printf(
+        "BVH build, %.2fM triangles: %.3f s parallel (%.3f s per million), %.3f s one "
+        "thread; full MeshSurface build %.3f s (%.3f s per million), %.1f bytes/triangle\n",
+        mtris, bvh_s, bvh_s / mtris, bvh1_s, big_surf->stats().build_seconds,
+        big_surf->stats().build_seconds / mtris,
+        double(big_surf->memory_bytes()) / big_surf->num_triangles());
     const Camera bcam = frame(big_surf->bounds(), 512, 512, {0, 0, -1}, {0, 1, 0});
     auto big_trace = [&](const Ray& r, float* shade) {
       SurfaceHit h;

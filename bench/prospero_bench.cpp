@@ -70,17 +70,29 @@ typedef float V8 __attribute__((vector_size(32)));
 #if defined(__x86_64__)
 __attribute__((target("avx2")))
 #endif
-double add_loop_avx2(long iters, float* sink) {
+double
+add_loop_avx2(long iters, float* sink) {
   V8 a0 = V8{} + 0.f, a1 = V8{} + 1.f, a2 = V8{} + 2.f, a3 = V8{} + 3.f, a4 = V8{} + 4.f,
      a5 = V8{} + 5.f, a6 = V8{} + 6.f, a7 = V8{} + 7.f, a8 = V8{} + 8.f, a9 = V8{} + 9.f,
      a10 = V8{} + 10.f, a11 = V8{} + 11.f;
   const V8 inc = V8{} + 1e-7f;
   for (long i = 0; i < iters; ++i) {
-    a0 += inc; a1 += inc; a2 += inc; a3 += inc; a4 += inc; a5 += inc;
-    a6 += inc; a7 += inc; a8 += inc; a9 += inc; a10 += inc; a11 += inc;
+    a0 += inc;
+    a1 += inc;
+    a2 += inc;
+    a3 += inc;
+    a4 += inc;
+    a5 += inc;
+    a6 += inc;
+    a7 += inc;
+    a8 += inc;
+    a9 += inc;
+    a10 += inc;
+    a11 += inc;
     // Keeps the accumulators in registers and the adds as adds (no strength reduction).
-    asm volatile("" : "+x"(a0), "+x"(a1), "+x"(a2), "+x"(a3), "+x"(a4), "+x"(a5), "+x"(a6),
-                 "+x"(a7), "+x"(a8), "+x"(a9), "+x"(a10), "+x"(a11));
+    asm volatile(""
+                 : "+x"(a0), "+x"(a1), "+x"(a2), "+x"(a3), "+x"(a4), "+x"(a5), "+x"(a6), "+x"(a7),
+                   "+x"(a8), "+x"(a9), "+x"(a10), "+x"(a11));
   }
   V8 sum = a0 + a1 + a2 + a3 + a4 + a5 + a6 + a7 + a8 + a9 + a10 + a11;
   *sink = sum[0] + sum[7];
@@ -174,16 +186,25 @@ int main(int argc, char** argv) {
       }
       return argv[++i];
     };
-    if (a == "--size") o.size = std::atoi(next());
-    else if (a == "--frames") o.frames = std::atoi(next());
-    else if (a == "--threads") o.threads = std::atoi(next());
-    else if (a == "--interp-rows") o.interp_rows = std::atoi(next());
-    else if (a == "--out") o.out = next();
-    else if (a == "--lanes") o.lanes = std::atoi(next());
-    else if (!a.empty() && a[0] != '-') o.model = a;
+    if (a == "--size")
+      o.size = std::atoi(next());
+    else if (a == "--frames")
+      o.frames = std::atoi(next());
+    else if (a == "--threads")
+      o.threads = std::atoi(next());
+    else if (a == "--interp-rows")
+      o.interp_rows = std::atoi(next());
+    else if (a == "--out")
+      o.out = next();
+    else if (a == "--lanes")
+      o.lanes = std::atoi(next());
+    else if (!a.empty() && a[0] != '-')
+      o.model = a;
     else {
-      std::fprintf(stderr, "usage: %s [MODEL.hf] [--size N] [--frames K] [--threads T] "
-                           "[--interp-rows R] [--lanes W] [--out image.pgm]\n", argv[0]);
+      std::fprintf(stderr,
+                   "usage: %s [MODEL.hf] [--size N] [--frames K] [--threads T] "
+                   "[--interp-rows R] [--lanes W] [--out image.pgm]\n",
+                   argv[0]);
       return 2;
     }
   }
@@ -208,11 +229,12 @@ int main(int argc, char** argv) {
   hfrt::ModelStats st = mj.stats();
   std::printf("model %s: %d IR instructions; %d threads; %dx%d grid at z = 0\n", o.model.c_str(),
               st.ir_insts, o.threads, o.size, o.size);
-  std::printf("compile: %.1f ms total (front end %.1f, lowering %.1f; jit f64 %.1f + %.1f + %.1f, "
-              "f32 %.1f + %.1f + %.1f ms emit+opt+codegen; %d / %d lanes)\n",
-              compile_ms, st.frontend_ms, st.lower_ms, st.jit_f64.emit_ms, st.jit_f64.optimize_ms,
-              st.jit_f64.codegen_ms, st.jit_f32.emit_ms, st.jit_f32.optimize_ms,
-              st.jit_f32.codegen_ms, st.jit_f64.lanes, st.jit_f32.lanes);
+  std::printf(
+      "compile: %.1f ms total (front end %.1f, lowering %.1f; jit f64 %.1f + %.1f + %.1f, "
+      "f32 %.1f + %.1f + %.1f ms emit+opt+codegen; %d / %d lanes)\n",
+      compile_ms, st.frontend_ms, st.lower_ms, st.jit_f64.emit_ms, st.jit_f64.optimize_ms,
+      st.jit_f64.codegen_ms, st.jit_f32.emit_ms, st.jit_f32.optimize_ms, st.jit_f32.codegen_ms,
+      st.jit_f64.lanes, st.jit_f32.lanes);
 
   const size_t pixels = static_cast<size_t>(o.size) * o.size;
   std::vector<int> all_rows(o.size);
@@ -238,27 +260,31 @@ int main(int argc, char** argv) {
     return times[times.size() / 2];  // median
   };
   double jit32 = frame_ms([&] {
-    parallel_rows(all_rows, o.threads,
-                  [&](int y) { eval_row<float>(mj, o.size, y, &img32[static_cast<size_t>(y) * o.size]); });
+    parallel_rows(all_rows, o.threads, [&](int y) {
+      eval_row<float>(mj, o.size, y, &img32[static_cast<size_t>(y) * o.size]);
+    });
   });
   const double jit32_cpu = cpu_ms, jit32_best = best_ms;
   double jit64 = frame_ms([&] {
-    parallel_rows(all_rows, o.threads,
-                  [&](int y) { eval_row<double>(mj, o.size, y, &img64[static_cast<size_t>(y) * o.size]); });
+    parallel_rows(all_rows, o.threads, [&](int y) {
+      eval_row<double>(mj, o.size, y, &img64[static_cast<size_t>(y) * o.size]);
+    });
   });
 
   const double jit64_cpu = cpu_ms, jit64_best = best_ms;
   // Interpreter on evenly spaced rows; compared with the JIT there.
   std::vector<int> rows;
-  for (int k = 0; k < o.interp_rows; ++k) rows.push_back(static_cast<int>((k + 0.5) * o.size / o.interp_rows));
+  for (int k = 0; k < o.interp_rows; ++k)
+    rows.push_back(static_cast<int>((k + 0.5) * o.size / o.interp_rows));
   std::vector<double> ref(static_cast<size_t>(o.size) * rows.size());
   auto ti = Clock::now();
   std::clock_t ci = std::clock();
   {
     std::vector<int> idx(rows.size());
     for (size_t k = 0; k < rows.size(); ++k) idx[k] = static_cast<int>(k);
-    parallel_rows(idx, o.threads,
-                  [&](int k) { eval_row<double>(mi, o.size, rows[k], &ref[static_cast<size_t>(k) * o.size]); });
+    parallel_rows(idx, o.threads, [&](int k) {
+      eval_row<double>(mi, o.size, rows[k], &ref[static_cast<size_t>(k) * o.size]);
+    });
   }
   const double interp_ms = ms_since(ti) * o.size / static_cast<double>(rows.size());
   const double interp_cpu = 1000.0 * static_cast<double>(std::clock() - ci) / CLOCKS_PER_SEC *
@@ -278,12 +304,14 @@ int main(int argc, char** argv) {
       sign_mismatch32 += (img32[p] >= 0) != (r >= 0);
     }
   }
-  std::printf("jit f32:     %10.2f ms/frame  (CPU time %.2f ms/frame, all threads)\n", jit32, jit32_cpu);
+  std::printf("jit f32:     %10.2f ms/frame  (CPU time %.2f ms/frame, all threads)\n", jit32,
+              jit32_cpu);
   std::printf("jit f64:     %10.2f ms/frame  (CPU time %.2f ms/frame)\n", jit64, jit64_cpu);
-  std::printf("interpreter: %10.2f ms/frame  (CPU time %.2f ms/frame; extrapolated from %zu rows)\n",
-              interp_ms, interp_cpu, rows.size());
-  std::printf("ratio interpreter / jit f32: %.1fx; interpreter / jit f64: %.1fx\n", interp_ms / jit32,
-              interp_ms / jit64);
+  std::printf(
+      "interpreter: %10.2f ms/frame  (CPU time %.2f ms/frame; extrapolated from %zu rows)\n",
+      interp_ms, interp_cpu, rows.size());
+  std::printf("ratio interpreter / jit f32: %.1fx; interpreter / jit f64: %.1fx\n",
+              interp_ms / jit32, interp_ms / jit64);
   // Distance to the machine's limit: brute force (no pruning) evaluates every IR instruction
   // at every pixel, so IR instructions x pixels / time is the achieved lane-op rate, against
   // the measured peak of vector adds on the same threads, measured now.
@@ -304,21 +332,26 @@ int main(int argc, char** argv) {
     const double achieved32 = ops / (jit32_best / 1000.0), achieved64 = ops / (jit64_best / 1000.0);
     // Per core (CPU time): independent of other load on a shared machine.
     const double core32 = ops / (jit32_cpu / 1000.0), core64 = ops / (jit64_cpu / 1000.0);
-    std::printf("physical limit: %d computing IR ops (of %d IR instructions) x %zu points "
-                "(brute force, no pruning)\n",
-                per_point, st.ir_insts, pixels);
-    std::printf("  wall, %d threads, best frame: jit f32 %.2f, jit f64 %.2f G lane-ops/s; peak vector adds%s "
-                "%.2f G lane-ops/s; f32 at %.1f%% of peak\n",
-                o.threads, achieved32 / 1e9, achieved64 / 1e9, avx2 ? " (8-lane AVX2)" : "",
-                peak / 1e9, 100.0 * achieved32 / peak);
-    std::printf("  per core (CPU time): jit f32 %.2f, jit f64 %.2f G lane-ops/s; peak vector adds "
-                "%.2f G lane-ops/s; f32 at %.1f%%, f64 at %.1f%% of peak\n",
-                core32 / 1e9, core64 / 1e9, peak_core / 1e9, 100.0 * core32 / peak_core,
-                100.0 * core64 / peak_core);
+    std::printf(
+        "physical limit: %d computing IR ops (of %d IR instructions) x %zu points "
+        "(brute force, no pruning)\n",
+        per_point, st.ir_insts, pixels);
+    std::printf(
+        "  wall, %d threads, best frame: jit f32 %.2f, jit f64 %.2f G lane-ops/s; peak vector "
+        "adds%s "
+        "%.2f G lane-ops/s; f32 at %.1f%% of peak\n",
+        o.threads, achieved32 / 1e9, achieved64 / 1e9, avx2 ? " (8-lane AVX2)" : "", peak / 1e9,
+        100.0 * achieved32 / peak);
+    std::printf(
+        "  per core (CPU time): jit f32 %.2f, jit f64 %.2f G lane-ops/s; peak vector adds "
+        "%.2f G lane-ops/s; f32 at %.1f%%, f64 at %.1f%% of peak\n",
+        core32 / 1e9, core64 / 1e9, peak_core / 1e9, 100.0 * core32 / peak_core,
+        100.0 * core64 / peak_core);
   }
-  std::printf("check: inside pixels f32 %zu, f64 %zu; on the interpreter rows: max |f64 - interp| "
-              "= %.3g, f32 sign mismatches %zu\n",
-              inside32, inside64, max_diff64, sign_mismatch32);
+  std::printf(
+      "check: inside pixels f32 %zu, f64 %zu; on the interpreter rows: max |f64 - interp| "
+      "= %.3g, f32 sign mismatches %zu\n",
+      inside32, inside64, max_diff64, sign_mismatch32);
   if (!o.out.empty()) {
     FILE* f = std::fopen(o.out.c_str(), "wb");
     if (!f) {

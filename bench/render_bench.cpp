@@ -17,9 +17,12 @@ namespace {
 
 std::unique_ptr<testing::AnalyticField> make_scene(int scene) {
   switch (scene) {
-    case 0: return std::make_unique<testing::SphereField>(Vec3{0, 0, 0}, 4.0);
-    case 1: return std::make_unique<testing::TorusField>(5.0, 1.5);
-    case 2: return std::make_unique<testing::ShellField>(6.0, 0.01);
+    case 0:
+      return std::make_unique<testing::SphereField>(Vec3{0, 0, 0}, 4.0);
+    case 1:
+      return std::make_unique<testing::TorusField>(5.0, 1.5);
+    case 2:
+      return std::make_unique<testing::ShellField>(6.0, 0.01);
     default: {
       std::vector<testing::BallsField::Ball> balls;
       for (int i = -1; i <= 1; ++i)

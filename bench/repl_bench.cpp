@@ -8,11 +8,11 @@
 // the JIT of the point, interval and gradient code, framing, auto probe, ray tracing, image
 // writing). Run:
 //   build/bench/hfrt_bench_repl [--rounds N] [--edits N] [--size N] [--only NAME]
+#include <algorithm>
 #include <chrono>
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
-#include <algorithm>
 #include <filesystem>
 #include <fstream>
 #include <sstream>
@@ -36,17 +36,17 @@ bool check(const hfrt::tools::SessionResult& r) {
 /// searched with `first` in the file, replaced with the edited values.
 struct EditCase {
   const char* name;
-  const char* file;     // under HFRT_CORPUS_DIR/models
-  const char* original; // the exact text changed in the file
-  const char* pattern;  // printf pattern of the replacement, one %g
-  double lo, hi;        // the edited values, evenly spread
+  const char* file;      // under HFRT_CORPUS_DIR/models
+  const char* original;  // the exact text changed in the file
+  const char* pattern;   // printf pattern of the replacement, one %g
+  double lo, hi;         // the edited values, evenly spread
 };
 
 const EditCase kCases[] = {
-    {"s3_blend", "github/alexander-penev__FRep-Designer-Bench/s3_blend.hf", "k = 0.25;", "k = %g;", 0.12,
-     0.38},
-    {"s2_csg", "github/alexander-penev__FRep-Designer-Bench/s2_csg.hf", "box = 0.9 - m;", "box = %g - m;",
-     0.8, 0.98},
+    {"s3_blend", "github/alexander-penev__FRep-Designer-Bench/s3_blend.hf", "k = 0.25;", "k = %g;",
+     0.12, 0.38},
+    {"s2_csg", "github/alexander-penev__FRep-Designer-Bench/s2_csg.hf", "box = 0.9 - m;",
+     "box = %g - m;", 0.8, 0.98},
     {"c1_gear", "github/alexander-penev__FRep-Designer-Bench/c1_gear.hf", "t6 = 0.850000023842;",
      "t6 = %g;", 0.8, 0.9},
 };
@@ -75,7 +75,8 @@ struct Stat {
 };
 
 /// Edits of one model: each a new definition (compile) then `:render` to 512x512. False on error.
-bool bench_edits(const EditCase& c, int edits, int size, const std::string& extra, const std::string& out) {
+bool bench_edits(const EditCase& c, int edits, int size, const std::string& extra,
+                 const std::string& out) {
   const std::string text = slurp(std::string(HFRT_CORPUS_DIR) + "/models/" + c.file);
   const size_t at = text.find(c.original);
   if (text.empty() || at == std::string::npos) {
@@ -84,7 +85,8 @@ bool bench_edits(const EditCase& c, int edits, int size, const std::string& extr
   }
   hfrt::tools::Session s;
   // The benchmark scenes' domain is [-1.6, 1.6]^3 (FRep-Designer-Bench scenes/MATH.md).
-  const std::string opts = " --size " + std::to_string(size) + "x" + std::to_string(size) + " --bbox 1.6" + extra;
+  const std::string opts =
+      " --size " + std::to_string(size) + "x" + std::to_string(size) + " --bbox 1.6" + extra;
   if (!check(s.run(text)) || !check(s.run(":render " + out + opts))) return false;  // warm-up
   Stat total, compile, prepare, frame, probe, render, write, first;
   // The coarse picture a terminal shows first (1/8 of the size, see Session::on_coarse).
@@ -93,7 +95,8 @@ bool bench_edits(const EditCase& c, int edits, int size, const std::string& extr
   s.on_coarse = [&](const hfrt::render::Image&) { coarse_ms = ms_since(t0); };
   for (int i = 0; i < edits; ++i) {
     char value[64];
-    std::snprintf(value, sizeof value, c.pattern, c.lo + (c.hi - c.lo) * i / std::max(1, edits - 1));
+    std::snprintf(value, sizeof value, c.pattern,
+                  c.lo + (c.hi - c.lo) * i / std::max(1, edits - 1));
     std::string edited = text;
     edited.replace(at, std::strlen(c.original), value);
     t0 = std::chrono::steady_clock::now();
@@ -108,12 +111,14 @@ bool bench_edits(const EditCase& c, int edits, int size, const std::string& extr
     render.v.push_back(t.render);
     write.v.push_back(t.write);
   }
-  std::printf("%-9s edit -> %dx%d image: min %6.1f  median %6.1f  max %6.1f ms; coarse picture first: "
-              "median %.1f ms\n          (median: parse+lower %.1f, "
-              "JIT of point+interval+gradient code %.1f, framing %.1f, auto probe %.1f, ray tracing %.1f, "
-              "write %.1f)\n",
-              c.name, size, size, total.min(), total.median(), total.max(), first.median(), compile.median(),
-              prepare.median(), frame.median(), probe.median(), render.median(), write.median());
+  std::printf(
+      "%-9s edit -> %dx%d image: min %6.1f  median %6.1f  max %6.1f ms; coarse picture first: "
+      "median %.1f ms\n          (median: parse+lower %.1f, "
+      "JIT of point+interval+gradient code %.1f, framing %.1f, auto probe %.1f, ray tracing %.1f, "
+      "write %.1f)\n",
+      c.name, size, size, total.min(), total.median(), total.max(), first.median(),
+      compile.median(), prepare.median(), frame.median(), probe.median(), render.median(),
+      write.median());
   return true;
 }
 
@@ -150,12 +155,14 @@ int main(int argc, char** argv) {
     if (!check(s.run(":render " + out))) return 1;
     render_ms += ms_since(t0);
   }
-  std::printf("rounds %d: define (compile) %.2f ms, define again (cached) %.3f ms, :eval %.3f ms, "
-              ":render 128x128 %.2f ms (means)\n",
-              rounds, define_ms / rounds, cached_ms / rounds, eval_ms / rounds, render_ms / rounds);
+  std::printf(
+      "rounds %d: define (compile) %.2f ms, define again (cached) %.3f ms, :eval %.3f ms, "
+      ":render 128x128 %.2f ms (means)\n",
+      rounds, define_ms / rounds, cached_ms / rounds, eval_ms / rounds, render_ms / rounds);
   std::filesystem::remove(out);
 
-  const std::string out512 = (std::filesystem::temp_directory_path() / "hfrt_bench_repl_edit.png").string();
+  const std::string out512 =
+      (std::filesystem::temp_directory_path() / "hfrt_bench_repl_edit.png").string();
   // The default options (shadows, `--root auto`), then the quick look: the sign-change march
   // without shadow rays.
   for (const char* extra : {"", " --root sign --no-shadows"}) {

@@ -2,8 +2,8 @@
 
 #include <algorithm>
 #include <cmath>
-#include <optional>
 #include <cstdlib>
+#include <optional>
 #include <sstream>
 
 namespace hfrt::geom {
@@ -131,14 +131,13 @@ BezierPatch BezierPatch::sub_patch(double u0, double u1, double v0, double v1) c
 }
 
 float BezierPatch::flatness() const {
-  const Vec3 p00 = control(0, 0), p10 = control(du, 0), p01 = control(0, dv),
-             p11 = control(du, dv);
+  const Vec3 p00 = control(0, 0), p10 = control(du, 0), p01 = control(0, dv), p11 = control(du, dv);
   float worst = 0;
   for (int j = 0; j <= dv; ++j)
     for (int i = 0; i <= du; ++i) {
       const float s = float(i) / du, t = float(j) / dv;
-      const Vec3 bl = p00 * ((1 - s) * (1 - t)) + p10 * (s * (1 - t)) + p01 * ((1 - s) * t) +
-                      p11 * (s * t);
+      const Vec3 bl =
+          p00 * ((1 - s) * (1 - t)) + p10 * (s * (1 - t)) + p01 * ((1 - s) * t) + p11 * (s * t);
       worst = std::max(worst, length(control(i, j) - bl));
     }
   return worst;
@@ -239,8 +238,8 @@ Result<PatchSet> patches_from_array(std::span<const double> p, const std::string
 
 TriangleMesh tessellate(const PatchSet& set, int n, float* max_error) {
   TriangleMesh mesh;
-  mesh.source = set.source + " (tessellated " + std::to_string(n) + "x" + std::to_string(n) +
-                " per patch)";
+  mesh.source =
+      set.source + " (tessellated " + std::to_string(n) + "x" + std::to_string(n) + " per patch)";
   float err = 0;
   for (const BezierPatch& patch : set.patches) {
     const uint32_t base = static_cast<uint32_t>(mesh.vertices.size());

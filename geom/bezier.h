@@ -24,7 +24,9 @@ namespace hfrt::geom {
 struct DVec3 {
   double x = 0, y = 0, z = 0;
 };
-inline DVec3 to_d(Vec3 v) { return {v.x, v.y, v.z}; }
+inline DVec3 to_d(Vec3 v) {
+  return {v.x, v.y, v.z};
+}
 inline Vec3 to_f(DVec3 v) {
   return {static_cast<float>(v.x), static_cast<float>(v.y), static_cast<float>(v.z)};
 }

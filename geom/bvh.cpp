@@ -63,8 +63,8 @@ class Builder {
       return a;
     };
     if (opt_.parallel && end - begin >= 65536)
-      return tbb::parallel_reduce(tbb::blocked_range<uint32_t>(begin, end, 8192), RangeInfo{},
-                                  body, join);
+      return tbb::parallel_reduce(tbb::blocked_range<uint32_t>(begin, end, 8192), RangeInfo{}, body,
+                                  join);
     return body(tbb::blocked_range<uint32_t>(begin, end), RangeInfo{});
   }
 
@@ -162,9 +162,9 @@ class Builder {
     const float parent_area = info.bounds.half_area();
     const float leaf_cost = opt_.primitive_cost * n;
     const float split_cost =
-        best_axis < 0 ? std::numeric_limits<float>::infinity()
-                      : opt_.traversal_cost +
-                            opt_.primitive_cost * best_cost / std::max(parent_area, 1e-30f);
+        best_axis < 0
+            ? std::numeric_limits<float>::infinity()
+            : opt_.traversal_cost + opt_.primitive_cost * best_cost / std::max(parent_area, 1e-30f);
     if (n <= static_cast<uint32_t>(opt_.max_leaf_size) && leaf_cost <= split_cost) {
       make_leaf(node, begin, end);
       return 1;

@@ -120,11 +120,13 @@ std::optional<Error> precheck_off(const std::string& path, const std::string& te
   if (state == kHeader) return Error{path + ": empty file (no OFF header)"};
   if (state == kCounts) return located(path, lineno, "missing vertex/face counts");
   if (state == kVertices)
-    return located(path, lineno, "file ends after " + std::to_string(seen_v) + " of " +
-                                     std::to_string(nv) + " vertices");
+    return located(
+        path, lineno,
+        "file ends after " + std::to_string(seen_v) + " of " + std::to_string(nv) + " vertices");
   if (state == kFaces)
-    return located(path, lineno, "file ends after " + std::to_string(seen_f) + " of " +
-                                     std::to_string(nf) + " faces");
+    return located(
+        path, lineno,
+        "file ends after " + std::to_string(seen_f) + " of " + std::to_string(nf) + " faces");
   return std::nullopt;
 }
 
@@ -222,10 +224,9 @@ Result<TriangleMesh> finish_mesh(TriangleMesh mesh) {
     kept.push_back(t);
   }
   if (kept.empty()) {
-    std::string why = mesh.triangles.empty()
-                          ? "no triangles"
-                          : "all " + std::to_string(mesh.triangles.size()) +
-                                " triangles are degenerate";
+    std::string why = mesh.triangles.empty() ? "no triangles"
+                                             : "all " + std::to_string(mesh.triangles.size()) +
+                                                   " triangles are degenerate";
     return Error{mesh.source + ": empty mesh (" + why + ")"};
   }
   mesh.triangles = std::move(kept);
@@ -253,12 +254,13 @@ Result<TriangleMesh> load_mesh(const std::string& path) {
 
   Assimp::Importer importer;
   // Points and lines are removed so that only polygons (triangulated) remain.
-  importer.SetPropertyInteger(AI_CONFIG_PP_SBP_REMOVE, aiPrimitiveType_POINT | aiPrimitiveType_LINE);
-  const aiScene* scene = importer.ReadFileFromMemory(
-      text->data(), text->size(),
-      aiProcess_Triangulate | aiProcess_JoinIdenticalVertices | aiProcess_PreTransformVertices |
-          aiProcess_SortByPType,
-      ext.c_str() + 1);
+  importer.SetPropertyInteger(AI_CONFIG_PP_SBP_REMOVE,
+                              aiPrimitiveType_POINT | aiPrimitiveType_LINE);
+  const aiScene* scene =
+      importer.ReadFileFromMemory(text->data(), text->size(),
+                                  aiProcess_Triangulate | aiProcess_JoinIdenticalVertices |
+                                      aiProcess_PreTransformVertices | aiProcess_SortByPType,
+                                  ext.c_str() + 1);
   if (!scene) return Error{path + ": malformed mesh: " + importer.GetErrorString()};
 
   TriangleMesh mesh;

@@ -112,8 +112,7 @@ bool MeshSurface::intersect(const Ray& ray, float tmin, float tmax, SurfaceHit* 
   return true;
 }
 
-bool MeshSurface::intersect_binary(const Ray& ray, float tmin, float tmax,
-                                   SurfaceHit* hit) const {
+bool MeshSurface::intersect_binary(const Ray& ray, float tmin, float tmax, SurfaceHit* hit) const {
   const WatertightRay r(ray);
   float tnear;
   if (!slab_hit(r, nodes_[0].lo, nodes_[0].hi, tmin, tmax, &tnear)) return false;
@@ -134,8 +133,8 @@ bool MeshSurface::intersect_binary(const Ray& ray, float tmin, float tmax,
     if (n.is_leaf()) {
       for (uint32_t s = n.index; s < n.index + n.count; ++s) {
         TriangleHitInfo h;
-        if (intersect_triangle(r, corners_[3 * s], corners_[3 * s + 1], corners_[3 * s + 2],
-                               tmin, closest, &h)) {
+        if (intersect_triangle(r, corners_[3 * s], corners_[3 * s + 1], corners_[3 * s + 2], tmin,
+                               closest, &h)) {
           closest = h.t;
           best = h;
           best_slot = s;
@@ -186,8 +185,8 @@ bool MeshSurface::occluded(const Ray& ray, float tmin, float tmax) const {
     if (n.is_leaf()) {
       for (uint32_t s = n.index; s < n.index + n.count; ++s) {
         TriangleHitInfo h;
-        if (intersect_triangle(r, corners_[3 * s], corners_[3 * s + 1], corners_[3 * s + 2],
-                               tmin, tmax, &h))
+        if (intersect_triangle(r, corners_[3 * s], corners_[3 * s + 1], corners_[3 * s + 2], tmin,
+                               tmax, &h))
           return true;
       }
     } else {
@@ -221,9 +220,9 @@ void MeshSurface::crossings(const Ray& ray, float tmin, float tmax,
   std::sort(out->begin(), out->end(), [](const Crossing& a, const Crossing& b) {
     return a.t < b.t || (a.t == b.t && a.prim < b.prim);
   });
-  // Crossings at the same t, up to rounding (a ray touching the surface at a silhouette edge or vertex counts
-  // twice, once each way) are ordered so that the sequence alternates enter / exit whenever
-  // it can: entering first while outside, exiting first while inside.
+  // Crossings at the same t, up to rounding (a ray touching the surface at a silhouette edge or
+  // vertex counts twice, once each way) are ordered so that the sequence alternates enter / exit
+  // whenever it can: entering first while outside, exiting first while inside.
   int depth = 0;
   for (size_t i = 0; i < out->size();) {
     size_t j = i + 1;
@@ -268,8 +267,8 @@ ClosestPoint MeshSurface::closest_point(Vec3 p, float max_distance) const {
     const BvhNode& n = nodes_[e.node];
     if (n.is_leaf()) {
       for (uint32_t s = n.index; s < n.index + n.count; ++s) {
-        const Vec3 q = closest_point_on_triangle(p, corners_[3 * s], corners_[3 * s + 1],
-                                                 corners_[3 * s + 2]);
+        const Vec3 q =
+            closest_point_on_triangle(p, corners_[3 * s], corners_[3 * s + 1], corners_[3 * s + 2]);
         const float d2 = length2(q - p);
         if (d2 < best_d2) {
           best_d2 = d2;
@@ -408,12 +407,14 @@ DistanceBounds MeshSurface::signed_distance_bounds(const Bounds3& box) const {
   return {-upper, -lower};
 }
 
-SurfaceStats MeshSurface::stats() const { return stats_; }
+SurfaceStats MeshSurface::stats() const {
+  return stats_;
+}
 
 size_t MeshSurface::memory_bytes() const {
-  return sizeof(*this) + nodes_.capacity() * sizeof(BvhNode) +
-         corners_.capacity() * sizeof(Vec3) + prim_order_.capacity() * sizeof(uint32_t) +
-         dipoles_.capacity() * sizeof(Dipole) + wide_.memory_bytes();
+  return sizeof(*this) + nodes_.capacity() * sizeof(BvhNode) + corners_.capacity() * sizeof(Vec3) +
+         prim_order_.capacity() * sizeof(uint32_t) + dipoles_.capacity() * sizeof(Dipole) +
+         wide_.memory_bytes();
 }
 
 }  // namespace hfrt::geom

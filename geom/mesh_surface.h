@@ -47,8 +47,7 @@ class MeshSurface final : public Surface {
 
   Bounds3 bounds() const override { return nodes_[0].bounds(); }
   bool intersect(const Ray& ray, float tmin, float tmax, SurfaceHit* hit) const override;
-  void crossings(const Ray& ray, float tmin, float tmax,
-                 std::vector<Crossing>* out) const override;
+  void crossings(const Ray& ray, float tmin, float tmax, std::vector<Crossing>* out) const override;
   double winding_number(Vec3 p) const override;
   float signed_distance(Vec3 p, Vec3* gradient = nullptr) const override;
   DistanceBounds signed_distance_bounds(const Bounds3& box) const override;
@@ -61,8 +60,8 @@ class MeshSurface final : public Surface {
   bool occluded(const Ray& ray, float tmin, float tmax) const;
 
   /// The closest point of the mesh to p among points closer than `max_distance`.
-  ClosestPoint closest_point(Vec3 p, float max_distance =
-                                         std::numeric_limits<float>::infinity()) const;
+  ClosestPoint closest_point(Vec3 p,
+                             float max_distance = std::numeric_limits<float>::infinity()) const;
 
   /// A lower bound on the distance from `box` to the mesh (0 when the box may touch it).
   float distance_lower_bound(const Bounds3& box) const;

@@ -9,7 +9,7 @@
 namespace hfrt::geom {
 namespace {
 
-constexpr int kMaxRefine = 3;     // extra on-the-fly splits of a piece where Newton fails
+constexpr int kMaxRefine = 3;  // extra on-the-fly splits of a piece where Newton fails
 constexpr int kMaxNewton = 10;
 constexpr double kHitTolerance = 1e-7;  // residual, relative to the patch size
 
@@ -129,8 +129,7 @@ std::unique_ptr<PatchSurface> PatchSurface::build(const PatchSet& set, const Opt
   s->stats_.bvh_depth = bvh.depth;
   s->stats_.build_seconds = std::chrono::duration<double>(end - start).count();
   s->stats_.memory_bytes = sizeof(*s) + s->nodes_.capacity() * sizeof(BvhNode) +
-                           s->wide_.memory_bytes() +
-                           s->pieces_.capacity() * sizeof(Piece) +
+                           s->wide_.memory_bytes() + s->pieces_.capacity() * sizeof(Piece) +
                            s->piece_cp_.capacity() * sizeof(BezierPatch) +
                            s->field_->memory_bytes();
   return s;
@@ -155,9 +154,9 @@ Vec3 PatchSurface::normal(uint32_t prim, double u, double v) const {
 
 template <typename Visit>
 void PatchSurface::solve_piece(const Ray& ray, const double plane[2][4], uint32_t patch_id,
-                               double u0, double u1, double v0, double v1,
-                               const BezierPatch& sub, float delta, int depth, float tmin,
-                               float tmax, Visit&& visit) const {
+                               double u0, double u1, double v0, double v1, const BezierPatch& sub,
+                               float delta, int depth, float tmin, float tmax,
+                               Visit&& visit) const {
   const BezierPatch& patch = set_.patches[patch_id];
   const DVec3 o = to_d(ray.org), d = to_d(ray.dir);
   // Start where the ray meets the corner quad's two triangles, else at the centre.
@@ -246,17 +245,15 @@ void PatchSurface::solve_piece(const Ray& ray, const double plane[2][4], uint32_
 }
 
 template <typename Visit>
-void PatchSurface::trace(const Ray& ray, float tmin, float* tmax,
-                         Visit&& visit) const {
+void PatchSurface::trace(const Ray& ray, float tmin, float* tmax, Visit&& visit) const {
   // Two planes whose intersection is the ray: set up at the first leaf only, as most rays of
   // a frame never reach one.
   double plane[2][4];
   bool have_planes = false;
   auto make_planes = [&] {
     const DVec3 d = to_d(normalize(ray.dir));
-    DVec3 n1 = std::abs(d.x) > std::abs(d.y) && std::abs(d.x) > std::abs(d.z)
-                   ? DVec3{d.y, -d.x, 0}
-                   : DVec3{0, d.z, -d.y};
+    DVec3 n1 = std::abs(d.x) > std::abs(d.y) && std::abs(d.x) > std::abs(d.z) ? DVec3{d.y, -d.x, 0}
+                                                                              : DVec3{0, d.z, -d.y};
     const double l1 = std::sqrt(n1.x * n1.x + n1.y * n1.y + n1.z * n1.z);
     n1 = {n1.x / l1, n1.y / l1, n1.z / l1};
     const DVec3 n2{d.y * n1.z - d.z * n1.y, d.z * n1.x - d.x * n1.z, d.x * n1.y - d.y * n1.x};
@@ -272,8 +269,8 @@ void PatchSurface::trace(const Ray& ray, float tmin, float* tmax,
     if (!have_planes) make_planes();
     for (uint32_t k = n.index; k < n.index + n.count; ++k) {
       const Piece& pc = pieces_[k];
-      solve_piece(ray, plane, pc.patch, pc.u0, pc.u1, pc.v0, pc.v1, piece_cp_[k], pc.delta, 0,
-                  tmin, *closest, visit);
+      solve_piece(ray, plane, pc.patch, pc.u0, pc.u1, pc.v0, pc.v1, piece_cp_[k], pc.delta, 0, tmin,
+                  *closest, visit);
     }
   };
   if (!wide_.empty()) {

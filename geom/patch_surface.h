@@ -38,14 +38,11 @@ class PatchSurface final : public Surface {
   };
 
   static std::unique_ptr<PatchSurface> build(const PatchSet& set, const Options& options);
-  static std::unique_ptr<PatchSurface> build(const PatchSet& set) {
-    return build(set, Options{});
-  }
+  static std::unique_ptr<PatchSurface> build(const PatchSet& set) { return build(set, Options{}); }
 
   Bounds3 bounds() const override { return bounds_; }
   bool intersect(const Ray& ray, float tmin, float tmax, SurfaceHit* hit) const override;
-  void crossings(const Ray& ray, float tmin, float tmax,
-                 std::vector<Crossing>* out) const override;
+  void crossings(const Ray& ray, float tmin, float tmax, std::vector<Crossing>* out) const override;
   double winding_number(Vec3 p) const override { return field_->winding_number(p); }
   float signed_distance(Vec3 p, Vec3* gradient = nullptr) const override {
     return field_->signed_distance(p, gradient);
@@ -83,15 +80,15 @@ class PatchSurface final : public Surface {
   void trace(const Ray& ray, float tmin, float* tmax, Visit&& visit) const;
   // Newton on `patch` restricted to [u0,u1]x[v0,v1]; refines by splitting when it fails.
   template <typename Visit>
-  void solve_piece(const Ray& ray, const double plane[2][4], uint32_t patch, double u0,
-                   double u1, double v0, double v1, const BezierPatch& sub, float delta,
-                   int depth, float tmin, float tmax, Visit&& visit) const;
+  void solve_piece(const Ray& ray, const double plane[2][4], uint32_t patch, double u0, double u1,
+                   double v0, double v1, const BezierPatch& sub, float delta, int depth, float tmin,
+                   float tmax, Visit&& visit) const;
 
   PatchSet set_;
   std::vector<float> patch_size_;
   std::vector<BvhNode> nodes_;
-  WideBvh wide_;  // 4-wide upper levels of nodes_, for rays
-  std::vector<Piece> pieces_;  // in leaf order
+  WideBvh wide_;                       // 4-wide upper levels of nodes_, for rays
+  std::vector<Piece> pieces_;          // in leaf order
   std::vector<BezierPatch> piece_cp_;  // control points of each piece (for on-the-fly refinement)
   std::unique_ptr<MeshSurface> field_;
   float field_error_ = 0;

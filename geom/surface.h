@@ -19,9 +19,9 @@ namespace hfrt::geom {
 /// The nearest surface point along a ray.
 struct SurfaceHit {
   float t = 0;
-  Vec3 normal;        ///< unit geometric normal, facing outward for an outward-oriented surface
-  uint32_t prim = 0;  ///< triangle or patch index, in the order of the input
-  float u = 0, v = 0; ///< barycentrics (triangles: of corners 1, 2) or patch parameters
+  Vec3 normal;         ///< unit geometric normal, facing outward for an outward-oriented surface
+  uint32_t prim = 0;   ///< triangle or patch index, in the order of the input
+  float u = 0, v = 0;  ///< barycentrics (triangles: of corners 1, 2) or patch parameters
 };
 
 /// One crossing of a ray with the surface. facing = +1 when the ray enters (against the
@@ -36,7 +36,7 @@ struct Crossing {
 /// Counts for `hfrt render --stats`.
 struct SurfaceStats {
   std::string source;
-  size_t triangles = 0;         ///< triangles (for patches: of the field tessellation)
+  size_t triangles = 0;  ///< triangles (for patches: of the field tessellation)
   size_t patches = 0;
   size_t degenerate_skipped = 0;
   size_t bvh_nodes = 0;

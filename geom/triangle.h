@@ -54,8 +54,8 @@ struct WatertightRay {
 
 /// 1 + 2 gamma(3): widens the far slab distance so rounding never rejects a box that the
 /// ray touches (pbrt-v4, "Robust spawned rays"; Ize 2013).
-inline constexpr float kSlabWiden = 1.0f + 2.0f * (3 * 5.960464477539063e-08f) /
-                                              (1 - 3 * 5.960464477539063e-08f);
+inline constexpr float kSlabWiden =
+    1.0f + 2.0f * (3 * 5.960464477539063e-08f) / (1 - 3 * 5.960464477539063e-08f);
 
 /// Robust ray–box test against [lo, hi]; on a hit returns true and the entry distance. A zero
 /// direction component gives NaN slabs for a box face through the origin; the comparisons are
@@ -100,8 +100,9 @@ inline float exact_edge(float x1, float y1, float x2, float y2) {
 
 /// Watertight ray–triangle test with symbolic tie-breaking (see the file comment). Hits with
 /// tmin < t < tmax count; both faces are hit.
-[[gnu::always_inline]] inline bool intersect_triangle(const WatertightRay& r, Vec3 v0, Vec3 v1, Vec3 v2, float tmin,
-                               float tmax, TriangleHitInfo* hit) {
+[[gnu::always_inline]] inline bool intersect_triangle(const WatertightRay& r, Vec3 v0, Vec3 v1,
+                                                      Vec3 v2, float tmin, float tmax,
+                                                      TriangleHitInfo* hit) {
   const Vec3 a = v0 - r.org, b = v1 - r.org, c = v2 - r.org;
   const float ax = a[r.kx] - r.sx * a[r.kz], ay = a[r.ky] - r.sy * a[r.kz];
   const float bx = b[r.kx] - r.sx * b[r.kz], by = b[r.ky] - r.sy * b[r.kz];

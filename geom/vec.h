@@ -20,20 +20,40 @@ struct Vec3 {
   float& operator[](int i) { return i == 0 ? x : (i == 1 ? y : z); }
 };
 
-constexpr Vec3 operator+(Vec3 a, Vec3 b) { return {a.x + b.x, a.y + b.y, a.z + b.z}; }
-constexpr Vec3 operator-(Vec3 a, Vec3 b) { return {a.x - b.x, a.y - b.y, a.z - b.z}; }
-constexpr Vec3 operator-(Vec3 a) { return {-a.x, -a.y, -a.z}; }
-constexpr Vec3 operator*(Vec3 a, float s) { return {a.x * s, a.y * s, a.z * s}; }
-constexpr Vec3 operator*(float s, Vec3 a) { return a * s; }
-constexpr Vec3 operator/(Vec3 a, float s) { return {a.x / s, a.y / s, a.z / s}; }
-inline Vec3& operator+=(Vec3& a, Vec3 b) { return a = a + b; }
+constexpr Vec3 operator+(Vec3 a, Vec3 b) {
+  return {a.x + b.x, a.y + b.y, a.z + b.z};
+}
+constexpr Vec3 operator-(Vec3 a, Vec3 b) {
+  return {a.x - b.x, a.y - b.y, a.z - b.z};
+}
+constexpr Vec3 operator-(Vec3 a) {
+  return {-a.x, -a.y, -a.z};
+}
+constexpr Vec3 operator*(Vec3 a, float s) {
+  return {a.x * s, a.y * s, a.z * s};
+}
+constexpr Vec3 operator*(float s, Vec3 a) {
+  return a * s;
+}
+constexpr Vec3 operator/(Vec3 a, float s) {
+  return {a.x / s, a.y / s, a.z / s};
+}
+inline Vec3& operator+=(Vec3& a, Vec3 b) {
+  return a = a + b;
+}
 
-constexpr float dot(Vec3 a, Vec3 b) { return a.x * b.x + a.y * b.y + a.z * b.z; }
+constexpr float dot(Vec3 a, Vec3 b) {
+  return a.x * b.x + a.y * b.y + a.z * b.z;
+}
 constexpr Vec3 cross(Vec3 a, Vec3 b) {
   return {a.y * b.z - a.z * b.y, a.z * b.x - a.x * b.z, a.x * b.y - a.y * b.x};
 }
-inline float length(Vec3 a) { return std::sqrt(dot(a, a)); }
-inline float length2(Vec3 a) { return dot(a, a); }
+inline float length(Vec3 a) {
+  return std::sqrt(dot(a, a));
+}
+inline float length2(Vec3 a) {
+  return dot(a, a);
+}
 /// Unit vector along `a`; `a` unchanged when it has no direction (zero or NaN length).
 inline Vec3 normalize(Vec3 a) {
   float l = length(a);
@@ -61,8 +81,14 @@ struct Bounds3 {
   constexpr Bounds3(Vec3 lo_, Vec3 hi_) : lo(lo_), hi(hi_) {}
 
   bool empty() const { return !(lo.x <= hi.x && lo.y <= hi.y && lo.z <= hi.z); }
-  void extend(Vec3 p) { lo = vmin(lo, p); hi = vmax(hi, p); }
-  void extend(const Bounds3& b) { lo = vmin(lo, b.lo); hi = vmax(hi, b.hi); }
+  void extend(Vec3 p) {
+    lo = vmin(lo, p);
+    hi = vmax(hi, p);
+  }
+  void extend(const Bounds3& b) {
+    lo = vmin(lo, b.lo);
+    hi = vmax(hi, b.hi);
+  }
   Vec3 center() const { return (lo + hi) * 0.5f; }
   Vec3 diagonal() const { return hi - lo; }
   /// Half the surface area (the SAH only needs ratios); 0 for an empty box.

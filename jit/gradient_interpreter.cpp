@@ -34,39 +34,72 @@ Dual chain2(double v, const Dual& a, double ka, const Dual& b, double kb) {
   return r;
 }
 
-Dual flat(double v) { return Dual::constant(v); }
+Dual flat(double v) {
+  return Dual::constant(v);
+}
 
 }  // namespace
 
 Dual apply_dual(Op op, const Dual& a, const Dual& b, const Dual& c) {
   const double v = apply_op(op, a.v, b.v, c.v);
   switch (op) {
-    case Op::kAdd: return chain2(v, a, 1, b, 1);
-    case Op::kSub: return chain2(v, a, 1, b, -1);
-    case Op::kMul: return chain2(v, a, b.v, b, a.v);
-    case Op::kDiv: return chain2(v, a, 1 / b.v, b, -v / b.v);
-    case Op::kNeg: return chain(v, a, -1);
-    case Op::kAbs: return chain(v, a, a.v < 0 ? -1 : 1);
-    case Op::kMin: { Dual r = a.v < b.v ? a : b; r.v = v; return r; }
-    case Op::kMax: { Dual r = a.v > b.v ? a : b; r.v = v; return r; }
-    case Op::kSqrt: return chain(v, a, 0.5 / v);
-    case Op::kExp: return chain(v, a, v);
-    case Op::kLog: return chain(v, a, 1 / a.v);
-    case Op::kLog10: return chain(v, a, 1 / (a.v * std::log(10.0)));
-    case Op::kSin: return chain(v, a, std::cos(a.v));
-    case Op::kCos: return chain(v, a, -std::sin(a.v));
-    case Op::kTan: return chain(v, a, 1 + v * v);
-    case Op::kAsin: return chain(v, a, 1 / std::sqrt(1 - a.v * a.v));
-    case Op::kAcos: return chain(v, a, -1 / std::sqrt(1 - a.v * a.v));
-    case Op::kAtan: return chain(v, a, 1 / (1 + a.v * a.v));
+    case Op::kAdd:
+      return chain2(v, a, 1, b, 1);
+    case Op::kSub:
+      return chain2(v, a, 1, b, -1);
+    case Op::kMul:
+      return chain2(v, a, b.v, b, a.v);
+    case Op::kDiv:
+      return chain2(v, a, 1 / b.v, b, -v / b.v);
+    case Op::kNeg:
+      return chain(v, a, -1);
+    case Op::kAbs:
+      return chain(v, a, a.v < 0 ? -1 : 1);
+    case Op::kMin: {
+      Dual r = a.v < b.v ? a : b;
+      r.v = v;
+      return r;
+    }
+    case Op::kMax: {
+      Dual r = a.v > b.v ? a : b;
+      r.v = v;
+      return r;
+    }
+    case Op::kSqrt:
+      return chain(v, a, 0.5 / v);
+    case Op::kExp:
+      return chain(v, a, v);
+    case Op::kLog:
+      return chain(v, a, 1 / a.v);
+    case Op::kLog10:
+      return chain(v, a, 1 / (a.v * std::log(10.0)));
+    case Op::kSin:
+      return chain(v, a, std::cos(a.v));
+    case Op::kCos:
+      return chain(v, a, -std::sin(a.v));
+    case Op::kTan:
+      return chain(v, a, 1 + v * v);
+    case Op::kAsin:
+      return chain(v, a, 1 / std::sqrt(1 - a.v * a.v));
+    case Op::kAcos:
+      return chain(v, a, -1 / std::sqrt(1 - a.v * a.v));
+    case Op::kAtan:
+      return chain(v, a, 1 / (1 + a.v * a.v));
     case Op::kAtan2: {  // d atan2(y, x) = (x dy - y dx) / (x^2 + y^2)
       double r2 = a.v * a.v + b.v * b.v;
       return chain2(v, a, b.v / r2, b, -a.v / r2);
     }
-    case Op::kSinh: return chain(v, a, std::cosh(a.v));
-    case Op::kCosh: return chain(v, a, std::sinh(a.v));
-    case Op::kTanh: return chain(v, a, 1 - v * v);
-    case Op::kFloor: case Op::kCeil: case Op::kTrunc: case Op::kRound: case Op::kSign:
+    case Op::kSinh:
+      return chain(v, a, std::cosh(a.v));
+    case Op::kCosh:
+      return chain(v, a, std::sinh(a.v));
+    case Op::kTanh:
+      return chain(v, a, 1 - v * v);
+    case Op::kFloor:
+    case Op::kCeil:
+    case Op::kTrunc:
+    case Op::kRound:
+    case Op::kSign:
       return flat(v);
     case Op::kFmod: {  // fmod(a, b) = a - q b with q = trunc(a / b) integral
       double q = std::round((a.v - v) / b.v);
@@ -88,13 +121,39 @@ Dual apply_dual(Op op, const Dual& a, const Dual& b, const Dual& c) {
       }
       return chain2(v, a, v * b.v / a.v, b, v * std::log(a.v));
     }
-    case Op::kLt: case Op::kLe: case Op::kGt: case Op::kGe: case Op::kEqTol: case Op::kNeTol:
-    case Op::kEq: case Op::kNe: case Op::kTruth: case Op::kAnd: case Op::kOr: case Op::kNot:
+    case Op::kLt:
+    case Op::kLe:
+    case Op::kGt:
+    case Op::kGe:
+    case Op::kEqTol:
+    case Op::kNeTol:
+    case Op::kEq:
+    case Op::kNe:
+    case Op::kTruth:
+    case Op::kAnd:
+    case Op::kOr:
+    case Op::kNot:
       return flat(v);
-    case Op::kSelect: { Dual r = a.v != 0 ? b : c; r.v = v; return r; }
-    case Op::kConst: case Op::kInput: case Op::kParam: case Op::kLoadSlot: case Op::kStoreSlot:
-    case Op::kLoadIdx: case Op::kStoreIdx: case Op::kTableLoad: case Op::kCheck: case Op::kIf:
-    case Op::kElse: case Op::kEndIf: case Op::kLoop: case Op::kLoopTest: case Op::kEndLoop:
+    case Op::kSelect: {
+      Dual r = a.v != 0 ? b : c;
+      r.v = v;
+      return r;
+    }
+    case Op::kConst:
+    case Op::kInput:
+    case Op::kParam:
+    case Op::kLoadSlot:
+    case Op::kStoreSlot:
+    case Op::kLoadIdx:
+    case Op::kStoreIdx:
+    case Op::kTableLoad:
+    case Op::kCheck:
+    case Op::kIf:
+    case Op::kElse:
+    case Op::kEndIf:
+    case Op::kLoop:
+    case Op::kLoopTest:
+    case Op::kEndLoop:
     case Op::kSurface:  // needs Function::surfaces: surface_dual (surface_ops.h)
       break;
   }
@@ -110,8 +169,13 @@ GradientInterpreter::GradientInterpreter(const Function& fn, int64_t loop_limit)
   std::vector<size_t> stack, loops;
   for (size_t i = 0; i < fn.insts.size(); ++i) {
     switch (fn.insts[i].op) {
-      case Op::kIf: stack.push_back(i); break;
-      case Op::kLoop: stack.push_back(i); loops.push_back(i); break;
+      case Op::kIf:
+        stack.push_back(i);
+        break;
+      case Op::kLoop:
+        stack.push_back(i);
+        loops.push_back(i);
+        break;
       case Op::kElse:
       case Op::kLoopTest:
         HFRT_CHECK(!stack.empty());
@@ -130,7 +194,8 @@ GradientInterpreter::GradientInterpreter(const Function& fn, int64_t loop_limit)
         stack.pop_back();
         loops.pop_back();
         break;
-      default: break;
+      default:
+        break;
     }
   }
   HFRT_CHECK(stack.empty());
@@ -150,16 +215,24 @@ Dual GradientInterpreter::eval(std::span<const double> x, std::span<const double
   while (i < n) {
     const Inst& in = insts[i];
     switch (in.op) {
-      case Op::kConst: values_[i] = flat(in.imm); break;
+      case Op::kConst:
+        values_[i] = flat(in.imm);
+        break;
       case Op::kInput: {
         Dual r = flat(in.aux < static_cast<int>(x.size()) ? x[in.aux] : 0.0);
         if (in.aux < 3) r.d[in.aux] = 1;
         values_[i] = r;
         break;
       }
-      case Op::kParam: values_[i] = flat(in.aux < static_cast<int>(a.size()) ? a[in.aux] : 0.0); break;
-      case Op::kLoadSlot: values_[i] = slots_[in.aux]; break;
-      case Op::kStoreSlot: slots_[in.aux] = values_[in.args[0]]; break;
+      case Op::kParam:
+        values_[i] = flat(in.aux < static_cast<int>(a.size()) ? a[in.aux] : 0.0);
+        break;
+      case Op::kLoadSlot:
+        values_[i] = slots_[in.aux];
+        break;
+      case Op::kStoreSlot:
+        slots_[in.aux] = values_[in.args[0]];
+        break;
       case Op::kLoadIdx:
       case Op::kStoreIdx: {
         double idx = values_[in.args[0]].v;
@@ -168,8 +241,10 @@ Dual GradientInterpreter::eval(std::span<const double> x, std::span<const double
           break;
         }
         int k = in.aux + static_cast<int>(idx) - 1;
-        if (in.op == Op::kLoadIdx) values_[i] = slots_[k];
-        else slots_[k] = values_[in.args[1]];
+        if (in.op == Op::kLoadIdx)
+          values_[i] = slots_[k];
+        else
+          slots_[k] = values_[in.args[1]];
         break;
       }
       case Op::kTableLoad: {
@@ -183,8 +258,8 @@ Dual GradientInterpreter::eval(std::span<const double> x, std::span<const double
         break;
       }
       case Op::kSurface:
-        values_[i] = surface_dual(*fn_.surfaces[in.aux], values_[in.args[0]],
-                                  values_[in.args[1]], values_[in.args[2]]);
+        values_[i] = surface_dual(*fn_.surfaces[in.aux], values_[in.args[0]], values_[in.args[1]],
+                                  values_[in.args[2]]);
         break;
       case Op::kCheck:
         if (values_[in.args[0]].v != 0) error_ = true;
@@ -196,9 +271,14 @@ Dual GradientInterpreter::eval(std::span<const double> x, std::span<const double
           continue;
         }
         break;
-      case Op::kElse: i = static_cast<size_t>(match_[i]) + 1; continue;
-      case Op::kEndIf: break;
-      case Op::kLoop: trips.push_back(0); break;
+      case Op::kElse:
+        i = static_cast<size_t>(match_[i]) + 1;
+        continue;
+      case Op::kEndIf:
+        break;
+      case Op::kLoop:
+        trips.push_back(0);
+        break;
       case Op::kLoopTest:
         if (values_[in.args[0]].v == 0) {
           trips.pop_back();
@@ -207,7 +287,9 @@ Dual GradientInterpreter::eval(std::span<const double> x, std::span<const double
         }
         if (++trips.back() > loop_limit_) error_ = true;
         break;
-      case Op::kEndLoop: i = static_cast<size_t>(match_[i]) + 1; continue;
+      case Op::kEndLoop:
+        i = static_cast<size_t>(match_[i]) + 1;
+        continue;
       default: {
         const Dual zero{};
         const Dual& b = in.args[1] != kNoValue ? values_[in.args[1]] : zero;

@@ -23,8 +23,8 @@ struct RuntimeError {
 
 /// The outcome of evaluating one point.
 struct EvalResult {
-  double value = 0;           ///< F; NaN when `error` is set
-  std::vector<double> s;      ///< s[1..k] at the end of the evaluation (Function::s_slots)
+  double value = 0;                   ///< F; NaN when `error` is set
+  std::vector<double> s;              ///< s[1..k] at the end of the evaluation (Function::s_slots)
   std::optional<RuntimeError> error;  ///< the FIRST run-time error of the evaluation
 };
 

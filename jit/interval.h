@@ -102,7 +102,8 @@ class IntervalInterpreter {
 
   const Function& fn_;
   int loop_limit_;
-  std::vector<int32_t> match_;  ///< kIf -> kElse or kEndIf; kElse -> kEndIf; kLoop -> kLoopTest; kLoopTest -> kEndLoop
+  std::vector<int32_t> match_;  ///< kIf -> kElse or kEndIf; kElse -> kEndIf; kLoop -> kLoopTest;
+                                ///< kLoopTest -> kEndLoop
   std::vector<Interval> values_;
   std::vector<Interval> slots_;
   std::span<const Interval> x_;
@@ -125,8 +126,8 @@ class IntervalJit {
   struct Options {
     int lanes = 0;  ///< boxes per SIMD block (a power of two); 0 = the host's f64 width
     int loop_limit = kIntervalLoopLimit;
-    int opt_level = 1;   ///< LLVM pipeline O0..O3 (O1: large models compile much faster)
-    bool trace = true;   ///< emit the min/max/select trace (else `choices` stays untouched)
+    int opt_level = 1;  ///< LLVM pipeline O0..O3 (O1: large models compile much faster)
+    bool trace = true;  ///< emit the min/max/select trace (else `choices` stays untouched)
     /// Functions with more IR instructions than this call one shared helper per op kind
     /// instead of inlining every op: compile time stays small and linear (seconds, not
     /// minutes, for 10k-instruction models) for a modest loss of throughput. Same results.

@@ -12,8 +12,8 @@
 #include <limits>
 
 #include "jit/interval.h"
-#include "jit/surface_ops.h"
 #include "jit/scalar_ops.h"
+#include "jit/surface_ops.h"
 #include "lang/check.h"
 
 namespace hfrt::jit {
@@ -83,14 +83,18 @@ Interval widen_rel(Interval r, double rel) {
   return r;
 }
 
-bool contains_zero(const Interval& a) { return a.lo <= 0 && a.hi >= 0; }
+bool contains_zero(const Interval& a) {
+  return a.lo <= 0 && a.hi >= 0;
+}
 
 /// Tri-state truth: can the scalar value be nonzero (true) / zero (false) somewhere?
 struct Tri {
   bool can_true;
   bool can_false;
 };
-Interval from_tri(Tri t) { return {t.can_false ? 0.0 : 1.0, t.can_true ? 1.0 : 0.0, false}; }
+Interval from_tri(Tri t) {
+  return {t.can_false ? 0.0 : 1.0, t.can_true ? 1.0 : 0.0, false};
+}
 
 /// Over a condition value (0/1 normally): `arg != 0` decides. NaN != 0 is true.
 Tri nonzero(const Interval& c) {
@@ -110,7 +114,9 @@ Interval add(Interval a, Interval b) {
   return make(down(a.lo + b.lo), up(a.hi + b.hi), nan);
 }
 
-Interval neg(Interval a) { return {-a.hi, -a.lo, a.maybe_nan}; }
+Interval neg(Interval a) {
+  return {-a.hi, -a.lo, a.maybe_nan};
+}
 
 Interval mul(Interval a, Interval b) {
   bool nan = a.maybe_nan || b.maybe_nan ||
@@ -184,7 +190,10 @@ Interval sin_cos(Interval a, bool is_cos) {
   hi = up(hi, 2);
   for (double k = k0; k <= k1; k += 1) {
     bool even = std::fmod(k, 2.0) == 0;
-    if (even) hi = 1; else lo = -1;
+    if (even)
+      hi = 1;
+    else
+      lo = -1;
   }
   return {std::max(lo, -1.0), std::min(hi, 1.0), nan};
 }
@@ -239,8 +248,8 @@ Interval atan2_i(Interval y, Interval x) {
   // The branch cut (x <= 0, y = 0) gives +-pi on its two sides.
   if (contains_zero(y) && x.lo <= 0) return {down(-kPi), up(kPi), nan};
   bool dummy = false;
-  Interval r = corners(y, x, 0.0, 0.0, [](double u, double v) { return std::atan2(u, v); },
-                       &dummy);
+  Interval r = corners(
+      y, x, 0.0, 0.0, [](double u, double v) { return std::atan2(u, v); }, &dummy);
   r = widen(r, 2);
   r.lo = std::max(r.lo, down(-kPi));
   r.hi = std::min(r.hi, up(kPi));
@@ -249,8 +258,7 @@ Interval atan2_i(Interval y, Interval x) {
 }
 
 Interval fmod_i(Interval a, Interval b) {
-  bool nan = a.maybe_nan || b.maybe_nan || contains_zero(b) || std::isinf(a.lo) ||
-             std::isinf(a.hi);
+  bool nan = a.maybe_nan || b.maybe_nan || contains_zero(b) || std::isinf(a.lo) || std::isinf(a.hi);
   // Tight case: a fixed divisor and a dividend within one period on one side of zero.
   if (b.lo == b.hi && b.lo != 0 && std::isfinite(b.lo) && std::isfinite(a.lo) &&
       std::isfinite(a.hi) && (a.lo >= 0 || a.hi <= 0)) {
@@ -273,8 +281,9 @@ Interval pow_magnitude(double blo, double bhi, double tlo, double thi, double re
   bool dummy = false;
   blo += 0.0;  // -0 -> +0: pow(-0, odd negative) would be -inf
   bhi += 0.0;
-  Interval r = corners(Interval{blo, bhi, false}, Interval{tlo, thi, false}, 1.0, 0.0,
-                       [](double u, double v) { return std::pow(u, v); }, &dummy);
+  Interval r = corners(
+      Interval{blo, bhi, false}, Interval{tlo, thi, false}, 1.0, 0.0,
+      [](double u, double v) { return std::pow(u, v); }, &dummy);
   r = widen_rel(r, rel);
   r.lo = std::max(r.lo, 0.0);
   return r;
@@ -316,7 +325,7 @@ Interval pow_hf(Interval b, Interval e) {
   bool nan = b.maybe_nan || e.maybe_nan;
   Interval r{kInf, -kInf, false};
   auto join = [&](Interval v) { r = (r.lo > r.hi) ? v : hull(r, v); };
-  if (b.lo < kHfEps && b.hi > -kHfEps) join({0, 0});  // |b| < 1e-6 -> 0
+  if (b.lo < kHfEps && b.hi > -kHfEps) join({0, 0});                 // |b| < 1e-6 -> 0
   if (b.maybe_nan && e.lo < kHfEps && e.hi > -kHfEps) join({1, 1});  // NaN ^ 0 = 1
   bool has_pos = b.hi >= kHfEps, has_neg = b.lo <= -kHfEps;
   Interval pos{std::max(b.lo, kHfEps), b.hi, false};
@@ -408,50 +417,88 @@ Tri le(Interval a, Interval b) {
 Interval apply_interval(Op op, Interval a, Interval b, Interval c, bool same_args,
                         uint8_t* choice) {
   switch (op) {
-    case Op::kAdd: return add(a, b);
-    case Op::kSub: return add(a, neg(b));
-    case Op::kMul: return same_args ? square(a) : mul(a, b);
-    case Op::kDiv: return div(a, b);
-    case Op::kNeg: return neg(a);
-    case Op::kAbs: return abs_i(a);
-    case Op::kMin: return same_args ? a : min_max(a, b, true, choice);
-    case Op::kMax: return same_args ? a : min_max(a, b, false, choice);
+    case Op::kAdd:
+      return add(a, b);
+    case Op::kSub:
+      return add(a, neg(b));
+    case Op::kMul:
+      return same_args ? square(a) : mul(a, b);
+    case Op::kDiv:
+      return div(a, b);
+    case Op::kNeg:
+      return neg(a);
+    case Op::kAbs:
+      return abs_i(a);
+    case Op::kMin:
+      return same_args ? a : min_max(a, b, true, choice);
+    case Op::kMax:
+      return same_args ? a : min_max(a, b, false, choice);
     case Op::kSqrt: {
-      Interval r = monotone(a, [](double v) { return std::sqrt(v); }, 0, kInf, 1);
+      Interval r = monotone(
+          a, [](double v) { return std::sqrt(v); }, 0, kInf, 1);
       r.lo = std::max(r.lo, 0.0);
       return r;
     }
-    case Op::kExp: return monotone(a, [](double v) { return std::exp(v); }, -kInf, kInf, 2, 0);
-    case Op::kLog: return monotone(a, [](double v) { return std::log(v); }, 0, kInf, 2);
-    case Op::kLog10: return monotone(a, [](double v) { return std::log10(v); }, 0, kInf, 2);
-    case Op::kSin: return sin_cos(a, false);
-    case Op::kCos: return sin_cos(a, true);
-    case Op::kTan: return tan_i(a);
+    case Op::kExp:
+      return monotone(
+          a, [](double v) { return std::exp(v); }, -kInf, kInf, 2, 0);
+    case Op::kLog:
+      return monotone(
+          a, [](double v) { return std::log(v); }, 0, kInf, 2);
+    case Op::kLog10:
+      return monotone(
+          a, [](double v) { return std::log10(v); }, 0, kInf, 2);
+    case Op::kSin:
+      return sin_cos(a, false);
+    case Op::kCos:
+      return sin_cos(a, true);
+    case Op::kTan:
+      return tan_i(a);
     case Op::kAsin:
-      return monotone(a, [](double v) { return std::asin(v); }, -1, 1, 2);
+      return monotone(
+          a, [](double v) { return std::asin(v); }, -1, 1, 2);
     case Op::kAcos: {  // decreasing on [-1, 1]
       bool nan = a.maybe_nan || a.lo < -1 || a.hi > 1;
       double lo = std::clamp(a.lo, -1.0, 1.0), hi = std::clamp(a.hi, -1.0, 1.0);
       return {std::max(0.0, down(std::acos(hi), 2)), up(std::acos(lo), 2), nan};
     }
-    case Op::kAtan: return monotone(a, [](double v) { return std::atan(v); }, -kInf, kInf, 2);
-    case Op::kAtan2: return atan2_i(a, b);
-    case Op::kSinh: return monotone(a, [](double v) { return std::sinh(v); }, -kInf, kInf, 2);
-    case Op::kCosh: return cosh_i(a);
+    case Op::kAtan:
+      return monotone(
+          a, [](double v) { return std::atan(v); }, -kInf, kInf, 2);
+    case Op::kAtan2:
+      return atan2_i(a, b);
+    case Op::kSinh:
+      return monotone(
+          a, [](double v) { return std::sinh(v); }, -kInf, kInf, 2);
+    case Op::kCosh:
+      return cosh_i(a);
     case Op::kTanh:
-      return monotone(a, [](double v) { return std::tanh(v); }, -kInf, kInf, 2, -1, 1);
-    case Op::kFloor: return {std::floor(a.lo), std::floor(a.hi), a.maybe_nan};
-    case Op::kCeil: return {std::ceil(a.lo), std::ceil(a.hi), a.maybe_nan};
-    case Op::kTrunc: return {std::trunc(a.lo), std::trunc(a.hi), a.maybe_nan};
-    case Op::kRound: return {std::round(a.lo), std::round(a.hi), a.maybe_nan};
-    case Op::kFmod: return fmod_i(a, b);
-    case Op::kPow: return pow_c(a, b);
-    case Op::kPowHF: return pow_hf(a, b);
-    case Op::kSign: return sign_i(a);
-    case Op::kLt: return from_tri(lt(a, b));
-    case Op::kLe: return from_tri(le(a, b));
-    case Op::kGt: return from_tri(lt(b, a));
-    case Op::kGe: return from_tri(le(b, a));
+      return monotone(
+          a, [](double v) { return std::tanh(v); }, -kInf, kInf, 2, -1, 1);
+    case Op::kFloor:
+      return {std::floor(a.lo), std::floor(a.hi), a.maybe_nan};
+    case Op::kCeil:
+      return {std::ceil(a.lo), std::ceil(a.hi), a.maybe_nan};
+    case Op::kTrunc:
+      return {std::trunc(a.lo), std::trunc(a.hi), a.maybe_nan};
+    case Op::kRound:
+      return {std::round(a.lo), std::round(a.hi), a.maybe_nan};
+    case Op::kFmod:
+      return fmod_i(a, b);
+    case Op::kPow:
+      return pow_c(a, b);
+    case Op::kPowHF:
+      return pow_hf(a, b);
+    case Op::kSign:
+      return sign_i(a);
+    case Op::kLt:
+      return from_tri(lt(a, b));
+    case Op::kLe:
+      return from_tri(le(a, b));
+    case Op::kGt:
+      return from_tri(lt(b, a));
+    case Op::kGe:
+      return from_tri(le(b, a));
     case Op::kEqTol:
     case Op::kNeTol: {
       // |a - b| < 1e-6 (NaN: false) / |a - b| >= 1e-6 (NaN: false too).
@@ -467,7 +514,8 @@ Interval apply_interval(Op op, Interval a, Interval b, Interval c, bool same_arg
       if (op == Op::kNe) std::swap(t.can_true, t.can_false);
       return from_tri(t);
     }
-    case Op::kTruth: return from_tri(truth(a));
+    case Op::kTruth:
+      return from_tri(truth(a));
     case Op::kAnd: {
       Tri ta = truth(a), tb = truth(b);
       return from_tri({ta.can_true && tb.can_true, ta.can_false || tb.can_false});
@@ -487,9 +535,21 @@ Interval apply_interval(Op op, Interval a, Interval b, Interval c, bool same_arg
       if (!t.can_true) return c;
       return hull(b, c);
     }
-    case Op::kConst: case Op::kInput: case Op::kParam: case Op::kLoadSlot: case Op::kStoreSlot:
-    case Op::kLoadIdx: case Op::kStoreIdx: case Op::kTableLoad: case Op::kCheck: case Op::kIf:
-    case Op::kElse: case Op::kEndIf: case Op::kLoop: case Op::kLoopTest: case Op::kEndLoop:
+    case Op::kConst:
+    case Op::kInput:
+    case Op::kParam:
+    case Op::kLoadSlot:
+    case Op::kStoreSlot:
+    case Op::kLoadIdx:
+    case Op::kStoreIdx:
+    case Op::kTableLoad:
+    case Op::kCheck:
+    case Op::kIf:
+    case Op::kElse:
+    case Op::kEndIf:
+    case Op::kLoop:
+    case Op::kLoopTest:
+    case Op::kEndLoop:
     case Op::kSurface:  // needs Function::surfaces: surface_interval (surface_ops.h)
       break;
   }
@@ -507,7 +567,9 @@ IntervalInterpreter::IntervalInterpreter(const Function& fn, int loop_limit)
   for (size_t i = 0; i < fn.insts.size(); ++i) {
     switch (fn.insts[i].op) {
       case Op::kIf:
-      case Op::kLoop: stack.push_back(i); break;
+      case Op::kLoop:
+        stack.push_back(i);
+        break;
       case Op::kElse:
         HFRT_CHECK(!stack.empty());
         match_[stack.back()] = static_cast<int32_t>(i);
@@ -524,7 +586,8 @@ IntervalInterpreter::IntervalInterpreter(const Function& fn, int loop_limit)
         match_[stack.back()] = static_cast<int32_t>(i);
         stack.pop_back();
         break;
-      default: break;
+      default:
+        break;
     }
   }
   HFRT_CHECK(stack.empty());
@@ -563,22 +626,29 @@ void IntervalInterpreter::run(size_t begin, size_t end) {
     const Inst& in = insts[i];
     auto arg = [&](int k) -> const Interval& { return values_[in.args[k]]; };
     switch (in.op) {
-      case Op::kConst: values_[i] = Interval::point(in.imm); break;
+      case Op::kConst:
+        values_[i] = Interval::point(in.imm);
+        break;
       case Op::kInput:
         values_[i] = in.aux < static_cast<int>(x_.size()) ? x_[in.aux] : Interval::point(0);
         break;
       case Op::kParam:
         values_[i] = Interval::point(in.aux < static_cast<int>(a_.size()) ? a_[in.aux] : 0.0);
         break;
-      case Op::kLoadSlot: values_[i] = slots_[in.aux]; break;
-      case Op::kStoreSlot: slots_[in.aux] = arg(0); break;
+      case Op::kLoadSlot:
+        values_[i] = slots_[in.aux];
+        break;
+      case Op::kStoreSlot:
+        slots_[in.aux] = arg(0);
+        break;
       case Op::kLoadIdx:
       case Op::kStoreIdx: {
         // The index is integral and range-checked by an earlier kCheck where it matters:
         // out-of-range points are NaN anyway, so the range is clipped.
         const Interval& idx = arg(0);
         int size = static_cast<int>(in.imm);
-        double klo = std::max(1.0, std::ceil(idx.lo)), khi = std::min<double>(size, std::floor(idx.hi));
+        double klo = std::max(1.0, std::ceil(idx.lo)),
+               khi = std::min<double>(size, std::floor(idx.hi));
         if (idx.maybe_nan) error_possible_ = true;
         if (klo > khi) {  // no valid index: every point of the box fails
           error_possible_ = true;
@@ -689,7 +759,8 @@ void IntervalInterpreter::run_loop(size_t at) {
         const Inst& in = fn_.insts[k];
         if (in.op == Op::kStoreSlot) slots_[in.aux] = Interval::entire();
         if (in.op == Op::kStoreIdx) {
-          for (int s = 0; s < static_cast<int>(in.imm); ++s) slots_[in.aux + s] = Interval::entire();
+          for (int s = 0; s < static_cast<int>(in.imm); ++s)
+            slots_[in.aux + s] = Interval::entire();
         }
       }
       break;

@@ -26,9 +26,9 @@ constexpr std::array<OpInfo, kOpCount> kOpInfo = {{
 
 constexpr std::array<std::string_view, 0
 #define HFRT_X(name, msg) +1
-                                           HFRT_IR_ERRORS(HFRT_X)
+                     HFRT_IR_ERRORS(HFRT_X)
 #undef HFRT_X
-                                       >
+                     >
     kErrorMessages = {{
 #define HFRT_X(name, msg) msg,
         HFRT_IR_ERRORS(HFRT_X)
@@ -70,9 +70,15 @@ std::string format_double(double v) {
 
 }  // namespace
 
-std::string_view op_name(Op op) { return snake_names()[static_cast<int>(op)]; }
-int op_num_args(Op op) { return kOpInfo[static_cast<int>(op)].num_args; }
-unsigned op_flags_of(Op op) { return kOpInfo[static_cast<int>(op)].flags; }
+std::string_view op_name(Op op) {
+  return snake_names()[static_cast<int>(op)];
+}
+int op_num_args(Op op) {
+  return kOpInfo[static_cast<int>(op)].num_args;
+}
+unsigned op_flags_of(Op op) {
+  return kOpInfo[static_cast<int>(op)].flags;
+}
 
 std::string_view error_message(ErrorKind kind) {
   size_t i = static_cast<size_t>(kind);
@@ -84,7 +90,9 @@ std::string_view error_kind_name(ErrorKind kind) {
   return i < kErrorNames.size() ? kErrorNames[i] : std::string_view("Unknown");
 }
 
-int error_kind_count() { return static_cast<int>(kErrorMessages.size()); }
+int error_kind_count() {
+  return static_cast<int>(kErrorMessages.size());
+}
 
 std::string verify(const Function& fn) {
   std::ostringstream err;
@@ -95,7 +103,8 @@ std::string verify(const Function& fn) {
     return err.str();
   };
 
-  if (fn.num_slots < 0 || fn.num_inputs < 0 || fn.num_params < 0) return "negative size in function header";
+  if (fn.num_slots < 0 || fn.num_inputs < 0 || fn.num_params < 0)
+    return "negative size in function header";
   if (fn.slot_init.size() != static_cast<size_t>(fn.num_slots)) {
     return "slot_init has " + std::to_string(fn.slot_init.size()) + " entries for " +
            std::to_string(fn.num_slots) + " slots";
@@ -108,7 +117,7 @@ std::string verify(const Function& fn) {
   // while the region that defined it is still open (it then encloses the use).
   struct Open {
     int region;
-    Op kind;             // kIf (then-part), kElse, kLoop
+    Op kind;  // kIf (then-part), kElse, kLoop
     bool seen_test = false;
   };
   std::vector<Open> stack = {{0, Op::kLoop, true}};
@@ -132,7 +141,8 @@ std::string verify(const Function& fn) {
         return fail(i, "argument %" + std::to_string(a) + " is not a value");
       }
       if (!region_open[region_of[a]]) {
-        return fail(i, "argument %" + std::to_string(a) + " is used outside the region that defines it");
+        return fail(
+            i, "argument %" + std::to_string(a) + " is used outside the region that defines it");
       }
     }
     region_of[i] = stack.back().region;
@@ -160,7 +170,8 @@ std::string verify(const Function& fn) {
         break;
       }
       case Op::kTableLoad:
-        if (in.aux < 0 || in.aux >= static_cast<int32_t>(fn.tables.size()) || fn.tables[in.aux].empty()) {
+        if (in.aux < 0 || in.aux >= static_cast<int32_t>(fn.tables.size()) ||
+            fn.tables[in.aux].empty()) {
           return fail(i, "table " + std::to_string(in.aux) + " does not exist");
         }
         break;
@@ -211,7 +222,8 @@ std::string verify(const Function& fn) {
         stack.back().seen_test = true;
         break;
       case Op::kEndLoop:
-        if (stack.size() < 2 || stack.back().kind != Op::kLoop) return fail(i, "endloop without loop");
+        if (stack.size() < 2 || stack.back().kind != Op::kLoop)
+          return fail(i, "endloop without loop");
         if (!stack.back().seen_test) return fail(i, "loop without loop_test");
         region_open[stack.back().region] = false;
         stack.pop_back();
@@ -224,10 +236,12 @@ std::string verify(const Function& fn) {
   }
   if (stack.size() != 1) return "unterminated if or loop at the end of the function";
   if (fn.result == kNoValue) return "no result";
-  if (fn.result >= fn.insts.size()) return "result %" + std::to_string(fn.result) + " does not exist";
+  if (fn.result >= fn.insts.size())
+    return "result %" + std::to_string(fn.result) + " does not exist";
   if (!op_has_value(fn.insts[fn.result].op)) return "result is not a value";
   if (region_of[fn.result] != 0) return "result is not defined at the outermost level";
-  if (fn.has_control_flow != control_flow) return "has_control_flow does not match the instructions";
+  if (fn.has_control_flow != control_flow)
+    return "has_control_flow does not match the instructions";
   return {};
 }
 
@@ -256,24 +270,40 @@ std::string print(const Function& fn) {
   int depth = 1;
   for (size_t i = 0; i < fn.insts.size(); ++i) {
     const Inst& in = fn.insts[i];
-    if (in.op == Op::kElse || in.op == Op::kEndIf || in.op == Op::kEndLoop) depth = std::max(1, depth - 1);
+    if (in.op == Op::kElse || in.op == Op::kEndIf || in.op == Op::kEndLoop)
+      depth = std::max(1, depth - 1);
     std::string line(static_cast<size_t>(depth) * 2, ' ');
     if (op_has_value(in.op)) line += "%" + std::to_string(i) + " = ";
     line += op_name(in.op);
-    auto arg = [&](int k) { return "%" + (in.args[k] == kNoValue ? std::string("?") : std::to_string(in.args[k])); };
+    auto arg = [&](int k) {
+      return "%" + (in.args[k] == kNoValue ? std::string("?") : std::to_string(in.args[k]));
+    };
     switch (in.op) {
-      case Op::kConst: line += " " + format_double(in.imm); break;
-      case Op::kInput: line += " x[" + std::to_string(in.aux + 1) + "]"; break;
-      case Op::kParam: line += " a[" + std::to_string(in.aux + 1) + "]"; break;
-      case Op::kLoadSlot: line += " $" + std::to_string(in.aux); break;
-      case Op::kStoreSlot: line += " $" + std::to_string(in.aux) + ", " + arg(0); break;
+      case Op::kConst:
+        line += " " + format_double(in.imm);
+        break;
+      case Op::kInput:
+        line += " x[" + std::to_string(in.aux + 1) + "]";
+        break;
+      case Op::kParam:
+        line += " a[" + std::to_string(in.aux + 1) + "]";
+        break;
+      case Op::kLoadSlot:
+        line += " $" + std::to_string(in.aux);
+        break;
+      case Op::kStoreSlot:
+        line += " $" + std::to_string(in.aux) + ", " + arg(0);
+        break;
       case Op::kLoadIdx:
         line += " $" + std::to_string(in.aux) + "[" + format_double(in.imm) + "], " + arg(0);
         break;
       case Op::kStoreIdx:
-        line += " $" + std::to_string(in.aux) + "[" + format_double(in.imm) + "], " + arg(0) + ", " + arg(1);
+        line += " $" + std::to_string(in.aux) + "[" + format_double(in.imm) + "], " + arg(0) +
+                ", " + arg(1);
         break;
-      case Op::kTableLoad: line += " T" + std::to_string(in.aux) + ", " + arg(0); break;
+      case Op::kTableLoad:
+        line += " T" + std::to_string(in.aux) + ", " + arg(0);
+        break;
       case Op::kSurface:
         line += " S" + std::to_string(in.aux) + ", " + arg(0) + ", " + arg(1) + ", " + arg(2);
         break;
@@ -291,7 +321,8 @@ std::string print(const Function& fn) {
     out << line << "\n";
     if (in.op == Op::kIf || in.op == Op::kElse || in.op == Op::kLoop) ++depth;
   }
-  out << "  return %" << (fn.result == kNoValue ? std::string("?") : std::to_string(fn.result)) << "\n";
+  out << "  return %" << (fn.result == kNoValue ? std::string("?") : std::to_string(fn.result))
+      << "\n";
   return out.str();
 }
 

@@ -45,8 +45,12 @@ enum class ErrorKind : uint8_t {
 std::string_view op_name(Op op);
 int op_num_args(Op op);
 unsigned op_flags_of(Op op);
-inline bool op_is_pure(Op op) { return op_flags_of(op) & op_flags::kPure; }
-inline bool op_has_value(Op op) { return op_flags_of(op) & op_flags::kValue; }
+inline bool op_is_pure(Op op) {
+  return op_flags_of(op) & op_flags::kPure;
+}
+inline bool op_has_value(Op op) {
+  return op_flags_of(op) & op_flags::kValue;
+}
 std::string_view error_message(ErrorKind kind);
 /// The enum spelling without the k, e.g. "DivisionByZero" (printer, tests, tools).
 std::string_view error_kind_name(ErrorKind kind);
@@ -60,8 +64,8 @@ inline constexpr ValueId kNoValue = UINT32_MAX;
 struct Inst {
   Op op = Op::kConst;
   ValueId args[3] = {kNoValue, kNoValue, kNoValue};
-  double imm = 0;    ///< kConst value; kLoadIdx/kStoreIdx array size
-  int32_t aux = 0;   ///< slot, input/param index, table id, or ErrorKind
+  double imm = 0;       ///< kConst value; kLoadIdx/kStoreIdx array size
+  int32_t aux = 0;      ///< slot, input/param index, table id, or ErrorKind
   lang::SourceLoc loc;  ///< where in the source this came from (for run-time errors)
 };
 
@@ -72,9 +76,10 @@ struct Function {
   int num_inputs = 3;  ///< x size of the object's header
   int num_params = 1;  ///< a size
   int num_slots = 0;   ///< mutable scalar slots (locals, array elements, x copy, ...)
-  std::vector<double> slot_init;  ///< initial value of each slot at every evaluation (NaN = undefined)
-  ValueId result = kNoValue;      ///< F: a value defined at the outermost level
-  std::vector<int32_t> s_slots;   ///< slots holding s[1..k] at the end of the evaluation
+  std::vector<double>
+      slot_init;              ///< initial value of each slot at every evaluation (NaN = undefined)
+  ValueId result = kNoValue;  ///< F: a value defined at the outermost level
+  std::vector<int32_t> s_slots;             ///< slots holding s[1..k] at the end of the evaluation
   std::vector<std::vector<double>> tables;  ///< constant tables for kTableLoad
   /// The mesh and patch surfaces of kSurface (aux indexes this list). Shared (one loaded file
   /// serves every leaf and every model that uses it) and immutable; compiled code holds raw

@@ -35,7 +35,10 @@ struct Key {
 struct KeyHash {
   size_t operator()(const Key& k) const {
     uint64_t h = static_cast<uint64_t>(k.op) * 0x9E3779B97F4A7C15ull;
-    auto mix = [&](uint64_t v) { h = (h ^ v) * 0xBF58476D1CE4E5B9ull; h ^= h >> 31; };
+    auto mix = [&](uint64_t v) {
+      h = (h ^ v) * 0xBF58476D1CE4E5B9ull;
+      h ^= h >> 31;
+    };
     mix(k.args[0]);
     mix(k.args[1]);
     mix(k.args[2]);
@@ -55,7 +58,7 @@ enum class FrameKind { kThen, kElse, kLoop };
 
 struct Frame {
   FrameKind kind;
-  size_t cse_mark;                               // cse_log size when the region opened
+  size_t cse_mark;                                // cse_log size when the region opened
   std::unordered_map<int, ValueId> known_before;  // forwarding state at the region's entry
   std::unordered_set<int> stored;                 // slots stored in this region (nested included)
   std::unordered_set<int> stored_then;            // if with else: what the then-part stored
@@ -82,8 +85,8 @@ IrBuilder::IrBuilder(Function& fn) : fn_(fn), impl_(std::make_shared<Impl>()) {
 
 namespace {
 
-ValueId append(Function& fn, lang::SourceLoc loc, Op op, ValueId a0 = kNoValue, ValueId a1 = kNoValue,
-               ValueId a2 = kNoValue, double imm = 0, int32_t aux = 0) {
+ValueId append(Function& fn, lang::SourceLoc loc, Op op, ValueId a0 = kNoValue,
+               ValueId a1 = kNoValue, ValueId a2 = kNoValue, double imm = 0, int32_t aux = 0) {
   const ValueId args[3] = {a0, a1, a2};
   for (int k = 0; k < op_num_args(op); ++k) {
     HFRT_CHECK_MSG(args[k] < fn.insts.size() && op_has_value(fn.insts[args[k]].op),
@@ -106,8 +109,8 @@ ValueId append(Function& fn, lang::SourceLoc loc, Op op, ValueId a0 = kNoValue, 
 namespace {
 
 // Appends a pure op unless an identical one is visible from here.
-ValueId emit_pure(Function& fn, BuilderState& impl, lang::SourceLoc loc, Op op, ValueId a0, ValueId a1,
-                  ValueId a2, double imm, int32_t aux) {
+ValueId emit_pure(Function& fn, BuilderState& impl, lang::SourceLoc loc, Op op, ValueId a0,
+                  ValueId a1, ValueId a2, double imm, int32_t aux) {
   Key key{op, {a0, a1, a2}, bits_of(imm), aux};
   auto it = impl.cse.find(key);
   if (it != impl.cse.end()) return it->second;
@@ -146,8 +149,18 @@ ValueId IrBuilder::unary(Op op, ValueId a) {
   // Truth/Not/And/Or results are already 0/1: their truth value is themselves.
   if (op == Op::kTruth) {
     switch (fn_.insts[a].op) {
-      case Op::kLt: case Op::kLe: case Op::kGt: case Op::kGe: case Op::kEqTol: case Op::kNeTol:
-      case Op::kEq: case Op::kNe: case Op::kTruth: case Op::kAnd: case Op::kOr: case Op::kNot:
+      case Op::kLt:
+      case Op::kLe:
+      case Op::kGt:
+      case Op::kGe:
+      case Op::kEqTol:
+      case Op::kNeTol:
+      case Op::kEq:
+      case Op::kNe:
+      case Op::kTruth:
+      case Op::kAnd:
+      case Op::kOr:
+      case Op::kNot:
         return a;
       default:
         break;
@@ -175,7 +188,8 @@ ValueId IrBuilder::table_load(int table, ValueId index0) {
   HFRT_CHECK(table >= 0 && table < static_cast<int>(fn_.tables.size()));
   double ci;
   const auto& t = fn_.tables[table];
-  if (is_const(fn_, index0, &ci) && ci >= 0 && ci < static_cast<double>(t.size()) && ci == std::floor(ci)) {
+  if (is_const(fn_, index0, &ci) && ci >= 0 && ci < static_cast<double>(t.size()) &&
+      ci == std::floor(ci)) {
     return constant(t[static_cast<size_t>(ci)]);
   }
   return emit_pure(fn_, *impl_, loc_, Op::kTableLoad, index0, kNoValue, kNoValue, 0, table);
@@ -218,7 +232,8 @@ ValueId IrBuilder::load(int slot) {
   if (it != impl_->known.end()) return it->second;
   // Never stored so far and no loop back edge can bring a store here: the initial value.
   const double init = fn_.slot_init[slot];
-  if (!impl_->ever_stored[slot] && impl_->open_loops == 0 && !std::isnan(init)) return constant(init);
+  if (!impl_->ever_stored[slot] && impl_->open_loops == 0 && !std::isnan(init))
+    return constant(init);
   ValueId v = append(fn_, loc_, Op::kLoadSlot, kNoValue, kNoValue, kNoValue, 0, slot);
   // Later loads in the same straight-line code see the same value.
   impl_->known[slot] = v;
@@ -371,7 +386,8 @@ void eliminate_dead_code(Function& fn) {
     for (size_t i = n; i-- > 0;) {
       const Inst& in = fn.insts[i];
       if (!live[i]) {
-        bool root = i == fn.result || in.op == Op::kCheck || (op_flags_of(in.op) & op_flags::kCtl) ||
+        bool root = i == fn.result || in.op == Op::kCheck ||
+                    (op_flags_of(in.op) & op_flags::kCtl) ||
                     ((in.op == Op::kStoreSlot || in.op == Op::kStoreIdx) && store_live(in));
         if (!root) continue;
         live[i] = true;

@@ -50,77 +50,77 @@
 // defined inside a region is used only inside it (values cross regions through slots); each
 // kLoop has exactly one kLoopTest at its own nesting level.
 
-#define HFRT_IR_OPS(X)              \
-  X(Const, 0, kPure | kValue)       \
-  X(Input, 0, kPure | kValue)       \
-  X(Param, 0, kPure | kValue)       \
-  X(LoadSlot, 0, kValue)            \
-  X(StoreSlot, 1, 0)                \
-  X(LoadIdx, 1, kValue)             \
-  X(StoreIdx, 2, 0)                 \
-  X(TableLoad, 1, kPure | kValue)   \
-  X(Add, 2, kPure | kValue)         \
-  X(Sub, 2, kPure | kValue)         \
-  X(Mul, 2, kPure | kValue)         \
-  X(Div, 2, kPure | kValue)         \
-  X(Neg, 1, kPure | kValue)         \
-  X(Abs, 1, kPure | kValue)         \
-  X(Min, 2, kPure | kValue)         \
-  X(Max, 2, kPure | kValue)         \
-  X(Sqrt, 1, kPure | kValue)        \
-  X(Exp, 1, kPure | kValue)         \
-  X(Log, 1, kPure | kValue)         \
-  X(Log10, 1, kPure | kValue)       \
-  X(Sin, 1, kPure | kValue)         \
-  X(Cos, 1, kPure | kValue)         \
-  X(Tan, 1, kPure | kValue)         \
-  X(Asin, 1, kPure | kValue)        \
-  X(Acos, 1, kPure | kValue)        \
-  X(Atan, 1, kPure | kValue)        \
-  X(Atan2, 2, kPure | kValue)       \
-  X(Sinh, 1, kPure | kValue)        \
-  X(Cosh, 1, kPure | kValue)        \
-  X(Tanh, 1, kPure | kValue)        \
-  X(Floor, 1, kPure | kValue)       \
-  X(Ceil, 1, kPure | kValue)        \
-  X(Trunc, 1, kPure | kValue)       \
-  X(Round, 1, kPure | kValue)       \
-  X(Fmod, 2, kPure | kValue)        \
-  X(Pow, 2, kPure | kValue)         \
-  X(PowHF, 2, kPure | kValue)       \
-  X(Sign, 1, kPure | kValue)        \
-  X(Lt, 2, kPure | kValue)          \
-  X(Le, 2, kPure | kValue)          \
-  X(Gt, 2, kPure | kValue)          \
-  X(Ge, 2, kPure | kValue)          \
-  X(EqTol, 2, kPure | kValue)       \
-  X(NeTol, 2, kPure | kValue)       \
-  X(Eq, 2, kPure | kValue)          \
-  X(Ne, 2, kPure | kValue)          \
-  X(Truth, 1, kPure | kValue)       \
-  X(And, 2, kPure | kValue)         \
-  X(Or, 2, kPure | kValue)          \
-  X(Not, 1, kPure | kValue)         \
-  X(Select, 3, kPure | kValue)      \
-  X(Surface, 3, kPure | kValue)     \
-  X(Check, 1, 0)                    \
-  X(If, 1, kCtl)                    \
-  X(Else, 0, kCtl)                  \
-  X(EndIf, 0, kCtl)                 \
-  X(Loop, 0, kCtl)                  \
-  X(LoopTest, 1, kCtl)              \
+#define HFRT_IR_OPS(X)            \
+  X(Const, 0, kPure | kValue)     \
+  X(Input, 0, kPure | kValue)     \
+  X(Param, 0, kPure | kValue)     \
+  X(LoadSlot, 0, kValue)          \
+  X(StoreSlot, 1, 0)              \
+  X(LoadIdx, 1, kValue)           \
+  X(StoreIdx, 2, 0)               \
+  X(TableLoad, 1, kPure | kValue) \
+  X(Add, 2, kPure | kValue)       \
+  X(Sub, 2, kPure | kValue)       \
+  X(Mul, 2, kPure | kValue)       \
+  X(Div, 2, kPure | kValue)       \
+  X(Neg, 1, kPure | kValue)       \
+  X(Abs, 1, kPure | kValue)       \
+  X(Min, 2, kPure | kValue)       \
+  X(Max, 2, kPure | kValue)       \
+  X(Sqrt, 1, kPure | kValue)      \
+  X(Exp, 1, kPure | kValue)       \
+  X(Log, 1, kPure | kValue)       \
+  X(Log10, 1, kPure | kValue)     \
+  X(Sin, 1, kPure | kValue)       \
+  X(Cos, 1, kPure | kValue)       \
+  X(Tan, 1, kPure | kValue)       \
+  X(Asin, 1, kPure | kValue)      \
+  X(Acos, 1, kPure | kValue)      \
+  X(Atan, 1, kPure | kValue)      \
+  X(Atan2, 2, kPure | kValue)     \
+  X(Sinh, 1, kPure | kValue)      \
+  X(Cosh, 1, kPure | kValue)      \
+  X(Tanh, 1, kPure | kValue)      \
+  X(Floor, 1, kPure | kValue)     \
+  X(Ceil, 1, kPure | kValue)      \
+  X(Trunc, 1, kPure | kValue)     \
+  X(Round, 1, kPure | kValue)     \
+  X(Fmod, 2, kPure | kValue)      \
+  X(Pow, 2, kPure | kValue)       \
+  X(PowHF, 2, kPure | kValue)     \
+  X(Sign, 1, kPure | kValue)      \
+  X(Lt, 2, kPure | kValue)        \
+  X(Le, 2, kPure | kValue)        \
+  X(Gt, 2, kPure | kValue)        \
+  X(Ge, 2, kPure | kValue)        \
+  X(EqTol, 2, kPure | kValue)     \
+  X(NeTol, 2, kPure | kValue)     \
+  X(Eq, 2, kPure | kValue)        \
+  X(Ne, 2, kPure | kValue)        \
+  X(Truth, 1, kPure | kValue)     \
+  X(And, 2, kPure | kValue)       \
+  X(Or, 2, kPure | kValue)        \
+  X(Not, 1, kPure | kValue)       \
+  X(Select, 3, kPure | kValue)    \
+  X(Surface, 3, kPure | kValue)   \
+  X(Check, 1, 0)                  \
+  X(If, 1, kCtl)                  \
+  X(Else, 0, kCtl)                \
+  X(EndIf, 0, kCtl)               \
+  X(Loop, 0, kCtl)                \
+  X(LoopTest, 1, kCtl)            \
   X(EndLoop, 0, kCtl)
 
 // X(Name, message) — the run-time errors of the spec, with the original's messages.
-#define HFRT_IR_ERRORS(X)                                   \
-  X(DivisionByZero, "Division by zero")                     \
-  X(NegativeSqrt, "Square root of negative value")          \
-  X(LogNonPositive, "Logarithm of non-positive value")      \
-  X(AsinRange, "Arcsine argument out of [-1, 1]")           \
-  X(AcosRange, "Arccosine argument out of [-1, 1]")         \
-  X(NegativePower, "Negative value for power")              \
-  X(ZeroPower, "Zero to a non-positive power")              \
-  X(IndexOutOfRange, "Array index out of range")            \
-  X(Uninitialized, "Not initialized variable")              \
+#define HFRT_IR_ERRORS(X)                                     \
+  X(DivisionByZero, "Division by zero")                       \
+  X(NegativeSqrt, "Square root of negative value")            \
+  X(LogNonPositive, "Logarithm of non-positive value")        \
+  X(AsinRange, "Arcsine argument out of [-1, 1]")             \
+  X(AcosRange, "Arccosine argument out of [-1, 1]")           \
+  X(NegativePower, "Negative value for power")                \
+  X(ZeroPower, "Zero to a non-positive power")                \
+  X(IndexOutOfRange, "Array index out of range")              \
+  X(Uninitialized, "Not initialized variable")                \
   X(ArrayUninitialized, "Some items of array are unassigned") \
   X(LoopLimit, "Loop iteration limit exceeded")

@@ -16,7 +16,9 @@ std::vector<int32_t> match_regions(const Function& fn) {
   for (size_t i = 0; i < fn.insts.size(); ++i) {
     switch (fn.insts[i].op) {
       case Op::kIf:
-      case Op::kLoop: stack.push_back(i); break;
+      case Op::kLoop:
+        stack.push_back(i);
+        break;
       case Op::kElse:
       case Op::kLoopTest:
         HFRT_CHECK(!stack.empty());
@@ -29,7 +31,8 @@ std::vector<int32_t> match_regions(const Function& fn) {
         match[stack.back()] = static_cast<int32_t>(i);
         stack.pop_back();
         break;
-      default: break;
+      default:
+        break;
     }
   }
   HFRT_CHECK(stack.empty());
@@ -143,7 +146,8 @@ void VectorEmitter::cut_block(llvm::Value* positive) {
     eb.CreateRetVoid();
   }
   llvm::BasicBlock* next = new_block("ops");
-  llvm::Value* never = b_.CreateICmpEQ(positive, llvm::ConstantInt::get(positive->getType(), -++cuts_));
+  llvm::Value* never =
+      b_.CreateICmpEQ(positive, llvm::ConstantInt::get(positive->getType(), -++cuts_));
   b_.CreateCondBr(never, escape_, next);
   b_.SetInsertPoint(next);
 }
@@ -191,13 +195,13 @@ llvm::FunctionCallee VectorEmitter::surface_helper(const char* name) {
   return callee;
 }
 
-llvm::Value* VectorEmitter::surface_lanes(int index, llvm::Value* x, llvm::Value* y,
-                                          llvm::Value* z, bool sign_only) {
+llvm::Value* VectorEmitter::surface_lanes(int index, llvm::Value* x, llvm::Value* y, llvm::Value* z,
+                                          bool sign_only) {
   auto* ty = llvm::FunctionType::get(st_, {ptr_, st_, st_, st_}, false);
-  llvm::FunctionCallee f = m_.getOrInsertFunction(
-      sign_only ? pick_name("hfrt_surface_sign_f64", "hfrt_surface_sign_f32")
-                : pick_name("hfrt_surface_f64", "hfrt_surface_f32"),
-      ty);
+  llvm::FunctionCallee f =
+      m_.getOrInsertFunction(sign_only ? pick_name("hfrt_surface_sign_f64", "hfrt_surface_sign_f32")
+                                       : pick_name("hfrt_surface_f64", "hfrt_surface_f32"),
+                             ty);
   if (auto* fn = llvm::dyn_cast<llvm::Function>(f.getCallee())) {
     // Reads the immutable surface only: no side effect the optimiser must keep.
     fn->setDoesNotThrow();
@@ -224,36 +228,65 @@ llvm::Value* VectorEmitter::scalar_op(Op op, llvm::Value* a, llvm::Value* b, llv
     return call_lanes(pure_function(pick_name(f64, f32), 2), a, b);
   };
   switch (op) {
-    case Op::kAdd: return b_.CreateFAdd(a, b);
-    case Op::kSub: return b_.CreateFSub(a, b);
-    case Op::kMul: return b_.CreateFMul(a, b);
-    case Op::kDiv: return b_.CreateFDiv(a, b);
-    case Op::kNeg: return b_.CreateFNeg(a);
-    case Op::kAbs: return fabs(a);
+    case Op::kAdd:
+      return b_.CreateFAdd(a, b);
+    case Op::kSub:
+      return b_.CreateFSub(a, b);
+    case Op::kMul:
+      return b_.CreateFMul(a, b);
+    case Op::kDiv:
+      return b_.CreateFDiv(a, b);
+    case Op::kNeg:
+      return b_.CreateFNeg(a);
+    case Op::kAbs:
+      return fabs(a);
     // As written in ir_ops.h: a < b ? a : b (NaN -> b), which is x86's minps/maxps.
-    case Op::kMin: return b_.CreateSelect(b_.CreateFCmpOLT(a, b), a, b);
-    case Op::kMax: return b_.CreateSelect(b_.CreateFCmpOGT(a, b), a, b);
-    case Op::kSqrt: return unary(llvm::Intrinsic::sqrt);
-    case Op::kExp: return libm1("exp", "expf");
-    case Op::kLog: return libm1("log", "logf");
-    case Op::kLog10: return libm1("log10", "log10f");
-    case Op::kSin: return libm1("sin", "sinf");
-    case Op::kCos: return libm1("cos", "cosf");
-    case Op::kTan: return libm1("tan", "tanf");
-    case Op::kAsin: return libm1("asin", "asinf");
-    case Op::kAcos: return libm1("acos", "acosf");
-    case Op::kAtan: return libm1("atan", "atanf");
-    case Op::kAtan2: return libm2("atan2", "atan2f");
-    case Op::kSinh: return libm1("sinh", "sinhf");
-    case Op::kCosh: return libm1("cosh", "coshf");
-    case Op::kTanh: return libm1("tanh", "tanhf");
-    case Op::kFloor: return unary(llvm::Intrinsic::floor);
-    case Op::kCeil: return unary(llvm::Intrinsic::ceil);
-    case Op::kTrunc: return unary(llvm::Intrinsic::trunc);
-    case Op::kRound: return unary(llvm::Intrinsic::round);
-    case Op::kFmod: return libm2("fmod", "fmodf");
-    case Op::kPow: return libm2("pow", "powf");
-    case Op::kPowHF: return libm2("hfrt_jit_powhf_f64", "hfrt_jit_powhf_f32");
+    case Op::kMin:
+      return b_.CreateSelect(b_.CreateFCmpOLT(a, b), a, b);
+    case Op::kMax:
+      return b_.CreateSelect(b_.CreateFCmpOGT(a, b), a, b);
+    case Op::kSqrt:
+      return unary(llvm::Intrinsic::sqrt);
+    case Op::kExp:
+      return libm1("exp", "expf");
+    case Op::kLog:
+      return libm1("log", "logf");
+    case Op::kLog10:
+      return libm1("log10", "log10f");
+    case Op::kSin:
+      return libm1("sin", "sinf");
+    case Op::kCos:
+      return libm1("cos", "cosf");
+    case Op::kTan:
+      return libm1("tan", "tanf");
+    case Op::kAsin:
+      return libm1("asin", "asinf");
+    case Op::kAcos:
+      return libm1("acos", "acosf");
+    case Op::kAtan:
+      return libm1("atan", "atanf");
+    case Op::kAtan2:
+      return libm2("atan2", "atan2f");
+    case Op::kSinh:
+      return libm1("sinh", "sinhf");
+    case Op::kCosh:
+      return libm1("cosh", "coshf");
+    case Op::kTanh:
+      return libm1("tanh", "tanhf");
+    case Op::kFloor:
+      return unary(llvm::Intrinsic::floor);
+    case Op::kCeil:
+      return unary(llvm::Intrinsic::ceil);
+    case Op::kTrunc:
+      return unary(llvm::Intrinsic::trunc);
+    case Op::kRound:
+      return unary(llvm::Intrinsic::round);
+    case Op::kFmod:
+      return libm2("fmod", "fmodf");
+    case Op::kPow:
+      return libm2("pow", "powf");
+    case Op::kPowHF:
+      return libm2("hfrt_jit_powhf_f64", "hfrt_jit_powhf_f32");
     case Op::kSign: {
       // hf_sign: -1, 0 or 1; NaN stays NaN.
       llvm::Value* zero_or_nan = b_.CreateSelect(b_.CreateFCmpOEQ(a, splat(0.0)), splat(0.0), a);
@@ -261,10 +294,14 @@ llvm::Value* VectorEmitter::scalar_op(Op op, llvm::Value* a, llvm::Value* b, llv
           b_.CreateFCmpOGT(a, splat(0.0)), splat(1.0),
           b_.CreateSelect(b_.CreateFCmpOLT(a, splat(0.0)), splat(-1.0), zero_or_nan));
     }
-    case Op::kLt: return to_real(b_.CreateFCmpOLT(a, b));
-    case Op::kLe: return to_real(b_.CreateFCmpOLE(a, b));
-    case Op::kGt: return to_real(b_.CreateFCmpOGT(a, b));
-    case Op::kGe: return to_real(b_.CreateFCmpOGE(a, b));
+    case Op::kLt:
+      return to_real(b_.CreateFCmpOLT(a, b));
+    case Op::kLe:
+      return to_real(b_.CreateFCmpOLE(a, b));
+    case Op::kGt:
+      return to_real(b_.CreateFCmpOGT(a, b));
+    case Op::kGe:
+      return to_real(b_.CreateFCmpOGE(a, b));
     case Op::kEqTol:
     case Op::kNeTol: {
       llvm::Value* d = fabs(b_.CreateFSub(a, b));
@@ -272,17 +309,36 @@ llvm::Value* VectorEmitter::scalar_op(Op op, llvm::Value* a, llvm::Value* b, llv
       return to_real(op == Op::kEqTol ? b_.CreateFCmpOLT(d, splat(kHfEps))
                                       : b_.CreateFCmpOGE(d, splat(kHfEps)));
     }
-    case Op::kEq: return to_real(b_.CreateFCmpOEQ(a, b));
-    case Op::kNe: return to_real(b_.CreateFCmpUNE(a, b));
-    case Op::kTruth: return to_real(truth(a));
-    case Op::kAnd: return to_real(b_.CreateAnd(truth(a), truth(b)));
-    case Op::kOr: return to_real(b_.CreateOr(truth(a), truth(b)));
-    case Op::kNot: return to_real(b_.CreateNot(truth(a)));
-    case Op::kSelect: return b_.CreateSelect(nonzero(a), b, c);
-    case Op::kConst: case Op::kInput: case Op::kParam: case Op::kLoadSlot:
-    case Op::kStoreSlot: case Op::kLoadIdx: case Op::kStoreIdx: case Op::kTableLoad:
-    case Op::kCheck: case Op::kIf: case Op::kElse: case Op::kEndIf: case Op::kLoop:
-    case Op::kLoopTest: case Op::kEndLoop: case Op::kSurface:
+    case Op::kEq:
+      return to_real(b_.CreateFCmpOEQ(a, b));
+    case Op::kNe:
+      return to_real(b_.CreateFCmpUNE(a, b));
+    case Op::kTruth:
+      return to_real(truth(a));
+    case Op::kAnd:
+      return to_real(b_.CreateAnd(truth(a), truth(b)));
+    case Op::kOr:
+      return to_real(b_.CreateOr(truth(a), truth(b)));
+    case Op::kNot:
+      return to_real(b_.CreateNot(truth(a)));
+    case Op::kSelect:
+      return b_.CreateSelect(nonzero(a), b, c);
+    case Op::kConst:
+    case Op::kInput:
+    case Op::kParam:
+    case Op::kLoadSlot:
+    case Op::kStoreSlot:
+    case Op::kLoadIdx:
+    case Op::kStoreIdx:
+    case Op::kTableLoad:
+    case Op::kCheck:
+    case Op::kIf:
+    case Op::kElse:
+    case Op::kEndIf:
+    case Op::kLoop:
+    case Op::kLoopTest:
+    case Op::kEndLoop:
+    case Op::kSurface:
       break;
   }
   HFRT_CHECK_MSG(false, "scalar_op: not a pure op with arguments: " << op_name(op));

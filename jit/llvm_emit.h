@@ -63,9 +63,7 @@ class VectorEmitter {
   llvm::Value* and_mask(llvm::Value* m, llvm::Value* c) { return m ? b_.CreateAnd(m, c) : c; }
 
   /// A new basic block at the end of the current function.
-  llvm::BasicBlock* new_block(const char* name) {
-    return llvm::BasicBlock::Create(ctx_, name, f_);
-  }
+  llvm::BasicBlock* new_block(const char* name) { return llvm::BasicBlock::Create(ctx_, name, f_); }
   /// Starts a new basic block. Long straight-line code must be cut into blocks: instruction
   /// selection and scheduling work one block at a time and are superlinear in its size. An
   /// unconditional branch would not do (CodeGenPrepare merges such blocks back into one),
@@ -123,9 +121,9 @@ class VectorEmitter {
   const Function& fn_;
   const int w_;
   const bool is_f32_;
-  llvm::Type* st_;               ///< element type
-  llvm::FixedVectorType* vt_;    ///< <W x T>
-  llvm::FixedVectorType* mt_;    ///< <W x i1>
+  llvm::Type* st_;             ///< element type
+  llvm::FixedVectorType* vt_;  ///< <W x T>
+  llvm::FixedVectorType* mt_;  ///< <W x i1>
   llvm::IntegerType* i64_;
   llvm::IntegerType* i32_;
   llvm::IntegerType* i8_;

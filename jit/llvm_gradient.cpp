@@ -35,14 +35,15 @@ struct DV {
 class GradientEmitter : public VectorEmitter {
  public:
   GradientEmitter(llvm::Module& m, const Function& fn, bool f32, int lanes)
-      : VectorEmitter(m, fn,
-                      f32 ? llvm::Type::getFloatTy(m.getContext())
-                          : llvm::Type::getDoubleTy(m.getContext()),
-                      lanes) {}
+      : VectorEmitter(
+            m, fn,
+            f32 ? llvm::Type::getFloatTy(m.getContext()) : llvm::Type::getDoubleTy(m.getContext()),
+            lanes) {}
 
   void emit(const std::string& name) {
     // void block(const T* x, i64 stride, const T* a, T* out)   (out rows: F, d1, d2, d3)
-    auto* fty = llvm::FunctionType::get(llvm::Type::getVoidTy(ctx_), {ptr_, i64_, ptr_, ptr_}, false);
+    auto* fty =
+        llvm::FunctionType::get(llvm::Type::getVoidTy(ctx_), {ptr_, i64_, ptr_, ptr_}, false);
     f_ = llvm::Function::Create(fty, llvm::Function::ExternalLinkage, name, m_);
     f_->setDoesNotThrow();
     auto arg = f_->arg_begin();
@@ -68,19 +69,22 @@ class GradientEmitter : public VectorEmitter {
     llvm::Value* nan = splat(std::nan(""));
     llvm::Value* comps[4] = {r.v, r.d[0], r.d[1], r.d[2]};
     for (int c = 0; c < 4; ++c) {
-      llvm::Value* p = b_.CreateInBoundsGEP(st_, out_, b_.CreateMul(stride_, llvm::ConstantInt::get(i64_, c)));
+      llvm::Value* p =
+          b_.CreateInBoundsGEP(st_, out_, b_.CreateMul(stride_, llvm::ConstantInt::get(i64_, c)));
       b_.CreateAlignedStore(b_.CreateSelect(err, nan, comps[c]), p, align_);
     }
     b_.CreateRetVoid();
   }
 
  private:
-  llvm::Value* sel(llvm::Value* c, llvm::Value* a, llvm::Value* b) { return b_.CreateSelect(c, a, b); }
+  llvm::Value* sel(llvm::Value* c, llvm::Value* a, llvm::Value* b) {
+    return b_.CreateSelect(c, a, b);
+  }
   llvm::Value* add(llvm::Value* a, llvm::Value* b) { return b_.CreateFAdd(a, b); }
   llvm::Value* sub(llvm::Value* a, llvm::Value* b) { return b_.CreateFSub(a, b); }
   llvm::Value* mul(llvm::Value* a, llvm::Value* b) { return b_.CreateFMul(a, b); }
   llvm::Value* div(llvm::Value* a, llvm::Value* b) { return b_.CreateFDiv(a, b); }
- 
+
   DV flat(llvm::Value* v) { return {v, {splat(0), splat(0), splat(0)}}; }
 
   /// Per-lane call of a scalar function (libm or helper).
@@ -156,7 +160,8 @@ class GradientEmitter : public VectorEmitter {
       }
       b_.CreateCall(f, {s, in_buf, out_buf})->setDoesNotThrow();
       for (int c = 0; c < 4; ++c) {
-        llvm::Value* e = b_.CreateLoad(dt, b_.CreateConstInBoundsGEP2_32(out_ty, out_buf, 0, unsigned(c)));
+        llvm::Value* e =
+            b_.CreateLoad(dt, b_.CreateConstInBoundsGEP2_32(out_ty, out_buf, 0, unsigned(c)));
         if (is_f32_) e = b_.CreateFPTrunc(e, st_);
         llvm::Value*& dst = c == 0 ? r.v : r.d[c - 1];
         dst = b_.CreateInsertElement(dst, e, uint64_t(lane));
@@ -169,13 +174,16 @@ class GradientEmitter : public VectorEmitter {
     const Inst& in = fn_.insts[i];
     auto arg = [&](int k) -> const DV& { return values_[in.args[k]]; };
     switch (in.op) {
-      case Op::kConst: values_[i] = flat(splat(in.imm)); return;
+      case Op::kConst:
+        values_[i] = flat(splat(in.imm));
+        return;
       case Op::kInput: {
         if (in.aux >= fn_.num_inputs) {
           values_[i] = flat(splat(0));
           return;
         }
-        llvm::Value* p = b_.CreateInBoundsGEP(st_, x_, b_.CreateMul(stride_, llvm::ConstantInt::get(i64_, in.aux)));
+        llvm::Value* p = b_.CreateInBoundsGEP(
+            st_, x_, b_.CreateMul(stride_, llvm::ConstantInt::get(i64_, in.aux)));
         DV r = flat(b_.CreateAlignedLoad(vt_, p, align_));
         if (in.aux < 3) r.d[in.aux] = splat(1);
         values_[i] = r;
@@ -186,21 +194,28 @@ class GradientEmitter : public VectorEmitter {
         values_[i] = flat(b_.CreateVectorSplat(w_, v));
         return;
       }
-      case Op::kLoadSlot: values_[i] = load(in.aux); return;
-      case Op::kStoreSlot: store(in.aux, arg(0)); return;
+      case Op::kLoadSlot:
+        values_[i] = load(in.aux);
+        return;
+      case Op::kStoreSlot:
+        store(in.aux, arg(0));
+        return;
       case Op::kLoadIdx:
       case Op::kStoreIdx: {
         llvm::Value* idx = arg(0).v;
         const int size = static_cast<int>(in.imm);
-        llvm::Value* ok = b_.CreateAnd(b_.CreateFCmpOGE(idx, splat(1)), b_.CreateFCmpOLE(idx, splat(size)));
+        llvm::Value* ok =
+            b_.CreateAnd(b_.CreateFCmpOGE(idx, splat(1)), b_.CreateFCmpOLE(idx, splat(size)));
         add_error(b_.CreateNot(ok));
         llvm::Value* ti = b_.CreateUnaryIntrinsic(llvm::Intrinsic::trunc, idx);
         if (in.op == Op::kLoadIdx) {
           DV r = load(in.aux);
-          for (int k = 2; k <= size; ++k) r = pick(b_.CreateFCmpOEQ(ti, splat(k)), load(in.aux + k - 1), r);
+          for (int k = 2; k <= size; ++k)
+            r = pick(b_.CreateFCmpOEQ(ti, splat(k)), load(in.aux + k - 1), r);
           values_[i] = r;
         } else {
-          for (int k = 1; k <= size; ++k) store(in.aux + k - 1, arg(1), b_.CreateFCmpOEQ(ti, splat(k)));
+          for (int k = 1; k <= size; ++k)
+            store(in.aux + k - 1, arg(1), b_.CreateFCmpOEQ(ti, splat(k)));
         }
         return;
       }
@@ -218,11 +233,21 @@ class GradientEmitter : public VectorEmitter {
         values_[i] = flat(r);
         return;
       }
-      case Op::kSurface: values_[i] = surface_dual_lanes(in.aux, arg(0), arg(1), arg(2)); return;
-      case Op::kCheck: add_error(b_.CreateFCmpUNE(arg(0).v, splat(0))); return;
-      case Op::kIf: begin_if(nonzero(arg(0).v)); return;
-      case Op::kElse: begin_else(); return;
-      case Op::kEndIf: end_if(); return;
+      case Op::kSurface:
+        values_[i] = surface_dual_lanes(in.aux, arg(0), arg(1), arg(2));
+        return;
+      case Op::kCheck:
+        add_error(b_.CreateFCmpUNE(arg(0).v, splat(0)));
+        return;
+      case Op::kIf:
+        begin_if(nonzero(arg(0).v));
+        return;
+      case Op::kElse:
+        begin_else();
+        return;
+      case Op::kEndIf:
+        end_if();
+        return;
       case Op::kLoop: {
         llvm::AllocaInst* trips = entry_alloca(i64_, "trips");
         b_.CreateStore(llvm::ConstantInt::get(i64_, 0), trips);
@@ -249,7 +274,8 @@ class GradientEmitter : public VectorEmitter {
         end_loop();
         trips_.pop_back();
         return;
-      default: break;
+      default:
+        break;
     }
     const DV zero = flat(splat(0));
     const DV& a = arg(0);
@@ -263,37 +289,76 @@ class GradientEmitter : public VectorEmitter {
     };
     DV r;
     switch (in.op) {
-      case Op::kAdd: r = chain2(v, a, splat(1), b, splat(1)); break;
-      case Op::kSub: r = chain2(v, a, splat(1), b, splat(-1)); break;
-      case Op::kMul: r = chain2(v, a, bv, b, av); break;
-      case Op::kDiv: r = chain2(v, a, div(splat(1), bv), b, b_.CreateFNeg(div(v, bv))); break;
-      case Op::kNeg: r = chain(v, a, splat(-1)); break;
-      case Op::kAbs: r = chain(v, a, sel(b_.CreateFCmpOLT(av, splat(0)), splat(-1), splat(1))); break;
-      case Op::kMin: r = pick(b_.CreateFCmpOLT(av, bv), a, b); break;
-      case Op::kMax: r = pick(b_.CreateFCmpOGT(av, bv), a, b); break;
-      case Op::kSqrt: r = chain(v, a, div(splat(0.5), v)); break;
-      case Op::kExp: r = chain(v, a, v); break;
-      case Op::kLog: r = chain(v, a, div(splat(1), av)); break;
-      case Op::kLog10: r = chain(v, a, div(splat(1), mul(av, splat(std::log(10.0))))); break;
-      case Op::kSin: r = chain(v, a, call("cos", "cosf", av)); break;
-      case Op::kCos: r = chain(v, a, b_.CreateFNeg(call("sin", "sinf", av))); break;
-      case Op::kTan: r = chain(v, a, add(splat(1), mul(v, v))); break;
+      case Op::kAdd:
+        r = chain2(v, a, splat(1), b, splat(1));
+        break;
+      case Op::kSub:
+        r = chain2(v, a, splat(1), b, splat(-1));
+        break;
+      case Op::kMul:
+        r = chain2(v, a, bv, b, av);
+        break;
+      case Op::kDiv:
+        r = chain2(v, a, div(splat(1), bv), b, b_.CreateFNeg(div(v, bv)));
+        break;
+      case Op::kNeg:
+        r = chain(v, a, splat(-1));
+        break;
+      case Op::kAbs:
+        r = chain(v, a, sel(b_.CreateFCmpOLT(av, splat(0)), splat(-1), splat(1)));
+        break;
+      case Op::kMin:
+        r = pick(b_.CreateFCmpOLT(av, bv), a, b);
+        break;
+      case Op::kMax:
+        r = pick(b_.CreateFCmpOGT(av, bv), a, b);
+        break;
+      case Op::kSqrt:
+        r = chain(v, a, div(splat(0.5), v));
+        break;
+      case Op::kExp:
+        r = chain(v, a, v);
+        break;
+      case Op::kLog:
+        r = chain(v, a, div(splat(1), av));
+        break;
+      case Op::kLog10:
+        r = chain(v, a, div(splat(1), mul(av, splat(std::log(10.0)))));
+        break;
+      case Op::kSin:
+        r = chain(v, a, call("cos", "cosf", av));
+        break;
+      case Op::kCos:
+        r = chain(v, a, b_.CreateFNeg(call("sin", "sinf", av)));
+        break;
+      case Op::kTan:
+        r = chain(v, a, add(splat(1), mul(v, v)));
+        break;
       case Op::kAsin:
       case Op::kAcos: {
-        llvm::Value* k = div(splat(in.op == Op::kAsin ? 1 : -1),
-                             b_.CreateUnaryIntrinsic(llvm::Intrinsic::sqrt, sub(splat(1), mul(av, av))));
+        llvm::Value* k =
+            div(splat(in.op == Op::kAsin ? 1 : -1),
+                b_.CreateUnaryIntrinsic(llvm::Intrinsic::sqrt, sub(splat(1), mul(av, av))));
         r = chain(v, a, k);
         break;
       }
-      case Op::kAtan: r = chain(v, a, div(splat(1), add(splat(1), mul(av, av)))); break;
+      case Op::kAtan:
+        r = chain(v, a, div(splat(1), add(splat(1), mul(av, av))));
+        break;
       case Op::kAtan2: {
         llvm::Value* r2 = add(mul(av, av), mul(bv, bv));
         r = chain2(v, a, div(bv, r2), b, b_.CreateFNeg(div(av, r2)));
         break;
       }
-      case Op::kSinh: r = chain(v, a, call("cosh", "coshf", av)); break;
-      case Op::kCosh: r = chain(v, a, call("sinh", "sinhf", av)); break;
-      case Op::kTanh: r = chain(v, a, sub(splat(1), mul(v, v))); break;
+      case Op::kSinh:
+        r = chain(v, a, call("cosh", "coshf", av));
+        break;
+      case Op::kCosh:
+        r = chain(v, a, call("sinh", "sinhf", av));
+        break;
+      case Op::kTanh:
+        r = chain(v, a, sub(splat(1), mul(v, v)));
+        break;
       case Op::kFmod: {
         llvm::Value* q = b_.CreateUnaryIntrinsic(llvm::Intrinsic::round, div(sub(av, v), bv));
         r = chain2(v, a, splat(1), b, b_.CreateFNeg(q));
@@ -320,9 +385,13 @@ class GradientEmitter : public VectorEmitter {
         r = chain2(v, a, ka, b, kb);
         break;
       }
-      case Op::kSelect: r = pick(nonzero(av), b, arg(2)); break;
+      case Op::kSelect:
+        r = pick(nonzero(av), b, arg(2));
+        break;
       // Piecewise constant: floor, ceil, trunc, round, sign, comparisons and logic.
-      default: r = flat(v); break;
+      default:
+        r = flat(v);
+        break;
     }
     values_[i] = r;
   }
@@ -370,11 +439,18 @@ struct GradientJit::Impl {
 
 GradientJit::GradientJit(std::unique_ptr<Impl> impl) : impl_(std::move(impl)) {}
 GradientJit::~GradientJit() = default;
-Precision GradientJit::precision() const { return impl_->precision; }
-int GradientJit::lanes() const { return impl_->lanes; }
-const JitStats& GradientJit::stats() const { return impl_->stats; }
+Precision GradientJit::precision() const {
+  return impl_->precision;
+}
+int GradientJit::lanes() const {
+  return impl_->lanes;
+}
+const JitStats& GradientJit::stats() const {
+  return impl_->stats;
+}
 
-Result<std::unique_ptr<GradientJit>> GradientJit::compile(const Function& fn, const Options& options) {
+Result<std::unique_ptr<GradientJit>> GradientJit::compile(const Function& fn,
+                                                          const Options& options) {
   Result<LlvmSession*> session = LlvmSession::get();
   if (!session.ok()) return session.error();
   const bool f32 = options.precision == Precision::kF32;
@@ -419,7 +495,8 @@ Dual GradientJit::eval_one(std::span<const double> x, std::span<const double> a)
     d = {out[0], {out[1], out[2], out[3]}};
   } else {
     std::vector<float> xs(dims, 0.0f), out(4);
-    for (int k = 0; k < dims && k < static_cast<int>(x.size()); ++k) xs[k] = static_cast<float>(x[k]);
+    for (int k = 0; k < dims && k < static_cast<int>(x.size()); ++k)
+      xs[k] = static_cast<float>(x[k]);
     eval(1, xs.data(), a, out.data());
     d = {out[0], {out[1], out[2], out[3]}};
   }

@@ -67,7 +67,9 @@ namespace hfrt::jit {
 const HostSymbol kIntervalSymbols[] = {
     {"hfrt_interval_lane", reinterpret_cast<void*>(&hfrt_interval_lane)},
 };
-std::span<const HostSymbol> interval_jit_symbols() { return kIntervalSymbols; }
+std::span<const HostSymbol> interval_jit_symbols() {
+  return kIntervalSymbols;
+}
 
 namespace {
 
@@ -98,8 +100,7 @@ class IntervalEmitter : public VectorEmitter {
 
   void emit(const std::string& name) {
     auto* fty = llvm::FunctionType::get(
-        llvm::Type::getVoidTy(ctx_), {ptr_, ptr_, i64_, ptr_, ptr_, ptr_, ptr_, ptr_, ptr_},
-        false);
+        llvm::Type::getVoidTy(ctx_), {ptr_, ptr_, i64_, ptr_, ptr_, ptr_, ptr_, ptr_, ptr_}, false);
     f_ = llvm::Function::Create(fty, llvm::Function::ExternalLinkage, name, m_);
     f_->setDoesNotThrow();
     auto arg = f_->arg_begin();
@@ -148,7 +149,9 @@ class IntervalEmitter : public VectorEmitter {
   // --- constants and small helpers ------------------------------------------------------
   llvm::Value* tru() { return all_true(); }
   llvm::Value* fals() { return all_false(); }
-  llvm::Value* sel(llvm::Value* c, llvm::Value* a, llvm::Value* b) { return b_.CreateSelect(c, a, b); }
+  llvm::Value* sel(llvm::Value* c, llvm::Value* a, llvm::Value* b) {
+    return b_.CreateSelect(c, a, b);
+  }
   llvm::Value* OR(llvm::Value* a, llvm::Value* b) { return b_.CreateOr(a, b); }
   llvm::Value* AND(llvm::Value* a, llvm::Value* b) { return b_.CreateAnd(a, b); }
   llvm::Value* NOT(llvm::Value* a) { return b_.CreateNot(a); }
@@ -170,8 +173,8 @@ class IntervalEmitter : public VectorEmitter {
   }
 
   /// Outward widening, the interpreter's formula: v +- max(|v| 2^-52, denorm_min), with
-  /// -inf (up) / +inf (down) moved to the largest finite double. Floating-point ops only: integer bit tricks here made
-  /// SelectionDAG's known-bits analysis dominate compile time.
+  /// -inf (up) / +inf (down) moved to the largest finite double. Floating-point ops only: integer
+  /// bit tricks here made SelectionDAG's known-bits analysis dominate compile time.
   llvm::Value* step(llvm::Value* v) {
     llvm::Value* s = b_.CreateFMul(fabs(v), splat(0x1p-52));
     llvm::Value* dm = splat(std::numeric_limits<double>::denorm_min());
@@ -194,7 +197,8 @@ class IntervalEmitter : public VectorEmitter {
     return {sel(t.can_false, splat(0), splat(1)), sel(t.can_true, splat(1), splat(0)), fals()};
   }
   Tri nonzero(const IV& c) {
-    llvm::Value* t = OR(c.nan, OR(b_.CreateFCmpUNE(c.lo, splat(0)), b_.CreateFCmpUNE(c.hi, splat(0))));
+    llvm::Value* t =
+        OR(c.nan, OR(b_.CreateFCmpUNE(c.lo, splat(0)), b_.CreateFCmpUNE(c.hi, splat(0))));
     return {t, contains_zero(c)};
   }
   Tri truth(const IV& a) {
@@ -202,16 +206,17 @@ class IntervalEmitter : public VectorEmitter {
     llvm::Value* mag_lo = sel(contains_zero(a), splat(0), vmin(fabs(a.lo), fabs(a.hi)));
     return {b_.CreateFCmpOGE(mag_hi, splat(kHfEps)), OR(lt(mag_lo, splat(kHfEps)), a.nan)};
   }
-  IV hull(const IV& a, const IV& b) { return {vmin(a.lo, b.lo), vmax(a.hi, b.hi), OR(a.nan, b.nan)}; }
+  IV hull(const IV& a, const IV& b) {
+    return {vmin(a.lo, b.lo), vmax(a.hi, b.hi), OR(a.nan, b.nan)};
+  }
   IV select_iv(llvm::Value* c, const IV& a, const IV& b) {
     return {sel(c, a.lo, b.lo), sel(c, a.hi, b.hi), sel(c, a.nan, b.nan)};
   }
 
   // --- ops ----------------------------------------------------------------------------
   IV add(const IV& a, const IV& b) {
-    llvm::Value* nan = OR(OR(a.nan, b.nan),
-                          OR(AND(eq(a.lo, splat(-kInf)), eq(b.hi, splat(kInf))),
-                             AND(eq(a.hi, splat(kInf)), eq(b.lo, splat(-kInf)))));
+    llvm::Value* nan = OR(OR(a.nan, b.nan), OR(AND(eq(a.lo, splat(-kInf)), eq(b.hi, splat(kInf))),
+                                               AND(eq(a.hi, splat(kInf)), eq(b.lo, splat(-kInf)))));
     llvm::Value* lo = b_.CreateFAdd(a.lo, b.lo);
     llvm::Value* hi = b_.CreateFAdd(a.hi, b.hi);
     lo = sel(isnan(lo), splat(-kInf), down(lo));
@@ -227,13 +232,13 @@ class IntervalEmitter : public VectorEmitter {
       llvm::Value* r = b_.CreateFMul(u, v);
       return sel(isnan(r), splat(0), r);
     };
-    llvm::Value* c0 = p(a.lo, b.lo), *c1 = p(a.lo, b.hi), *c2 = p(a.hi, b.lo), *c3 = p(a.hi, b.hi);
+    llvm::Value *c0 = p(a.lo, b.lo), *c1 = p(a.lo, b.hi), *c2 = p(a.hi, b.lo), *c3 = p(a.hi, b.hi);
     llvm::Value* lo = vmin(vmin(c0, c1), vmin(c2, c3));
     llvm::Value* hi = vmax(vmax(c0, c1), vmax(c2, c3));
     return {down(lo), up(hi), nan};
   }
   IV square(const IV& a) {
-    llvm::Value* al = fabs(a.lo), *ah = fabs(a.hi);
+    llvm::Value *al = fabs(a.lo), *ah = fabs(a.hi);
     llvm::Value* m_lo = sel(contains_zero(a), splat(0), vmin(al, ah));
     llvm::Value* m_hi = vmax(al, ah);
     llvm::Value* lo = b_.CreateFMul(m_lo, m_lo);
@@ -562,7 +567,9 @@ class IntervalEmitter : public VectorEmitter {
     const Inst& in = fn_.insts[i];
     auto arg = [&](int k) { return value(in.args[k]); };
     switch (in.op) {
-      case Op::kConst: define(i, point(in.imm)); return;
+      case Op::kConst:
+        define(i, point(in.imm));
+        return;
       case Op::kInput: {
         if (in.aux >= fn_.num_inputs) {
           define(i, point(0));
@@ -582,8 +589,12 @@ class IntervalEmitter : public VectorEmitter {
         define(i, {vs, vs, n});
         return;
       }
-      case Op::kLoadSlot: define(i, load_slot(in.aux)); return;
-      case Op::kStoreSlot: store_slot(in.aux, arg(0)); return;
+      case Op::kLoadSlot:
+        define(i, load_slot(in.aux));
+        return;
+      case Op::kStoreSlot:
+        store_slot(in.aux, arg(0));
+        return;
       case Op::kLoadIdx:
       case Op::kStoreIdx: {
         const IV& idx = arg(0);
@@ -631,15 +642,32 @@ class IntervalEmitter : public VectorEmitter {
         define(i, select_iv(empty, point(std::nan("")), r));
         return;
       }
-      case Op::kSurface: define(i, surface_iv(in.aux, arg(0), arg(1), arg(2))); return;
-      case Op::kCheck: add_error(nonzero(arg(0)).can_true); return;
-      case Op::kIf: begin_if(i); return;
-      case Op::kElse: begin_else(); return;
-      case Op::kEndIf: end_if(); return;
-      case Op::kLoop: begin_loop(i); return;
-      case Op::kLoopTest: loop_test(i); return;
-      case Op::kEndLoop: end_loop(); return;
-      default: break;
+      case Op::kSurface:
+        define(i, surface_iv(in.aux, arg(0), arg(1), arg(2)));
+        return;
+      case Op::kCheck:
+        add_error(nonzero(arg(0)).can_true);
+        return;
+      case Op::kIf:
+        begin_if(i);
+        return;
+      case Op::kElse:
+        begin_else();
+        return;
+      case Op::kEndIf:
+        end_if();
+        return;
+      case Op::kLoop:
+        begin_loop(i);
+        return;
+      case Op::kLoopTest:
+        loop_test(i);
+        return;
+      case Op::kEndLoop:
+        end_loop();
+        return;
+      default:
+        break;
     }
     const bool same = in.args[0] == in.args[1] && in.args[0] != kNoValue;
     if (same && (in.op == Op::kMin || in.op == Op::kMax)) {
@@ -661,22 +689,54 @@ class IntervalEmitter : public VectorEmitter {
   IV compute(Op op, bool same, const IV& a, const IV& b, const IV& c, llvm::Value* choice) {
     IV r;
     switch (op) {
-      case Op::kAdd: r = add(a, b); break;
-      case Op::kSub: r = add(a, neg(b)); break;
-      case Op::kMul: r = same ? square(a) : mul(a, b); break;
-      case Op::kNeg: r = neg(a); break;
-      case Op::kAbs: r = abs(a); break;
-      case Op::kMin: r = same ? a : min_max(a, b, true, choice); break;
-      case Op::kMax: r = same ? a : min_max(a, b, false, choice); break;
-      case Op::kSqrt: r = sqrt(a); break;
-      case Op::kFloor: r = rounding(a, llvm::Intrinsic::floor); break;
-      case Op::kCeil: r = rounding(a, llvm::Intrinsic::ceil); break;
-      case Op::kTrunc: r = rounding(a, llvm::Intrinsic::trunc); break;
-      case Op::kRound: r = rounding(a, llvm::Intrinsic::round); break;
-      case Op::kLt: r = from_tri(cmp_lt(a, b)); break;
-      case Op::kLe: r = from_tri(cmp_le(a, b)); break;
-      case Op::kGt: r = from_tri(cmp_lt(b, a)); break;
-      case Op::kGe: r = from_tri(cmp_le(b, a)); break;
+      case Op::kAdd:
+        r = add(a, b);
+        break;
+      case Op::kSub:
+        r = add(a, neg(b));
+        break;
+      case Op::kMul:
+        r = same ? square(a) : mul(a, b);
+        break;
+      case Op::kNeg:
+        r = neg(a);
+        break;
+      case Op::kAbs:
+        r = abs(a);
+        break;
+      case Op::kMin:
+        r = same ? a : min_max(a, b, true, choice);
+        break;
+      case Op::kMax:
+        r = same ? a : min_max(a, b, false, choice);
+        break;
+      case Op::kSqrt:
+        r = sqrt(a);
+        break;
+      case Op::kFloor:
+        r = rounding(a, llvm::Intrinsic::floor);
+        break;
+      case Op::kCeil:
+        r = rounding(a, llvm::Intrinsic::ceil);
+        break;
+      case Op::kTrunc:
+        r = rounding(a, llvm::Intrinsic::trunc);
+        break;
+      case Op::kRound:
+        r = rounding(a, llvm::Intrinsic::round);
+        break;
+      case Op::kLt:
+        r = from_tri(cmp_lt(a, b));
+        break;
+      case Op::kLe:
+        r = from_tri(cmp_le(a, b));
+        break;
+      case Op::kGt:
+        r = from_tri(cmp_lt(b, a));
+        break;
+      case Op::kGe:
+        r = from_tri(cmp_le(b, a));
+        break;
       case Op::kEqTol:
       case Op::kNeTol: {
         IV d = abs(add(a, neg(b)));
@@ -697,7 +757,9 @@ class IntervalEmitter : public VectorEmitter {
         r = op == Op::kEq ? from_tri({overlap, differ}) : from_tri({differ, overlap});
         break;
       }
-      case Op::kTruth: r = from_tri(truth(a)); break;
+      case Op::kTruth:
+        r = from_tri(truth(a));
+        break;
       case Op::kAnd: {
         Tri ta = truth(a), tb = truth(b);
         r = from_tri({AND(ta.can_true, tb.can_true), OR(ta.can_false, tb.can_false)});
@@ -716,11 +778,12 @@ class IntervalEmitter : public VectorEmitter {
       case Op::kSelect: {
         Tri t = nonzero(a);
         record_choice(choice, t.can_true, t.can_false);
-        r = select_iv(NOT(t.can_false), b,
-                      select_iv(NOT(t.can_true), c, hull(b, c)));
+        r = select_iv(NOT(t.can_false), b, select_iv(NOT(t.can_true), c, hull(b, c)));
         break;
       }
-      default: r = lane_call(op, a, b); break;  // libm-based ops, div, pow, fmod, sign
+      default:
+        r = lane_call(op, a, b);
+        break;  // libm-based ops, div, pow, fmod, sign
     }
     return r;
   }
@@ -728,9 +791,9 @@ class IntervalEmitter : public VectorEmitter {
   // --- outlined ops ----------------------------------------------------------------------
   // Large functions (more than Options::inline_limit instructions) call one helper per op
   // kind, emitted once into the module, with pointers to the operands' and the result's
-  // homes (constants live in constant globals of the home layout). The main function is then a short call per op, whose code generation is cheap
-  // and linear; the helpers are the very code the inline path emits, so both give the same
-  // bits.
+  // homes (constants live in constant globals of the home layout). The main function is then a
+  // short call per op, whose code generation is cheap and linear; the helpers are the very code the
+  // inline path emits, so both give the same bits.
   llvm::Value* operand_ptr(ValueId v) {
     HFRT_CHECK(v != kNoValue);
     if (homes_.home[v] >= 0) return home_ptr(v, 0);
@@ -781,10 +844,10 @@ class IntervalEmitter : public VectorEmitter {
     if (with_region) params.push_back(mt_);
     if (with_choice) params.push_back(ptr_);
     auto* fty = llvm::FunctionType::get(llvm::Type::getVoidTy(ctx_), params, false);
-    h = llvm::Function::Create(fty, llvm::Function::InternalLinkage,
-                               "iv_" + std::string(op_name(op)) + (same ? "_same" : "") +
-                                   (with_region ? "_masked" : ""),
-                               m_);
+    h = llvm::Function::Create(
+        fty, llvm::Function::InternalLinkage,
+        "iv_" + std::string(op_name(op)) + (same ? "_same" : "") + (with_region ? "_masked" : ""),
+        m_);
     h->setDoesNotThrow();
     h->addFnAttr(llvm::Attribute::NoInline);
     h->setCallingConv(llvm::CallingConv::Fast);
@@ -798,7 +861,8 @@ class IntervalEmitter : public VectorEmitter {
     IV v[3] = {point(0), point(0), point(0)};
     for (int k = 0; k < operands; ++k) v[k] = load_iv(h->getArg(k));
     if (same) v[1] = v[0];  // f(x, x): one operand passed
-    llvm::Value* choice = with_choice ? h->getArg(static_cast<unsigned>(params.size() - 1)) : nullptr;
+    llvm::Value* choice =
+        with_choice ? h->getArg(static_cast<unsigned>(params.size() - 1)) : nullptr;
     store_iv(h->getArg(operands), compute(op, same, v[0], v[1], v[2], choice));
     b_.CreateRetVoid();
     f_ = saved_f;
@@ -841,8 +905,8 @@ class IntervalEmitter : public VectorEmitter {
 };
 
 using BlockFn = void (*)(const double* xlo, const double* xhi, int64_t stride, const double* a,
-                         double* out_lo, double* out_hi, uint8_t* out_nan,
-                         uint8_t* choices, double* scratch) noexcept;
+                         double* out_lo, double* out_hi, uint8_t* out_nan, uint8_t* choices,
+                         double* scratch) noexcept;
 
 }  // namespace
 
@@ -859,8 +923,12 @@ struct IntervalJit::Impl {
 
 IntervalJit::IntervalJit(std::unique_ptr<Impl> impl) : impl_(std::move(impl)) {}
 IntervalJit::~IntervalJit() = default;
-int IntervalJit::lanes() const { return impl_->lanes; }
-const JitStats& IntervalJit::stats() const { return impl_->stats; }
+int IntervalJit::lanes() const {
+  return impl_->lanes;
+}
+const JitStats& IntervalJit::stats() const {
+  return impl_->stats;
+}
 
 Result<std::unique_ptr<IntervalJit>> IntervalJit::compile(const Function& fn,
                                                           const Options& options) {
@@ -893,9 +961,8 @@ Result<std::unique_ptr<IntervalJit>> IntervalJit::compile(const Function& fn,
   return std::unique_ptr<IntervalJit>(new IntervalJit(std::move(impl)));
 }
 
-void IntervalJit::eval(int64_t n, const double* x_lo, const double* x_hi,
-                       std::span<const double> a, double* out_lo, double* out_hi,
-                       uint8_t* out_nan, uint8_t* choices) const {
+void IntervalJit::eval(int64_t n, const double* x_lo, const double* x_hi, std::span<const double> a,
+                       double* out_lo, double* out_hi, uint8_t* out_nan, uint8_t* choices) const {
   const Impl& im = *impl_;
   const int w = im.lanes, dims = im.num_inputs;
   std::vector<double> params(std::max(im.num_params, 1), 0.0);

@@ -30,7 +30,9 @@
 extern "C" {
 
 /// kPowHF (see ir_ops.h): the very function the interpreter and the constant folder use.
-double hfrt_jit_powhf_f64(double b, double e) noexcept { return hfrt::jit::hf_pow(b, e); }
+double hfrt_jit_powhf_f64(double b, double e) noexcept {
+  return hfrt::jit::hf_pow(b, e);
+}
 
 /// kPowHF in single precision, the same algorithm as hf_pow.
 float hfrt_jit_powhf_f32(float b, float e) noexcept {
@@ -63,7 +65,9 @@ const HostSymbol kScalarSymbols[] = {
     {"hfrt_jit_powhf_f64", reinterpret_cast<void*>(&hfrt_jit_powhf_f64)},
     {"hfrt_jit_powhf_f32", reinterpret_cast<void*>(&hfrt_jit_powhf_f32)},
 };
-std::span<const HostSymbol> scalar_jit_symbols() { return kScalarSymbols; }
+std::span<const HostSymbol> scalar_jit_symbols() {
+  return kScalarSymbols;
+}
 
 namespace {
 
@@ -125,8 +129,8 @@ class Emitter : public VectorEmitter {
       if (grp.size > kSelectChainMax) {
         grp.mem = entry.CreateAlloca(llvm::ArrayType::get(vt_, grp.size), nullptr, "array");
         for (int j = 0; j < grp.size; ++j) {
-          slot_ptr_[grp.base + j] = entry.CreateConstInBoundsGEP2_32(
-              llvm::ArrayType::get(vt_, grp.size), grp.mem, 0, j);
+          slot_ptr_[grp.base + j] =
+              entry.CreateConstInBoundsGEP2_32(llvm::ArrayType::get(vt_, grp.size), grp.mem, 0, j);
         }
       }
       for (int j = 0; j < grp.size; ++j) slot_group_[grp.base + j] = static_cast<int>(g);
@@ -241,7 +245,9 @@ class Emitter : public VectorEmitter {
       };
       llvm::Value* v = nullptr;
       switch (inst.op) {
-        case Op::kConst: v = splat(inst.imm); break;
+        case Op::kConst:
+          v = splat(inst.imm);
+          break;
         case Op::kInput:
           if (inst.aux < fn_.num_inputs) {
             llvm::Value* p = b_.CreateGEP(st_, xs, b_.CreateMul(stride, b_.getInt64(inst.aux)));
@@ -258,11 +264,21 @@ class Emitter : public VectorEmitter {
             v = splat(0.0);
           }
           break;
-        case Op::kLoadSlot: v = load_slot(inst.aux); break;
-        case Op::kStoreSlot: store_slot(inst.aux, arg(0), mask()); break;
-        case Op::kLoadIdx: v = load_idx(inst, arg(0)); break;
-        case Op::kStoreIdx: store_idx(inst, arg(0), arg(1)); break;
-        case Op::kTableLoad: v = table_load(inst, arg(0)); break;
+        case Op::kLoadSlot:
+          v = load_slot(inst.aux);
+          break;
+        case Op::kStoreSlot:
+          store_slot(inst.aux, arg(0), mask());
+          break;
+        case Op::kLoadIdx:
+          v = load_idx(inst, arg(0));
+          break;
+        case Op::kStoreIdx:
+          store_idx(inst, arg(0), arg(1));
+          break;
+        case Op::kTableLoad:
+          v = table_load(inst, arg(0));
+          break;
         case Op::kSurface:
           v = surface_lanes(inst.aux, arg(0), arg(1), arg(2), surface_sign_only_);
           break;
@@ -271,12 +287,24 @@ class Emitter : public VectorEmitter {
           b_.CreateStore(b_.CreateOr(b_.CreateLoad(mt_, err_), fired), err_);
           break;
         }
-        case Op::kIf: begin_if(nonzero(arg(0))); break;
-        case Op::kElse: begin_else(); break;
-        case Op::kEndIf: end_if(); break;
-        case Op::kLoop: begin_loop(); break;
-        case Op::kLoopTest: loop_continue(and_mask(mask(), nonzero(arg(0)))); break;
-        case Op::kEndLoop: end_loop(); break;
+        case Op::kIf:
+          begin_if(nonzero(arg(0)));
+          break;
+        case Op::kElse:
+          begin_else();
+          break;
+        case Op::kEndIf:
+          end_if();
+          break;
+        case Op::kLoop:
+          begin_loop();
+          break;
+        case Op::kLoopTest:
+          loop_continue(and_mask(mask(), nonzero(arg(0))));
+          break;
+        case Op::kEndLoop:
+          end_loop();
+          break;
         default:
           v = scalar_op(inst.op, arg(0), inst.args[1] != kNoValue ? arg(1) : nullptr,
                         inst.args[2] != kNoValue ? arg(2) : nullptr);
@@ -310,8 +338,8 @@ class Emitter : public VectorEmitter {
   /// void entry(i64 n, const T* xs, const T* a, T* out_f, T* out_s): full blocks of W lanes
   /// straight from the caller's arrays, then the tail through padded stack buffers.
   void emit_entry(const std::string& name, llvm::Function* body) {
-    auto* fty = llvm::FunctionType::get(llvm::Type::getVoidTy(ctx_),
-                                        {i64_, ptr_, ptr_, ptr_, ptr_}, false);
+    auto* fty =
+        llvm::FunctionType::get(llvm::Type::getVoidTy(ctx_), {i64_, ptr_, ptr_, ptr_, ptr_}, false);
     auto* f = llvm::Function::Create(fty, llvm::GlobalValue::ExternalLinkage, name, m_);
     f->setDoesNotThrow();
     llvm::Value* n = f->getArg(0);
@@ -345,8 +373,8 @@ class Emitter : public VectorEmitter {
     b.CreateCondBr(b.CreateICmpSLT(i, n_full), loop_body, tail_check);
 
     b.SetInsertPoint(loop_body);
-    llvm::Value* s_ptr = b.CreateSelect(has_s, b.CreateGEP(st_, out_s, i),
-                                        llvm::ConstantPointerNull::get(ptr_));
+    llvm::Value* s_ptr =
+        b.CreateSelect(has_s, b.CreateGEP(st_, out_s, i), llvm::ConstantPointerNull::get(ptr_));
     b.CreateCall(body, {b.CreateGEP(st_, xs, i), n, a, b.CreateGEP(st_, out_f, i), s_ptr, n});
     llvm::Value* next = b.CreateAdd(i, b.getInt64(w_));
     i->addIncoming(next, loop_body);
@@ -359,8 +387,8 @@ class Emitter : public VectorEmitter {
     b.SetInsertPoint(tail);
     std::vector<llvm::Constant*> lane_ids;
     for (int l = 0; l < w_; ++l) lane_ids.push_back(llvm::ConstantInt::get(i64_, l));
-    llvm::Value* tail_mask = b.CreateICmpSLT(llvm::ConstantVector::get(lane_ids),
-                                             b.CreateVectorSplat(w_, rem));
+    llvm::Value* tail_mask =
+        b.CreateICmpSLT(llvm::ConstantVector::get(lane_ids), b.CreateVectorSplat(w_, rem));
     for (int k = 0; k < num_in; ++k) {
       llvm::Value* src = b.CreateGEP(st_, xs, b.CreateAdd(b.CreateMul(n, b.getInt64(k)), n_full));
       llvm::Value* v = b.CreateMaskedLoad(vt_, src, align_, tail_mask, splat(0.0));
@@ -368,15 +396,15 @@ class Emitter : public VectorEmitter {
     }
     llvm::Value* out_s_buf = b.CreateConstGEP1_64(st_, out_buf, w_);
     b.CreateCall(body, {in_buf, b.getInt64(w_), a, out_buf, out_s_buf, b.getInt64(w_)});
-    b.CreateMaskedStore(b.CreateAlignedLoad(vt_, out_buf, align_),
-                        b.CreateGEP(st_, out_f, n_full), align_, tail_mask);
+    b.CreateMaskedStore(b.CreateAlignedLoad(vt_, out_buf, align_), b.CreateGEP(st_, out_f, n_full),
+                        align_, tail_mask);
     if (num_s > 0) {
       auto* store_s = llvm::BasicBlock::Create(ctx_, "tail.s", f);
       b.CreateCondBr(has_s, store_s, done);
       b.SetInsertPoint(store_s);
       for (int k = 0; k < num_s; ++k) {
-        llvm::Value* v =
-            b.CreateAlignedLoad(vt_, b.CreateConstGEP1_64(st_, out_buf, uint64_t(1 + k) * w_), align_);
+        llvm::Value* v = b.CreateAlignedLoad(
+            vt_, b.CreateConstGEP1_64(st_, out_buf, uint64_t(1 + k) * w_), align_);
         llvm::Value* dst =
             b.CreateGEP(st_, out_s, b.CreateAdd(b.CreateMul(n, b.getInt64(k)), n_full));
         b.CreateMaskedStore(v, dst, align_, tail_mask);
@@ -409,7 +437,9 @@ struct JitFunction::Impl {
 JitFunction::JitFunction(std::unique_ptr<Impl> impl) : impl_(std::move(impl)) {}
 JitFunction::~JitFunction() = default;
 
-Precision JitFunction::precision() const { return impl_->precision; }
+Precision JitFunction::precision() const {
+  return impl_->precision;
+}
 BatchFn<double> JitFunction::f64() const {
   return impl_->precision == Precision::kF64
              ? reinterpret_cast<BatchFn<double>>(impl_->code->entry())
@@ -420,8 +450,12 @@ BatchFn<float> JitFunction::f32() const {
              ? reinterpret_cast<BatchFn<float>>(impl_->code->entry())
              : nullptr;
 }
-const JitStats& JitFunction::stats() const { return impl_->stats; }
-const std::string& JitFunction::llvm_ir() const { return impl_->llvm_ir; }
+const JitStats& JitFunction::stats() const {
+  return impl_->stats;
+}
+const std::string& JitFunction::llvm_ir() const {
+  return impl_->llvm_ir;
+}
 
 Result<std::unique_ptr<JitFunction>> JitFunction::compile(const Function& fn, Precision precision,
                                                           const JitOptions& options) {

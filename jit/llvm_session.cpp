@@ -2,12 +2,6 @@
 
 #include "jit/llvm_session.h"
 
-#include <chrono>
-#include <cmath>
-#include <cstdlib>
-#include <cstring>
-#include <mutex>
-
 #include <llvm/ExecutionEngine/Orc/CompileUtils.h>
 #include <llvm/Passes/StandardInstrumentations.h>
 #include <llvm/Support/MemoryBuffer.h>
@@ -15,6 +9,12 @@
 #include <llvm/Transforms/Scalar/DCE.h>
 #include <llvm/Transforms/Scalar/EarlyCSE.h>
 #include <llvm/Transforms/Scalar/SROA.h>
+
+#include <chrono>
+#include <cmath>
+#include <cstdlib>
+#include <cstring>
+#include <mutex>
 
 #include "jit/surface_ops.h"
 #include "lang/check.h"
@@ -39,28 +39,49 @@ std::vector<HostSymbol> libc_symbols() {
   using F1 = float (*)(float);
   using F2 = float (*)(float, float);
   return {
-      {"exp", fn_addr(static_cast<D1>(&::exp))},      {"log", fn_addr(static_cast<D1>(&::log))},
-      {"log10", fn_addr(static_cast<D1>(&::log10))},  {"sin", fn_addr(static_cast<D1>(&::sin))},
-      {"cos", fn_addr(static_cast<D1>(&::cos))},      {"tan", fn_addr(static_cast<D1>(&::tan))},
-      {"asin", fn_addr(static_cast<D1>(&::asin))},    {"acos", fn_addr(static_cast<D1>(&::acos))},
-      {"atan", fn_addr(static_cast<D1>(&::atan))},    {"sinh", fn_addr(static_cast<D1>(&::sinh))},
-      {"cosh", fn_addr(static_cast<D1>(&::cosh))},    {"tanh", fn_addr(static_cast<D1>(&::tanh))},
-      {"atan2", fn_addr(static_cast<D2>(&::atan2))},  {"fmod", fn_addr(static_cast<D2>(&::fmod))},
-      {"pow", fn_addr(static_cast<D2>(&::pow))},      {"floor", fn_addr(static_cast<D1>(&::floor))},
-      {"ceil", fn_addr(static_cast<D1>(&::ceil))},    {"trunc", fn_addr(static_cast<D1>(&::trunc))},
-      {"round", fn_addr(static_cast<D1>(&::round))},  {"sqrt", fn_addr(static_cast<D1>(&::sqrt))},
-      {"expf", fn_addr(static_cast<F1>(&::expf))},    {"logf", fn_addr(static_cast<F1>(&::logf))},
-      {"log10f", fn_addr(static_cast<F1>(&::log10f))}, {"sinf", fn_addr(static_cast<F1>(&::sinf))},
-      {"cosf", fn_addr(static_cast<F1>(&::cosf))},    {"tanf", fn_addr(static_cast<F1>(&::tanf))},
-      {"asinf", fn_addr(static_cast<F1>(&::asinf))},  {"acosf", fn_addr(static_cast<F1>(&::acosf))},
-      {"atanf", fn_addr(static_cast<F1>(&::atanf))},  {"sinhf", fn_addr(static_cast<F1>(&::sinhf))},
-      {"coshf", fn_addr(static_cast<F1>(&::coshf))},  {"tanhf", fn_addr(static_cast<F1>(&::tanhf))},
-      {"atan2f", fn_addr(static_cast<F2>(&::atan2f))}, {"fmodf", fn_addr(static_cast<F2>(&::fmodf))},
-      {"powf", fn_addr(static_cast<F2>(&::powf))},    {"floorf", fn_addr(static_cast<F1>(&::floorf))},
-      {"ceilf", fn_addr(static_cast<F1>(&::ceilf))},  {"truncf", fn_addr(static_cast<F1>(&::truncf))},
-      {"roundf", fn_addr(static_cast<F1>(&::roundf))}, {"sqrtf", fn_addr(static_cast<F1>(&::sqrtf))},
+      {"exp", fn_addr(static_cast<D1>(&::exp))},
+      {"log", fn_addr(static_cast<D1>(&::log))},
+      {"log10", fn_addr(static_cast<D1>(&::log10))},
+      {"sin", fn_addr(static_cast<D1>(&::sin))},
+      {"cos", fn_addr(static_cast<D1>(&::cos))},
+      {"tan", fn_addr(static_cast<D1>(&::tan))},
+      {"asin", fn_addr(static_cast<D1>(&::asin))},
+      {"acos", fn_addr(static_cast<D1>(&::acos))},
+      {"atan", fn_addr(static_cast<D1>(&::atan))},
+      {"sinh", fn_addr(static_cast<D1>(&::sinh))},
+      {"cosh", fn_addr(static_cast<D1>(&::cosh))},
+      {"tanh", fn_addr(static_cast<D1>(&::tanh))},
+      {"atan2", fn_addr(static_cast<D2>(&::atan2))},
+      {"fmod", fn_addr(static_cast<D2>(&::fmod))},
+      {"pow", fn_addr(static_cast<D2>(&::pow))},
+      {"floor", fn_addr(static_cast<D1>(&::floor))},
+      {"ceil", fn_addr(static_cast<D1>(&::ceil))},
+      {"trunc", fn_addr(static_cast<D1>(&::trunc))},
+      {"round", fn_addr(static_cast<D1>(&::round))},
+      {"sqrt", fn_addr(static_cast<D1>(&::sqrt))},
+      {"expf", fn_addr(static_cast<F1>(&::expf))},
+      {"logf", fn_addr(static_cast<F1>(&::logf))},
+      {"log10f", fn_addr(static_cast<F1>(&::log10f))},
+      {"sinf", fn_addr(static_cast<F1>(&::sinf))},
+      {"cosf", fn_addr(static_cast<F1>(&::cosf))},
+      {"tanf", fn_addr(static_cast<F1>(&::tanf))},
+      {"asinf", fn_addr(static_cast<F1>(&::asinf))},
+      {"acosf", fn_addr(static_cast<F1>(&::acosf))},
+      {"atanf", fn_addr(static_cast<F1>(&::atanf))},
+      {"sinhf", fn_addr(static_cast<F1>(&::sinhf))},
+      {"coshf", fn_addr(static_cast<F1>(&::coshf))},
+      {"tanhf", fn_addr(static_cast<F1>(&::tanhf))},
+      {"atan2f", fn_addr(static_cast<F2>(&::atan2f))},
+      {"fmodf", fn_addr(static_cast<F2>(&::fmodf))},
+      {"powf", fn_addr(static_cast<F2>(&::powf))},
+      {"floorf", fn_addr(static_cast<F1>(&::floorf))},
+      {"ceilf", fn_addr(static_cast<F1>(&::ceilf))},
+      {"truncf", fn_addr(static_cast<F1>(&::truncf))},
+      {"roundf", fn_addr(static_cast<F1>(&::roundf))},
+      {"sqrtf", fn_addr(static_cast<F1>(&::sqrtf))},
       // The optimiser may turn aggregate initialisation and copies into these.
-      {"memset", fn_addr(&::memset)},                 {"memcpy", fn_addr(&::memcpy)},
+      {"memset", fn_addr(&::memset)},
+      {"memcpy", fn_addr(&::memcpy)},
       {"memmove", fn_addr(&::memmove)},
   };
 }
@@ -198,8 +219,7 @@ ModuleUnit LlvmSession::new_module(std::string_view prefix) {
 Result<std::unique_ptr<CompiledCode>> LlvmSession::compile(ModuleUnit unit,
                                                            const std::string& entry,
                                                            const PipelineOptions& options,
-                                                           JitStats* stats,
-                                                           std::string* ir_text) {
+                                                           JitStats* stats, std::string* ir_text) {
   llvm::Module& module = *unit.module;
   {
     std::string msg;

@@ -266,13 +266,17 @@ class Lowerer {
   // ---- arrays ---------------------------------------------------------------------------
   ArraySlots array_of(const Frame& f, const lang::Symbol& sym) const {
     switch (sym.kind) {
-      case SymbolKind::kX: return f.x;
-      case SymbolKind::kA: return f.a;
+      case SymbolKind::kX:
+        return f.x;
+      case SymbolKind::kA:
+        return f.a;
       case SymbolKind::kS:
         HFRT_CHECK(f.s.base >= 0);
         return f.s;
-      case SymbolKind::kLocalArray: return f.arrays.at(sym.index);
-      default: break;
+      case SymbolKind::kLocalArray:
+        return f.arrays.at(sym.index);
+      default:
+        break;
     }
     HFRT_CHECK_MSG(false, "symbol is not an array (kind " << static_cast<int>(sym.kind) << ")");
     return {};
@@ -281,7 +285,8 @@ class Lowerer {
   // Evaluates an index, rounds it to the nearest integer, checks the range (at the index's
   // location) and returns an index that is always in range, so that evaluation can go on
   // safely after the error. *known receives a constant in-range index.
-  ValueId lower_index(Frame& f, const Expr& index_expr, const ArraySlots& arr, std::optional<int>* known) {
+  ValueId lower_index(Frame& f, const Expr& index_expr, const ArraySlots& arr,
+                      std::optional<int>* known) {
     ValueId v = lower_expr(f, index_expr);
     b_.set_loc(index_expr.range.begin);
     ValueId idx = b_.unary(Op::kRound, v);
@@ -292,14 +297,15 @@ class Lowerer {
     ValueId safe = b_.binary(Op::kMax, b_.binary(Op::kMin, idx, size), one);
     const Inst& si = fn_.insts[safe];
     const Inst& ri = fn_.insts[in_range];
-    if (si.op == Op::kConst && ri.op == Op::kConst && ri.imm != 0) *known = static_cast<int>(si.imm);
+    if (si.op == Op::kConst && ri.op == Op::kConst && ri.imm != 0)
+      *known = static_cast<int>(si.imm);
     return safe;
   }
 
   // Emits "element not assigned" checks for the elements of a local array that are not
   // provably assigned (all of them, or the one at `index`).
-  void check_elements(const ArraySlots& arr, const std::vector<char>* done, std::optional<ValueId> index,
-                      std::optional<int> known, ErrorKind kind) {
+  void check_elements(const ArraySlots& arr, const std::vector<char>* done,
+                      std::optional<ValueId> index, std::optional<int> known, ErrorKind kind) {
     if (arr.flag_base < 0) return;
     if (index) {
       if (known && (*done)[*known - 1]) return;
@@ -341,10 +347,14 @@ class Lowerer {
         return lower_binary(f, e);
       case ExprKind::kCall:
         switch (e.symbol.kind) {
-          case SymbolKind::kBuiltin: return lower_builtin(f, e);
-          case SymbolKind::kLibrary: return lower_library(f, e);
-          case SymbolKind::kObject: return lower_object_call(f, e);
-          default: break;
+          case SymbolKind::kBuiltin:
+            return lower_builtin(f, e);
+          case SymbolKind::kLibrary:
+            return lower_library(f, e);
+          case SymbolKind::kObject:
+            return lower_object_call(f, e);
+          default:
+            break;
         }
         break;
       case ExprKind::kString:
@@ -355,7 +365,8 @@ class Lowerer {
   }
 
   ValueId read_scalar(Frame& f, const Expr& e) {
-    HFRT_CHECK_MSG(e.symbol.kind == SymbolKind::kLocalScalar, "name '" << e.name << "' is not a scalar");
+    HFRT_CHECK_MSG(e.symbol.kind == SymbolKind::kLocalScalar,
+                   "name '" << e.name << "' is not a scalar");
     const int i = e.symbol.index;
     b_.set_loc(e.name_range.begin);
     if (!f.assigned.scalars[i]) {
@@ -371,7 +382,8 @@ class Lowerer {
     ValueId index = lower_index(f, *e.args[0], arr, &known);
     b_.set_loc(e.name_range.begin);
     if (arr.flag_base >= 0) {
-      check_elements(arr, &f.assigned.arrays[e.symbol.index], index, known, ErrorKind::kUninitialized);
+      check_elements(arr, &f.assigned.arrays[e.symbol.index], index, known,
+                     ErrorKind::kUninitialized);
     }
     return b_.load_index(arr.base, arr.size, index);
   }
@@ -397,25 +409,40 @@ class Lowerer {
     ValueId l = lower_expr(f, *e.args[0]);
     b_.set_loc(operator_loc(e));
     switch (e.binary_op) {
-      case BinaryOp::kAdd: return b_.add(l, r);
-      case BinaryOp::kSub: return b_.sub(l, r);
-      case BinaryOp::kMul: return b_.mul(l, r);
+      case BinaryOp::kAdd:
+        return b_.add(l, r);
+      case BinaryOp::kSub:
+        return b_.sub(l, r);
+      case BinaryOp::kMul:
+        return b_.mul(l, r);
       case BinaryOp::kDiv:
         b_.check(b_.lt(b_.unary(Op::kAbs, r), b_.constant(kHfEps)), ErrorKind::kDivisionByZero);
         return b_.div(l, r);
-      case BinaryOp::kPow: return lower_power(l, r);
-      case BinaryOp::kUnion: return r_function(l, r, /*plus=*/true);
+      case BinaryOp::kPow:
+        return lower_power(l, r);
+      case BinaryOp::kUnion:
+        return r_function(l, r, /*plus=*/true);
       case BinaryOp::kIntersect:
-      case BinaryOp::kProduct: return r_function(l, r, /*plus=*/false);
-      case BinaryOp::kSubtract: return r_function(l, b_.neg(r), /*plus=*/false);
-      case BinaryOp::kLt: return b_.lt(l, r);
-      case BinaryOp::kLe: return b_.le(l, r);
-      case BinaryOp::kGt: return b_.gt(l, r);
-      case BinaryOp::kGe: return b_.ge(l, r);
-      case BinaryOp::kEq: return b_.binary(Op::kEqTol, l, r);
-      case BinaryOp::kNe: return b_.binary(Op::kNeTol, l, r);
-      case BinaryOp::kAnd: return b_.binary(Op::kAnd, l, r);
-      case BinaryOp::kOr: return b_.binary(Op::kOr, l, r);
+      case BinaryOp::kProduct:
+        return r_function(l, r, /*plus=*/false);
+      case BinaryOp::kSubtract:
+        return r_function(l, b_.neg(r), /*plus=*/false);
+      case BinaryOp::kLt:
+        return b_.lt(l, r);
+      case BinaryOp::kLe:
+        return b_.le(l, r);
+      case BinaryOp::kGt:
+        return b_.gt(l, r);
+      case BinaryOp::kGe:
+        return b_.ge(l, r);
+      case BinaryOp::kEq:
+        return b_.binary(Op::kEqTol, l, r);
+      case BinaryOp::kNe:
+        return b_.binary(Op::kNeTol, l, r);
+      case BinaryOp::kAnd:
+        return b_.binary(Op::kAnd, l, r);
+      case BinaryOp::kOr:
+        return b_.binary(Op::kOr, l, r);
     }
     HFRT_CHECK(false);
     return kNoValue;
@@ -454,7 +481,8 @@ class Lowerer {
       return b_.binary(Op::kPowHF, base, expo);
     }
     ValueId integral = b_.lt(b_.unary(Op::kAbs, b_.sub(expo, b_.unary(Op::kTrunc, expo))), eps);
-    ValueId neg_real = b_.binary(Op::kAnd, b_.unary(Op::kNot, integral), b_.lt(base, b_.constant(0)));
+    ValueId neg_real =
+        b_.binary(Op::kAnd, b_.unary(Op::kNot, integral), b_.lt(base, b_.constant(0)));
     b_.check(b_.binary(Op::kAnd, neg_real, b_.unary(Op::kNot, tiny)), ErrorKind::kNegativePower);
     return b_.binary(Op::kPowHF, base, expo);
   }
@@ -469,15 +497,19 @@ class Lowerer {
       case Builtin::kSqrt:
         b_.check(b_.lt(v[0], zero()), ErrorKind::kNegativeSqrt);
         return b_.sqrt(v[0]);
-      case Builtin::kExp: return b_.unary(Op::kExp, v[0]);
+      case Builtin::kExp:
+        return b_.unary(Op::kExp, v[0]);
       case Builtin::kLog:
       case Builtin::kLogd:
         // !(v > 0): NaN is an error too, as in the original.
         b_.check(b_.unary(Op::kNot, b_.gt(v[0], zero())), ErrorKind::kLogNonPositive);
         return b_.unary(which == Builtin::kLog ? Op::kLog : Op::kLog10, v[0]);
-      case Builtin::kSin: return b_.unary(Op::kSin, v[0]);
-      case Builtin::kCos: return b_.unary(Op::kCos, v[0]);
-      case Builtin::kTan: return b_.unary(Op::kTan, v[0]);
+      case Builtin::kSin:
+        return b_.unary(Op::kSin, v[0]);
+      case Builtin::kCos:
+        return b_.unary(Op::kCos, v[0]);
+      case Builtin::kTan:
+        return b_.unary(Op::kTan, v[0]);
       case Builtin::kAsin:
       case Builtin::kAcos: {
         const bool is_asin = which == Builtin::kAsin;
@@ -485,19 +517,32 @@ class Lowerer {
                  is_asin ? ErrorKind::kAsinRange : ErrorKind::kAcosRange);
         return b_.unary(is_asin ? Op::kAsin : Op::kAcos, v[0]);
       }
-      case Builtin::kAtan: return b_.unary(Op::kAtan, v[0]);
-      case Builtin::kAbs: return b_.unary(Op::kAbs, v[0]);
-      case Builtin::kSinh: return b_.unary(Op::kSinh, v[0]);
-      case Builtin::kCosh: return b_.unary(Op::kCosh, v[0]);
-      case Builtin::kTanh: return b_.unary(Op::kTanh, v[0]);
-      case Builtin::kSign: return b_.unary(Op::kSign, v[0]);
-      case Builtin::kCeil: return b_.unary(Op::kCeil, v[0]);
-      case Builtin::kFloor: return b_.unary(Op::kFloor, v[0]);
-      case Builtin::kInt: return b_.unary(Op::kTrunc, v[0]);
-      case Builtin::kFrac: return b_.sub(v[0], b_.unary(Op::kTrunc, v[0]));
-      case Builtin::kMax: return b_.binary(Op::kMax, v[0], v[1]);
-      case Builtin::kMin: return b_.binary(Op::kMin, v[0], v[1]);
-      case Builtin::kAtan2: return b_.binary(Op::kAtan2, v[0], v[1]);
+      case Builtin::kAtan:
+        return b_.unary(Op::kAtan, v[0]);
+      case Builtin::kAbs:
+        return b_.unary(Op::kAbs, v[0]);
+      case Builtin::kSinh:
+        return b_.unary(Op::kSinh, v[0]);
+      case Builtin::kCosh:
+        return b_.unary(Op::kCosh, v[0]);
+      case Builtin::kTanh:
+        return b_.unary(Op::kTanh, v[0]);
+      case Builtin::kSign:
+        return b_.unary(Op::kSign, v[0]);
+      case Builtin::kCeil:
+        return b_.unary(Op::kCeil, v[0]);
+      case Builtin::kFloor:
+        return b_.unary(Op::kFloor, v[0]);
+      case Builtin::kInt:
+        return b_.unary(Op::kTrunc, v[0]);
+      case Builtin::kFrac:
+        return b_.sub(v[0], b_.unary(Op::kTrunc, v[0]));
+      case Builtin::kMax:
+        return b_.binary(Op::kMax, v[0], v[1]);
+      case Builtin::kMin:
+        return b_.binary(Op::kMin, v[0], v[1]);
+      case Builtin::kAtan2:
+        return b_.binary(Op::kAtan2, v[0], v[1]);
       case Builtin::kMod:
         // fmod of the rounded operands; a zero divisor gives NaN (IEEE), as the original.
         return b_.binary(Op::kFmod, b_.unary(Op::kRound, v[0]), b_.unary(Op::kRound, v[1]));
@@ -574,7 +619,8 @@ class Lowerer {
 
 }  // namespace
 
-Function lower_object(const lang::Program& program, int object_index, lang::DiagnosticSink* warnings) {
+Function lower_object(const lang::Program& program, int object_index,
+                      lang::DiagnosticSink* warnings) {
   Lowerer lowerer(program, warnings);
   return lowerer.run(object_index);
 }

@@ -26,6 +26,7 @@ inline constexpr double kLoopIterationLimit = 1e6;
 /// Lowers `program.objects[object_index]` of a CHECKED program (every Symbol resolved).
 /// Located warnings found while lowering (e.g. library array-size mismatches, reads of
 /// possibly uninitialised variables) go to `warnings` when it is not null.
-Function lower_object(const lang::Program& program, int object_index, lang::DiagnosticSink* warnings);
+Function lower_object(const lang::Program& program, int object_index,
+                      lang::DiagnosticSink* warnings);
 
 }  // namespace hfrt::jit

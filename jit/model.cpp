@@ -14,11 +14,11 @@
 #include "jit/interpreter.h"
 #include "jit/interval.h"
 #include "jit/llvm_jit.h"
+#include "jit/lower.h"
 #include "jit/poly.h"
 #include "lang/check.h"
 #include "lang/frontend.h"
 #include "lang/result.h"
-#include "jit/lower.h"
 
 namespace hfrt {
 namespace {
@@ -136,7 +136,9 @@ struct LazySlot {
     return code.get();
   }
   /// The code if it is compiled already (never compiles).
-  const Code* peek() const { return state.load(std::memory_order_acquire) == 1 ? code.get() : nullptr; }
+  const Code* peek() const {
+    return state.load(std::memory_order_acquire) == 1 ? code.get() : nullptr;
+  }
 };
 
 /// One lowered object with its evaluators. Every JIT code (scalar per precision, interval,
@@ -306,7 +308,8 @@ CompileResult Model::compile(std::string_view source, const ModelOptions& option
     d.message = options.object.empty() ? "the file defines no object"
                                        : "no object named '" + options.object + "' in the file";
     std::string names;
-    for (const lang::Object& o : impl->program->objects) names += (names.empty() ? "" : ", ") + o.name;
+    for (const lang::Object& o : impl->program->objects)
+      names += (names.empty() ? "" : ", ") + o.name;
     if (!names.empty()) d.hint = "the objects are: " + names;
     result.diagnostics.push_back(d);
     result.rendered += impl->file->name() + ": error: " + d.message +
@@ -341,7 +344,9 @@ std::vector<std::string> Model::object_names() const {
   return names;
 }
 
-const std::string& Model::object_name() const { return impl_->object_name; }
+const std::string& Model::object_name() const {
+  return impl_->object_name;
+}
 
 bool Model::select_object(std::string_view name, std::string* error) {
   int index = impl_->program->find_object(name);
@@ -363,16 +368,26 @@ bool Model::select_object(std::string_view name, std::string* error) {
   return true;
 }
 
-Backend Model::backend() const { return impl_->options.backend; }
-int Model::num_inputs() const { return impl_->compiled->fn.num_inputs; }
-int Model::num_params() const { return impl_->compiled->fn.num_params; }
-int Model::num_attributes() const { return static_cast<int>(impl_->compiled->fn.s_slots.size()); }
+Backend Model::backend() const {
+  return impl_->options.backend;
+}
+int Model::num_inputs() const {
+  return impl_->compiled->fn.num_inputs;
+}
+int Model::num_params() const {
+  return impl_->compiled->fn.num_params;
+}
+int Model::num_attributes() const {
+  return static_cast<int>(impl_->compiled->fn.s_slots.size());
+}
 
 void Model::set_params(std::vector<double> a) {
   impl_->params = std::move(a);
   impl_->pad_params();
 }
-const std::vector<double>& Model::params() const { return impl_->params; }
+const std::vector<double>& Model::params() const {
+  return impl_->params;
+}
 
 PointValue Model::eval(std::span<const double> x) const {
   const Compiled& c = *impl_->compiled;
@@ -406,8 +421,8 @@ PointValue Model::eval(std::span<const double> x) const {
 
 namespace {
 template <typename T>
-void interp_batch(const Compiled& c, const std::vector<double>& a, int64_t n, const T* xs,
-                  T* out_f, T* out_s) {
+void interp_batch(const Compiled& c, const std::vector<double>& a, int64_t n, const T* xs, T* out_f,
+                  T* out_s) {
   const int nx = c.fn.num_inputs;
   std::vector<double> x(static_cast<size_t>(std::max(nx, 0)));
   for (int64_t i = 0; i < n; ++i) {
@@ -560,7 +575,8 @@ void Model::eval_interval_batch(int64_t n, const double* lo, const double* hi, d
 
 DomainEngine Model::interval_engine() const {
   const Compiled& c = *impl_->compiled;
-  return c.interval_jit && c.interval.state.load() != 2 ? DomainEngine::kJit : DomainEngine::kInterp;
+  return c.interval_jit && c.interval.state.load() != 2 ? DomainEngine::kJit
+                                                        : DomainEngine::kInterp;
 }
 
 bool Model::prepare_interval(std::string* error) const {
@@ -591,8 +607,8 @@ GradientValue Model::eval_gradient(std::span<const double> x) const {
 
 namespace {
 template <typename T>
-void gradient_interp_batch(const Compiled& c, const std::vector<double>& a, int64_t n,
-                           const T* xs, T* out) {
+void gradient_interp_batch(const Compiled& c, const std::vector<double>& a, int64_t n, const T* xs,
+                           T* out) {
   const int nx = c.fn.num_inputs;
   auto gi = c.gradient_pool.take();
   std::vector<double> x(static_cast<size_t>(std::max(nx, 1)), 0.0);
@@ -738,7 +754,9 @@ bool Model::prepare_polynomial(std::string* error) const {
   return false;
 }
 
-std::string Model::ir_text() const { return jit::print(impl_->compiled->fn); }
+std::string Model::ir_text() const {
+  return jit::print(impl_->compiled->fn);
+}
 
 std::string Model::llvm_ir(Precision precision) const {
   if (impl_->options.backend != Backend::kJit) return "";
@@ -746,7 +764,9 @@ std::string Model::llvm_ir(Precision precision) const {
   return code ? code->llvm_ir() : "";
 }
 
-const std::vector<SourceDiagnostic>& Model::warnings() const { return impl_->warnings; }
+const std::vector<SourceDiagnostic>& Model::warnings() const {
+  return impl_->warnings;
+}
 
 ModelStats Model::stats() const {
   ModelStats s = impl_->stats;
@@ -770,7 +790,8 @@ ModelStats Model::stats() const {
     d->lanes = lanes;
     d->compile_ms = slot.compile_ms;
   };
-  if (const jit::IntervalJit* code = c.interval.peek()) domain(c.interval, code->lanes(), &s.interval);
+  if (const jit::IntervalJit* code = c.interval.peek())
+    domain(c.interval, code->lanes(), &s.interval);
   if (const jit::PolyJit* code = c.poly_jit.peek()) {
     domain(c.poly_jit, code->lanes(), &s.polynomial);
   }

@@ -88,10 +88,10 @@ struct PolyLeaf {
 /// point is p(t) = p0 + t p1, so its zero crossings are the surface's crossings with the ray
 /// p0 + t p1, at the same t (analytic candidates without a polynomial).
 struct PolySurfaceLeaf {
-  int32_t surface = -1;                ///< Function::surfaces index
-  int32_t regs[3] = {-1, -1, -1};      ///< before pruning: the registers of x, y, z
-  ValueId value = kNoValue;            ///< the kSurface instruction
-  int first_leaf = -1;                 ///< its point's x, y, z are leaves first_leaf .. + 2
+  int32_t surface = -1;            ///< Function::surfaces index
+  int32_t regs[3] = {-1, -1, -1};  ///< before pruning: the registers of x, y, z
+  ValueId value = kNoValue;        ///< the kSurface instruction
+  int first_leaf = -1;             ///< its point's x, y, z are leaves first_leaf .. + 2
 };
 
 struct PolyProgram {

@@ -401,17 +401,22 @@ class Analyzer {
           set = valid(in.args[0]) && valid(in.args[1]) &&
                 !(is_scalar(in.args[0]) && is_scalar(in.args[1]));
           break;
-        case Op::kNeg: set = is_set(in.args[0]); break;
+        case Op::kNeg:
+          set = is_set(in.args[0]);
+          break;
         case Op::kMul:
           set = (is_set(in.args[0]) && is_scalar(in.args[1])) ||
                 (is_scalar(in.args[0]) && is_set(in.args[1]));
           break;
-        case Op::kDiv: set = is_set(in.args[0]) && is_scalar(in.args[1]); break;
+        case Op::kDiv:
+          set = is_set(in.args[0]) && is_scalar(in.args[1]);
+          break;
         case Op::kSelect:
           set = is_scalar(in.args[0]) && valid(in.args[1]) && valid(in.args[2]) &&
                 (is_set(in.args[1]) || is_set(in.args[2]));
           break;
-        default: break;
+        default:
+          break;
       }
     }
     if (!set) return false;

@@ -42,60 +42,117 @@ inline double hf_sign(double v) {
   return v == 0 ? 0.0 : v;
 }
 
-inline double hf_truth(double v) { return std::fabs(v) >= kHfEps ? 1.0 : 0.0; }
+inline double hf_truth(double v) {
+  return std::fabs(v) >= kHfEps ? 1.0 : 0.0;
+}
 
 /// Applies a pure op with arguments (every kPure op except kConst, kInput, kParam and
 /// kTableLoad, whose values do not come from arguments). Unused arguments are ignored.
 /// Returns NaN for ops that are not of that kind (callers never pass them).
 inline double apply_op(Op op, double a, double b, double c) {
   switch (op) {
-    case Op::kAdd: return a + b;
-    case Op::kSub: return a - b;
-    case Op::kMul: return a * b;
-    case Op::kDiv: return a / b;
-    case Op::kNeg: return -a;
-    case Op::kAbs: return std::fabs(a);
-    case Op::kMin: return a < b ? a : b;
-    case Op::kMax: return a > b ? a : b;
-    case Op::kSqrt: return std::sqrt(a);
-    case Op::kExp: return std::exp(a);
-    case Op::kLog: return std::log(a);
-    case Op::kLog10: return std::log10(a);
-    case Op::kSin: return std::sin(a);
-    case Op::kCos: return std::cos(a);
-    case Op::kTan: return std::tan(a);
-    case Op::kAsin: return std::asin(a);
-    case Op::kAcos: return std::acos(a);
-    case Op::kAtan: return std::atan(a);
-    case Op::kAtan2: return std::atan2(a, b);
-    case Op::kSinh: return std::sinh(a);
-    case Op::kCosh: return std::cosh(a);
-    case Op::kTanh: return std::tanh(a);
-    case Op::kFloor: return std::floor(a);
-    case Op::kCeil: return std::ceil(a);
-    case Op::kTrunc: return std::trunc(a);
-    case Op::kRound: return std::round(a);
-    case Op::kFmod: return std::fmod(a, b);
-    case Op::kPow: return std::pow(a, b);
-    case Op::kPowHF: return hf_pow(a, b);
-    case Op::kSign: return hf_sign(a);
-    case Op::kLt: return a < b ? 1.0 : 0.0;
-    case Op::kLe: return a <= b ? 1.0 : 0.0;
-    case Op::kGt: return a > b ? 1.0 : 0.0;
-    case Op::kGe: return a >= b ? 1.0 : 0.0;
-    case Op::kEqTol: return std::fabs(a - b) < kHfEps ? 1.0 : 0.0;
-    case Op::kNeTol: return std::fabs(a - b) >= kHfEps ? 1.0 : 0.0;
-    case Op::kEq: return a == b ? 1.0 : 0.0;
-    case Op::kNe: return a != b ? 1.0 : 0.0;
-    case Op::kTruth: return hf_truth(a);
-    case Op::kAnd: return (hf_truth(a) != 0 && hf_truth(b) != 0) ? 1.0 : 0.0;
-    case Op::kOr: return (hf_truth(a) != 0 || hf_truth(b) != 0) ? 1.0 : 0.0;
-    case Op::kNot: return hf_truth(a) != 0 ? 0.0 : 1.0;
-    case Op::kSelect: return a != 0 ? b : c;
+    case Op::kAdd:
+      return a + b;
+    case Op::kSub:
+      return a - b;
+    case Op::kMul:
+      return a * b;
+    case Op::kDiv:
+      return a / b;
+    case Op::kNeg:
+      return -a;
+    case Op::kAbs:
+      return std::fabs(a);
+    case Op::kMin:
+      return a < b ? a : b;
+    case Op::kMax:
+      return a > b ? a : b;
+    case Op::kSqrt:
+      return std::sqrt(a);
+    case Op::kExp:
+      return std::exp(a);
+    case Op::kLog:
+      return std::log(a);
+    case Op::kLog10:
+      return std::log10(a);
+    case Op::kSin:
+      return std::sin(a);
+    case Op::kCos:
+      return std::cos(a);
+    case Op::kTan:
+      return std::tan(a);
+    case Op::kAsin:
+      return std::asin(a);
+    case Op::kAcos:
+      return std::acos(a);
+    case Op::kAtan:
+      return std::atan(a);
+    case Op::kAtan2:
+      return std::atan2(a, b);
+    case Op::kSinh:
+      return std::sinh(a);
+    case Op::kCosh:
+      return std::cosh(a);
+    case Op::kTanh:
+      return std::tanh(a);
+    case Op::kFloor:
+      return std::floor(a);
+    case Op::kCeil:
+      return std::ceil(a);
+    case Op::kTrunc:
+      return std::trunc(a);
+    case Op::kRound:
+      return std::round(a);
+    case Op::kFmod:
+      return std::fmod(a, b);
+    case Op::kPow:
+      return std::pow(a, b);
+    case Op::kPowHF:
+      return hf_pow(a, b);
+    case Op::kSign:
+      return hf_sign(a);
+    case Op::kLt:
+      return a < b ? 1.0 : 0.0;
+    case Op::kLe:
+      return a <= b ? 1.0 : 0.0;
+    case Op::kGt:
+      return a > b ? 1.0 : 0.0;
+    case Op::kGe:
+      return a >= b ? 1.0 : 0.0;
+    case Op::kEqTol:
+      return std::fabs(a - b) < kHfEps ? 1.0 : 0.0;
+    case Op::kNeTol:
+      return std::fabs(a - b) >= kHfEps ? 1.0 : 0.0;
+    case Op::kEq:
+      return a == b ? 1.0 : 0.0;
+    case Op::kNe:
+      return a != b ? 1.0 : 0.0;
+    case Op::kTruth:
+      return hf_truth(a);
+    case Op::kAnd:
+      return (hf_truth(a) != 0 && hf_truth(b) != 0) ? 1.0 : 0.0;
+    case Op::kOr:
+      return (hf_truth(a) != 0 || hf_truth(b) != 0) ? 1.0 : 0.0;
+    case Op::kNot:
+      return hf_truth(a) != 0 ? 0.0 : 1.0;
+    case Op::kSelect:
+      return a != 0 ? b : c;
     // Not computed from arguments.
-    case Op::kConst: case Op::kInput: case Op::kParam: case Op::kLoadSlot: case Op::kStoreSlot:
-    case Op::kLoadIdx: case Op::kStoreIdx: case Op::kTableLoad: case Op::kCheck: case Op::kIf:
-    case Op::kElse: case Op::kEndIf: case Op::kLoop: case Op::kLoopTest: case Op::kEndLoop:
+    case Op::kConst:
+    case Op::kInput:
+    case Op::kParam:
+    case Op::kLoadSlot:
+    case Op::kStoreSlot:
+    case Op::kLoadIdx:
+    case Op::kStoreIdx:
+    case Op::kTableLoad:
+    case Op::kCheck:
+    case Op::kIf:
+    case Op::kElse:
+    case Op::kEndIf:
+    case Op::kLoop:
+    case Op::kLoopTest:
+    case Op::kEndLoop:
     case Op::kSurface:  // needs Function::surfaces (jit/surface_ops.h)
       break;
   }

@@ -106,7 +106,8 @@ double hfrt_surface_sign_f64(const void* s, double x, double y, double z) noexce
 float hfrt_surface_sign_f32(const void* s, float x, float y, float z) noexcept {
   if (x != x || y != y || z != z) return std::numeric_limits<float>::quiet_NaN();
   // The same test as signed_distance's sign (geom/surface.h), without the distance query.
-  const double w = static_cast<const hfrt::geom::Surface*>(s)->winding_number(hfrt::geom::Vec3(x, y, z));
+  const double w =
+      static_cast<const hfrt::geom::Surface*>(s)->winding_number(hfrt::geom::Vec3(x, y, z));
   return w >= 0.5 ? 1.0f : -1.0f;
 }
 

@@ -19,13 +19,24 @@ enum class UnaryOp {
 };
 
 enum class BinaryOp {
-  kAdd, kSub, kMul, kDiv, kPow,
+  kAdd,
+  kSub,
+  kMul,
+  kDiv,
+  kPow,
   kUnion,      ///< |  R-function union
   kIntersect,  ///< &  R-function intersection
   kSubtract,   ///< \  R-function subtraction
   kProduct,    ///< @  Cartesian product (= intersection formula)
   // Conditions only (after `if` / `while`): produce 1 or 0.
-  kLt, kLe, kGt, kGe, kEq, kNe, kAnd, kOr,
+  kLt,
+  kLe,
+  kGt,
+  kGe,
+  kEq,
+  kNe,
+  kAnd,
+  kOr,
 };
 
 /// What a name refers to. Filled in by the semantic checks.
@@ -33,10 +44,12 @@ enum class SymbolKind {
   kUnresolved,
   kLocalScalar,  ///< index = Object::scalars position
   kLocalArray,   ///< index = Object::arrays position
-  kX, kA, kS,    ///< the header arrays; index unused
-  kBuiltin,      ///< index = static_cast<int>(Builtin)
-  kLibrary,      ///< index = static_cast<int>(LibraryFn)
-  kObject,       ///< index = Program::objects position (always < the caller's)
+  kX,
+  kA,
+  kS,        ///< the header arrays; index unused
+  kBuiltin,  ///< index = static_cast<int>(Builtin)
+  kLibrary,  ///< index = static_cast<int>(LibraryFn)
+  kObject,   ///< index = Program::objects position (always < the caller's)
 };
 
 struct Symbol {
@@ -59,11 +72,11 @@ using ExprPtr = std::unique_ptr<Expr>;
 
 struct Expr {
   ExprKind kind = ExprKind::kNumber;
-  SourceRange range;        ///< the whole expression
-  double number = 0;        ///< kNumber
-  std::string name;         ///< kName, kIndex, kCall: as written; kString: the text between the quotes
-  SourceRange name_range;   ///< kName, kIndex, kCall
-  Symbol symbol;            ///< kName, kIndex, kCall (after checking)
+  SourceRange range;  ///< the whole expression
+  double number = 0;  ///< kNumber
+  std::string name;   ///< kName, kIndex, kCall: as written; kString: the text between the quotes
+  SourceRange name_range;  ///< kName, kIndex, kCall
+  Symbol symbol;           ///< kName, kIndex, kCall (after checking)
   UnaryOp unary_op = UnaryOp::kNeg;
   BinaryOp binary_op = BinaryOp::kAdd;
   std::vector<ExprPtr> args;  ///< operands, index or call arguments
@@ -85,11 +98,11 @@ struct Stmt {
   SourceRange range;
   std::string name;  ///< assignment target as written
   SourceRange name_range;
-  Symbol symbol;     ///< assignment target (after checking)
-  ExprPtr index;     ///< kAssignIndex
-  ExprPtr value;     ///< kAssign, kAssignIndex
-  std::vector<double> literal;  ///< kAssignArray
-  ExprPtr cond;                 ///< kIf, kWhile
+  Symbol symbol;                   ///< assignment target (after checking)
+  ExprPtr index;                   ///< kAssignIndex
+  ExprPtr value;                   ///< kAssign, kAssignIndex
+  std::vector<double> literal;     ///< kAssignArray
+  ExprPtr cond;                    ///< kIf, kWhile
   std::vector<StmtPtr> then_body;  ///< kIf then-part, kWhile body
   std::vector<StmtPtr> else_body;  ///< kIf else-part
   bool has_else = false;
@@ -108,7 +121,7 @@ struct Object {
   SourceRange range;  ///< the whole definition
   int x_size = 0;
   int a_size = 0;
-  int s_size = 0;        ///< 0 when the header has no s
+  int s_size = 0;  ///< 0 when the header has no s
   bool has_s = false;
   std::vector<ArrayDecl> arrays;     ///< local arrays, in declaration order
   std::vector<std::string> scalars;  ///< local scalars in first-assignment order (by checking)

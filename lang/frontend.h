@@ -12,7 +12,8 @@ namespace hfrt::lang {
 /// Parses a whole file. Recovers from errors and reports all of them (up to the sink's
 /// limit). Never crashes, hangs or reads out of bounds, whatever the bytes. Returns the
 /// objects it could parse (possibly none).
-std::unique_ptr<Program> parse_program(std::shared_ptr<const SourceFile> file, DiagnosticSink& diags);
+std::unique_ptr<Program> parse_program(std::shared_ptr<const SourceFile> file,
+                                       DiagnosticSink& diags);
 
 /// Semantic checks; resolves every name to a Symbol and numbers local scalars. Adds errors
 /// and warnings to `diags`. Returns false when there were errors.

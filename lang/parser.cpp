@@ -57,13 +57,21 @@ bool is_additive(TokenKind k) {
          k == TokenKind::kAmp || k == TokenKind::kBackslash || k == TokenKind::kAt;
 }
 
-bool is_multiplicative(TokenKind k) { return k == TokenKind::kStar || k == TokenKind::kSlash; }
+bool is_multiplicative(TokenKind k) {
+  return k == TokenKind::kStar || k == TokenKind::kSlash;
+}
 
-bool is_power(TokenKind k) { return k == TokenKind::kCaret; }
+bool is_power(TokenKind k) {
+  return k == TokenKind::kCaret;
+}
 
-bool is_logical(TokenKind k) { return k == TokenKind::kAnd || k == TokenKind::kOr; }
+bool is_logical(TokenKind k) {
+  return k == TokenKind::kAnd || k == TokenKind::kOr;
+}
 
-bool is_arith_binary(TokenKind k) { return is_additive(k) || is_multiplicative(k) || is_power(k); }
+bool is_arith_binary(TokenKind k) {
+  return is_additive(k) || is_multiplicative(k) || is_power(k);
+}
 
 BinaryOp binary_op(TokenKind k) {
   switch (k) {
@@ -739,10 +747,14 @@ Node Parser::parse_left_assoc(Node (Parser::*operand)(), bool (*is_op)(TokenKind
 }
 
 // cond = cmp { ('and' | 'or') cmp }   (one level, left to right)
-Node Parser::parse_condition() { return parse_left_assoc(&Parser::parse_comparison, is_logical); }
+Node Parser::parse_condition() {
+  return parse_left_assoc(&Parser::parse_comparison, is_logical);
+}
 
 // cmp = prim { relop prim }   (chained numerically)
-Node Parser::parse_comparison() { return parse_left_assoc(&Parser::parse_condition_primary, is_relop); }
+Node Parser::parse_comparison() {
+  return parse_left_assoc(&Parser::parse_condition_primary, is_relop);
+}
 
 // prim = 'not' prim | '(' cond ')' | expr
 Node Parser::parse_condition_primary() {
@@ -809,13 +821,19 @@ Node Parser::parse_paren_condition() {
 }
 
 // expr = term { ('+' | '-' | '|' | '&' | '\' | '@') term }
-Node Parser::parse_expr() { return parse_left_assoc(&Parser::parse_term, is_additive); }
+Node Parser::parse_expr() {
+  return parse_left_assoc(&Parser::parse_term, is_additive);
+}
 
 // term = power { ('*' | '/') power }
-Node Parser::parse_term() { return parse_left_assoc(&Parser::parse_power, is_multiplicative); }
+Node Parser::parse_term() {
+  return parse_left_assoc(&Parser::parse_power, is_multiplicative);
+}
 
 // power = unary { '^' unary }   (left-associative, as the original)
-Node Parser::parse_power() { return parse_left_assoc(&Parser::parse_unary, is_power); }
+Node Parser::parse_power() {
+  return parse_left_assoc(&Parser::parse_unary, is_power);
+}
 
 // unary = ('+' | '-' | '~') unary | primary   (binds tighter than '^')
 Node Parser::parse_unary() {

@@ -22,13 +22,25 @@ class [[nodiscard]] Result {
 
   bool ok() const { return v_.index() == 0; }
   explicit operator bool() const { return ok(); }
-  T& value() & { HFRT_CHECK(ok()); return std::get<0>(v_); }
-  const T& value() const& { HFRT_CHECK(ok()); return std::get<0>(v_); }
-  T&& value() && { HFRT_CHECK(ok()); return std::get<0>(std::move(v_)); }
+  T& value() & {
+    HFRT_CHECK(ok());
+    return std::get<0>(v_);
+  }
+  const T& value() const& {
+    HFRT_CHECK(ok());
+    return std::get<0>(v_);
+  }
+  T&& value() && {
+    HFRT_CHECK(ok());
+    return std::get<0>(std::move(v_));
+  }
   T* operator->() { return &value(); }
   const T* operator->() const { return &value(); }
   T& operator*() & { return value(); }
-  const Error& error() const { HFRT_CHECK(!ok()); return std::get<1>(v_); }
+  const Error& error() const {
+    HFRT_CHECK(!ok());
+    return std::get<1>(v_);
+  }
 
  private:
   std::variant<T, Error> v_;

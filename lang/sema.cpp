@@ -439,8 +439,9 @@ class Checker {
       diags_.error(arg.range,
                    "argument " + std::to_string(position) + " of '" + fn +
                        "' must be a file name in double quotes",
-                   "for example " + fn + "(x, \"model.off\"); the path is relative to the "
-                   "model file's folder");
+                   "for example " + fn +
+                       "(x, \"model.off\"); the path is relative to the "
+                       "model file's folder");
       return;
     }
     if (arg.name.empty()) {

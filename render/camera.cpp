@@ -9,8 +9,10 @@
 namespace hfrt::render {
 
 CameraFrame::CameraFrame(const Camera& camera, int width, int height)
-    : ortho_(camera.kind == Camera::Kind::kOrthographic), eye_(camera.eye),
-      width_(width), height_(height) {
+    : ortho_(camera.kind == Camera::Kind::kOrthographic),
+      eye_(camera.eye),
+      width_(width),
+      height_(height) {
   HFRT_CHECK(width > 0 && height > 0);
   Vec3 view = camera.look_at - camera.eye;
   HFRT_CHECK_MSG(length(view) > 0, "camera eye equals look-at");
@@ -80,8 +82,7 @@ void CameraFrame::depth_range(const Box& box, float* t_min, float* t_max) const 
   *t_max = hi;
 }
 
-bool intersect_box(const Ray& ray, const Box& box, float* t_enter, float* t_exit,
-                   int* enter_axis) {
+bool intersect_box(const Ray& ray, const Box& box, float* t_enter, float* t_exit, int* enter_axis) {
   float t0 = -std::numeric_limits<float>::infinity();
   float t1 = std::numeric_limits<float>::infinity();
   int axis = -1;

@@ -38,7 +38,9 @@ struct Box {
 };
 
 /// Intersection of two boxes (empty() when they do not overlap).
-inline Box intersect(const Box& a, const Box& b) { return {vmax(a.lo, b.lo), vmin(a.hi, b.hi)}; }
+inline Box intersect(const Box& a, const Box& b) {
+  return {vmax(a.lo, b.lo), vmin(a.hi, b.hi)};
+}
 
 /// The model as a function of a 3-D point. Implementations must be thread-safe: the renderer
 /// calls every method concurrently from its worker threads (each call with its own buffers).
@@ -63,8 +65,8 @@ class Field {
 
   /// F and its gradient at n points. The gradient points into the solid (F grows inside);
   /// the renderer uses -grad/|grad| as the outward surface normal.
-  virtual void eval_gradient(size_t n, const float* x, const float* y, const float* z,
-                             float* f, float* dx, float* dy, float* dz) const = 0;
+  virtual void eval_gradient(size_t n, const float* x, const float* y, const float* z, float* f,
+                             float* dx, float* dy, float* dz) const = 0;
 
   /// How many attributes s[1..k] the model computes (0 when the model has none). When k >= 3,
   /// s[1..3] are the RGB colour in [0, 1] of the surface point.
@@ -85,8 +87,7 @@ class Field {
 
   /// Appends to `out` (unsorted, may repeat) every candidate t in [t0, t1] for the ray o + t d:
   /// each parameter where F may change sign on the ray must be listed (to rounding).
-  virtual void ray_candidates(Vec3 o, Vec3 d, float t0, float t1,
-                              std::vector<double>* out) const {}
+  virtual void ray_candidates(Vec3 o, Vec3 d, float t0, float t1, std::vector<double>* out) const {}
 };
 
 }  // namespace hfrt::render

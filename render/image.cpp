@@ -16,7 +16,8 @@ std::string lower_extension(const std::string& path) {
   size_t slash = path.find_last_of('/');
   if (dot == std::string::npos || (slash != std::string::npos && dot < slash)) return "";
   std::string ext = path.substr(dot + 1);
-  std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return std::tolower(c); });
+  std::transform(ext.begin(), ext.end(), ext.begin(),
+                 [](unsigned char c) { return std::tolower(c); });
   return ext;
 }
 
@@ -85,8 +86,8 @@ Result<std::vector<std::string>> write_pixels(const std::string& path, int width
   }
   bool is_float = ext == "exr" || ext == "hdr";
   bool is_16 = ext == "tif" || ext == "tiff";
-  OIIO::TypeDesc type = is_float ? OIIO::TypeDesc::FLOAT
-                                 : (is_16 ? OIIO::TypeDesc::UINT16 : OIIO::TypeDesc::UINT8);
+  OIIO::TypeDesc type =
+      is_float ? OIIO::TypeDesc::FLOAT : (is_16 ? OIIO::TypeDesc::UINT16 : OIIO::TypeDesc::UINT8);
   OIIO::ImageSpec spec(width, height, channels, type);
   if (!channel_names.empty()) spec.channelnames = channel_names;
   if (is_float) {

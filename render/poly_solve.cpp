@@ -266,7 +266,9 @@ int solve_leading(const double* c, int max_degree, double* roots) {
 
 }  // namespace
 
-int solve_polynomial(const double c[5], double roots[4]) { return solve_leading(c, 4, roots); }
+int solve_polynomial(const double c[5], double roots[4]) {
+  return solve_leading(c, 4, roots);
+}
 
 int solve_quadratic(double c0, double c1, double c2, double roots[2]) {
   double c[3] = {c0, c1, c2};

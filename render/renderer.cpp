@@ -38,7 +38,9 @@ uint64_t mix64(uint64_t z) {
   return z ^ (z >> 31);
 }
 
-float unit_float(uint64_t bits) { return float(bits >> 40) * (1.0f / 16777216.0f); }
+float unit_float(uint64_t bits) {
+  return float(bits >> 40) * (1.0f / 16777216.0f);
+}
 
 /// A range of camera depths that per-tile culling could not prove empty.
 struct Span {
@@ -48,7 +50,7 @@ struct Span {
 /// One camera sample of a tile.
 struct Sample {
   Ray ray;
-  int pixel;        // index into the tile's pixel list
+  int pixel;  // index into the tile's pixel list
   bool hit = false;
   bool cap = false;  // hit the bbox face while entering it inside the solid
   int cap_axis = 0;
@@ -77,15 +79,16 @@ struct ThreadState {
 class TileRenderer {
  public:
   TileRenderer(const Field& field, const RenderOptions& options, Image* image)
-      : field_(field), opt_(options), frame_(options.camera, options.width, options.height),
+      : field_(field),
+        opt_(options),
+        frame_(options.camera, options.width, options.height),
         image_(image) {
     step_ = effective_step(options);
     eps_ = effective_epsilon(options);
     use_analytic_ = options.root == RootMode::kAnalytic ||
                     (options.root == RootMode::kAuto && field.has_ray_candidates());
-    use_interval_ = !use_analytic_ &&
-                    (options.root == RootMode::kInterval ||
-                     (options.root == RootMode::kAuto && field.has_interval()));
+    use_interval_ = !use_analytic_ && (options.root == RootMode::kInterval ||
+                                       (options.root == RootMode::kAuto && field.has_interval()));
     cull_ = options.tile_culling && field.has_interval();
     lights_ = options.lights.empty() ? default_lights(frame_) : options.lights;
     frame_.depth_range(options.bbox, &t_min_, &t_max_);
@@ -191,7 +194,8 @@ class TileRenderer {
         for (int s = 0; s < spp; ++s) {
           float fx = 0.5f, fy = 0.5f;
           if (spp > 1) {
-            uint64_t seed = ((uint64_t(y) * uint64_t(opt_.width) + uint64_t(x)) << 16) ^ uint64_t(s);
+            uint64_t seed =
+                ((uint64_t(y) * uint64_t(opt_.width) + uint64_t(x)) << 16) ^ uint64_t(s);
             uint64_t h = mix64(seed ^ 0x68667274ull);
             float jx = unit_float(h), jy = unit_float(mix64(h));
             fx = (float(s % nx) + jx) / float(nx);
@@ -261,10 +265,10 @@ class TileRenderer {
     tx = std::min(tx, dist);
     if (!(te <= tx)) return false;
     ts.shadow_rays++;
-    RootHit h = use_analytic_ ? ts.searcher.analytic_search(r, te, tx)
+    RootHit h = use_analytic_   ? ts.searcher.analytic_search(r, te, tx)
                 : use_interval_ ? ts.searcher.interval_search(r, te, tx, eps_, step_, true)
-                : cull_       ? ts.searcher.pruned_sign_search(r, te, tx, step_, eps_, true)
-                              : ts.searcher.sign_search(r, te, tx, step_, eps_, true);
+                : cull_         ? ts.searcher.pruned_sign_search(r, te, tx, step_, eps_, true)
+                                : ts.searcher.sign_search(r, te, tx, step_, eps_, true);
     return h.hit;
   }
 
@@ -380,10 +384,14 @@ class TileRenderer {
 
 const char* root_mode_name(RootMode mode) {
   switch (mode) {
-    case RootMode::kSign: return "sign";
-    case RootMode::kInterval: return "interval";
-    case RootMode::kAuto: return "auto";
-    case RootMode::kAnalytic: return "analytic";
+    case RootMode::kSign:
+      return "sign";
+    case RootMode::kInterval:
+      return "interval";
+    case RootMode::kAuto:
+      return "auto";
+    case RootMode::kAnalytic:
+      return "analytic";
   }
   return "?";
 }
@@ -398,8 +406,10 @@ float effective_epsilon(const RenderOptions& options) {
 
 std::vector<Light> default_lights(const CameraFrame& frame) {
   Vec3 f = frame.forward(), r = frame.right(), u = frame.up();
-  Light key{Light::Kind::kDirectional, normalize(-f * 0.8f + u * 0.9f - r * 0.6f), {0.85f, 0.85f, 0.82f}};
-  Light fill{Light::Kind::kDirectional, normalize(-f * 0.6f - u * 0.2f + r * 1.0f), {0.25f, 0.27f, 0.3f}};
+  Light key{
+      Light::Kind::kDirectional, normalize(-f * 0.8f + u * 0.9f - r * 0.6f), {0.85f, 0.85f, 0.82f}};
+  Light fill{
+      Light::Kind::kDirectional, normalize(-f * 0.6f - u * 0.2f + r * 1.0f), {0.25f, 0.27f, 0.3f}};
   return {key, fill};
 }
 
@@ -433,30 +443,31 @@ RenderResult render(const Field& field, const RenderOptions& options) {
                             std::max<size_t>(threads, tbb::info::default_concurrency()));
   tbb::task_arena arena(threads);
   arena.execute([&] {
-    tbb::parallel_for(tbb::blocked_range<size_t>(0, ntiles, 1), [&](const tbb::blocked_range<size_t>& r) {
-      ThreadState& st = states.local();
-      for (size_t ti = r.begin(); ti != r.end(); ++ti) {
-        if (options.cancel && options.cancel->load(std::memory_order_relaxed)) {
-          cancelled.store(true, std::memory_order_relaxed);
-          return;
-        }
-        int tx = int(ti % ntx), ty = int(ti / ntx);
-        int x0 = tx * ts, y0 = ty * ts;
-        int x1 = std::min(options.width, x0 + ts), y1 = std::min(options.height, y0 + ts);
-        st.searcher.reset_nan_point();
-        tiles.render_tile(x0, y0, x1, y1, st);
-        if (st.searcher.has_nan_point()) {
-          // Keep the first in tile order, so the report does not depend on scheduling.
-          std::lock_guard<std::mutex> lock(nan_mutex);
-          if (ti < nan_tile) {
-            nan_tile = ti;
-            nan_point = st.searcher.nan_point();
+    tbb::parallel_for(
+        tbb::blocked_range<size_t>(0, ntiles, 1), [&](const tbb::blocked_range<size_t>& r) {
+          ThreadState& st = states.local();
+          for (size_t ti = r.begin(); ti != r.end(); ++ti) {
+            if (options.cancel && options.cancel->load(std::memory_order_relaxed)) {
+              cancelled.store(true, std::memory_order_relaxed);
+              return;
+            }
+            int tx = int(ti % ntx), ty = int(ti / ntx);
+            int x0 = tx * ts, y0 = ty * ts;
+            int x1 = std::min(options.width, x0 + ts), y1 = std::min(options.height, y0 + ts);
+            st.searcher.reset_nan_point();
+            tiles.render_tile(x0, y0, x1, y1, st);
+            if (st.searcher.has_nan_point()) {
+              // Keep the first in tile order, so the report does not depend on scheduling.
+              std::lock_guard<std::mutex> lock(nan_mutex);
+              if (ti < nan_tile) {
+                nan_tile = ti;
+                nan_point = st.searcher.nan_point();
+              }
+            }
+            size_t d = ++done;
+            if (options.progress) options.progress(d, ntiles);
           }
-        }
-        size_t d = ++done;
-        if (options.progress) options.progress(d, ntiles);
-      }
-    });
+        });
   });
 
   RenderStats& s = result.stats;

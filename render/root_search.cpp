@@ -64,7 +64,8 @@ float RootSearcher::refine(const Ray& ray, float ta, float fa, float tb, float f
   ts_.resize(std::max<size_t>(ts_.size(), kRefineBatch));
   while (tb - ta > eps) {
     float width = tb - ta;
-    for (int i = 0; i < kRefineBatch; ++i) ts_[i] = ta + width * float(i + 1) / float(kRefineBatch + 1);
+    for (int i = 0; i < kRefineBatch; ++i)
+      ts_[i] = ta + width * float(i + 1) / float(kRefineBatch + 1);
     eval_params(ray, kRefineBatch);
     int first_in = -1;
     for (int i = 0; i < kRefineBatch; ++i) {
@@ -216,8 +217,8 @@ RootHit RootSearcher::analytic_search(const Ray& ray, float t0, float t1) {
   return {};
 }
 
-RootHit RootSearcher::pruned_sign_search(const Ray& ray, float t0, float t1, float step,
-                                         float eps, bool any_hit) {
+RootHit RootSearcher::pruned_sign_search(const Ray& ray, float t0, float t1, float step, float eps,
+                                         bool any_hit) {
   if (!(t0 <= t1)) return {};
   const float span = kPrunedSpan * step;
   std::vector<Piece> stack{{t0, t1}};  // separate from stack_: sign_search does not use it

@@ -139,21 +139,23 @@ SliceResult render_slice(const Field& field, const SliceOptions& options) {
                             std::max<size_t>(threads, tbb::info::default_concurrency()));
   tbb::task_arena arena(threads);
   arena.execute([&] {
-    tbb::parallel_for(tbb::blocked_range<size_t>(0, ntiles, 1), [&](const tbb::blocked_range<size_t>& r) {
-      SliceThread& st = states.local();
-      for (size_t ti = r.begin(); ti != r.end(); ++ti) {
-        int tx = int(ti % ntx), ty = int(ti / ntx);
-        int i0 = tx * ts, j0 = ty * ts;
-        st.has_nan = false;
-        renderer.block(i0, j0, std::min(options.width, i0 + ts), std::min(options.height, j0 + ts), st);
-        if (st.has_nan) {
-          std::lock_guard<std::mutex> lock(nan_mutex);
-          if (ti < nan_tile) nan_tile = ti, nan_point = st.nan_point;
-        }
-        size_t d = ++done;
-        if (options.progress) options.progress(d, ntiles);
-      }
-    });
+    tbb::parallel_for(tbb::blocked_range<size_t>(0, ntiles, 1),
+                      [&](const tbb::blocked_range<size_t>& r) {
+                        SliceThread& st = states.local();
+                        for (size_t ti = r.begin(); ti != r.end(); ++ti) {
+                          int tx = int(ti % ntx), ty = int(ti / ntx);
+                          int i0 = tx * ts, j0 = ty * ts;
+                          st.has_nan = false;
+                          renderer.block(i0, j0, std::min(options.width, i0 + ts),
+                                         std::min(options.height, j0 + ts), st);
+                          if (st.has_nan) {
+                            std::lock_guard<std::mutex> lock(nan_mutex);
+                            if (ti < nan_tile) nan_tile = ti, nan_point = st.nan_point;
+                          }
+                          size_t d = ++done;
+                          if (options.progress) options.progress(d, ntiles);
+                        }
+                      });
   });
   SliceStats& s = result.stats;
   s.threads = threads;

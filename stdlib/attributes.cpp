@@ -30,8 +30,9 @@ V checker_board(Call& c) {
     inside = k == 0 ? in_k : land(inside, in_k);
   }
   if (c.size(4) != c.size(5)) {
-    c.warn(-1, "hfA_CheckerBoard: the colour arrays '" + c.arg_text(4) + "' and '" +
-                   c.arg_text(5) + "' differ in size; the output array is left unchanged",
+    c.warn(-1,
+           "hfA_CheckerBoard: the colour arrays '" + c.arg_text(4) + "' and '" + c.arg_text(5) +
+               "' differ in size; the output array is left unchanged",
            "give both colours the same number of elements");
     return c.k(1);
   }
@@ -68,7 +69,9 @@ V a_union(Call& c) {
 }
 
 /// The "set i" of a colour table: elements m*i .. m*i+m-1 (0-based i).
-V set_elem(Call& c, int col, int m, int i, int j) { return c.at(col, m * i + j); }
+V set_elem(Call& c, int col, int m, int i, int j) {
+  return c.at(col, m * i + j);
+}
 
 V circles(Call& c) {
   // hfA_Circles(x, out, col, map)
@@ -79,8 +82,9 @@ V circles(Call& c) {
   if (n < c.size(2)) {
     c.put(2, n, c.k(1.0 + 0.1));
   } else {
-    c.warn(2, "hfA_Circles: the original writes 1.1 into element " + std::to_string(n + 1) +
-                  " of '" + c.arg_text(2) + "', past its end; the write is dropped",
+    c.warn(2,
+           "hfA_Circles: the original writes 1.1 into element " + std::to_string(n + 1) + " of '" +
+               c.arg_text(2) + "', past its end; the write is dropped",
            "declare the colour array with at least size(map) + 1 elements");
   }
   if (n >= 2) c.need(2, m * (n - 1), "one set of size(out) values per map interval");
@@ -137,7 +141,9 @@ V pulse(Call& c) {
   return sel(lt(f, p3), 0.0, sel(gt(f, p2), 0.0, c.k(1)));
 }
 
-V step(Call& c) { return sel(lt(c.real(0), c.real(1)), 0.0, c.k(1)); }
+V step(Call& c) {
+  return sel(lt(c.real(0), c.real(1)), 0.0, c.k(1));
+}
 
 V smooth_step(Call& c) {
   V f = c.real(3), a = c.real(4), b = c.real(5);
@@ -191,8 +197,9 @@ V spline(Call& c) {
   if (m == 0) return c.k(1);
   const int nk = c.size(1) / m;
   if (nk < 4) {
-    c.warn(1, "hfA_Spline: the knot array '" + c.arg_text(1) + "' holds " + std::to_string(nk) +
-                  " knots of " + std::to_string(m) + " values, fewer than 4; the output is NaN",
+    c.warn(1,
+           "hfA_Spline: the knot array '" + c.arg_text(1) + "' holds " + std::to_string(nk) +
+               " knots of " + std::to_string(m) + " values, fewer than 4; the output is NaN",
            "give at least 4 knots of size(s) values each");
   }
   V t = c.real(2), tmin = c.real(3), tmax = c.real(4);
@@ -204,7 +211,8 @@ V spline(Call& c) {
   uu = uu - span;
   // Knot element (span + q, j) at run time; outside K (nk < 6 at u = 1) reads NaN.
   auto knot = [&](int q, int j) {
-    V index1 = (span + static_cast<double>(q)) * static_cast<double>(m) + static_cast<double>(j + 1);
+    V index1 =
+        (span + static_cast<double>(q)) * static_cast<double>(m) + static_cast<double>(j + 1);
     V valid = land(ge(index1, 1.0), le(index1, static_cast<double>(c.size(1))));
     if (c.size(1) == 0) return c.nan();
     return sel(valid, c.at_index(1, sel(valid, index1, 1.0)), kNaN);
@@ -296,26 +304,45 @@ V hsv_to_rgb(Call& c) {
 
 V lower_attribute(Call& c) {
   switch (c.fn()) {
-    case LibraryFn::kAWave: return wave(c);
-    case LibraryFn::kACheckerBoard: return checker_board(c);
-    case LibraryFn::kAUnion: return a_union(c);
-    case LibraryFn::kACircles: return circles(c);
-    case LibraryFn::kASetColor: return set_color(c);
-    case LibraryFn::kASetAttributes: return set_attributes(c);
+    case LibraryFn::kAWave:
+      return wave(c);
+    case LibraryFn::kACheckerBoard:
+      return checker_board(c);
+    case LibraryFn::kAUnion:
+      return a_union(c);
+    case LibraryFn::kACircles:
+      return circles(c);
+    case LibraryFn::kASetColor:
+      return set_color(c);
+    case LibraryFn::kASetAttributes:
+      return set_attributes(c);
     case LibraryFn::kALerp:
-    case LibraryFn::kACerp: return lerp(c);
-    case LibraryFn::kAClamp: return clamp(c);
-    case LibraryFn::kAFloor: return trunc(c.real(0));
-    case LibraryFn::kAPulse: return pulse(c);
-    case LibraryFn::kALookUpTable: return look_up(c, false);
-    case LibraryFn::kASmoothLookUpTable: return look_up(c, true);
-    case LibraryFn::kAStep: return step(c);
-    case LibraryFn::kASmoothStep: return smooth_step(c);
-    case LibraryFn::kAModulo: return modulo(c);
-    case LibraryFn::kASpline: return spline(c);
-    case LibraryFn::kARGBToHSV: return rgb_to_hsv(c);
-    case LibraryFn::kAHSVToRGB: return hsv_to_rgb(c);
-    default: HFRT_CHECK_MSG(false, "not an attribute function: " << c.name());
+    case LibraryFn::kACerp:
+      return lerp(c);
+    case LibraryFn::kAClamp:
+      return clamp(c);
+    case LibraryFn::kAFloor:
+      return trunc(c.real(0));
+    case LibraryFn::kAPulse:
+      return pulse(c);
+    case LibraryFn::kALookUpTable:
+      return look_up(c, false);
+    case LibraryFn::kASmoothLookUpTable:
+      return look_up(c, true);
+    case LibraryFn::kAStep:
+      return step(c);
+    case LibraryFn::kASmoothStep:
+      return smooth_step(c);
+    case LibraryFn::kAModulo:
+      return modulo(c);
+    case LibraryFn::kASpline:
+      return spline(c);
+    case LibraryFn::kARGBToHSV:
+      return rgb_to_hsv(c);
+    case LibraryFn::kAHSVToRGB:
+      return hsv_to_rgb(c);
+    default:
+      HFRT_CHECK_MSG(false, "not an attribute function: " << c.name());
   }
 }
 

@@ -68,12 +68,18 @@ V sawtooth(Call& c) {
 
 V lower_blend(Call& c) {
   switch (c.fn()) {
-    case LibraryFn::kBlendUni: return blend(c, true);
-    case LibraryFn::kBlendInt: return blend(c, false);
-    case LibraryFn::kDBlendUni: return dblend(c, true);
-    case LibraryFn::kDBlendInt: return dblend(c, false);
-    case LibraryFn::kSawtooth: return sawtooth(c);
-    default: HFRT_CHECK_MSG(false, "not a blend: " << c.name());
+    case LibraryFn::kBlendUni:
+      return blend(c, true);
+    case LibraryFn::kBlendInt:
+      return blend(c, false);
+    case LibraryFn::kDBlendUni:
+      return dblend(c, true);
+    case LibraryFn::kDBlendInt:
+      return dblend(c, false);
+    case LibraryFn::kSawtooth:
+      return sawtooth(c);
+    default:
+      HFRT_CHECK_MSG(false, "not a blend: " << c.name());
   }
 }
 

@@ -10,7 +10,9 @@ namespace {
 
 using P3 = std::array<V, 3>;
 
-P3 point(Call& c, int i) { return {c.at(i, 0), c.at(i, 1), c.at(i, 2)}; }
+P3 point(Call& c, int i) {
+  return {c.at(i, 0), c.at(i, 1), c.at(i, 2)};
+}
 P3 triple(Call& c, int i, int first) {
   return {c.at(i, first), c.at(i, first + 1), c.at(i, first + 2)};
 }
@@ -85,8 +87,9 @@ V conv_line_r(Call& c) {
   const int n = c.size(2) / 3;
   c.need(1, 3 * n, count_text(3, n, "segment", c.arg_text(2)));
   if (n == 0) {
-    c.warn(2, "hfConvLineR: the end-point array '" + c.arg_text(2) +
-                  "' has no complete segment; the threshold is taken as 0",
+    c.warn(2,
+           "hfConvLineR: the end-point array '" + c.arg_text(2) +
+               "' has no complete segment; the threshold is taken as 0",
            "give at least 3 coordinates per segment");
   }
   P3 p = point(c, 0);
@@ -169,8 +172,8 @@ V conv_triangle(Call& c) {
   P3 p = point(c, 0);
   V f = c.k(0);
   for (int i = 0; i < n; ++i) {
-    f = f + triangle_term(p, triple(c, 1, 9 * i), triple(c, 1, 9 * i + 3),
-                          triple(c, 1, 9 * i + 6), c.at(2, i));
+    f = f + triangle_term(p, triple(c, 1, 9 * i), triple(c, 1, 9 * i + 3), triple(c, 1, 9 * i + 6),
+                          c.at(2, i));
   }
   return f - c.real(3);
 }
@@ -219,8 +222,7 @@ V arc_term(const P3& q, V r, V s, V th) {
   V p1 = sqrt(abs(p2));
   V p3 = p1 * p2;
   V f1 = (b * y) / (x * p2 * (a * x - b)) +
-         (a * (sq(x) + sq(y)) * sin(th) - b * y) /
-             (x * p2 * (a * (x * cos(th) + y * sin(th)) - b));
+         (a * (sq(x) + sq(y)) * sin(th) - b * y) / (x * p2 * (a * (x * cos(th) + y * sin(th)) - b));
   // p2 is always negative (library.md): the original's atanh branch is unreachable.
   V f2 = 2.0 * b * (atan(-a * y / p1) + atan((a * y - (a * x + b) * tan(th / 2.0)) / p1)) / p3;
   return f1 + f2;
@@ -286,14 +288,22 @@ V conv_arc(Call& c) {
 
 V lower_convolution(Call& c) {
   switch (c.fn()) {
-    case LibraryFn::kConvPoint: return conv_point(c);
-    case LibraryFn::kConvLine: return conv_line(c);
-    case LibraryFn::kConvCurve: return conv_curve(c);
-    case LibraryFn::kConvLineR: return conv_line_r(c);
-    case LibraryFn::kConvTriangle: return conv_triangle(c);
-    case LibraryFn::kConvMesh: return conv_mesh(c);
-    case LibraryFn::kConvArc: return conv_arc(c);
-    default: HFRT_CHECK_MSG(false, "not a convolution primitive: " << c.name());
+    case LibraryFn::kConvPoint:
+      return conv_point(c);
+    case LibraryFn::kConvLine:
+      return conv_line(c);
+    case LibraryFn::kConvCurve:
+      return conv_curve(c);
+    case LibraryFn::kConvLineR:
+      return conv_line_r(c);
+    case LibraryFn::kConvTriangle:
+      return conv_triangle(c);
+    case LibraryFn::kConvMesh:
+      return conv_mesh(c);
+    case LibraryFn::kConvArc:
+      return conv_arc(c);
+    default:
+      HFRT_CHECK_MSG(false, "not a convolution primitive: " << c.name());
   }
 }
 

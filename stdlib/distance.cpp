@@ -13,7 +13,9 @@ using P3 = std::array<V, 3>;
 constexpr double kConeFailure = -11111111111.0;
 constexpr double kCylinderFailure = -11111111111.1;
 
-P3 point(Call& c, int i) { return {c.at(i, 0), c.at(i, 1), c.at(i, 2)}; }
+P3 point(Call& c, int i) {
+  return {c.at(i, 0), c.at(i, 1), c.at(i, 2)};
+}
 
 P3 offset(Call& c) {
   c.need(1, 3, "a centre of 3 coordinates");
@@ -27,9 +29,15 @@ V dcone(Call& c) {
   V tau = atan(c.real(2));
   V radial = c.k(0), along = c.k(0);
   switch (c.fn()) {
-    case LibraryFn::kDConeX: radial = sqrt(d[2] * d[2] + d[1] * d[1]), along = abs(d[0]); break;
-    case LibraryFn::kDConeY: radial = sqrt(d[2] * d[2] + d[0] * d[0]), along = abs(d[1]); break;
-    default: radial = sqrt(d[0] * d[0] + d[1] * d[1]), along = abs(d[2]); break;
+    case LibraryFn::kDConeX:
+      radial = sqrt(d[2] * d[2] + d[1] * d[1]), along = abs(d[0]);
+      break;
+    case LibraryFn::kDConeY:
+      radial = sqrt(d[2] * d[2] + d[0] * d[0]), along = abs(d[1]);
+      break;
+    default:
+      radial = sqrt(d[0] * d[0] + d[1] * d[1]), along = abs(d[2]);
+      break;
   }
   V dist = radial * cos(tau) - along * sin(tau);
   return -dist;
@@ -113,9 +121,15 @@ V dtorus(Call& c) {
   V big_r = c.real(2), r0 = c.real(3);
   V g = c.k(0), axis2 = c.k(0);
   switch (c.fn()) {
-    case LibraryFn::kDTorusX: g = sqrt(d[1] * d[1] + d[2] * d[2]) - big_r, axis2 = d[0] * d[0]; break;
-    case LibraryFn::kDTorusY: g = sqrt(d[0] * d[0] + d[2] * d[2]) - big_r, axis2 = d[1] * d[1]; break;
-    default: g = sqrt(d[0] * d[0] + d[1] * d[1]) - big_r, axis2 = d[2] * d[2]; break;
+    case LibraryFn::kDTorusX:
+      g = sqrt(d[1] * d[1] + d[2] * d[2]) - big_r, axis2 = d[0] * d[0];
+      break;
+    case LibraryFn::kDTorusY:
+      g = sqrt(d[0] * d[0] + d[2] * d[2]) - big_r, axis2 = d[1] * d[1];
+      break;
+    default:
+      g = sqrt(d[0] * d[0] + d[1] * d[1]) - big_r, axis2 = d[2] * d[2];
+      break;
   }
   return -(sqrt(g * g + axis2) - r0);
 }
@@ -126,13 +140,18 @@ V lower_distance(Call& c) {
   switch (c.fn()) {
     case LibraryFn::kDConeX:
     case LibraryFn::kDConeY:
-    case LibraryFn::kDConeZ: return dcone(c);
-    case LibraryFn::kDCylinder: return dcylinder(c);
-    case LibraryFn::kDEllipsoid: return dellipsoid(c);
+    case LibraryFn::kDConeZ:
+      return dcone(c);
+    case LibraryFn::kDCylinder:
+      return dcylinder(c);
+    case LibraryFn::kDEllipsoid:
+      return dellipsoid(c);
     case LibraryFn::kDTorusX:
     case LibraryFn::kDTorusY:
-    case LibraryFn::kDTorusZ: return dtorus(c);
-    default: HFRT_CHECK_MSG(false, "not a distance primitive: " << c.name());
+    case LibraryFn::kDTorusZ:
+      return dtorus(c);
+    default:
+      HFRT_CHECK_MSG(false, "not a distance primitive: " << c.name());
   }
 }
 

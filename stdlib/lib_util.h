@@ -5,12 +5,12 @@
 // array arguments through their slots and reports size problems as located warnings.
 
 #include <cmath>
+#include <cstdint>
 #include <limits>
 #include <span>
 #include <string>
 #include <string_view>
 #include <vector>
-#include <cstdint>
 
 #include "stdlib/library.h"
 
@@ -36,60 +36,154 @@ struct V {
   ValueId id = jit::kNoValue;
 };
 
-inline V bin(Op op, V a, V b) { return {a.b, a.b->binary(op, a.id, b.id)}; }
-inline V un(Op op, V a) { return {a.b, a.b->unary(op, a.id)}; }
-inline V cst(IrBuilder* b, double c) { return {b, b->constant(c)}; }
+inline V bin(Op op, V a, V b) {
+  return {a.b, a.b->binary(op, a.id, b.id)};
+}
+inline V un(Op op, V a) {
+  return {a.b, a.b->unary(op, a.id)};
+}
+inline V cst(IrBuilder* b, double c) {
+  return {b, b->constant(c)};
+}
 
-inline V operator+(V a, V b) { return bin(Op::kAdd, a, b); }
-inline V operator-(V a, V b) { return bin(Op::kSub, a, b); }
-inline V operator*(V a, V b) { return bin(Op::kMul, a, b); }
-inline V operator/(V a, V b) { return bin(Op::kDiv, a, b); }
-inline V operator+(V a, double c) { return a + cst(a.b, c); }
-inline V operator-(V a, double c) { return a - cst(a.b, c); }
-inline V operator*(V a, double c) { return a * cst(a.b, c); }
-inline V operator/(V a, double c) { return a / cst(a.b, c); }
-inline V operator+(double c, V a) { return cst(a.b, c) + a; }
-inline V operator-(double c, V a) { return cst(a.b, c) - a; }
-inline V operator*(double c, V a) { return cst(a.b, c) * a; }
-inline V operator/(double c, V a) { return cst(a.b, c) / a; }
-inline V operator-(V a) { return un(Op::kNeg, a); }
+inline V operator+(V a, V b) {
+  return bin(Op::kAdd, a, b);
+}
+inline V operator-(V a, V b) {
+  return bin(Op::kSub, a, b);
+}
+inline V operator*(V a, V b) {
+  return bin(Op::kMul, a, b);
+}
+inline V operator/(V a, V b) {
+  return bin(Op::kDiv, a, b);
+}
+inline V operator+(V a, double c) {
+  return a + cst(a.b, c);
+}
+inline V operator-(V a, double c) {
+  return a - cst(a.b, c);
+}
+inline V operator*(V a, double c) {
+  return a * cst(a.b, c);
+}
+inline V operator/(V a, double c) {
+  return a / cst(a.b, c);
+}
+inline V operator+(double c, V a) {
+  return cst(a.b, c) + a;
+}
+inline V operator-(double c, V a) {
+  return cst(a.b, c) - a;
+}
+inline V operator*(double c, V a) {
+  return cst(a.b, c) * a;
+}
+inline V operator/(double c, V a) {
+  return cst(a.b, c) / a;
+}
+inline V operator-(V a) {
+  return un(Op::kNeg, a);
+}
 
-inline V sqrt(V a) { return un(Op::kSqrt, a); }
-inline V abs(V a) { return un(Op::kAbs, a); }
-inline V exp(V a) { return un(Op::kExp, a); }
-inline V sin(V a) { return un(Op::kSin, a); }
-inline V cos(V a) { return un(Op::kCos, a); }
-inline V tan(V a) { return un(Op::kTan, a); }
-inline V atan(V a) { return un(Op::kAtan, a); }
-inline V acos(V a) { return un(Op::kAcos, a); }
-inline V floor(V a) { return un(Op::kFloor, a); }
-inline V trunc(V a) { return un(Op::kTrunc, a); }
-inline V pow(V a, V b) { return bin(Op::kPow, a, b); }
-inline V pow(V a, double c) { return pow(a, cst(a.b, c)); }
-inline V fmod(V a, V b) { return bin(Op::kFmod, a, b); }
-inline V fmod(V a, double c) { return fmod(a, cst(a.b, c)); }
+inline V sqrt(V a) {
+  return un(Op::kSqrt, a);
+}
+inline V abs(V a) {
+  return un(Op::kAbs, a);
+}
+inline V exp(V a) {
+  return un(Op::kExp, a);
+}
+inline V sin(V a) {
+  return un(Op::kSin, a);
+}
+inline V cos(V a) {
+  return un(Op::kCos, a);
+}
+inline V tan(V a) {
+  return un(Op::kTan, a);
+}
+inline V atan(V a) {
+  return un(Op::kAtan, a);
+}
+inline V acos(V a) {
+  return un(Op::kAcos, a);
+}
+inline V floor(V a) {
+  return un(Op::kFloor, a);
+}
+inline V trunc(V a) {
+  return un(Op::kTrunc, a);
+}
+inline V pow(V a, V b) {
+  return bin(Op::kPow, a, b);
+}
+inline V pow(V a, double c) {
+  return pow(a, cst(a.b, c));
+}
+inline V fmod(V a, V b) {
+  return bin(Op::kFmod, a, b);
+}
+inline V fmod(V a, double c) {
+  return fmod(a, cst(a.b, c));
+}
 /// C's `x*x` (SQ in the original sources).
-inline V sq(V a) { return a * a; }
+inline V sq(V a) {
+  return a * a;
+}
 
 // Comparisons give 1.0 / 0.0 (IEEE: false for NaN).
-inline V lt(V a, V b) { return bin(Op::kLt, a, b); }
-inline V le(V a, V b) { return bin(Op::kLe, a, b); }
-inline V gt(V a, V b) { return bin(Op::kGt, a, b); }
-inline V ge(V a, V b) { return bin(Op::kGe, a, b); }
-inline V eq(V a, V b) { return bin(Op::kEq, a, b); }
-inline V lt(V a, double c) { return lt(a, cst(a.b, c)); }
-inline V le(V a, double c) { return le(a, cst(a.b, c)); }
-inline V gt(V a, double c) { return gt(a, cst(a.b, c)); }
-inline V ge(V a, double c) { return ge(a, cst(a.b, c)); }
-inline V eq(V a, double c) { return eq(a, cst(a.b, c)); }
+inline V lt(V a, V b) {
+  return bin(Op::kLt, a, b);
+}
+inline V le(V a, V b) {
+  return bin(Op::kLe, a, b);
+}
+inline V gt(V a, V b) {
+  return bin(Op::kGt, a, b);
+}
+inline V ge(V a, V b) {
+  return bin(Op::kGe, a, b);
+}
+inline V eq(V a, V b) {
+  return bin(Op::kEq, a, b);
+}
+inline V lt(V a, double c) {
+  return lt(a, cst(a.b, c));
+}
+inline V le(V a, double c) {
+  return le(a, cst(a.b, c));
+}
+inline V gt(V a, double c) {
+  return gt(a, cst(a.b, c));
+}
+inline V ge(V a, double c) {
+  return ge(a, cst(a.b, c));
+}
+inline V eq(V a, double c) {
+  return eq(a, cst(a.b, c));
+}
 // Logic on 0/1 values.
-inline V land(V a, V b) { return bin(Op::kAnd, a, b); }
-inline V lor(V a, V b) { return bin(Op::kOr, a, b); }
-inline V lnot(V a) { return un(Op::kNot, a); }
+inline V land(V a, V b) {
+  return bin(Op::kAnd, a, b);
+}
+inline V lor(V a, V b) {
+  return bin(Op::kOr, a, b);
+}
+inline V lnot(V a) {
+  return un(Op::kNot, a);
+}
 /// `cond ? a : b` (cond is 0/1).
-inline V sel(V cond, V a, V b) { return {cond.b, cond.b->select(cond.id, a.id, b.id)}; }
-inline V sel(V cond, double a, V b) { return sel(cond, cst(cond.b, a), b); }
-inline V sel(V cond, V a, double b) { return sel(cond, a, cst(cond.b, b)); }
+inline V sel(V cond, V a, V b) {
+  return {cond.b, cond.b->select(cond.id, a.id, b.id)};
+}
+inline V sel(V cond, double a, V b) {
+  return sel(cond, cst(cond.b, a), b);
+}
+inline V sel(V cond, V a, double b) {
+  return sel(cond, a, cst(cond.b, b));
+}
 
 /// One library call being lowered: the arguments, the builder and the diagnostics.
 class Call {
@@ -142,16 +236,16 @@ class Call {
 };
 
 // One lowering function per family (each switches over the functions of its file).
-V lower_primitive(Call& c);     // primitives.cpp: algebraic primitives, blobs, hfNoiseG
-V lower_bezier(Call& c);        // primitives.cpp: hfBezierVolume
-V lower_convolution(Call& c);   // convolution.cpp
-V lower_transform(Call& c);     // transforms.cpp
-V lower_blend(Call& c);         // blends.cpp: hfBlend*, hfDBlend*, hfSawtooth
-V lower_distance(Call& c);      // distance.cpp: hfDCone*, hfDCylinder, hfDEllipsoid, hfDTorus*
-V lower_sardf(Call& c);         // sardf.cpp: hfDUni, hfDInt, hfDSub
-V lower_attribute(Call& c);     // attributes.cpp: hfA_* without noise
-V lower_noise(Call& c);         // noise.cpp: hfA_NoiseG, hfA_NoiseP, hfA_Turbulence, hfA_Crackles
-V lower_surface(Call& c);       // surfaces.cpp: hfMesh, hfTriangles, hfBezier{Surface,Patches}
+V lower_primitive(Call& c);    // primitives.cpp: algebraic primitives, blobs, hfNoiseG
+V lower_bezier(Call& c);       // primitives.cpp: hfBezierVolume
+V lower_convolution(Call& c);  // convolution.cpp
+V lower_transform(Call& c);    // transforms.cpp
+V lower_blend(Call& c);        // blends.cpp: hfBlend*, hfDBlend*, hfSawtooth
+V lower_distance(Call& c);     // distance.cpp: hfDCone*, hfDCylinder, hfDEllipsoid, hfDTorus*
+V lower_sardf(Call& c);        // sardf.cpp: hfDUni, hfDInt, hfDSub
+V lower_attribute(Call& c);    // attributes.cpp: hfA_* without noise
+V lower_noise(Call& c);        // noise.cpp: hfA_NoiseG, hfA_NoiseP, hfA_Turbulence, hfA_Crackles
+V lower_surface(Call& c);      // surfaces.cpp: hfMesh, hfTriangles, hfBezier{Surface,Patches}
 
 /// glibc's rand() with its default seed 1, the k-th call (k = 0, 1, ...) (library.md §10).
 class GlibcRand {

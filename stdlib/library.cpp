@@ -14,8 +14,8 @@ namespace detail {
 Call::Call(LibraryFn fn, LibContext& ctx, std::span<const LibArg> args)
     : fn_(fn), ctx_(ctx), args_(args) {
   const std::string_view kinds = lang::library_fn_kinds(fn);
-  HFRT_CHECK_MSG(kinds.size() == args.size(), "library call " << name() << " with " << args.size()
-                                                                << " arguments");
+  HFRT_CHECK_MSG(kinds.size() == args.size(),
+                 "library call " << name() << " with " << args.size() << " arguments");
   for (size_t i = 0; i < args.size(); ++i) {
     const bool want_array = kinds[i] == 'A';
     HFRT_CHECK_MSG(args[i].is_array == want_array,
@@ -30,7 +30,9 @@ Call::Call(LibraryFn fn, LibContext& ctx, std::span<const LibArg> args)
   }
 }
 
-std::string_view Call::name() const { return lang::library_fn_name(fn_); }
+std::string_view Call::name() const {
+  return lang::library_fn_name(fn_);
+}
 
 V Call::real(int i) const {
   HFRT_CHECK(!args_[i].is_array);
@@ -77,8 +79,9 @@ bool Call::point3(int i, double failure) {
 bool Call::need(int i, int count, std::string_view what) {
   if (size(i) >= count) return true;
   std::ostringstream msg;
-  msg << name() << ": array '" << arg_text(i) << "' has " << size(i) << " elements but the call reads "
-      << count << " (" << what << "); the missing elements read as NaN";
+  msg << name() << ": array '" << arg_text(i) << "' has " << size(i)
+      << " elements but the call reads " << count << " (" << what
+      << "); the missing elements read as NaN";
   warn(i, msg.str(), "declare the array with enough elements");
   return false;
 }
@@ -88,7 +91,9 @@ void Call::error(int i, const std::string& message, const std::string& hint) {
   ctx_.diags->error(i < 0 ? ctx_.call_range : args_[i].range, message, hint);
 }
 
-const std::string& Call::text(int i) const { return args_[i].text; }
+const std::string& Call::text(int i) const {
+  return args_[i].text;
+}
 
 void Call::warn(int i, const std::string& message, const std::string& hint) {
   if (ctx_.diags == nullptr) return;

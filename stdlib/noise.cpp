@@ -210,8 +210,9 @@ V a_crackles(Call& c) {
   if (n < c.size(3)) {
     c.put(3, n, c.k(1.0 + 0.1));
   } else {
-    c.warn(3, "hfA_Crackles: the original writes 1.1 into element " + std::to_string(n + 1) +
-                  " of '" + c.arg_text(3) + "', past its end; the write is dropped",
+    c.warn(3,
+           "hfA_Crackles: the original writes 1.1 into element " + std::to_string(n + 1) + " of '" +
+               c.arg_text(3) + "', past its end; the write is dropped",
            "declare the colour array with at least size(map) + 1 elements");
   }
   if (n >= 2) c.need(3, m * (n - 1), "one set of size(out) values per map interval");
@@ -230,11 +231,16 @@ V a_crackles(Call& c) {
 
 V lower_noise(Call& c) {
   switch (c.fn()) {
-    case LibraryFn::kANoiseG: return a_noise_g(c);
-    case LibraryFn::kANoiseP: return a_noise_p(c);
-    case LibraryFn::kATurbulence: return a_turbulence(c);
-    case LibraryFn::kACrackles: return a_crackles(c);
-    default: HFRT_CHECK_MSG(false, "not a noise function: " << c.name());
+    case LibraryFn::kANoiseG:
+      return a_noise_g(c);
+    case LibraryFn::kANoiseP:
+      return a_noise_p(c);
+    case LibraryFn::kATurbulence:
+      return a_turbulence(c);
+    case LibraryFn::kACrackles:
+      return a_crackles(c);
+    default:
+      HFRT_CHECK_MSG(false, "not a noise function: " << c.name());
   }
 }
 

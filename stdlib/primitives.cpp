@@ -11,7 +11,9 @@ namespace {
 using P3 = std::array<V, 3>;
 
 /// The point (elements 1..3 of array argument i).
-P3 point(Call& c, int i) { return {c.at(i, 0), c.at(i, 1), c.at(i, 2)}; }
+P3 point(Call& c, int i) {
+  return {c.at(i, 0), c.at(i, 1), c.at(i, 2)};
+}
 
 /// d = P - centre (centre = array argument ci, 3 elements needed).
 P3 offset(Call& c, int pi, int ci) {
@@ -106,9 +108,15 @@ V torus(Call& c) {
   V big_r = c.real(2), r0 = c.real(3);
   V rho2 = c.k(0);
   switch (axis_of(c.fn())) {
-    case 0: rho2 = d[2] * d[2] + d[1] * d[1]; break;
-    case 1: rho2 = d[2] * d[2] + d[0] * d[0]; break;
-    default: rho2 = d[0] * d[0] + d[1] * d[1]; break;
+    case 0:
+      rho2 = d[2] * d[2] + d[1] * d[1];
+      break;
+    case 1:
+      rho2 = d[2] * d[2] + d[0] * d[0];
+      break;
+    default:
+      rho2 = d[0] * d[0] + d[1] * d[1];
+      break;
   }
   return r0 * r0 - d[0] * d[0] - d[1] * d[1] - d[2] * d[2] - big_r * big_r +
          2.0 * big_r * sqrt(rho2);
@@ -140,7 +148,8 @@ V superell(Call& c) {
 }
 
 /// Shared by hfBlobby, hfMetaball, hfSoft: N = size(x0), the other per-blob arrays need N.
-/// Arrays 2..last_extra are per-blob. `contribution(i, r2)` gives blob i's term; the sum starts at 0, in index order.
+/// Arrays 2..last_extra are per-blob. `contribution(i, r2)` gives blob i's term; the sum starts at
+/// 0, in index order.
 template <typename Fn>
 V blob_sum(Call& c, int last_extra, V threshold, Fn contribution) {
   c.need(0, 3, "the point's 3 coordinates");
@@ -209,30 +218,44 @@ double binomial(int n, int k) {
 
 V lower_primitive(Call& c) {
   switch (c.fn()) {
-    case LibraryFn::kSphere: return sphere(c);
-    case LibraryFn::kEllipsoid: return ellipsoid(c);
+    case LibraryFn::kSphere:
+      return sphere(c);
+    case LibraryFn::kEllipsoid:
+      return ellipsoid(c);
     case LibraryFn::kCylinderX:
     case LibraryFn::kCylinderY:
-    case LibraryFn::kCylinderZ: return cylinder(c);
+    case LibraryFn::kCylinderZ:
+      return cylinder(c);
     case LibraryFn::kEllCylX:
     case LibraryFn::kEllCylY:
-    case LibraryFn::kEllCylZ: return ell_cylinder(c);
+    case LibraryFn::kEllCylZ:
+      return ell_cylinder(c);
     case LibraryFn::kConeX:
     case LibraryFn::kConeY:
-    case LibraryFn::kConeZ: return cone(c, false);
+    case LibraryFn::kConeZ:
+      return cone(c, false);
     case LibraryFn::kEllConeX:
     case LibraryFn::kEllConeY:
-    case LibraryFn::kEllConeZ: return cone(c, true);
+    case LibraryFn::kEllConeZ:
+      return cone(c, true);
     case LibraryFn::kTorusX:
     case LibraryFn::kTorusY:
-    case LibraryFn::kTorusZ: return torus(c);
-    case LibraryFn::kBlock: return block(c);
-    case LibraryFn::kSuperell: return superell(c);
-    case LibraryFn::kBlobby: return blobby(c);
-    case LibraryFn::kMetaball: return metaball(c);
-    case LibraryFn::kSoft: return soft(c);
-    case LibraryFn::kNoiseG: return noise_g(c);
-    default: HFRT_CHECK_MSG(false, "not a primitive: " << c.name());
+    case LibraryFn::kTorusZ:
+      return torus(c);
+    case LibraryFn::kBlock:
+      return block(c);
+    case LibraryFn::kSuperell:
+      return superell(c);
+    case LibraryFn::kBlobby:
+      return blobby(c);
+    case LibraryFn::kMetaball:
+      return metaball(c);
+    case LibraryFn::kSoft:
+      return soft(c);
+    case LibraryFn::kNoiseG:
+      return noise_g(c);
+    default:
+      HFRT_CHECK_MSG(false, "not a primitive: " << c.name());
   }
 }
 
@@ -243,8 +266,9 @@ V lower_bezier(Call& c) {
   double counts[3];
   for (int i = 0; i < 3; ++i) {
     if (!c.real_constant(i + 1, &counts[i])) {
-      c.warn(i + 1, "hfBezierVolume: the number of control weights must be a constant here; "
-                    "the call returns NaN",
+      c.warn(i + 1,
+             "hfBezierVolume: the number of control weights must be a constant here; "
+             "the call returns NaN",
              "write the count as a number");
       return c.nan();
     }
@@ -255,8 +279,9 @@ V lower_bezier(Call& c) {
   for (int i = 0; i < 3; ++i) {
     const int v = static_cast<int>(std::trunc(counts[i]));
     if (v < 1 || v > 21) {
-      c.warn(i + 1, "hfBezierVolume: a count of control weights must be between 1 and 21 (the "
-                    "original's limit); the call returns NaN");
+      c.warn(i + 1,
+             "hfBezierVolume: a count of control weights must be between 1 and 21 (the "
+             "original's limit); the call returns NaN");
       return c.nan();
     }
   }

@@ -107,8 +107,8 @@ V duni(Call& c, V x, V y, V r, V alpha) {
   // Quadrant III: bounded (radius r) blend.
   V q3 = land(both, land(lt(x, 0.0), lt(y, 0.0)));
   V lim2 = (x + 2.0 * r) * (x + 2.0 * r) + (y + 2.0 * r) * (y + 2.0 * r);
-  V angle = lor(lor(ge(x, -r), ge(y, -r)),
-                land(land(ge(x, -2.0 * r), ge(y, -2.0 * r)), ge(lim2, r * r)));
+  V angle =
+      lor(lor(ge(x, -r), ge(y, -r)), land(land(ge(x, -2.0 * r), ge(y, -2.0 * r)), ge(lim2, r * r)));
   V xx = -(x * x) / (4.0 * r);
   V yy = -(y * y) / (4.0 * r);
   V qa = land(q3, angle);
@@ -148,8 +148,8 @@ V dint(Call& c, V x, V y, V r, V alpha) {
   // Quadrant I: bounded (radius r) blend.
   V q1 = land(both, land(gt(x, 0.0), gt(y, 0.0)));
   V lim = (x - 2.0 * r) * (x - 2.0 * r) + (y - 2.0 * r) * (y - 2.0 * r);
-  V angle = lor(lor(le(x, r), le(y, r)),
-                land(land(le(x, 2.0 * r), le(y, 2.0 * r)), ge(lim, r * r)));
+  V angle =
+      lor(lor(le(x, r), le(y, r)), land(land(le(x, 2.0 * r), le(y, 2.0 * r)), ge(lim, r * r)));
   V xx = x * x / (4.0 * r);
   V yy = y * y / (4.0 * r);
   V qa = land(q1, angle);
@@ -194,10 +194,14 @@ V dint(Call& c, V x, V y, V r, V alpha) {
 V lower_sardf(Call& c) {
   V f1 = c.real(0), f2 = c.real(1), r = c.real(2), alpha = c.real(3);
   switch (c.fn()) {
-    case LibraryFn::kDUni: return duni(c, f1, f2, r, alpha);
-    case LibraryFn::kDInt: return dint(c, f1, f2, r, alpha);
-    case LibraryFn::kDSub: return dint(c, f1, -f2, r, alpha);
-    default: HFRT_CHECK_MSG(false, "not a SARDF operation: " << c.name());
+    case LibraryFn::kDUni:
+      return duni(c, f1, f2, r, alpha);
+    case LibraryFn::kDInt:
+      return dint(c, f1, f2, r, alpha);
+    case LibraryFn::kDSub:
+      return dint(c, f1, -f2, r, alpha);
+    default:
+      HFRT_CHECK_MSG(false, "not a SARDF operation: " << c.name());
   }
 }
 

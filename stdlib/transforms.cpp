@@ -36,11 +36,14 @@ int axis_of(LibraryFn fn) {
   switch (fn) {
     case LibraryFn::kRotate3DX:
     case LibraryFn::kTwistX:
-    case LibraryFn::kTaperX: return 0;
+    case LibraryFn::kTaperX:
+      return 0;
     case LibraryFn::kRotate3DY:
     case LibraryFn::kTwistY:
-    case LibraryFn::kTaperY: return 1;
-    default: return 2;
+    case LibraryFn::kTaperY:
+      return 1;
+    default:
+      return 2;
   }
 }
 
@@ -127,21 +130,30 @@ V space_map(Call& c, bool cubic) {
 
 V lower_transform(Call& c) {
   switch (c.fn()) {
-    case LibraryFn::kScale3D: return scale(c);
-    case LibraryFn::kShift3D: return shift(c);
+    case LibraryFn::kScale3D:
+      return scale(c);
+    case LibraryFn::kShift3D:
+      return shift(c);
     case LibraryFn::kRotate3DX:
     case LibraryFn::kRotate3DY:
-    case LibraryFn::kRotate3DZ: return rotate3d(c);
+    case LibraryFn::kRotate3DZ:
+      return rotate3d(c);
     case LibraryFn::kTwistX:
     case LibraryFn::kTwistY:
-    case LibraryFn::kTwistZ: return twist(c);
+    case LibraryFn::kTwistZ:
+      return twist(c);
     case LibraryFn::kTaperX:
     case LibraryFn::kTaperY:
-    case LibraryFn::kTaperZ: return taper(c);
-    case LibraryFn::kStretch3D: return stretch(c);
-    case LibraryFn::kSpaceMapCubic: return space_map(c, true);
-    case LibraryFn::kSpaceMapExp: return space_map(c, false);
-    default: HFRT_CHECK_MSG(false, "not a transformation: " << c.name());
+    case LibraryFn::kTaperZ:
+      return taper(c);
+    case LibraryFn::kStretch3D:
+      return stretch(c);
+    case LibraryFn::kSpaceMapCubic:
+      return space_map(c, true);
+    case LibraryFn::kSpaceMapExp:
+      return space_map(c, false);
+    default:
+      HFRT_CHECK_MSG(false, "not a transformation: " << c.name());
   }
 }
 

@@ -15,7 +15,9 @@ namespace {
 
 constexpr float kInf = std::numeric_limits<float>::infinity();
 
-std::string teapot_path() { return std::string(HFRT_CORPUS_DIR) + "/bezier/teapot.bpt"; }
+std::string teapot_path() {
+  return std::string(HFRT_CORPUS_DIR) + "/bezier/teapot.bpt";
+}
 
 const PatchSet& teapot() {
   static const PatchSet set = [] {
@@ -39,8 +41,8 @@ TEST(Bpt, LoadsTheTeapot) {
     EXPECT_EQ(p.dv, 3);
   }
   const Bounds3 b = t.bounds();
-  EXPECT_NEAR(b.lo.z, 0.0f, 1e-5f);   // the base at z = 0
-  EXPECT_NEAR(b.hi.z, 4.2f, 1e-5f);   // the lid's knob (corpus README)
+  EXPECT_NEAR(b.lo.z, 0.0f, 1e-5f);  // the base at z = 0
+  EXPECT_NEAR(b.hi.z, 4.2f, 1e-5f);  // the lid's knob (corpus README)
 }
 
 std::string bpt_error(const std::string& text) {

@@ -85,7 +85,7 @@ TEST(Bvh, ParallelBuildMatchesSerial) {
   EXPECT_EQ(a.nodes.size(), b.nodes.size());
   EXPECT_EQ(a.depth, b.depth);
   EXPECT_NEAR(sah_cost(a), sah_cost(b), 1e-9 * sah_cost(a));  // summed in node order
-  EXPECT_EQ(a.prim_order, b.prim_order);  // the same shape, the same leaf order
+  EXPECT_EQ(a.prim_order, b.prim_order);                      // the same shape, the same leaf order
   check_invariants(b, boxes, 4);
 }
 
@@ -98,8 +98,7 @@ TEST(Bvh, SahBeatsAMedianSplitByIndex) {
   naive.prim_order.resize(boxes.size());
   for (size_t i = 0; i < boxes.size(); ++i) naive.prim_order[i] = static_cast<uint32_t>(i);
   // Build a balanced tree by index.
-  std::function<void(uint32_t, uint32_t, uint32_t)> rec = [&](uint32_t id, uint32_t b,
-                                                              uint32_t e) {
+  std::function<void(uint32_t, uint32_t, uint32_t)> rec = [&](uint32_t id, uint32_t b, uint32_t e) {
     Bounds3 bb;
     for (uint32_t i = b; i < e; ++i) bb.extend(boxes[i]);
     BvhNode n{{bb.lo.x, bb.lo.y, bb.lo.z}, b, {bb.hi.x, bb.hi.y, bb.hi.z}, e - b};

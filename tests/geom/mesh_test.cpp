@@ -4,10 +4,10 @@
 #include "geom/mesh.h"
 
 #include <gtest/gtest.h>
+#include <unistd.h>
 
 #include <filesystem>
 #include <fstream>
-#include <unistd.h>
 
 #include "test_meshes.h"
 
@@ -54,23 +54,24 @@ TEST_F(MeshFiles, TriangulatesObjQuadsAndJoinsVertices) {
   EXPECT_EQ(m->triangles.size(), 3u);  // the quad becomes two triangles
   double area = 0;
   for (size_t t = 0; t < m->triangles.size(); ++t)
-    area += 0.5 * length(cross(m->corner(t, 1) - m->corner(t, 0), m->corner(t, 2) - m->corner(t, 0)));
+    area +=
+        0.5 * length(cross(m->corner(t, 1) - m->corner(t, 0), m->corner(t, 2) - m->corner(t, 0)));
   EXPECT_NEAR(area, 1.5, 1e-6);
 }
 
 TEST_F(MeshFiles, LoadsAsciiPlyAndStl) {
-  Result<TriangleMesh> ply = load_mesh(write(
-      "t.ply",
-      "ply\nformat ascii 1.0\nelement vertex 4\nproperty float x\nproperty float y\n"
-      "property float z\nelement face 2\nproperty list uchar int vertex_indices\nend_header\n"
-      "0 0 0\n1 0 0\n1 1 0\n0 1 0\n3 0 1 2\n3 0 2 3\n"));
+  Result<TriangleMesh> ply = load_mesh(
+      write("t.ply",
+            "ply\nformat ascii 1.0\nelement vertex 4\nproperty float x\nproperty float y\n"
+            "property float z\nelement face 2\nproperty list uchar int vertex_indices\nend_header\n"
+            "0 0 0\n1 0 0\n1 1 0\n0 1 0\n3 0 1 2\n3 0 2 3\n"));
   ASSERT_TRUE(ply.ok()) << ply.error().message;
   EXPECT_EQ(ply->triangles.size(), 2u);
-  Result<TriangleMesh> stl = load_mesh(write(
-      "t.stl",
-      "solid t\nfacet normal 0 0 1\nouter loop\nvertex 0 0 0\nvertex 1 0 0\nvertex 0 1 0\n"
-      "endloop\nendfacet\nfacet normal 0 0 1\nouter loop\nvertex 1 0 0\nvertex 1 1 0\n"
-      "vertex 0 1 0\nendloop\nendfacet\nendsolid t\n"));
+  Result<TriangleMesh> stl = load_mesh(
+      write("t.stl",
+            "solid t\nfacet normal 0 0 1\nouter loop\nvertex 0 0 0\nvertex 1 0 0\nvertex 0 1 0\n"
+            "endloop\nendfacet\nfacet normal 0 0 1\nouter loop\nvertex 1 0 0\nvertex 1 1 0\n"
+            "vertex 0 1 0\nendloop\nendfacet\nendsolid t\n"));
   ASSERT_TRUE(stl.ok()) << stl.error().message;
   EXPECT_EQ(stl->triangles.size(), 2u);
   EXPECT_EQ(stl->vertices.size(), 4u);  // identical STL corners are joined
@@ -83,9 +84,10 @@ TEST_F(MeshFiles, LoadsTheArmadillo) {
 }
 
 TEST_F(MeshFiles, SkipsAndCountsDegenerateTriangles) {
-  Result<TriangleMesh> m = load_mesh(write(
-      "d.off", "OFF\n5 4 0\n0 0 0\n1 0 0\n0 1 0\n2 0 0\n0 0 1\n3 0 1 2\n3 0 1 3\n3 0 1 4\n"
-               "3 2 2 4\n"));
+  Result<TriangleMesh> m =
+      load_mesh(write("d.off",
+                      "OFF\n5 4 0\n0 0 0\n1 0 0\n0 1 0\n2 0 0\n0 0 1\n3 0 1 2\n3 0 1 3\n3 0 1 4\n"
+                      "3 2 2 4\n"));
   ASSERT_TRUE(m.ok()) << m.error().message;
   // (0,1,3) is collinear; (2,2,4) repeats a vertex.
   EXPECT_EQ(m->triangles.size(), 2u);

@@ -63,10 +63,10 @@ inline TriangleMesh heightfield_box(int n, uint32_t seed) {
     m.triangles.push_back({ta, bb, tb});
   };
   for (int i = 0; i < n; ++i) {
-    wall(top(i, 0), top(i + 1, 0), bot(i, 0), bot(i + 1, 0));            // y = 0, normal -y
-    wall(top(n, i), top(n, i + 1), bot(n, i), bot(n, i + 1));            // x = n, normal +x
-    wall(top(i + 1, n), top(i, n), bot(i + 1, n), bot(i, n));            // y = n, normal +y
-    wall(top(0, i + 1), top(0, i), bot(0, i + 1), bot(0, i));            // x = 0, normal -x
+    wall(top(i, 0), top(i + 1, 0), bot(i, 0), bot(i + 1, 0));  // y = 0, normal -y
+    wall(top(n, i), top(n, i + 1), bot(n, i), bot(n, i + 1));  // x = n, normal +x
+    wall(top(i + 1, n), top(i, n), bot(i + 1, n), bot(i, n));  // y = n, normal +y
+    wall(top(0, i + 1), top(0, i), bot(0, i + 1), bot(0, i));  // x = 0, normal -x
   }
   Result<TriangleMesh> r = finish_mesh(std::move(m));
   HFRT_CHECK_MSG(r.ok(), r.error().message);

@@ -28,16 +28,20 @@ int count_hits(const Ray& ray, const std::vector<std::array<Vec3, 3>>& tris) {
 TEST(TriangleKernel, FacingAndBarycentrics) {
   const Vec3 a{0, 0, 0}, b{1, 0, 0}, c{0, 1, 0};  // normal +z
   TriangleHitInfo h;
-  ASSERT_TRUE(intersect_triangle(WatertightRay({{0.25f, 0.5f, 2}, {0, 0, -1}}), a, b, c, 0, kInf, &h));
+  ASSERT_TRUE(
+      intersect_triangle(WatertightRay({{0.25f, 0.5f, 2}, {0, 0, -1}}), a, b, c, 0, kInf, &h));
   EXPECT_EQ(h.facing, 1);  // against the normal: entering
   EXPECT_FLOAT_EQ(h.t, 2);
   EXPECT_FLOAT_EQ(h.b1, 0.25f);
   EXPECT_FLOAT_EQ(h.b2, 0.5f);
-  ASSERT_TRUE(intersect_triangle(WatertightRay({{0.25f, 0.5f, -2}, {0, 0, 3}}), a, b, c, 0, kInf, &h));
+  ASSERT_TRUE(
+      intersect_triangle(WatertightRay({{0.25f, 0.5f, -2}, {0, 0, 3}}), a, b, c, 0, kInf, &h));
   EXPECT_EQ(h.facing, -1);
   EXPECT_FLOAT_EQ(h.t, 2.0f / 3);
-  EXPECT_FALSE(intersect_triangle(WatertightRay({{0.75f, 0.5f, 2}, {0, 0, -1}}), a, b, c, 0, kInf, &h));
-  EXPECT_FALSE(intersect_triangle(WatertightRay({{0.25f, 0.5f, 2}, {0, 0, -1}}), a, b, c, 0, 1.5f, &h));
+  EXPECT_FALSE(
+      intersect_triangle(WatertightRay({{0.75f, 0.5f, 2}, {0, 0, -1}}), a, b, c, 0, kInf, &h));
+  EXPECT_FALSE(
+      intersect_triangle(WatertightRay({{0.25f, 0.5f, 2}, {0, 0, -1}}), a, b, c, 0, 1.5f, &h));
 }
 
 TEST(TriangleKernel, SharedEdgeAndVertexCountOnce) {
@@ -64,9 +68,8 @@ TEST(TriangleKernel, SilhouetteEdgeCountsZeroOrTwice) {
   // A wedge: two triangles folded over a shared edge on the x = 0 line, both on the x >= 0
   // side (one below, one above). A ray down through the edge touches the surface: it must not
   // count one crossing.
-  std::vector<std::array<Vec3, 3>> wedge = {
-      {Vec3{0, 0, 0}, Vec3{0, 4, 0}, Vec3{2, 0, -1}},
-      {Vec3{0, 4, 0}, Vec3{0, 0, 0}, Vec3{2, 0, 1}}};
+  std::vector<std::array<Vec3, 3>> wedge = {{Vec3{0, 0, 0}, Vec3{0, 4, 0}, Vec3{2, 0, -1}},
+                                            {Vec3{0, 4, 0}, Vec3{0, 0, 0}, Vec3{2, 0, 1}}};
   for (float y : {0.0f, 1.0f, 2.0f, 4.0f}) {
     const int n = count_hits({{0, y, 5}, {0, 0, -1}}, wedge);
     EXPECT_EQ(n % 2, 0) << "y=" << y << " hits " << n;

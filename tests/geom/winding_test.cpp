@@ -73,8 +73,9 @@ TEST(Winding, HierarchicalConvergesToTheExactSum) {
 float brute_distance(const TriangleMesh& m, Vec3 p) {
   float best = kInf;
   for (size_t i = 0; i < m.triangles.size(); ++i)
-    best = std::min(best, length(closest_point_on_triangle(p, m.corner(i, 0), m.corner(i, 1),
-                                                           m.corner(i, 2)) - p));
+    best = std::min(
+        best,
+        length(closest_point_on_triangle(p, m.corner(i, 0), m.corner(i, 1), m.corner(i, 2)) - p));
   return best;
 }
 

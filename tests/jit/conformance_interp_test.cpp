@@ -109,7 +109,8 @@ TEST_P(ExpectedTest, InterpreterMatchesTheOriginal) {
   }
   ASSERT_EQ(r.s.size(), s.size());
   for (size_t i = 0; i < s.size(); ++i) {
-    EXPECT_TRUE(probe::values_agree(s[i], r.s[i])) << "s" << i + 1 << " want " << s[i] << " got " << r.s[i];
+    EXPECT_TRUE(probe::values_agree(s[i], r.s[i]))
+        << "s" << i + 1 << " want " << s[i] << " got " << r.s[i];
   }
 }
 
@@ -144,9 +145,12 @@ bool calls_library(const std::string& text) {
     line = line.substr(0, line.find("--"));
     for (size_t p = line.find("hf"); p != std::string::npos; p = line.find("hf", p + 1)) {
       size_t q = p + 2;
-      while (q < line.size() && (std::isalnum(static_cast<unsigned char>(line[q])) || line[q] == '_')) ++q;
+      while (q < line.size() &&
+             (std::isalnum(static_cast<unsigned char>(line[q])) || line[q] == '_'))
+        ++q;
       while (q < line.size() && line[q] == ' ') ++q;
-      const bool starts_word = p == 0 || !(std::isalnum(static_cast<unsigned char>(line[p - 1])) || line[p - 1] == '_');
+      const bool starts_word =
+          p == 0 || !(std::isalnum(static_cast<unsigned char>(line[p - 1])) || line[p - 1] == '_');
       if (starts_word && q < line.size() && line[q] == '(') return true;
     }
   }
@@ -173,7 +177,8 @@ TEST_P(ProbeTest, InterpreterMatchesTheOriginalOnTheGrid) {
   probe::ProbeValues v;
   std::string err;
   ASSERT_TRUE(probe::read_probe_values(GetParam(), &v, &err)) << err;
-  testutil::Compiled c = testutil::compile(read_text(probe::probe_model_path(kCorpus, v)), v.selected, v.model);
+  testutil::Compiled c =
+      testutil::compile(read_text(probe::probe_model_path(kCorpus, v)), v.selected, v.model);
   ASSERT_TRUE(c.ok) << c.diagnostics;
   Interpreter interp(c.fn);
   ASSERT_EQ(v.points.size(), 729u);
@@ -188,8 +193,10 @@ TEST_P(ProbeTest, InterpreterMatchesTheOriginalOnTheGrid) {
     double want = p.f;
     // Documented deviation (spec §3): the original's sign() is always 1.
     if (v.model == "math_builtins.hf") {
-      if (p.x[0] < 0) want -= 2;
-      else if (p.x[0] == 0) want -= 1;
+      if (p.x[0] < 0)
+        want -= 2;
+      else if (p.x[0] == 0)
+        want -= 1;
     }
     if (p.runtime_error) {
       if (!r.error && ++mismatches <= 5) {
@@ -199,10 +206,12 @@ TEST_P(ProbeTest, InterpreterMatchesTheOriginalOnTheGrid) {
       continue;
     }
     bool ok = !r.error && probe::values_agree(want, r.value);
-    for (size_t i = 0; ok && i < p.s.size(); ++i) ok = i < r.s.size() && probe::values_agree(p.s[i], r.s[i]);
+    for (size_t i = 0; ok && i < p.s.size(); ++i)
+      ok = i < r.s.size() && probe::values_agree(p.s[i], r.s[i]);
     if (!ok && ++mismatches <= 5) {
-      ADD_FAILURE() << "at " << p.x[0] << " " << p.x[1] << " " << p.x[2] << ": want " << want << " got "
-                    << r.value << (r.error ? " (" + describe_runtime_error(*r.error, c.fn) + ")" : "");
+      ADD_FAILURE() << "at " << p.x[0] << " " << p.x[1] << " " << p.x[2] << ": want " << want
+                    << " got " << r.value
+                    << (r.error ? " (" + describe_runtime_error(*r.error, c.fn) + ")" : "");
     }
   }
   EXPECT_EQ(mismatches, 0);
@@ -230,7 +239,9 @@ TEST(ProbeValuesFile, LanguageProbesAreFound) {
 TEST(ProbeValuesFile, ReaderParsesHeaderPointsAndAttributes) {
   probe::ProbeValues v;
   std::string err;
-  ASSERT_TRUE(probe::read_probe_values(kCorpus + "/probe_values/oracle_probes__quirk_sentinels.txt", &v, &err)) << err;
+  ASSERT_TRUE(probe::read_probe_values(kCorpus + "/probe_values/oracle_probes__quirk_sentinels.txt",
+                                       &v, &err))
+      << err;
   EXPECT_EQ(v.model, "quirk_sentinels.hf");
   EXPECT_EQ(v.selected, "my_model");
   EXPECT_EQ(v.x_size, 4);

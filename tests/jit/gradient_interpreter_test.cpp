@@ -16,7 +16,9 @@
 namespace hfrt::jit {
 namespace {
 
-bool same_value(double u, double v) { return (u != u && v != v) || u == v; }
+bool same_value(double u, double v) {
+  return (u != u && v != v) || u == v;
+}
 
 struct Stats {
   int64_t points = 0;
@@ -68,15 +70,15 @@ struct OpCase {
 };
 
 const OpCase kOps[] = {
-    {Op::kAdd, 2},  {Op::kSub, 2},   {Op::kMul, 2},   {Op::kDiv, 2},   {Op::kNeg, 1},
-    {Op::kAbs, 1},  {Op::kMin, 2},   {Op::kMax, 2},   {Op::kSqrt, 1},  {Op::kExp, 1},
-    {Op::kLog, 1},  {Op::kLog10, 1}, {Op::kSin, 1},   {Op::kCos, 1},   {Op::kTan, 1},
-    {Op::kAsin, 1}, {Op::kAcos, 1},  {Op::kAtan, 1},  {Op::kAtan2, 2}, {Op::kSinh, 1},
-    {Op::kCosh, 1}, {Op::kTanh, 1},  {Op::kFloor, 1}, {Op::kCeil, 1},  {Op::kTrunc, 1},
-    {Op::kRound, 1}, {Op::kFmod, 2}, {Op::kPow, 2},   {Op::kPowHF, 2}, {Op::kSign, 1},
-    {Op::kLt, 2},   {Op::kLe, 2},    {Op::kGt, 2},    {Op::kGe, 2},    {Op::kEqTol, 2},
-    {Op::kNeTol, 2}, {Op::kEq, 2},   {Op::kNe, 2},    {Op::kTruth, 1}, {Op::kAnd, 2},
-    {Op::kOr, 2},   {Op::kNot, 1},   {Op::kSelect, 3},
+    {Op::kAdd, 2},   {Op::kSub, 2},   {Op::kMul, 2},    {Op::kDiv, 2},   {Op::kNeg, 1},
+    {Op::kAbs, 1},   {Op::kMin, 2},   {Op::kMax, 2},    {Op::kSqrt, 1},  {Op::kExp, 1},
+    {Op::kLog, 1},   {Op::kLog10, 1}, {Op::kSin, 1},    {Op::kCos, 1},   {Op::kTan, 1},
+    {Op::kAsin, 1},  {Op::kAcos, 1},  {Op::kAtan, 1},   {Op::kAtan2, 2}, {Op::kSinh, 1},
+    {Op::kCosh, 1},  {Op::kTanh, 1},  {Op::kFloor, 1},  {Op::kCeil, 1},  {Op::kTrunc, 1},
+    {Op::kRound, 1}, {Op::kFmod, 2},  {Op::kPow, 2},    {Op::kPowHF, 2}, {Op::kSign, 1},
+    {Op::kLt, 2},    {Op::kLe, 2},    {Op::kGt, 2},     {Op::kGe, 2},    {Op::kEqTol, 2},
+    {Op::kNeTol, 2}, {Op::kEq, 2},    {Op::kNe, 2},     {Op::kTruth, 1}, {Op::kAnd, 2},
+    {Op::kOr, 2},    {Op::kNot, 1},   {Op::kSelect, 3},
 };
 
 class GradientOpTest : public ::testing::TestWithParam<OpCase> {};
@@ -94,9 +96,12 @@ Function op_program(const OpCase& oc, bool int_exponent) {
     g2 = int_exponent ? b.constant(3) : b.add(b.constant(1.5), b.mul(b.constant(0.25), g2));
   }
   ValueId r;
-  if (oc.arity == 1) r = b.unary(oc.op, g1);
-  else if (oc.arity == 2) r = b.binary(oc.op, g1, g2);
-  else r = b.select(b.gt(g2, b.constant(0)), g1, b.mul(g1, g2));
+  if (oc.arity == 1)
+    r = b.unary(oc.op, g1);
+  else if (oc.arity == 2)
+    r = b.binary(oc.op, g1, g2);
+  else
+    r = b.select(b.gt(g2, b.constant(0)), g1, b.mul(g1, g2));
   b.finish(r);
   return fn;
 }

@@ -15,7 +15,9 @@
 namespace hfrt::jit {
 namespace {
 
-bool same(double u, double v) { return (u != u && v != v) || u == v; }
+bool same(double u, double v) {
+  return (u != u && v != v) || u == v;
+}
 
 std::string str(const Dual& d) {
   std::ostringstream os;
@@ -45,8 +47,10 @@ int compare(const Function& fn, const std::vector<std::vector<double>>& pts,
       xf[k * n + i] = static_cast<float>(pts[i][k]);
     }
   }
-  if (f32) jit.value()->eval(static_cast<int64_t>(n), xf.data(), a, outf.data());
-  else jit.value()->eval(static_cast<int64_t>(n), xs.data(), a, out.data());
+  if (f32)
+    jit.value()->eval(static_cast<int64_t>(n), xf.data(), a, outf.data());
+  else
+    jit.value()->eval(static_cast<int64_t>(n), xs.data(), a, out.data());
   int failures = 0;
   for (size_t i = 0; i < n; ++i) {
     std::vector<double> p = pts[i];
@@ -57,8 +61,10 @@ int compare(const Function& fn, const std::vector<std::vector<double>>& pts,
     Dual got;
     for (int c = 0; c < 4; ++c) {
       double v = f32 ? outf[c * n + i] : out[c * n + i];
-      if (c == 0) got.v = v;
-      else got.d[c - 1] = v;
+      if (c == 0)
+        got.v = v;
+      else
+        got.d[c - 1] = v;
     }
     bool ok = true;
     double comps_ref[4] = {ref.v, ref.d[0], ref.d[1], ref.d[2]};
@@ -66,16 +72,18 @@ int compare(const Function& fn, const std::vector<std::vector<double>>& pts,
     for (int c = 0; c < 4; ++c) {
       if (!f32) {
         ok = ok && same(comps_ref[c], comps_got[c]);
-      } else if (std::isfinite(ref.v) && std::isfinite(comps_ref[c]) && std::fabs(comps_ref[c]) < 1e6) {
-        ok = ok && std::fabs(comps_got[c] - comps_ref[c]) <= 1e-3 * std::max(1.0, std::fabs(comps_ref[c]));
+      } else if (std::isfinite(ref.v) && std::isfinite(comps_ref[c]) &&
+                 std::fabs(comps_ref[c]) < 1e6) {
+        ok = ok && std::fabs(comps_got[c] - comps_ref[c]) <=
+                       1e-3 * std::max(1.0, std::fabs(comps_ref[c]));
       }
     }
     if (!ok && failures++ < 5) {
       std::ostringstream os;
       os.precision(17);
       for (double c : p) os << c << " ";
-      ADD_FAILURE() << what << (f32 ? " f32" : " f64") << " at " << os.str() << ": JIT "
-                    << str(got) << " interpreter " << str(ref);
+      ADD_FAILURE() << what << (f32 ? " f32" : " f64") << " at " << os.str() << ": JIT " << str(got)
+                    << " interpreter " << str(ref);
     }
   }
   return failures;
@@ -87,15 +95,15 @@ struct OpCase {
 };
 
 const OpCase kOps[] = {
-    {Op::kAdd, 2},  {Op::kSub, 2},   {Op::kMul, 2},   {Op::kDiv, 2},   {Op::kNeg, 1},
-    {Op::kAbs, 1},  {Op::kMin, 2},   {Op::kMax, 2},   {Op::kSqrt, 1},  {Op::kExp, 1},
-    {Op::kLog, 1},  {Op::kLog10, 1}, {Op::kSin, 1},   {Op::kCos, 1},   {Op::kTan, 1},
-    {Op::kAsin, 1}, {Op::kAcos, 1},  {Op::kAtan, 1},  {Op::kAtan2, 2}, {Op::kSinh, 1},
-    {Op::kCosh, 1}, {Op::kTanh, 1},  {Op::kFloor, 1}, {Op::kCeil, 1},  {Op::kTrunc, 1},
-    {Op::kRound, 1}, {Op::kFmod, 2}, {Op::kPow, 2},   {Op::kPowHF, 2}, {Op::kSign, 1},
-    {Op::kLt, 2},   {Op::kLe, 2},    {Op::kGt, 2},    {Op::kGe, 2},    {Op::kEqTol, 2},
-    {Op::kNeTol, 2}, {Op::kEq, 2},   {Op::kNe, 2},    {Op::kTruth, 1}, {Op::kAnd, 2},
-    {Op::kOr, 2},   {Op::kNot, 1},   {Op::kSelect, 3},
+    {Op::kAdd, 2},   {Op::kSub, 2},   {Op::kMul, 2},    {Op::kDiv, 2},   {Op::kNeg, 1},
+    {Op::kAbs, 1},   {Op::kMin, 2},   {Op::kMax, 2},    {Op::kSqrt, 1},  {Op::kExp, 1},
+    {Op::kLog, 1},   {Op::kLog10, 1}, {Op::kSin, 1},    {Op::kCos, 1},   {Op::kTan, 1},
+    {Op::kAsin, 1},  {Op::kAcos, 1},  {Op::kAtan, 1},   {Op::kAtan2, 2}, {Op::kSinh, 1},
+    {Op::kCosh, 1},  {Op::kTanh, 1},  {Op::kFloor, 1},  {Op::kCeil, 1},  {Op::kTrunc, 1},
+    {Op::kRound, 1}, {Op::kFmod, 2},  {Op::kPow, 2},    {Op::kPowHF, 2}, {Op::kSign, 1},
+    {Op::kLt, 2},    {Op::kLe, 2},    {Op::kGt, 2},     {Op::kGe, 2},    {Op::kEqTol, 2},
+    {Op::kNeTol, 2}, {Op::kEq, 2},    {Op::kNe, 2},     {Op::kTruth, 1}, {Op::kAnd, 2},
+    {Op::kOr, 2},    {Op::kNot, 1},   {Op::kSelect, 3},
 };
 
 class GradientJitOpTest : public ::testing::TestWithParam<OpCase> {};
@@ -106,8 +114,9 @@ TEST_P(GradientJitOpTest, SameAsInterpreter) {
   IrBuilder b(fn);
   ValueId x = b.input(0), y = b.input(1), z = b.input(2);
   ValueId g1 = b.add(b.mul(b.constant(0.7), x), b.sub(b.mul(b.constant(0.3), y), z));
-  ValueId g2 = oc.op == Op::kPowHF || oc.op == Op::kPow ? b.add(b.constant(1.5), b.mul(b.constant(0.25), z))
-                                                        : b.add(b.mul(y, z), b.constant(0.5));
+  ValueId g2 = oc.op == Op::kPowHF || oc.op == Op::kPow
+                   ? b.add(b.constant(1.5), b.mul(b.constant(0.25), z))
+                   : b.add(b.mul(y, z), b.constant(0.5));
   ValueId r = oc.arity == 1   ? b.unary(oc.op, g1)
               : oc.arity == 2 ? b.binary(oc.op, g1, g2)
                               : b.select(b.gt(g2, b.constant(0)), g1, b.mul(g1, g2));

@@ -19,9 +19,15 @@ double run_op(Op op, double a, double b = 0, double c = 0) {
   IrBuilder bld(fn);
   ValueId v;
   switch (op_num_args(op)) {
-    case 1: v = bld.unary(op, bld.input(0)); break;
-    case 2: v = bld.binary(op, bld.input(0), bld.input(1)); break;
-    default: v = bld.select(bld.input(0), bld.input(1), bld.input(2)); break;
+    case 1:
+      v = bld.unary(op, bld.input(0));
+      break;
+    case 2:
+      v = bld.binary(op, bld.input(0), bld.input(1));
+      break;
+    default:
+      v = bld.select(bld.input(0), bld.input(1), bld.input(2));
+      break;
   }
   bld.finish(v);
   EXPECT_NE(fn.insts[fn.result].op, Op::kConst);
@@ -170,7 +176,8 @@ TEST(Interpreter, IfElseAndLoops) {
 }
 
 TEST(Interpreter, NestedLoops) {
-  // count = 0; i = 0; while i < 3 loop j = 0; while j < x[1] loop count += 1; j += 1; endloop; i += 1; endloop
+  // count = 0; i = 0; while i < 3 loop j = 0; while j < x[1] loop count += 1; j += 1; endloop; i +=
+  // 1; endloop
   Function fn;
   IrBuilder b(fn);
   int count = b.new_slot(0), i = b.new_slot(0), j = b.new_slot(0);

@@ -172,8 +172,8 @@ void run_corpus(const std::string& dir, bool intervals, int min_compiled) {
     if (intervals) {
       check_intervals(path, *fn, &t);
       check_tightness(*fn, &t);
-    }
-    else check_gradients(path, *fn, &t);
+    } else
+      check_gradients(path, *fn, &t);
   }
   std::printf("%s: %d files, %d lowered, %lld points, %lld derivatives compared\n", dir.c_str(),
               t.files, t.compiled, static_cast<long long>(t.points),

@@ -148,7 +148,9 @@ Function prune(const Function& fn, const std::vector<uint8_t>& choices) {
   return out;
 }
 
-bool same_value(double u, double v) { return (u != u && v != v) || u == v; }
+bool same_value(double u, double v) {
+  return (u != u && v != v) || u == v;
+}
 
 TEST(IntervalInterpreterTest, RandomProgramsContainEverySampledPoint) {
   constexpr int kPrograms = 300;
@@ -191,7 +193,8 @@ TEST(IntervalInterpreterTest, RandomProgramsContainEverySampledPoint) {
           os.precision(17);
           for (double c : p) os << c << " ";
           ADD_FAILURE() << "seed " << seed << ": F(" << os.str() << ") = " << v << " not in "
-                        << str(r) << "\n" << print(fn);
+                        << str(r) << "\n"
+                        << print(fn);
         }
         double pv = pruned.eval(p, a).value;
         ++pruned_checked;

@@ -30,8 +30,8 @@ bool same(const Interval& a, const Interval& b) {
 }
 
 double endpoint(std::mt19937_64& rng) {
-  static const double kSpecial[] = {0.0, -0.0, 1e-300, -1e-300, 1e300, -1e300, kInf, -kInf,
-                                    M_PI, -M_PI, 1.0, -1.0, 1e-6, 0.5, 2.0, -2.0, 3.0};
+  static const double kSpecial[] = {0.0,   -0.0, 1e-300, -1e-300, 1e300, -1e300, kInf, -kInf, M_PI,
+                                    -M_PI, 1.0,  -1.0,   1e-6,    0.5,   2.0,    -2.0, 3.0};
   std::uniform_real_distribution<double> u(0, 1);
   double r = u(rng);
   if (r < 0.4) return kSpecial[rng() % (sizeof(kSpecial) / sizeof(kSpecial[0]))];
@@ -45,15 +45,15 @@ struct OpCase {
 };
 
 const OpCase kOps[] = {
-    {Op::kAdd, 2},  {Op::kSub, 2},   {Op::kMul, 2},   {Op::kDiv, 2},   {Op::kNeg, 1},
-    {Op::kAbs, 1},  {Op::kMin, 2},   {Op::kMax, 2},   {Op::kSqrt, 1},  {Op::kExp, 1},
-    {Op::kLog, 1},  {Op::kLog10, 1}, {Op::kSin, 1},   {Op::kCos, 1},   {Op::kTan, 1},
-    {Op::kAsin, 1}, {Op::kAcos, 1},  {Op::kAtan, 1},  {Op::kAtan2, 2}, {Op::kSinh, 1},
-    {Op::kCosh, 1}, {Op::kTanh, 1},  {Op::kFloor, 1}, {Op::kCeil, 1},  {Op::kTrunc, 1},
-    {Op::kRound, 1}, {Op::kFmod, 2}, {Op::kPow, 2},   {Op::kPowHF, 2}, {Op::kSign, 1},
-    {Op::kLt, 2},   {Op::kLe, 2},    {Op::kGt, 2},    {Op::kGe, 2},    {Op::kEqTol, 2},
-    {Op::kNeTol, 2}, {Op::kEq, 2},   {Op::kNe, 2},    {Op::kTruth, 1}, {Op::kAnd, 2},
-    {Op::kOr, 2},   {Op::kNot, 1},   {Op::kSelect, 3},
+    {Op::kAdd, 2},   {Op::kSub, 2},   {Op::kMul, 2},    {Op::kDiv, 2},   {Op::kNeg, 1},
+    {Op::kAbs, 1},   {Op::kMin, 2},   {Op::kMax, 2},    {Op::kSqrt, 1},  {Op::kExp, 1},
+    {Op::kLog, 1},   {Op::kLog10, 1}, {Op::kSin, 1},    {Op::kCos, 1},   {Op::kTan, 1},
+    {Op::kAsin, 1},  {Op::kAcos, 1},  {Op::kAtan, 1},   {Op::kAtan2, 2}, {Op::kSinh, 1},
+    {Op::kCosh, 1},  {Op::kTanh, 1},  {Op::kFloor, 1},  {Op::kCeil, 1},  {Op::kTrunc, 1},
+    {Op::kRound, 1}, {Op::kFmod, 2},  {Op::kPow, 2},    {Op::kPowHF, 2}, {Op::kSign, 1},
+    {Op::kLt, 2},    {Op::kLe, 2},    {Op::kGt, 2},     {Op::kGe, 2},    {Op::kEqTol, 2},
+    {Op::kNeTol, 2}, {Op::kEq, 2},    {Op::kNe, 2},     {Op::kTruth, 1}, {Op::kAnd, 2},
+    {Op::kOr, 2},    {Op::kNot, 1},   {Op::kSelect, 3},
 };
 
 /// Compares JIT and interpreter on `boxes` (SoA over fn.num_inputs); returns failures.
@@ -112,9 +112,12 @@ TEST_P(IntervalJitOpTest, SameAsInterpreter) {
     IrBuilder b(fn);
     ValueId x = b.input(0), y = same_args ? x : b.input(1), z = b.input(2);
     ValueId r;
-    if (oc.arity == 1) r = b.unary(oc.op, x);
-    else if (oc.arity == 2) r = b.binary(oc.op, x, y);
-    else r = b.select(b.gt(x, b.constant(0)), y, z);
+    if (oc.arity == 1)
+      r = b.unary(oc.op, x);
+    else if (oc.arity == 2)
+      r = b.binary(oc.op, x, y);
+    else
+      r = b.select(b.gt(x, b.constant(0)), y, z);
     b.finish(r);
     std::mt19937_64 rng(static_cast<int>(oc.op) * 17 + same_args);
     std::vector<std::vector<Interval>> boxes;
@@ -159,8 +162,8 @@ TEST(IntervalJitTest, RandomProgramsSameAsInterpreter) {
     a.resize(std::max(fn.num_params, 1), 0.0);
     // Every other program with every op outlined (helpers under control-flow masks).
     const bool outlined = seed % 2 == 1;
-    failures += compare(fn, boxes, a, "seed " + std::to_string(seed) + (outlined ? " outlined" : ""),
-                        outlined);
+    failures += compare(fn, boxes, a,
+                        "seed " + std::to_string(seed) + (outlined ? " outlined" : ""), outlined);
   }
   EXPECT_EQ(failures, 0);
 }

@@ -29,24 +29,53 @@ class Gen {
  public:
   explicit Gen(uint64_t seed) : rng_(seed) {}
 
-  double uniform(double lo, double hi) { return std::uniform_real_distribution<double>(lo, hi)(rng_); }
+  double uniform(double lo, double hi) {
+    return std::uniform_real_distribution<double>(lo, hi)(rng_);
+  }
   int below(int n) { return std::uniform_int_distribution<int>(0, n - 1)(rng_); }
   bool chance(double p) { return uniform(0, 1) < p; }
 
   /// An endpoint: special values two thirds of the time, else random numbers of all scales.
   double endpoint() {
-    static const double kSpecial[] = {0.0, -0.0, 1e-300, -1e-300, 1e300, -1e300, kInf, -kInf,
-                                      M_PI, -M_PI, M_PI / 2, -M_PI / 2, 2 * M_PI, 1.0, -1.0,
-                                      1e-6, -1e-6, 0.5, -0.5, 2.0, -2.0, 3.0, -3.0,
+    static const double kSpecial[] = {0.0,
+                                      -0.0,
+                                      1e-300,
+                                      -1e-300,
+                                      1e300,
+                                      -1e300,
+                                      kInf,
+                                      -kInf,
+                                      M_PI,
+                                      -M_PI,
+                                      M_PI / 2,
+                                      -M_PI / 2,
+                                      2 * M_PI,
+                                      1.0,
+                                      -1.0,
+                                      1e-6,
+                                      -1e-6,
+                                      0.5,
+                                      -0.5,
+                                      2.0,
+                                      -2.0,
+                                      3.0,
+                                      -3.0,
                                       std::numeric_limits<double>::max(),
-                                      std::numeric_limits<double>::denorm_min(), 1e6, -1e6,
-                                      710.0, -745.0, 1024.0};
+                                      std::numeric_limits<double>::denorm_min(),
+                                      1e6,
+                                      -1e6,
+                                      710.0,
+                                      -745.0,
+                                      1024.0};
     switch (below(6)) {
       case 0:
       case 1:
-      case 2: return kSpecial[below(sizeof(kSpecial) / sizeof(kSpecial[0]))];
-      case 3: return uniform(-4, 4);
-      case 4: return std::round(uniform(-6, 6)) + (chance(0.5) ? 0.0 : uniform(-2e-6, 2e-6));
+      case 2:
+        return kSpecial[below(sizeof(kSpecial) / sizeof(kSpecial[0]))];
+      case 3:
+        return uniform(-4, 4);
+      case 4:
+        return std::round(uniform(-6, 6)) + (chance(0.5) ? 0.0 : uniform(-2e-6, 2e-6));
       default: {
         double m = std::pow(10.0, uniform(-20, 20));
         return chance(0.5) ? m : -m;
@@ -57,10 +86,18 @@ class Gen {
   Interval interval(double nan_p = 0.1) {
     double a = endpoint(), b;
     switch (below(4)) {
-      case 0: b = a; break;  // a point
-      case 1: b = std::nextafter(a, chance(0.5) ? kInf : -kInf); break;  // one-ulp width
-      case 2: b = a + uniform(-1, 1) * std::pow(10.0, uniform(-12, 1)); break;  // narrow
-      default: b = endpoint(); break;
+      case 0:
+        b = a;
+        break;  // a point
+      case 1:
+        b = std::nextafter(a, chance(0.5) ? kInf : -kInf);
+        break;  // one-ulp width
+      case 2:
+        b = a + uniform(-1, 1) * std::pow(10.0, uniform(-12, 1));
+        break;  // narrow
+      default:
+        b = endpoint();
+        break;
     }
     if (b != b) b = a;
     if (b < a) std::swap(a, b);
@@ -101,7 +138,9 @@ std::string str(const Interval& iv) {
   return os.str();
 }
 
-bool well_formed(const Interval& r) { return r.lo == r.lo && r.hi == r.hi && r.lo <= r.hi; }
+bool well_formed(const Interval& r) {
+  return r.lo == r.lo && r.hi == r.hi && r.lo <= r.hi;
+}
 
 struct OpCase {
   Op op;
@@ -109,15 +148,15 @@ struct OpCase {
 };
 
 const OpCase kOps[] = {
-    {Op::kAdd, 2},  {Op::kSub, 2},   {Op::kMul, 2},   {Op::kDiv, 2},   {Op::kNeg, 1},
-    {Op::kAbs, 1},  {Op::kMin, 2},   {Op::kMax, 2},   {Op::kSqrt, 1},  {Op::kExp, 1},
-    {Op::kLog, 1},  {Op::kLog10, 1}, {Op::kSin, 1},   {Op::kCos, 1},   {Op::kTan, 1},
-    {Op::kAsin, 1}, {Op::kAcos, 1},  {Op::kAtan, 1},  {Op::kAtan2, 2}, {Op::kSinh, 1},
-    {Op::kCosh, 1}, {Op::kTanh, 1},  {Op::kFloor, 1}, {Op::kCeil, 1},  {Op::kTrunc, 1},
-    {Op::kRound, 1}, {Op::kFmod, 2}, {Op::kPow, 2},   {Op::kPowHF, 2}, {Op::kSign, 1},
-    {Op::kLt, 2},   {Op::kLe, 2},    {Op::kGt, 2},    {Op::kGe, 2},    {Op::kEqTol, 2},
-    {Op::kNeTol, 2}, {Op::kEq, 2},   {Op::kNe, 2},    {Op::kTruth, 1}, {Op::kAnd, 2},
-    {Op::kOr, 2},   {Op::kNot, 1},   {Op::kSelect, 3},
+    {Op::kAdd, 2},   {Op::kSub, 2},   {Op::kMul, 2},    {Op::kDiv, 2},   {Op::kNeg, 1},
+    {Op::kAbs, 1},   {Op::kMin, 2},   {Op::kMax, 2},    {Op::kSqrt, 1},  {Op::kExp, 1},
+    {Op::kLog, 1},   {Op::kLog10, 1}, {Op::kSin, 1},    {Op::kCos, 1},   {Op::kTan, 1},
+    {Op::kAsin, 1},  {Op::kAcos, 1},  {Op::kAtan, 1},   {Op::kAtan2, 2}, {Op::kSinh, 1},
+    {Op::kCosh, 1},  {Op::kTanh, 1},  {Op::kFloor, 1},  {Op::kCeil, 1},  {Op::kTrunc, 1},
+    {Op::kRound, 1}, {Op::kFmod, 2},  {Op::kPow, 2},    {Op::kPowHF, 2}, {Op::kSign, 1},
+    {Op::kLt, 2},    {Op::kLe, 2},    {Op::kGt, 2},     {Op::kGe, 2},    {Op::kEqTol, 2},
+    {Op::kNeTol, 2}, {Op::kEq, 2},    {Op::kNe, 2},     {Op::kTruth, 1}, {Op::kAnd, 2},
+    {Op::kOr, 2},    {Op::kNot, 1},   {Op::kSelect, 3},
 };
 
 class IntervalOpTest : public ::testing::TestWithParam<OpCase> {};
@@ -183,8 +222,9 @@ INSTANTIATE_TEST_SUITE_P(AllOps, IntervalOpTest, ::testing::ValuesIn(kOps),
 // --- Boost.Interval as the reference on finite intervals ---------------------------------
 
 namespace bi = boost::numeric::interval_lib;
-using BoostI = boost::numeric::interval<
-    double, bi::policies<bi::save_state<bi::rounded_transc_std<double>>, bi::checking_base<double>>>;
+using BoostI =
+    boost::numeric::interval<double, bi::policies<bi::save_state<bi::rounded_transc_std<double>>,
+                                                  bi::checking_base<double>>>;
 
 enum class Match {
   kContains,   ///< IEEE ops: ours contains Boost's, and is at most `slack` ulps wider
@@ -230,32 +270,51 @@ TEST(IntervalBoostTest, AgreesWithBoostOnFiniteIntervals) {
   const Interval none{};
   for (int t = 0; t < 20000; ++t) {
     Interval a = finite(-1e100, 1e100), b = finite(-1e100, 1e100);
-    expect_match(Op::kAdd, apply_interval(Op::kAdd, a, b, none), bx(a) + bx(b), 2, Match::kContains, a, b, &failures);
-    expect_match(Op::kSub, apply_interval(Op::kSub, a, b, none), bx(a) - bx(b), 2, Match::kContains, a, b, &failures);
-    expect_match(Op::kMul, apply_interval(Op::kMul, a, b, none), bx(a) * bx(b), 2, Match::kContains, a, b, &failures);
-    expect_match(Op::kMul, apply_interval(Op::kMul, a, a, none, true), boost::numeric::square(bx(a)), 2, Match::kContains, a, a, &failures);
+    expect_match(Op::kAdd, apply_interval(Op::kAdd, a, b, none), bx(a) + bx(b), 2, Match::kContains,
+                 a, b, &failures);
+    expect_match(Op::kSub, apply_interval(Op::kSub, a, b, none), bx(a) - bx(b), 2, Match::kContains,
+                 a, b, &failures);
+    expect_match(Op::kMul, apply_interval(Op::kMul, a, b, none), bx(a) * bx(b), 2, Match::kContains,
+                 a, b, &failures);
+    expect_match(Op::kMul, apply_interval(Op::kMul, a, a, none, true),
+                 boost::numeric::square(bx(a)), 2, Match::kContains, a, a, &failures);
     if (!(b.lo <= 0 && b.hi >= 0)) {
-      expect_match(Op::kDiv, apply_interval(Op::kDiv, a, b, none), bx(a) / bx(b), 2, Match::kContains, a, b, &failures);
+      expect_match(Op::kDiv, apply_interval(Op::kDiv, a, b, none), bx(a) / bx(b), 2,
+                   Match::kContains, a, b, &failures);
     }
-    expect_match(Op::kMin, apply_interval(Op::kMin, a, b, none), boost::numeric::min(bx(a), bx(b)), 0, Match::kContains, a, b, &failures);
-    expect_match(Op::kMax, apply_interval(Op::kMax, a, b, none), boost::numeric::max(bx(a), bx(b)), 0, Match::kContains, a, b, &failures);
-    expect_match(Op::kAbs, apply_interval(Op::kAbs, a, b, none), boost::numeric::abs(bx(a)), 0, Match::kContains, a, b, &failures);
+    expect_match(Op::kMin, apply_interval(Op::kMin, a, b, none), boost::numeric::min(bx(a), bx(b)),
+                 0, Match::kContains, a, b, &failures);
+    expect_match(Op::kMax, apply_interval(Op::kMax, a, b, none), boost::numeric::max(bx(a), bx(b)),
+                 0, Match::kContains, a, b, &failures);
+    expect_match(Op::kAbs, apply_interval(Op::kAbs, a, b, none), boost::numeric::abs(bx(a)), 0,
+                 Match::kContains, a, b, &failures);
     Interval p = finite(0, 1e100);
-    expect_match(Op::kSqrt, apply_interval(Op::kSqrt, p, none, none), boost::numeric::sqrt(bx(p)), 2, Match::kContains, p, none, &failures);
+    expect_match(Op::kSqrt, apply_interval(Op::kSqrt, p, none, none), boost::numeric::sqrt(bx(p)),
+                 2, Match::kContains, p, none, &failures);
     Interval e = finite(-700, 700);
-    expect_match(Op::kExp, apply_interval(Op::kExp, e, none, none), boost::numeric::exp(bx(e)), 8, Match::kClose, e, none, &failures);
-    expect_match(Op::kSinh, apply_interval(Op::kSinh, e, none, none), boost::numeric::sinh(bx(e)), 8, Match::kClose, e, none, &failures);
-    expect_match(Op::kCosh, apply_interval(Op::kCosh, e, none, none), boost::numeric::cosh(bx(e)), 8, Match::kClose, e, none, &failures);
-    expect_match(Op::kTanh, apply_interval(Op::kTanh, e, none, none), boost::numeric::tanh(bx(e)), 8, Match::kClose, e, none, &failures);
-    expect_match(Op::kAtan, apply_interval(Op::kAtan, a, none, none), boost::numeric::atan(bx(a)), 8, Match::kClose, a, none, &failures);
+    expect_match(Op::kExp, apply_interval(Op::kExp, e, none, none), boost::numeric::exp(bx(e)), 8,
+                 Match::kClose, e, none, &failures);
+    expect_match(Op::kSinh, apply_interval(Op::kSinh, e, none, none), boost::numeric::sinh(bx(e)),
+                 8, Match::kClose, e, none, &failures);
+    expect_match(Op::kCosh, apply_interval(Op::kCosh, e, none, none), boost::numeric::cosh(bx(e)),
+                 8, Match::kClose, e, none, &failures);
+    expect_match(Op::kTanh, apply_interval(Op::kTanh, e, none, none), boost::numeric::tanh(bx(e)),
+                 8, Match::kClose, e, none, &failures);
+    expect_match(Op::kAtan, apply_interval(Op::kAtan, a, none, none), boost::numeric::atan(bx(a)),
+                 8, Match::kClose, a, none, &failures);
     Interval pl = finite(1e-300, 1e100);
-    expect_match(Op::kLog, apply_interval(Op::kLog, pl, none, none), boost::numeric::log(bx(pl)), 8, Match::kClose, pl, none, &failures);
+    expect_match(Op::kLog, apply_interval(Op::kLog, pl, none, none), boost::numeric::log(bx(pl)), 8,
+                 Match::kClose, pl, none, &failures);
     Interval u = finite(-1, 1);
-    expect_match(Op::kAsin, apply_interval(Op::kAsin, u, none, none), boost::numeric::asin(bx(u)), 8, Match::kClose, u, none, &failures);
-    expect_match(Op::kAcos, apply_interval(Op::kAcos, u, none, none), boost::numeric::acos(bx(u)), 8, Match::kClose, u, none, &failures);
+    expect_match(Op::kAsin, apply_interval(Op::kAsin, u, none, none), boost::numeric::asin(bx(u)),
+                 8, Match::kClose, u, none, &failures);
+    expect_match(Op::kAcos, apply_interval(Op::kAcos, u, none, none), boost::numeric::acos(bx(u)),
+                 8, Match::kClose, u, none, &failures);
     Interval s = finite(-1e4, 1e4);
-    expect_match(Op::kSin, apply_interval(Op::kSin, s, none, none), boost::numeric::sin(bx(s)), 4, Match::kNotLooser, s, none, &failures);
-    expect_match(Op::kCos, apply_interval(Op::kCos, s, none, none), boost::numeric::cos(bx(s)), 4, Match::kNotLooser, s, none, &failures);
+    expect_match(Op::kSin, apply_interval(Op::kSin, s, none, none), boost::numeric::sin(bx(s)), 4,
+                 Match::kNotLooser, s, none, &failures);
+    expect_match(Op::kCos, apply_interval(Op::kCos, s, none, none), boost::numeric::cos(bx(s)), 4,
+                 Match::kNotLooser, s, none, &failures);
   }
   EXPECT_EQ(failures, 0);
 }

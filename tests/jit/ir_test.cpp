@@ -15,7 +15,8 @@ TEST(IrOps, NamesAreSnakeCaseAndUnique) {
   for (int i = 0; i < kOpCount; ++i) {
     std::string name(op_name(static_cast<Op>(i)));
     EXPECT_FALSE(name.empty());
-    for (char c : name) EXPECT_TRUE((c >= 'a' && c <= 'z') || (c >= '0' && c <= '9') || c == '_') << name;
+    for (char c : name)
+      EXPECT_TRUE((c >= 'a' && c <= 'z') || (c >= '0' && c <= '9') || c == '_') << name;
     names.insert(name);
   }
   EXPECT_EQ(names.size(), static_cast<size_t>(kOpCount));
@@ -82,7 +83,9 @@ Inst make(Op op, ValueId a0 = kNoValue, ValueId a1 = kNoValue, int aux = 0, doub
   return in;
 }
 
-TEST(IrVerify, AcceptsWellFormed) { EXPECT_EQ(verify(straight_line()), ""); }
+TEST(IrVerify, AcceptsWellFormed) {
+  EXPECT_EQ(verify(straight_line()), "");
+}
 
 TEST(IrVerify, RejectsUseBeforeDefinition) {
   Function fn = straight_line();
@@ -157,8 +160,8 @@ TEST(IrVerify, ValuesDoNotEscapeTheirRegion) {
   EXPECT_NE(verify(fn).find("outside the region"), std::string::npos) << verify(fn);
   // Then-part values are not visible in the else-part.
   Function g;
-  g.insts = {make(Op::kConst), make(Op::kIf, 0), make(Op::kNeg, 0), make(Op::kElse), make(Op::kAbs, 2),
-             make(Op::kEndIf)};
+  g.insts = {make(Op::kConst), make(Op::kIf, 0),  make(Op::kNeg, 0),
+             make(Op::kElse),  make(Op::kAbs, 2), make(Op::kEndIf)};
   g.has_control_flow = true;
   g.result = 0;
   EXPECT_NE(verify(g).find("outside the region"), std::string::npos) << verify(g);
@@ -179,8 +182,8 @@ TEST(IrVerify, StructureOfLoopsAndIfs) {
               make(Op::kEndLoop)};
   EXPECT_NE(verify(fn).find("second loop_test"), std::string::npos);
   // A loop test nested in an if of the loop is not at the loop's level.
-  fn.insts = {make(Op::kConst), make(Op::kLoop), make(Op::kIf, 0), make(Op::kLoopTest, 0),
-              make(Op::kEndIf), make(Op::kEndLoop)};
+  fn.insts = {make(Op::kConst),       make(Op::kLoop),  make(Op::kIf, 0),
+              make(Op::kLoopTest, 0), make(Op::kEndIf), make(Op::kEndLoop)};
   EXPECT_NE(verify(fn).find("not directly inside a loop"), std::string::npos);
   fn.insts = {make(Op::kConst), make(Op::kIf, 0)};
   EXPECT_NE(verify(fn).find("unterminated"), std::string::npos);
@@ -219,8 +222,13 @@ TEST(IrPrint, IndentsByNesting) {
   Function fn;
   fn.num_slots = 1;
   fn.slot_init = {std::nan("")};
-  fn.insts = {make(Op::kConst, kNoValue, kNoValue, 0, 1), make(Op::kLoop), make(Op::kLoopTest, 0),
-              make(Op::kIf, 0), make(Op::kStoreSlot, 0), make(Op::kEndIf), make(Op::kEndLoop)};
+  fn.insts = {make(Op::kConst, kNoValue, kNoValue, 0, 1),
+              make(Op::kLoop),
+              make(Op::kLoopTest, 0),
+              make(Op::kIf, 0),
+              make(Op::kStoreSlot, 0),
+              make(Op::kEndIf),
+              make(Op::kEndLoop)};
   fn.has_control_flow = true;
   fn.result = 0;
   ASSERT_EQ(verify(fn), "");

@@ -7,8 +7,8 @@
 // in the lowering; each file is therefore first lowered in a forked child, and skipped (with
 // the reason) when the child does not finish cleanly.
 
-#include <gtest/gtest.h>
 #include <fcntl.h>
+#include <gtest/gtest.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
@@ -102,16 +102,18 @@ TEST_P(ProbeConformance, JitAgreesWithOriginalAndInterpreter) {
     where.precision(17);
     where << model_path << " at (" << p.x[0] << ", " << p.x[1] << ", " << p.x[2] << "): ";
     if (p.runtime_error) {
-      EXPECT_TRUE(std::isnan(f[i])) << where.str() << "original: " << p.error_message
-                                    << ", jit: " << f[i];
+      EXPECT_TRUE(std::isnan(f[i]))
+          << where.str() << "original: " << p.error_message << ", jit: " << f[i];
       failures += !std::isnan(f[i]);
       continue;
     }
     double want = p.f;
     // Documented deviation (spec: hfrt's sign() is -1/0/1, the original's is always 1).
     if (fs::path(model_path).filename() == "math_builtins.hf") {
-      if (p.x[0] < 0) want -= 2;
-      else if (p.x[0] == 0) want -= 1;
+      if (p.x[0] < 0)
+        want -= 2;
+      else if (p.x[0] == 0)
+        want -= 1;
     }
     bool ok = probe::values_agree(want, f[i], 1e-9);
     EXPECT_TRUE(ok) << where.str() << "original " << want << ", jit " << f[i]

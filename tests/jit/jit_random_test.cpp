@@ -117,7 +117,8 @@ TEST(JitRandomTest, EveryOpIsGenerated) {
   for (int k = 0; k < kOpCount; ++k) {
     // kSurface needs a loaded surface: surface_test.cpp checks its evaluators against each other.
     if (static_cast<Op>(k) == Op::kSurface) continue;
-    EXPECT_TRUE(seen.count(static_cast<Op>(k))) << op_name(static_cast<Op>(k)) << " never generated";
+    EXPECT_TRUE(seen.count(static_cast<Op>(k)))
+        << op_name(static_cast<Op>(k)) << " never generated";
   }
 }
 
@@ -149,7 +150,8 @@ TEST(JitRandomTest, F32CloseToInterpreter) {
     std::vector<float> af(a.begin(), a.end());
     auto xs = soa<float>(pts, fn.num_inputs);
     std::vector<float> f(pts.size());
-    compiled.value()->f32()(static_cast<int64_t>(pts.size()), xs.data(), af.data(), f.data(), nullptr);
+    compiled.value()->f32()(static_cast<int64_t>(pts.size()), xs.data(), af.data(), f.data(),
+                            nullptr);
     for (size_t i = 0; i < pts.size(); ++i) {
       std::vector<double> p(pts[i].size());
       for (size_t k = 0; k < p.size(); ++k) p[k] = static_cast<float>(pts[i][k]);

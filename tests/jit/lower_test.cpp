@@ -58,7 +58,8 @@ TEST(Lower, ConstantExpressionsFoldAway) {
 
 TEST(Lower, ArgumentsAreEvaluatedRightToLeft) {
   // The first error reported is the right operand's, as in the original.
-  EXPECT_EQ(error_at("m(x[3], a[1]) { m = sqrt(-x[1]) + 1/(x[1]-1); }"), ErrorKind::kDivisionByZero);
+  EXPECT_EQ(error_at("m(x[3], a[1]) { m = sqrt(-x[1]) + 1/(x[1]-1); }"),
+            ErrorKind::kDivisionByZero);
   EXPECT_EQ(error_at("m(x[3], a[1]) { m = 1/(x[1]-1) + sqrt(-x[1]); }"), ErrorKind::kNegativeSqrt);
   EXPECT_EQ(error_at("m(x[3], a[1]) { m = max(log(x[1]-1), asin(x[2])); }"), ErrorKind::kAsinRange);
 }
@@ -78,7 +79,8 @@ TEST(Lower, RuntimeErrorsPointAtTheOperatorOrCall) {
   ASSERT_TRUE(r.error);
   EXPECT_EQ(r.error->kind, ErrorKind::kLogNonPositive);
   EXPECT_EQ(r.error->loc.col, 23u);  // 'log'
-  EXPECT_EQ(describe_runtime_error(*r.error, c.fn), "test.hf:4:23: Logarithm of non-positive value");
+  EXPECT_EQ(describe_runtime_error(*r.error, c.fn),
+            "test.hf:4:23: Logarithm of non-positive value");
 }
 
 TEST(Lower, ElementaryFunctionErrors) {
@@ -86,7 +88,8 @@ TEST(Lower, ElementaryFunctionErrors) {
   EXPECT_EQ(error_at("m(x[3], a[1]) { m = logd(x[1] - 1); }"), ErrorKind::kLogNonPositive);
   EXPECT_EQ(error_at("m(x[3], a[1]) { m = acos(x[2]); }"), ErrorKind::kAcosRange);
   EXPECT_EQ(error_at("m(x[3], a[1]) { m = 1 / (x[1] - 0.9999995); }"), ErrorKind::kDivisionByZero);
-  EXPECT_FALSE(error_at("m(x[3], a[1]) { m = 1 / (x[1] - 0.999998) + sqrt(x[1] - 1) + acos(x[1]); }"));
+  EXPECT_FALSE(
+      error_at("m(x[3], a[1]) { m = 1 / (x[1] - 0.999998) + sqrt(x[1] - 1) + acos(x[1]); }"));
 }
 
 TEST(Lower, ConstantIntegralPowersBecomeMultiplications) {
@@ -110,7 +113,8 @@ TEST(Lower, PowerSemantics) {
   EXPECT_EQ(error_at("m(x[3], a[1]) { m = (-x[1])^(x[1]/2); }"), ErrorKind::kNegativePower);
   EXPECT_EQ(error_at("m(x[3], a[1]) { m = (x[1]-1)^(x[1]-1); }"), ErrorKind::kZeroPower);
   EXPECT_EQ(eval_source("m(x[3], a[1]) { m = (x[1]-1)^x[2]; }").value, 0);
-  EXPECT_DOUBLE_EQ(eval_source("m(x[3], a[1]) { m = x[3]^0.5; }").value, std::exp(0.5 * std::log(3.0)));
+  EXPECT_DOUBLE_EQ(eval_source("m(x[3], a[1]) { m = x[3]^0.5; }").value,
+                   std::exp(0.5 * std::log(3.0)));
   EXPECT_EQ(eval_source("m(x[3], a[1]) { m = 2^x[2]^x[1]; }").value, 4);  // left associative
 }
 
@@ -129,9 +133,12 @@ TEST(Lower, BuiltinsFollowTheSpec) {
   EXPECT_TRUE(std::isnan(eval_source("m(x[3], a[1]) { m = mod(x[3], 0.2); }").value));  // fmod by 0
   EXPECT_EQ(eval_source("m(x[3], a[1]) { m = int(-x[3] - 0.5); }").value, -3);
   EXPECT_EQ(eval_source("m(x[3], a[1]) { m = frac(-x[3] - 0.25); }").value, -0.25);
-  EXPECT_EQ(eval_source("m(x[3], a[1]) { m = sign(-x[1]) + 10*sign(x[1]-1) + 100*sign(x[1]); }").value, 99);
+  EXPECT_EQ(
+      eval_source("m(x[3], a[1]) { m = sign(-x[1]) + 10*sign(x[1]-1) + 100*sign(x[1]); }").value,
+      99);
   EXPECT_EQ(eval_source("m(x[3], a[1]) { m = max(x[1], x[2]) + 10*min(x[1], x[2]); }").value, 12);
-  EXPECT_DOUBLE_EQ(eval_source("m(x[3], a[1]) { m = atan2(x[1], x[2]); }").value, std::atan2(1.0, 2.0));
+  EXPECT_DOUBLE_EQ(eval_source("m(x[3], a[1]) { m = atan2(x[1], x[2]); }").value,
+                   std::atan2(1.0, 2.0));
   EXPECT_DOUBLE_EQ(eval_source("m(x[3], a[1]) { m = logd(x[3]*100/3); }").value, 2);
 }
 
@@ -142,7 +149,8 @@ TEST(Lower, ConditionsAndComparisons) {
   EXPECT_EQ(eval_source(ne).value, 0);
   const char* chain = "m(x[3], a[1]) { v = 0; if 0 < x[1] < 0.5 then v = 1; endif; m = v; }";
   EXPECT_EQ(eval_source(chain).value, 0);  // (0 < 1) < 0.5 = 1 < 0.5
-  const char* andor = "m(x[3], a[1]) { v = 0; if x[1] > 0 or x[1] > 0 and x[1] < 0 then v = 1; endif; m = v; }";
+  const char* andor =
+      "m(x[3], a[1]) { v = 0; if x[1] > 0 or x[1] > 0 and x[1] < 0 then v = 1; endif; m = v; }";
   EXPECT_EQ(eval_source(andor).value, 0);  // left to right, one level
   const char* truth = "m(x[3], a[1]) { v = 0; if x[1] - 0.9999995 then v = 1; endif; m = v; }";
   EXPECT_EQ(eval_source(truth).value, 0);  // |v| < 1e-6 is false
@@ -172,23 +180,27 @@ TEST(Lower, UninitialisedScalars) {
   EXPECT_EQ(error_at(src), ErrorKind::kUninitialized);
   EXPECT_FALSE(error_at(src, {6, 0, 0}));
   // Assigned in a loop body that may not run.
-  const char* loop = "m(x[3], a[1]) { i = 0; while i < x[1] loop v = i; i = i + 1; endloop; m = v; }";
+  const char* loop =
+      "m(x[3], a[1]) { i = 0; while i < x[1] loop v = i; i = i + 1; endloop; m = v; }";
   EXPECT_EQ(error_at(loop, {0, 0, 0}), ErrorKind::kUninitialized);
   EXPECT_EQ(eval_source(loop, {3, 0, 0}).value, 2);
 }
 
 TEST(Lower, WhileLoops) {
-  const char* sum = "m(x[3], a[1]) { t = 0; i = 1; while i <= x[1] loop t = t + i; i = i + 1; endloop; m = t; }";
+  const char* sum =
+      "m(x[3], a[1]) { t = 0; i = 1; while i <= x[1] loop t = t + i; i = i + 1; endloop; m = t; }";
   EXPECT_EQ(eval_source(sum, {10, 0, 0}).value, 55);
   EXPECT_EQ(eval_source(sum, {0, 0, 0}).value, 0);
   const char* nested =
-      "m(x[3], a[1]) { n = 0; i = 0; while i < x[1] loop j = 0; while j < x[2] loop n = n + 1; j = j + 1; "
+      "m(x[3], a[1]) { n = 0; i = 0; while i < x[1] loop j = 0; while j < x[2] loop n = n + 1; j = "
+      "j + 1; "
       "endloop; i = i + 1; endloop; m = n; }";
   EXPECT_EQ(eval_source(nested, {3, 4, 0}).value, 12);
 }
 
 TEST(Lower, EndlessLoopsStopWithLoopLimit) {
-  const char* src = "m(x[3], a[1])\n{\n i = 0;\n while i > -1 loop i = i + 1; endloop;\n m = i;\n}\n";
+  const char* src =
+      "m(x[3], a[1])\n{\n i = 0;\n while i > -1 loop i = i + 1; endloop;\n m = i;\n}\n";
   auto c = compile(src);
   ASSERT_TRUE(c.ok) << c.diagnostics;
   EvalResult r = Interpreter(c.fn).eval(std::vector<double>{0, 0, 0}, {});
@@ -199,18 +211,21 @@ TEST(Lower, EndlessLoopsStopWithLoopLimit) {
 
 TEST(Lower, LocalArrays) {
   const char* src =
-      "m(x[3], a[1]) { array c[3]; c = [10, 20, 30]; c[2] = x[1]; m = c[x[2]] + 100*c[1.6] + 1000*c[3]; }";
+      "m(x[3], a[1]) { array c[3]; c = [10, 20, 30]; c[2] = x[1]; m = c[x[2]] + 100*c[1.6] + "
+      "1000*c[3]; }";
   EXPECT_EQ(eval_source(src, {7, 2, 0}).value, 7 + 100 * 7 + 1000 * 30);
   EXPECT_EQ(eval_source(src, {7, 1.4, 0}).value, 10 + 100 * 7 + 1000 * 30);  // indices round
   EXPECT_EQ(error_at(src, {7, 3.5, 0}), ErrorKind::kIndexOutOfRange);
   EXPECT_EQ(error_at(src, {7, 0.4, 0}), ErrorKind::kIndexOutOfRange);
-  EXPECT_EQ(error_at("m(x[3], a[1]) { array c[2]; c[x[1]+2] = 1; m = 1; }"), ErrorKind::kIndexOutOfRange);
+  EXPECT_EQ(error_at("m(x[3], a[1]) { array c[2]; c[x[1]+2] = 1; m = 1; }"),
+            ErrorKind::kIndexOutOfRange);
   // Elements read before they are assigned.
   const char* partial = "m(x[3], a[1]) { array c[3]; c[1] = 5; c[x[3]] = 6; m = c[x[1]]; }";
   EXPECT_EQ(eval_source(partial, {1, 0, 3}).value, 5);
   EXPECT_EQ(eval_source(partial, {3, 0, 3}).value, 6);
   EXPECT_EQ(error_at(partial, {2, 0, 3}), ErrorKind::kUninitialized);
-  EXPECT_EQ(error_at("m(x[3], a[1]) { array c[3]; c[1] = 5; m = c[2]; }"), ErrorKind::kUninitialized);
+  EXPECT_EQ(error_at("m(x[3], a[1]) { array c[3]; c[1] = 5; m = c[2]; }"),
+            ErrorKind::kUninitialized);
 }
 
 TEST(Lower, LibraryArraysMustBeFullyAssigned) {
@@ -261,7 +276,8 @@ TEST(Lower, LocalsOfACalledObjectStartUndefinedAtEveryCall) {
 }
 
 TEST(Lower, SelectsTheObjectByName) {
-  const char* src = "first(x[3], a[1]) { first = 1; }\nsecond(x[3], a[1]) { second = first(x, a) + 1; }\n";
+  const char* src =
+      "first(x[3], a[1]) { first = 1; }\nsecond(x[3], a[1]) { second = first(x, a) + 1; }\n";
   auto c = compile(src);
   ASSERT_TRUE(c.ok);
   EXPECT_EQ(c.fn.name, "first");  // no my_model: the first object

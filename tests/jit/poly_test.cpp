@@ -186,8 +186,9 @@ const Case kCases[] = {
      "'sin' is not a polynomial", 2, 27},
     {"division", "my_model(x[3], a[1]) {\n  my_model = 1 / (1 + x[1]^2) - 0.5; }", false, 0, 0,
      "division by a variable", 2, 16},
-    {"set_in_arithmetic", "my_model(x[3], a[1]) {\n  my_model = 2 + ((1 - x[1]^2) | (1 - x[2]^2)); }",
-     false, 0, 0, "the result of a set operation is used in arithmetic", 2, 16},
+    {"set_in_arithmetic",
+     "my_model(x[3], a[1]) {\n  my_model = 2 + ((1 - x[1]^2) | (1 - x[2]^2)); }", false, 0, 0,
+     "the result of a set operation is used in arithmetic", 2, 16},
     {"blended_csg",
      "my_model(x[3], a[1]) { array c[3], v[3]; c = [0, 0, 0]; v = [-1, -1, -1];\n"
      "  frame = hfBlock(x, v, 2, 2, 2) \\ hfSphere(x, c, 1.3); ring = hfTorusZ(x, c, 1.5, 0.3);\n"

@@ -62,11 +62,16 @@ bool read_probe_values(const std::string& path, ProbeValues* out, std::string* e
       if (tok.empty() || tok[0] != "OK") return fail("expected the OK header line");
       for (size_t i = 1; i < tok.size(); ++i) {
         std::string v;
-        if (keyed(tok[i], "objects", &v)) out->objects = std::atoi(v.c_str());
-        else if (keyed(tok[i], "selected", &v)) out->selected = v;
-        else if (keyed(tok[i], "X", &v)) out->x_size = std::atoi(v.c_str());
-        else if (keyed(tok[i], "A", &v)) out->a_size = std::atoi(v.c_str());
-        else if (keyed(tok[i], "S", &v)) out->s_size = std::atoi(v.c_str());
+        if (keyed(tok[i], "objects", &v))
+          out->objects = std::atoi(v.c_str());
+        else if (keyed(tok[i], "selected", &v))
+          out->selected = v;
+        else if (keyed(tok[i], "X", &v))
+          out->x_size = std::atoi(v.c_str());
+        else if (keyed(tok[i], "A", &v))
+          out->a_size = std::atoi(v.c_str());
+        else if (keyed(tok[i], "S", &v))
+          out->s_size = std::atoi(v.c_str());
       }
       have_header = true;
       continue;
@@ -87,7 +92,8 @@ bool read_probe_values(const std::string& path, ProbeValues* out, std::string* e
       for (size_t i = 4; i < tok.size(); ++i) {
         std::string key = "s" + std::to_string(i - 3), v;
         double d;
-        if (!keyed(tok[i], key, &v) || !parse_double(v, &d)) return fail("bad attribute '" + tok[i] + "'");
+        if (!keyed(tok[i], key, &v) || !parse_double(v, &d))
+          return fail("bad attribute '" + tok[i] + "'");
         p.s.push_back(d);
       }
     }

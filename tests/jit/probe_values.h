@@ -18,13 +18,13 @@ struct ProbePoint {
   bool runtime_error = false;
   std::string error_message;  ///< the original's message when runtime_error
   double f = 0;
-  std::vector<double> s;      ///< s1.. as printed
+  std::vector<double> s;  ///< s1.. as printed
 };
 
 struct ProbeValues {
-  std::string model;      ///< file name of the probe model, e.g. "math_builtins.hf"
+  std::string model;  ///< file name of the probe model, e.g. "math_builtins.hf"
   int objects = 0;
-  std::string selected;   ///< the object that was evaluated
+  std::string selected;  ///< the object that was evaluated
   int x_size = 0, a_size = 0, s_size = 0;
   std::vector<ProbePoint> points;
 };

@@ -15,9 +15,9 @@ struct OpInfo {
 /// mesh (tests/jit/surface_test.cpp compares its evaluators).
 std::vector<OpInfo> expression_ops(bool tame) {
   std::vector<OpInfo> ops;
-#define HFRT_X(name, n, f)                                                              \
+#define HFRT_X(name, n, f)                                                                        \
   if ((op_flags_of(Op::k##name) & op_flags::kPure) && (n) > 0 && Op::k##name != Op::kTableLoad && \
-      Op::k##name != Op::kSurface)                                                      \
+      Op::k##name != Op::kSurface)                                                                \
     ops.push_back({Op::k##name, n});
   HFRT_IR_OPS(HFRT_X)
 #undef HFRT_X
@@ -25,9 +25,20 @@ std::vector<OpInfo> expression_ops(bool tame) {
   std::vector<OpInfo> out;
   for (OpInfo o : ops) {
     switch (o.op) {
-      case Op::kAdd: case Op::kSub: case Op::kMul: case Op::kNeg: case Op::kAbs:
-      case Op::kMin: case Op::kMax: case Op::kSin: case Op::kCos: case Op::kAtan:
-      case Op::kTanh: case Op::kSelect: case Op::kLt: case Op::kGt:
+      case Op::kAdd:
+      case Op::kSub:
+      case Op::kMul:
+      case Op::kNeg:
+      case Op::kAbs:
+      case Op::kMin:
+      case Op::kMax:
+      case Op::kSin:
+      case Op::kCos:
+      case Op::kAtan:
+      case Op::kTanh:
+      case Op::kSelect:
+      case Op::kLt:
+      case Op::kGt:
         out.push_back(o);
         break;
       default:
@@ -88,9 +99,12 @@ class Generator {
   bool chance(double p) { return std::uniform_real_distribution<double>(0, 1)(rng_) < p; }
   double random_constant() {
     switch (uniform(0, 4)) {
-      case 0: return uniform(-3, 3);
-      case 1: return uniform(-6, 6) * 0.5;
-      default: return std::uniform_real_distribution<double>(-3, 3)(rng_);
+      case 0:
+        return uniform(-3, 3);
+      case 1:
+        return uniform(-6, 6) * 0.5;
+      default:
+        return std::uniform_real_distribution<double>(-3, 3)(rng_);
     }
   }
 
@@ -99,8 +113,10 @@ class Generator {
   ValueId pick() {
     size_t total = 0;
     for (auto& s : scopes_) total += s.size();
-    size_t i = total - 1 - std::min<size_t>(total - 1,
-        static_cast<size_t>(std::abs(std::normal_distribution<double>(0, total / 3.0 + 1)(rng_))));
+    size_t i =
+        total - 1 -
+        std::min<size_t>(total - 1, static_cast<size_t>(std::abs(std::normal_distribution<double>(
+                                        0, total / 3.0 + 1)(rng_))));
     for (auto& s : scopes_) {
       if (i < s.size()) return s[i];
       i -= s.size();
@@ -114,16 +130,20 @@ class Generator {
   /// A 0/1 condition.
   ValueId condition() {
     switch (uniform(0, options_.tame ? 1 : 3)) {
-      case 0: return b_.lt(pick(), pick());
-      case 1: return b_.gt(pick(), b_.constant(random_constant()));
-      case 2: return b_.unary(Op::kTruth, pick());
-      default: return b_.binary(Op::kEqTol, b_.unary(Op::kRound, pick()), b_.constant(uniform(-2, 2)));
+      case 0:
+        return b_.lt(pick(), pick());
+      case 1:
+        return b_.gt(pick(), b_.constant(random_constant()));
+      case 2:
+        return b_.unary(Op::kTruth, pick());
+      default:
+        return b_.binary(Op::kEqTol, b_.unary(Op::kRound, pick()), b_.constant(uniform(-2, 2)));
     }
   }
   /// An integral 1-based index in [1, size] from any value (NaN and inf give 1).
   ValueId safe_index(int size) {
-    ValueId t = b_.binary(Op::kFmod, b_.unary(Op::kFloor, b_.unary(Op::kAbs, pick())),
-                          b_.constant(size));
+    ValueId t =
+        b_.binary(Op::kFmod, b_.unary(Op::kFloor, b_.unary(Op::kAbs, pick())), b_.constant(size));
     ValueId ok = b_.ge(t, b_.constant(0));
     return b_.add(b_.select(ok, t, b_.constant(0)), b_.constant(1));
   }
@@ -229,11 +249,21 @@ std::vector<std::vector<double>> random_points(uint64_t seed, int count, int dim
   for (auto& p : pts) {
     for (double& v : p) {
       switch (kind(rng)) {
-        case 0: v = std::round(u(rng)); break;            // integers
-        case 1: v = std::round(u(rng) * 2) / 2; break;    // halves: round() ties
-        case 2: v = 0; break;
-        case 3: v = std::round(u(rng)) + 1e-7; break;     // just off a tie
-        default: v = u(rng); break;
+        case 0:
+          v = std::round(u(rng));
+          break;  // integers
+        case 1:
+          v = std::round(u(rng) * 2) / 2;
+          break;  // halves: round() ties
+        case 2:
+          v = 0;
+          break;
+        case 3:
+          v = std::round(u(rng)) + 1e-7;
+          break;  // just off a tie
+        default:
+          v = u(rng);
+          break;
       }
     }
   }

@@ -15,8 +15,8 @@ namespace hfrt::jit::testing {
 struct RandomProgramOptions {
   int num_inputs = 3;
   int num_params = 2;
-  int statements = 40;   ///< top-level statement budget (nested regions add more)
-  int max_depth = 3;     ///< nesting of ifs and loops
+  int statements = 40;  ///< top-level statement budget (nested regions add more)
+  int max_depth = 3;    ///< nesting of ifs and loops
   int max_loop_trips = 5;
   /// Restrict to ops that are well conditioned in single precision (no chaotic functions,
   /// no equality/tolerance tests) for the f32 comparison.

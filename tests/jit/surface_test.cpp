@@ -330,9 +330,10 @@ TEST(SurfaceLeaf, SignOnlyEvaluationHasTheSignOfF) {
   const TestMesh mesh = TestMesh::bumpy();
   write_file("sign.off", mesh.off());
   CompileResult r = compile_in_temp(
-      "sign.hf", "my_model(x[3], a[1]) {\n  array c[3];\n  c = [0.5, 0, 0];\n"
-                 "  my_model = (hfMesh(x, \"sign.off\") \\ hfSphere(x, c, 0.6)) | -hfMesh(x, \"sign.off\") "
-                 "& (x[3] - 1.2);\n}\n");
+      "sign.hf",
+      "my_model(x[3], a[1]) {\n  array c[3];\n  c = [0.5, 0, 0];\n"
+      "  my_model = (hfMesh(x, \"sign.off\") \\ hfSphere(x, c, 0.6)) | -hfMesh(x, \"sign.off\") "
+      "& (x[3] - 1.2);\n}\n");
   ASSERT_TRUE(r.ok()) << r.rendered;
   ASSERT_TRUE(r.model->analytic_info().qualifies);
   std::mt19937 rng(5);

@@ -189,17 +189,15 @@ TEST(Sema, EveryLibraryFunctionAcceptsItsSignature) {
   // Generated calls for every signature: array names for 'A', numbers for 'R', a file name for
   // 'F' (the mesh and patch leaves of issue 10).
   std::string body = "array p[3];\np = [1, 2, 3];\nv = 0;\n";
-#define HFRT_X(e, s, k)                         \
-  {                                             \
-    std::string call = std::string(s) + "(";    \
-    std::string_view kinds = k;                 \
-    for (size_t i = 0; i < kinds.size(); ++i) { \
-      call += i ? ", " : "";                    \
-      call += kinds[i] == 'A'   ? "p"           \
-              : kinds[i] == 'F' ? "\"m.off\""    \
-                                : "0.5";        \
-    }                                           \
-    body += "v = v + " + call + ");\n";         \
+#define HFRT_X(e, s, k)                                                      \
+  {                                                                          \
+    std::string call = std::string(s) + "(";                                 \
+    std::string_view kinds = k;                                              \
+    for (size_t i = 0; i < kinds.size(); ++i) {                              \
+      call += i ? ", " : "";                                                 \
+      call += kinds[i] == 'A' ? "p" : kinds[i] == 'F' ? "\"m.off\"" : "0.5"; \
+    }                                                                        \
+    body += "v = v + " + call + ");\n";                                      \
   }
   HFRT_LIBRARY(HFRT_X)
 #undef HFRT_X

@@ -122,7 +122,8 @@ class SphereField : public AnalyticField {
  public:
   SphereField(Vec3 c, double r) : c_(c), r_(r) {}
   double value(double x, double y, double z) const override {
-    return r_ - std::sqrt((x - c_.x) * (x - c_.x) + (y - c_.y) * (y - c_.y) + (z - c_.z) * (z - c_.z));
+    return r_ -
+           std::sqrt((x - c_.x) * (x - c_.x) + (y - c_.y) * (y - c_.y) + (z - c_.z) * (z - c_.z));
   }
   Vec3 gradient(double x, double y, double z) const override {
     Vec3 d{float(x - c_.x), float(y - c_.y), float(z - c_.z)};
@@ -134,8 +135,7 @@ class SphereField : public AnalyticField {
     return widen(r_ - dmax, r_ - dmin);
   }
   bool has_ray_candidates() const override { return candidates_; }
-  void ray_candidates(Vec3 o, Vec3 d, float t0, float t1,
-                      std::vector<double>* out) const override {
+  void ray_candidates(Vec3 o, Vec3 d, float t0, float t1, std::vector<double>* out) const override {
     sphere_candidates(c_, r_, o, d, t0, t1, out);
   }
   /// Pretend there are no ray candidates (the field then renders by interval or sign).
@@ -167,8 +167,7 @@ class ShellField : public AnalyticField {
     return widen(std::min(r_ - dmax, dmin - ri_), std::min(r_ - dmin, dmax - ri_));
   }
   bool has_ray_candidates() const override { return true; }
-  void ray_candidates(Vec3 o, Vec3 d, float t0, float t1,
-                      std::vector<double>* out) const override {
+  void ray_candidates(Vec3 o, Vec3 d, float t0, float t1, std::vector<double>* out) const override {
     sphere_candidates({0, 0, 0}, r_, o, d, t0, t1, out);
     sphere_candidates({0, 0, 0}, ri_, o, d, t0, t1, out);
   }
@@ -209,8 +208,7 @@ class TorusField : public AnalyticField {
     return widen(r_ - std::sqrt(q2_hi + fy * fy), r_ - std::sqrt(q2_lo + ny * ny));
   }
   bool has_ray_candidates() const override { return true; }
-  void ray_candidates(Vec3 o, Vec3 d, float t0, float t1,
-                      std::vector<double>* out) const override {
+  void ray_candidates(Vec3 o, Vec3 d, float t0, float t1, std::vector<double>* out) const override {
     const double center[3] = {0, 0, 0}, axis[3] = {0, 1, 0};
     torus_candidates(center, axis, R_, r_, o, d, t0, t1, out);
   }
@@ -256,8 +254,7 @@ class BallsField : public AnalyticField {
     return widen(lo, hi);
   }
   bool has_ray_candidates() const override { return true; }
-  void ray_candidates(Vec3 o, Vec3 d, float t0, float t1,
-                      std::vector<double>* out) const override {
+  void ray_candidates(Vec3 o, Vec3 d, float t0, float t1, std::vector<double>* out) const override {
     for (const Ball& b : balls_) sphere_candidates(b.c, b.r, o, d, t0, t1, out);
   }
 
@@ -277,9 +274,9 @@ class CsgField : public AnalyticField {
   struct Leaf {
     enum class Kind { kBall, kCylinder, kHalfSpace, kTorus };
     Kind kind;
-    double c[3];  ///< centre / a point on the axis / a point on the plane
-    double u[3];  ///< unit axis (cylinder, torus) or outward unit normal (half-space)
-    double R = 0, r = 0;  ///< torus radii; r: ball or cylinder radius
+    double c[3];              ///< centre / a point on the axis / a point on the plane
+    double u[3];              ///< unit axis (cylinder, torus) or outward unit normal (half-space)
+    double R = 0, r = 0;      ///< torus radii; r: ball or cylinder radius
     bool complement = false;  ///< use -F (subtract the leaf)
   };
   using Part = std::vector<Leaf>;
@@ -333,10 +330,18 @@ class CsgField : public AnalyticField {
     double rho = std::sqrt(std::max(0.0, q2 - qu * qu));
     double f = 0;
     switch (l.kind) {
-      case Leaf::Kind::kBall: f = l.r - std::sqrt(q2); break;
-      case Leaf::Kind::kCylinder: f = l.r - rho; break;
-      case Leaf::Kind::kHalfSpace: f = -qu; break;
-      case Leaf::Kind::kTorus: f = l.r - std::hypot(rho - l.R, qu); break;
+      case Leaf::Kind::kBall:
+        f = l.r - std::sqrt(q2);
+        break;
+      case Leaf::Kind::kCylinder:
+        f = l.r - rho;
+        break;
+      case Leaf::Kind::kHalfSpace:
+        f = -qu;
+        break;
+      case Leaf::Kind::kTorus:
+        f = l.r - std::hypot(rho - l.R, qu);
+        break;
     }
     return l.complement ? -f : f;
   }
@@ -363,8 +368,7 @@ class CsgField : public AnalyticField {
     return widen(f - half_diag, f + half_diag);
   }
   bool has_ray_candidates() const override { return true; }
-  void ray_candidates(Vec3 o, Vec3 d, float t0, float t1,
-                      std::vector<double>* out) const override {
+  void ray_candidates(Vec3 o, Vec3 d, float t0, float t1, std::vector<double>* out) const override {
     for (const Part& p : parts_) {
       for (const Leaf& l : p) {
         double q0[3] = {double(o.x) - l.c[0], double(o.y) - l.c[1], double(o.z) - l.c[2]};
@@ -373,7 +377,9 @@ class CsgField : public AnalyticField {
         double du = dd[0] * l.u[0] + dd[1] * l.u[1] + dd[2] * l.u[2];
         double c[5] = {0, 0, 0, 0, 0};
         switch (l.kind) {
-          case Leaf::Kind::kBall: sphere_poly(q0, dd, l.r * l.r, c); break;
+          case Leaf::Kind::kBall:
+            sphere_poly(q0, dd, l.r * l.r, c);
+            break;
           case Leaf::Kind::kCylinder:
             sphere_poly(q0, dd, l.r * l.r, c);
             c[0] -= qu * qu;
@@ -384,7 +390,9 @@ class CsgField : public AnalyticField {
             c[0] = qu;
             c[1] = du;
             break;
-          case Leaf::Kind::kTorus: torus_candidates(l.c, l.u, l.R, l.r, o, d, t0, t1, out); continue;
+          case Leaf::Kind::kTorus:
+            torus_candidates(l.c, l.u, l.R, l.r, o, d, t0, t1, out);
+            continue;
         }
         push_roots(c, t0, t1, out);
       }
@@ -409,9 +417,9 @@ class ColouredSphereField : public SphereField {
                        float* s) const override {
     for (size_t i = 0; i < n; ++i) {
       bool right = x[i] > 0;
-      s[i] = right ? 1.0f : 0.0f;           // s[1] red
-      s[n + i] = 0.0f;                      // s[2] green
-      s[2 * n + i] = right ? 0.0f : 1.0f;   // s[3] blue
+      s[i] = right ? 1.0f : 0.0f;          // s[1] red
+      s[n + i] = 0.0f;                     // s[2] green
+      s[2 * n + i] = right ? 0.0f : 1.0f;  // s[3] blue
     }
   }
 };

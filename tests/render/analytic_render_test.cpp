@@ -131,9 +131,8 @@ DepthReport check_depth(const CsgField& field, const RenderOptions& o) {
       EXPECT_TRUE(ref.converged);
       bool got = img.alpha[px] > 0;
       if (got != ref.hit) {
-        EXPECT_LT(ref.closest, 1e-4 * size)
-            << "pixel " << i << "," << j << ": rendered " << got << ", reference " << ref.hit
-            << " at " << ref.t;
+        EXPECT_LT(ref.closest, 1e-4 * size) << "pixel " << i << "," << j << ": rendered " << got
+                                            << ", reference " << ref.hit << " at " << ref.t;
         rep.graze_mismatch++;
         continue;
       }

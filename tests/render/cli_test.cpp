@@ -61,7 +61,9 @@ TEST(RenderCli, OrthographicSphereCoversItsArea) {
   std::string err;
   ASSERT_EQ(run_hfrt("render " + model.string() + " -o " + out.string() +
                          " --size 100x100 --ortho 10 --eye 0,0,20 --look-at 0,0,0 --aov depth",
-                     &err), 0) << err;
+                     &err),
+            0)
+      << err;
   EXPECT_NE(err.find("root search"), std::string::npos) << err;
   int w, h, c;
   auto img = read_image(out.string(), &w, &h, &c);
@@ -75,7 +77,8 @@ TEST(RenderCli, OrthographicSphereCoversItsArea) {
       if (p[3] > 0) {
         double px = -5 + (x + 0.5) * 0.1, py = 5 - (y + 0.5) * 0.1;
         double expected = 20 - std::sqrt(std::max(0.0, 16 - px * px - py * py));
-        if (px * px + py * py < 15.5) worst_depth = std::max(worst_depth, std::abs(p[4] - expected));
+        if (px * px + py * py < 15.5)
+          worst_depth = std::max(worst_depth, std::abs(p[4] - expected));
       }
     }
   }
@@ -86,8 +89,12 @@ TEST(RenderCli, OrthographicSphereCoversItsArea) {
 TEST(RenderCli, SameFileForAnyThreadCount) {
   fs::path model = write_model("sphere2.hf", kSphereModel);
   fs::path a = temp_dir() / "t1.png", b = temp_dir() / "t2.png";
-  ASSERT_EQ(run_hfrt("render " + model.string() + " -o " + a.string() + " --size 48x40 --spp 4 --threads 1"), 0);
-  ASSERT_EQ(run_hfrt("render " + model.string() + " -o " + b.string() + " --size 48x40 --spp 4 --threads 2"), 0);
+  ASSERT_EQ(run_hfrt("render " + model.string() + " -o " + a.string() +
+                     " --size 48x40 --spp 4 --threads 1"),
+            0);
+  ASSERT_EQ(run_hfrt("render " + model.string() + " -o " + b.string() +
+                     " --size 48x40 --spp 4 --threads 2"),
+            0);
   int w, h, c;
   auto ia = read_image(a.string(), &w, &h, &c);
   auto ib = read_image(b.string(), &w, &h, &c);
@@ -126,15 +133,20 @@ TEST(RenderCli, ThinShellHasNoHolesWithIntervals) {
   fs::path out = temp_dir() / "shell.exr";
   const std::string view = " --size 80x80 --ortho 12 --eye 0,0,20 --look-at 0,0,0 --no-shadows";
   std::string err;
-  ASSERT_EQ(run_hfrt("render " + model.string() + " -o " + out.string() + view + " --root interval --stats",
-                     &err), 0) << err;
+  ASSERT_EQ(run_hfrt("render " + model.string() + " -o " + out.string() + view +
+                         " --root interval --stats",
+                     &err),
+            0)
+      << err;
   EXPECT_NE(err.find("root search interval"), std::string::npos) << err;
   // Seen from the front, the shell covers the disk of radius 5: pi 25 / 144 of the view.
   double pixel_area = (12.0 / 80) * (12.0 / 80);
   EXPECT_NEAR(coverage(out) * pixel_area / (M_PI * 25), 1.0, 0.01);
   // The same view with the sign-change march misses most of the shell: the test above can fail.
   fs::path sign = temp_dir() / "shell_sign.exr";
-  ASSERT_EQ(run_hfrt("render " + model.string() + " -o " + sign.string() + view + " --root sign", &err), 0)
+  ASSERT_EQ(
+      run_hfrt("render " + model.string() + " -o " + sign.string() + view + " --root sign", &err),
+      0)
       << err;
   EXPECT_LT(coverage(sign) * pixel_area / (M_PI * 25), 0.9);
 }
@@ -144,8 +156,12 @@ TEST(RenderCli, IntervalRenderIsTheSameForAnyThreadCount) {
   fs::path a = temp_dir() / "i1.png", b = temp_dir() / "i2.png";
   std::string err;
   const std::string args = " --size 40x32 --spp 2 --root interval";
-  ASSERT_EQ(run_hfrt("render " + model.string() + " -o " + a.string() + args + " --threads 1", &err), 0) << err;
-  ASSERT_EQ(run_hfrt("render " + model.string() + " -o " + b.string() + args + " --threads 2", &err), 0) << err;
+  ASSERT_EQ(
+      run_hfrt("render " + model.string() + " -o " + a.string() + args + " --threads 1", &err), 0)
+      << err;
+  ASSERT_EQ(
+      run_hfrt("render " + model.string() + " -o " + b.string() + args + " --threads 2", &err), 0)
+      << err;
   int w, h, c;
   auto ia = read_image(a.string(), &w, &h, &c);
   auto ib = read_image(b.string(), &w, &h, &c);
@@ -156,30 +172,39 @@ TEST(RenderCli, IntervalRenderIsTheSameForAnyThreadCount) {
 TEST(RenderCli, AutoPicksIntervalsUnlessTheyAreLoose) {
   // A ball with a sine ripple is not a polynomial: auto falls back from analytic, says why and
   // where, and takes the interval search (its enclosures are tight).
-  fs::path model = write_model("sin_sphere.hf",
-                               "my_model(x[3], a[1]) {\n"
-                               "  my_model = 16 - x[1]*x[1] - x[2]*x[2] - x[3]*x[3] + 0.5 * sin(x[1]);\n"
-                               "}\n");
+  fs::path model =
+      write_model("sin_sphere.hf",
+                  "my_model(x[3], a[1]) {\n"
+                  "  my_model = 16 - x[1]*x[1] - x[2]*x[2] - x[3]*x[3] + 0.5 * sin(x[1]);\n"
+                  "}\n");
   fs::path out = temp_dir() / "auto.png";
   std::string err;
-  ASSERT_EQ(run_hfrt("render " + model.string() + " -o " + out.string() + " --size 32x32 --stats", &err), 0)
+  ASSERT_EQ(
+      run_hfrt("render " + model.string() + " -o " + out.string() + " --size 32x32 --stats", &err),
+      0)
       << err;
   EXPECT_NE(err.find("root search interval (auto:"), std::string::npos) << err;
   EXPECT_NE(err.find("interval JIT"), std::string::npos) << err;
   EXPECT_EQ(err.find("no interval culling"), std::string::npos) << err;
   EXPECT_NE(err.find("\nroot: interval\n"), std::string::npos) << err;
-  EXPECT_NE(err.find("\nroot fallback: not analytic: 'sin' is not a polynomial at "), std::string::npos)
+  EXPECT_NE(err.find("\nroot fallback: not analytic: 'sin' is not a polynomial at "),
+            std::string::npos)
       << err;
   EXPECT_NE(err.find("sin_sphere.hf:2:61"), std::string::npos) << err;
   // The default example's R-function blends have loose enclosures: the march is cheaper.
   fs::path def = fs::path(HFRT_SOURCE_DIR) / "examples" / "default.hf";
-  ASSERT_EQ(run_hfrt("render " + def.string() + " -o " + out.string() + " --size 32x32 --stats", &err), 0)
+  ASSERT_EQ(
+      run_hfrt("render " + def.string() + " -o " + out.string() + " --size 32x32 --stats", &err), 0)
       << err;
-  EXPECT_NE(err.find("root search sign (auto: loose interval enclosures"), std::string::npos) << err;
+  EXPECT_NE(err.find("root search sign (auto: loose interval enclosures"), std::string::npos)
+      << err;
   EXPECT_NE(err.find("\nroot: sign\n"), std::string::npos) << err;
   EXPECT_NE(err.find("\nroot fallback: not analytic: 'hfBlendUni'"), std::string::npos) << err;
   // Forcing the interval search still works for it.
-  ASSERT_EQ(run_hfrt("render " + def.string() + " -o " + out.string() + " --size 16x16 --root interval", &err), 0)
+  ASSERT_EQ(
+      run_hfrt("render " + def.string() + " -o " + out.string() + " --size 16x16 --root interval",
+               &err),
+      0)
       << err;
   EXPECT_NE(err.find("root search interval"), std::string::npos) << err;
 }
@@ -202,7 +227,9 @@ TEST(RenderCli, AutoPicksAnalyticForPolynomialModels) {
   // The polynomial examples qualify too.
   for (const char* name : {"analytic_torus", "analytic_csg", "analytic_block"}) {
     fs::path ex = fs::path(HFRT_SOURCE_DIR) / "examples" / (std::string(name) + ".hf");
-    ASSERT_EQ(run_hfrt("render " + ex.string() + " -o " + out.string() + " --size 24x24 --stats", &err), 0)
+    ASSERT_EQ(
+        run_hfrt("render " + ex.string() + " -o " + out.string() + " --size 24x24 --stats", &err),
+        0)
         << err;
     EXPECT_NE(err.find("\nroot: analytic\n"), std::string::npos) << name << ": " << err;
   }
@@ -236,10 +263,12 @@ TEST(RenderCli, DepthGoesToTheZChannelOfTheExr) {
   fs::path model = write_model("sphere_z.hf", kSphereModel);
   fs::path out = temp_dir() / "z.exr";
   std::string err;
-  ASSERT_EQ(run_hfrt("render " + model.string() + " -o " + out.string() +
-                         " --size 40x40 --ortho 10 --eye 0,0,20 --look-at 0,0,0 --aov depth --root analytic",
-                     &err),
-            0)
+  ASSERT_EQ(
+      run_hfrt(
+          "render " + model.string() + " -o " + out.string() +
+              " --size 40x40 --ortho 10 --eye 0,0,20 --look-at 0,0,0 --aov depth --root analytic",
+          &err),
+      0)
       << err;
   int w, h, c;
   auto img = read_image(out.string(), &w, &h, &c);
@@ -264,9 +293,11 @@ TEST(RenderCli, DepthGoesToTheZChannelOfTheExr) {
 }
 
 TEST(RenderCli, CompileErrorsExitOneWithDiagnostics) {
-  fs::path model = write_model("bad.hf", "my_model(x[3], a[1]) {\n  my_model = hfSphere(x, 4);\n}\n");
+  fs::path model =
+      write_model("bad.hf", "my_model(x[3], a[1]) {\n  my_model = hfSphere(x, 4);\n}\n");
   std::string err;
-  EXPECT_EQ(run_hfrt("render " + model.string() + " -o " + (temp_dir() / "bad.png").string(), &err), 1);
+  EXPECT_EQ(run_hfrt("render " + model.string() + " -o " + (temp_dir() / "bad.png").string(), &err),
+            1);
   EXPECT_NE(err.find("bad.hf:2:"), std::string::npos) << err;
   EXPECT_NE(err.find("error"), std::string::npos) << err;
 }
@@ -282,7 +313,8 @@ TEST(RenderCli, UsageErrorsExitTwo) {
   EXPECT_EQ(run_hfrt("render " + model.string() + out + " --root maybe", &err), 2);
   EXPECT_EQ(run_hfrt("render " + model.string() + out + " --light sun:1,2,3", &err), 2);
   EXPECT_EQ(run_hfrt("render " + model.string() + out + " --eye 1,1,1 --look-at 1,1,1", &err), 2);
-  EXPECT_EQ(run_hfrt("render " + model.string() + " -o " + (temp_dir() / "u.nope").string(), &err), 2);
+  EXPECT_EQ(run_hfrt("render " + model.string() + " -o " + (temp_dir() / "u.nope").string(), &err),
+            2);
 }
 
 TEST(SliceCli, DiskArea) {
@@ -290,7 +322,10 @@ TEST(SliceCli, DiskArea) {
   fs::path out = temp_dir() / "slice.png";
   std::string err;
   ASSERT_EQ(run_hfrt("slice " + model.string() + " -o " + out.string() +
-                         " --size 200x100 --bbox -5,-2.5,5,2.5 --z 2", &err), 0) << err;
+                         " --size 200x100 --bbox -5,-2.5,5,2.5 --z 2",
+                     &err),
+            0)
+      << err;
   int w, h, c;
   auto img = read_image(out.string(), &w, &h, &c);
   ASSERT_TRUE(img.ok());
@@ -311,7 +346,8 @@ class CorpusRender : public ::testing::TestWithParam<std::string> {};
 TEST_P(CorpusRender, Renders64) {
   fs::path out = temp_dir() / (fs::path(GetParam()).stem().string() + ".png");
   std::string err;
-  ASSERT_EQ(run_hfrt("render '" + GetParam() + "' -o " + out.string() + " --size 64x64", &err), 0) << err;
+  ASSERT_EQ(run_hfrt("render '" + GetParam() + "' -o " + out.string() + " --size 64x64", &err), 0)
+      << err;
   int w, h, c;
   ASSERT_TRUE(read_image(out.string(), &w, &h, &c).ok());
   EXPECT_EQ(w, 64);
@@ -327,7 +363,8 @@ std::vector<std::string> corpus_models() {
     // whose scalar JIT compile alone takes 10-20 s here (and the interval JIT much more,
     // though the renderer uses the interval interpreter above 2000 instructions); too slow
     // for a unit test. Every other corpus model renders here.
-    if (e.path().extension() == ".hf" && p.find("historical_") == std::string::npos) out.push_back(p);
+    if (e.path().extension() == ".hf" && p.find("historical_") == std::string::npos)
+      out.push_back(p);
   }
   std::sort(out.begin(), out.end());
   return out;
@@ -336,7 +373,8 @@ std::vector<std::string> corpus_models() {
 INSTANTIATE_TEST_SUITE_P(Corpus, CorpusRender, ::testing::ValuesIn(corpus_models()),
                          [](const auto& info) {
                            std::string n = fs::path(info.param).stem().string();
-                           for (char& ch : n) if (!std::isalnum(static_cast<unsigned char>(ch))) ch = '_';
+                           for (char& ch : n)
+                             if (!std::isalnum(static_cast<unsigned char>(ch))) ch = '_';
                            return n + "_" + std::to_string(info.index);
                          });
 

@@ -72,7 +72,8 @@ TEST_P(ExamplesRender, Renders64AndMatchesItsGolden) {
   fs::path model = fs::path(HFRT_SOURCE_DIR) / "examples" / (name + ".hf");
   fs::path out = temp_dir() / (name + ".png");
   std::string err;
-  ASSERT_EQ(run_hfrt("render '" + model.string() + "' -o '" + out.string() + "' --size 64x64", &err), 0)
+  ASSERT_EQ(
+      run_hfrt("render '" + model.string() + "' -o '" + out.string() + "' --size 64x64", &err), 0)
       << err;
   int w = 0, h = 0, c = 0;
   auto img = read_image(out.string(), &w, &h, &c);
@@ -87,7 +88,8 @@ TEST_P(ExamplesRender, Renders64AndMatchesItsGolden) {
   for (int y = 0; y < h; ++y) {
     for (int x = 0; x < w; ++x) {
       bool differs = false;
-      for (int k = 0; k < 3; ++k) differs |= std::fabs(px[(size_t(y) * w + x) * c + k] - px[k]) > 0.02f;
+      for (int k = 0; k < 3; ++k)
+        differs |= std::fabs(px[(size_t(y) * w + x) * c + k] - px[k]) > 0.02f;
       fg += differs;
       if (differs && (x == 0 || y == 0 || x == w - 1 || y == h - 1)) border_fg++;
     }
@@ -112,7 +114,8 @@ TEST_P(ExamplesRender, Renders64AndMatchesItsGolden) {
   float worst = 0;
   for (size_t i = 0; i < size_t(w) * h; ++i) {
     float d = 0;
-    for (int k = 0; k < 3; ++k) d = std::max(d, std::fabs(px[i * c + k] - gold.value()[i * gc + k]));
+    for (int k = 0; k < 3; ++k)
+      d = std::max(d, std::fabs(px[i * c + k] - gold.value()[i * gc + k]));
     worst = std::max(worst, d);
     differing += d > kPixelTolerance;
   }

@@ -77,8 +77,8 @@ bool hessenberg_eigenvalues(double a[4][4], int n, double* wr, double* wi) {
             p /= s, q /= s, r /= s;
             if (m == l) break;
             double u = std::abs(a[m][m - 1]) * (std::abs(q) + std::abs(r));
-            double v = std::abs(p) * (std::abs(a[m - 1][m - 1]) + std::abs(z) +
-                                      std::abs(a[m + 1][m + 1]));
+            double v =
+                std::abs(p) * (std::abs(a[m - 1][m - 1]) + std::abs(z) + std::abs(a[m + 1][m + 1]));
             if (u + v == v) break;
           }
           for (int i = m + 2; i <= nn; ++i) {
@@ -175,8 +175,8 @@ std::vector<std::complex<double>> companion_roots(const double* c, int n) {
     std::complex<long double> z(std::ldexp(wr[i], e), std::ldexp(wi[i], e));
     bool clustered = false;
     for (int j = 0; j < n; ++j)
-      clustered |= j != i && std::hypot(wr[j] - wr[i], wi[j] - wi[i]) <
-                                 1e-3 * std::hypot(wr[i], wi[i]);
+      clustered |=
+          j != i && std::hypot(wr[j] - wr[i], wi[j] - wi[i]) < 1e-3 * std::hypot(wr[i], wi[i]);
     for (int it = 0; it < 8 && !clustered; ++it) {
       std::complex<long double> p = c[n], dp = 0;
       for (int k = n - 1; k >= 0; --k) {
@@ -281,7 +281,8 @@ TestPoly random_exact(std::mt19937_64& rng, int degree) {
     }
     if (!ok) continue;
     // Leading coefficient: a power of two, +-, keeps the coefficients exact.
-    double lead = std::ldexp(sign(rng) ? -1.0 : 1.0, std::uniform_int_distribution<int>(-8, 8)(rng));
+    double lead =
+        std::ldexp(sign(rng) ? -1.0 : 1.0, std::uniform_int_distribution<int>(-8, 8)(rng));
     return expand(roots, lead);
   }
 }
@@ -371,7 +372,8 @@ int check(const TestPoly& p, const char* family) {
     if (near > 1) continue;
     double best = INFINITY;
     for (int i = 0; i < n; ++i) best = std::min(best, std::abs(got[i] - z.real()));
-    EXPECT_LE(best, 1e-3 * std::abs(z) + 1e-8 * scale) << "eigenvalue " << z.real() << " missing: " << describe();
+    EXPECT_LE(best, 1e-3 * std::abs(z) + 1e-8 * scale)
+        << "eigenvalue " << z.real() << " missing: " << describe();
   }
   return n;
 }

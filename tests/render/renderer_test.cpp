@@ -174,9 +174,12 @@ TEST(Renderer, SameImageForAnyThreadCount) {
     EXPECT_EQ(b.stats.threads, 2);
     for (const RenderResult* other : {&b, &c}) {
       ASSERT_EQ(a.image.rgb.size(), other->image.rgb.size());
-      EXPECT_EQ(0, std::memcmp(a.image.rgb.data(), other->image.rgb.data(), a.image.rgb.size() * 4));
-      EXPECT_EQ(0, std::memcmp(a.image.depth.data(), other->image.depth.data(), a.image.depth.size() * 4));
-      EXPECT_EQ(0, std::memcmp(a.image.normal.data(), other->image.normal.data(), a.image.normal.size() * 4));
+      EXPECT_EQ(0,
+                std::memcmp(a.image.rgb.data(), other->image.rgb.data(), a.image.rgb.size() * 4));
+      EXPECT_EQ(0, std::memcmp(a.image.depth.data(), other->image.depth.data(),
+                               a.image.depth.size() * 4));
+      EXPECT_EQ(0, std::memcmp(a.image.normal.data(), other->image.normal.data(),
+                               a.image.normal.size() * 4));
       EXPECT_EQ(a.stats.evals.eval_points, other->stats.evals.eval_points);
     }
   }
@@ -194,7 +197,8 @@ TEST(Renderer, TileCullingSkipsEmptySpaceWithoutChangingCoverage) {
   EXPECT_EQ(full.stats.tiles_empty, 0u);
   EXPECT_LT(culled.stats.evals.eval_points, full.stats.evals.eval_points / 4);
   size_t differ = 0;
-  for (size_t i = 0; i < culled.image.alpha.size(); ++i) differ += culled.image.alpha[i] != full.image.alpha[i];
+  for (size_t i = 0; i < culled.image.alpha.size(); ++i)
+    differ += culled.image.alpha[i] != full.image.alpha[i];
   EXPECT_LE(differ, 2u);
   EXPECT_EQ(covered_pixels(culled.image), covered_pixels(full.image));
 }

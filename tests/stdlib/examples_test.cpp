@@ -34,8 +34,8 @@ TEST_P(LibExampleTest, IsABoundedSolidWithoutWarnings) {
         const bool in = v.f >= 0;
         inside += in;
         ++total;
-        const bool on_face = i == 0 || j == 0 || k == 0 || i == kN - 1 || j == kN - 1 ||
-                             k == kN - 1;
+        const bool on_face =
+            i == 0 || j == 0 || k == 0 || i == kN - 1 || j == kN - 1 || k == kN - 1;
         if (on_face && in) ++boundary_inside;
       }
     }
@@ -88,8 +88,10 @@ TEST(LibWarnings, SentinelsWarnAtThePointArgument) {
         found = true;
         EXPECT_EQ(SourceDiagnostic::Severity::kWarning, d.severity);
         EXPECT_EQ(1, d.length);
-        EXPECT_EQ(w.call.substr(0, w.call.size() - 1) + ": the point array 'x' has 4 elements, "
-                      "not 3; the call returns the failure value " + w.value,
+        EXPECT_EQ(w.call.substr(0, w.call.size() - 1) +
+                      ": the point array 'x' has 4 elements, "
+                      "not 3; the call returns the failure value " +
+                      w.value,
                   d.message);
       }
     }

@@ -7,8 +7,8 @@
 #include <cmath>
 #include <set>
 
-#include "tests/stdlib/lib_harness.h"
 #include "stdlib/lib_util.h"
+#include "tests/stdlib/lib_harness.h"
 
 namespace hfrt::stdlib {
 namespace {
@@ -172,9 +172,12 @@ TEST(Attributes, HsvToRgbWrapsTheHueWithLoops) {
     while (hue < 0) hue += 360;
     while (hue > 360) hue -= 360;
     double c[3];
-    if (hue < 120) c[0] = (120 - hue) / 60, c[1] = hue / 60, c[2] = 0;
-    else if (hue < 240) c[0] = 0, c[1] = (240 - hue) / 60, c[2] = (hue - 120) / 60;
-    else c[0] = (hue - 240) / 60, c[1] = 0, c[2] = (360 - hue) / 60;
+    if (hue < 120)
+      c[0] = (120 - hue) / 60, c[1] = hue / 60, c[2] = 0;
+    else if (hue < 240)
+      c[0] = 0, c[1] = (240 - hue) / 60, c[2] = (hue - 120) / 60;
+    else
+      c[0] = (hue - 240) / 60, c[1] = 0, c[2] = (360 - hue) / 60;
     std::vector<double> out;
     for (double v : c) out.push_back(std::min(v, 1.0));
     return out;
@@ -190,10 +193,10 @@ TEST(Attributes, SawtoothLoopAgreesWithUnrolledSum) {
   LibHarness h;
   auto& b = h.builder();
   // n = 7 as a constant and n = x[1] (7 at run time).
-  auto unrolled = h.call(LibraryFn::kSawtooth, {h.real_from_input(1), h.real(7), h.real(1.5),
-                                                h.real(0.8)});
-  auto looped = h.call(LibraryFn::kSawtooth, {h.real_from_input(1), h.real_from_input(0),
-                                              h.real(1.5), h.real(0.8)});
+  auto unrolled =
+      h.call(LibraryFn::kSawtooth, {h.real_from_input(1), h.real(7), h.real(1.5), h.real(0.8)});
+  auto looped = h.call(LibraryFn::kSawtooth,
+                       {h.real_from_input(1), h.real_from_input(0), h.real(1.5), h.real(0.8)});
   h.finish(b.binary(jit::Op::kSub, unrolled, looped));
   EXPECT_EQ(0.0, h.eval({7, 0.37, 0}).value);
   EXPECT_EQ(0.0, h.eval({7, -1.2, 0}).value);
@@ -248,14 +251,14 @@ std::vector<double> quartic_roots(double a3, double a2, double a1, double a0) {
 TEST(Sardf, DUniCornerUsesSecondLargestQuarticRoot) {
   LibHarness h;
   const double r = 1;
-  h.finish(h.call(LibraryFn::kDUni, {h.real_from_input(0), h.real_from_input(1), h.real(r),
-                                     h.real(0.5)}));
+  h.finish(h.call(LibraryFn::kDUni,
+                  {h.real_from_input(0), h.real_from_input(1), h.real(r), h.real(0.5)}));
   for (auto xy : {std::pair{-0.3, -0.4}, {-0.5, -0.45}, {-0.2, -0.25}}) {
     const double x = xy.first, y = xy.second;
     // Inside the rounded region (rule 5, first case)?
     ASSERT_TRUE(x <= -y * y / (4 * r) && y <= -x * x / (4 * r));
-    auto roots = quartic_roots(-4 * std::sqrt(r), -4 * r, -4 * std::sqrt(r) * (x + y),
-                               -(x * x + y * y));
+    auto roots =
+        quartic_roots(-4 * std::sqrt(r), -4 * r, -4 * std::sqrt(r) * (x + y), -(x * x + y * y));
     ASSERT_EQ(4u, roots.size());
     const double mu = roots[1];
     EXPECT_TRUE(near_rel(-mu * mu, h.eval({x, y, 0}).value, 1e-10)) << x << " " << y;
@@ -264,12 +267,12 @@ TEST(Sardf, DUniCornerUsesSecondLargestQuarticRoot) {
 
 TEST(Sardf, DIntRules) {
   LibHarness h;
-  h.finish(h.call(LibraryFn::kDInt, {h.real_from_input(0), h.real_from_input(1), h.real(1),
-                                     h.real(0.5)}));
-  EXPECT_EQ(-0.5, h.eval({-0.5, 2, 0}).value);   // x < 0 < y -> x
-  EXPECT_EQ(-0.7, h.eval({3, -0.7, 0}).value);   // y < 0 < x -> y
-  EXPECT_EQ(0.0, h.eval({1e-8, 1e-8, 0}).value); // both tiny
-  EXPECT_EQ(0.0, h.eval({5, 1e-8, 0}).value);    // |y| tiny, x > 0
+  h.finish(h.call(LibraryFn::kDInt,
+                  {h.real_from_input(0), h.real_from_input(1), h.real(1), h.real(0.5)}));
+  EXPECT_EQ(-0.5, h.eval({-0.5, 2, 0}).value);    // x < 0 < y -> x
+  EXPECT_EQ(-0.7, h.eval({3, -0.7, 0}).value);    // y < 0 < x -> y
+  EXPECT_EQ(0.0, h.eval({1e-8, 1e-8, 0}).value);  // both tiny
+  EXPECT_EQ(0.0, h.eval({5, 1e-8, 0}).value);     // |y| tiny, x > 0
   // Quadrant I, rounded region: +mu^2 with the second largest root.
   const double x = 0.4, y = 0.5;
   auto roots = quartic_roots(-4, -4, 4 * (x + y), -(x * x + y * y));
@@ -342,9 +345,10 @@ TEST(Warnings, PointArraySizeGivesFailureValueAndLocatedWarning) {
   EXPECT_EQ(lang::Severity::kWarning, d.severity);
   EXPECT_EQ(13u, d.range.begin.offset);
   EXPECT_EQ(2u, d.range.length);
-  EXPECT_EQ("hfSphere: the point array 'xx' has 4 elements, not 3; the call returns the failure "
-            "value -1111111111111.0",
-            d.message);
+  EXPECT_EQ(
+      "hfSphere: the point array 'xx' has 4 elements, not 3; the call returns the failure "
+      "value -1111111111111.0",
+      d.message);
 }
 
 TEST(Warnings, ConeAndCylinderHaveTheirOwnFailureValues) {
@@ -388,7 +392,7 @@ TEST(Warnings, CracklesWritePastTheEndIsDropped) {
   LibHarness h;
   auto x = h.point();
   auto out = h.array({0.5, 0.5, 0.5});
-  auto col = h.array({1, 0, 0, 0, 1, 0});  // size(map) + 1 = 4 > 3... 6 elements: fine
+  auto col = h.array({1, 0, 0, 0, 1, 0});          // size(map) + 1 = 4 > 3... 6 elements: fine
   auto map = h.array({0, 0.5, 1.01, 2, 3, 4, 5});  // n = 7: col[8] is past the end
   h.finish(h.call(LibraryFn::kACrackles, {x, out, h.real(1.3), col, map}));
   h.eval({0.1, 0.2, 0.3});

@@ -16,7 +16,9 @@
 namespace hfrt {
 namespace {
 
-std::string corpus() { return HFRT_CORPUS_DIR; }
+std::string corpus() {
+  return HFRT_CORPUS_DIR;
+}
 
 std::string base_name(const std::string& path) {
   return std::filesystem::path(path).filename().string();
@@ -107,8 +109,8 @@ TEST_P(ProbeTest, MatchesReferenceValues) {
     } else {
       if (fail < 5) {
         first_failures.precision(17);
-        first_failures << "  at (" << p.x[0] << ", " << p.x[1] << ", " << p.x[2] << "): "
-                       << why.str() << "\n";
+        first_failures << "  at (" << p.x[0] << ", " << p.x[1] << ", " << p.x[2]
+                       << "): " << why.str() << "\n";
       }
       ++fail;
     }
@@ -166,8 +168,7 @@ TEST_P(ModelTest, CompilesAndEvaluatesEveryObject) {
 
 INSTANTIATE_TEST_SUITE_P(Corpus, ModelTest, ::testing::ValuesIn(all_models()),
                          [](const ::testing::TestParamInfo<std::string>& info) {
-                           std::string n = std::to_string(info.index) + "_" +
-                                           base_name(info.param);
+                           std::string n = std::to_string(info.index) + "_" + base_name(info.param);
                            n = n.substr(0, n.rfind('.'));
                            for (char& c : n) {
                              if (!std::isalnum(static_cast<unsigned char>(c))) c = '_';

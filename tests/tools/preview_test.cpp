@@ -79,7 +79,7 @@ TEST(Preview, DownscaleKeepsAspectAndNeverUpscales) {
   EXPECT_EQ(b.width, 100);
   EXPECT_EQ(b.height, 50);
   // Unscaled: each byte is the pixel through the sRGB curve.
-  EXPECT_EQ(b.rgb[0], 0);                       // x = 0: no red
+  EXPECT_EQ(b.rgb[0], 0);                             // x = 0: no red
   EXPECT_EQ(b.rgb[(size_t(0) * 100 + 50) * 3], 188);  // 0.5 linear is 188 in sRGB
 }
 
@@ -164,7 +164,8 @@ TEST(Preview, ResizeNearest) {
   for (int y = 0; y < 6; ++y) {
     for (int x = 0; x < 8; ++x) {
       for (int c = 0; c < 3; ++c) {
-        ASSERT_EQ(big.rgb[(size_t(y) * 8 + x) * 3 + c], small.rgb[(size_t(y / 3) * 4 + x / 2) * 3 + c]);
+        ASSERT_EQ(big.rgb[(size_t(y) * 8 + x) * 3 + c],
+                  small.rgb[(size_t(y / 3) * 4 + x / 2) * 3 + c]);
       }
     }
   }
@@ -325,8 +326,10 @@ TEST(Preview, AnsiHalfBlocks) {
   render::Image img = test_image(8, 6);
   std::string p = ansi_preview(img, 4);  // 4 columns: 2 source pixels each; 3 pixel rows
   size_t blocks = 0, resets = 0;
-  for (size_t i = p.find("\xe2\x96\x80"); i != std::string::npos; i = p.find("\xe2\x96\x80", i + 1)) ++blocks;
-  for (size_t i = p.find("\x1b[0m\n"); i != std::string::npos; i = p.find("\x1b[0m\n", i + 1)) ++resets;
+  for (size_t i = p.find("\xe2\x96\x80"); i != std::string::npos; i = p.find("\xe2\x96\x80", i + 1))
+    ++blocks;
+  for (size_t i = p.find("\x1b[0m\n"); i != std::string::npos; i = p.find("\x1b[0m\n", i + 1))
+    ++resets;
   EXPECT_EQ(resets, 2u);       // ceil(3 / 2) text rows
   EXPECT_EQ(blocks, 4u * 2u);  // 4 per row
 }
@@ -341,7 +344,8 @@ TEST(Preview, DetectionFromTheEnvironment) {
   EXPECT_EQ(detect({{"TERM", "xterm-kitty"}}), PreviewMode::kKitty);
   EXPECT_EQ(detect({{"TERM", "xterm-256color"}, {"KITTY_WINDOW_ID", "3"}}), PreviewMode::kKitty);
   EXPECT_EQ(detect({{"TERM", "xterm-256color"}, {"TERM_PROGRAM", "WezTerm"}}), PreviewMode::kKitty);
-  EXPECT_EQ(detect({{"TERM", "xterm-256color"}, {"TERM_PROGRAM", "iTerm.app"}}), PreviewMode::kSixel);
+  EXPECT_EQ(detect({{"TERM", "xterm-256color"}, {"TERM_PROGRAM", "iTerm.app"}}),
+            PreviewMode::kSixel);
   EXPECT_EQ(detect({{"TERM", "foot"}}), PreviewMode::kSixel);
   EXPECT_EQ(detect({{"TERM", "mlterm"}}), PreviewMode::kSixel);
   EXPECT_EQ(detect({{"TERM", "xterm-256color"}, {"COLORTERM", "truecolor"}}), PreviewMode::kAnsi);

@@ -89,7 +89,6 @@ TEST(ReplHistory, WrittenAsYouGoAndReadBack) {
   fs::remove_all(dir);
 }
 
-
 /// hfrt repl in a pseudo terminal (TERM=dumb: no preview), killed at the end if still running.
 struct PtyRepl {
   int fd = -1;
@@ -114,8 +113,12 @@ struct PtyRepl {
     }
     if (fd >= 0) close(fd);
   }
-  void send(const std::string& text) { ASSERT_EQ(write(fd, text.data(), text.size()), ssize_t(text.size())); }
-  bool wait_for(const std::string& needle, int count) { return read_until(fd, &all, needle, count); }
+  void send(const std::string& text) {
+    ASSERT_EQ(write(fd, text.data(), text.size()), ssize_t(text.size()));
+  }
+  bool wait_for(const std::string& needle, int count) {
+    return read_until(fd, &all, needle, count);
+  }
   /// Waits for the process to exit; its exit status, or -1.
   int wait_exit() {
     int status = 0;

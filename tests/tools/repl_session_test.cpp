@@ -12,8 +12,8 @@
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
-#include <sstream>
 #include <map>
+#include <sstream>
 #include <string>
 #include <thread>
 #include <vector>
@@ -188,7 +188,8 @@ TEST(ReplSession, AnsiPreview) {
   std::string p = ansi_preview(img, 80);
   // 4x4 pixels: 2 text rows of 4 half blocks each.
   size_t blocks = 0;
-  for (size_t i = p.find("\xe2\x96\x80"); i != std::string::npos; i = p.find("\xe2\x96\x80", i + 1)) ++blocks;
+  for (size_t i = p.find("\xe2\x96\x80"); i != std::string::npos; i = p.find("\xe2\x96\x80", i + 1))
+    ++blocks;
   EXPECT_EQ(blocks, 8u);
   EXPECT_NE(p.find("38;2;255;255;255"), std::string::npos);
 }
@@ -204,8 +205,8 @@ RunResult run_hfrt(const std::string& script, const std::string& env = "") {
   fs::path dir = temp_dir();
   fs::path in = dir / "script.txt", out = dir / "out.txt";
   std::ofstream(in) << script;
-  std::string cmd = env + " '" HFRT_BINARY_DIR "/tools/hfrt/hfrt' repl < '" + in.string() + "' > '" +
-                    out.string() + "' 2>/dev/null";
+  std::string cmd = env + " '" HFRT_BINARY_DIR "/tools/hfrt/hfrt' repl < '" + in.string() +
+                    "' > '" + out.string() + "' 2>/dev/null";
   int status = std::system(cmd.c_str());
   RunResult r;
   r.code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
@@ -217,7 +218,8 @@ RunResult run_hfrt(const std::string& script, const std::string& env = "") {
 }
 
 TEST(ReplScript, SuccessfulScriptExitsZero) {
-  RunResult r = run_hfrt("ball(x[3], a[1])\n{\n  ball = 4 - x[1]*x[1];\n}\n:eval 1 0 0\n:eval 3 0 0\n");
+  RunResult r =
+      run_hfrt("ball(x[3], a[1])\n{\n  ball = 4 - x[1]*x[1];\n}\n:eval 1 0 0\n:eval 3 0 0\n");
   EXPECT_EQ(r.code, 0);
   EXPECT_EQ(r.out, "defined ball\n3 0\n-5 0\n");
 }
@@ -229,7 +231,6 @@ TEST(ReplScript, FailedCommandExitsNonZeroButGoesOn) {
   // Input that ends inside a definition is an error too.
   EXPECT_EQ(run_hfrt("m(x[3], a[1]) {\n m = 1;\n").code, 1);
 }
-
 
 // --- :set takes every option of `hfrt render`, with its validation --------------------------
 
@@ -245,12 +246,26 @@ double coverage(const Session& s) {
 TEST(ReplSet, EveryRenderOptionIsAccepted) {
   Session s;
   // One valid value for each option of `hfrt render` (all of them: the list is the parser's).
-  const std::map<std::string, std::string> values = {
-      {"size", "40x30"},   {"bbox", "-3,-3,-3,3,3,3"}, {"eye", "5,4,3"},     {"look-at", "0,0,0"},
-      {"up", "0,0,1"},     {"fov", "40"},              {"ortho", "4"},       {"root", "sign"},
-      {"spp", "2"},        {"threads", "1"},           {"a", "1,2"},         {"object", "ball"},
-      {"light", "dir:1,1,1"}, {"step", "0.01"},        {"epsilon", "0.001"}, {"aov", "depth,normal"},
-      {"background", "0,0,0"}, {"no-shadows", "on"},   {"backend", "interp"}, {"stats", "on"}};
+  const std::map<std::string, std::string> values = {{"size", "40x30"},
+                                                     {"bbox", "-3,-3,-3,3,3,3"},
+                                                     {"eye", "5,4,3"},
+                                                     {"look-at", "0,0,0"},
+                                                     {"up", "0,0,1"},
+                                                     {"fov", "40"},
+                                                     {"ortho", "4"},
+                                                     {"root", "sign"},
+                                                     {"spp", "2"},
+                                                     {"threads", "1"},
+                                                     {"a", "1,2"},
+                                                     {"object", "ball"},
+                                                     {"light", "dir:1,1,1"},
+                                                     {"step", "0.01"},
+                                                     {"epsilon", "0.001"},
+                                                     {"aov", "depth,normal"},
+                                                     {"background", "0,0,0"},
+                                                     {"no-shadows", "on"},
+                                                     {"backend", "interp"},
+                                                     {"stats", "on"}};
   for (const std::string& name : render_option_names()) {
     auto it = values.find(name);
     ASSERT_NE(it, values.end()) << "no test value for --" << name;
@@ -301,7 +316,8 @@ TEST(ReplSet, EveryRenderOptionIsAccepted) {
 int render_cli_error(const std::string& options, std::string* err) {
   fs::path dir = temp_dir();
   fs::path model = dir / "cli_sphere.hf";
-  std::ofstream(model) << "my_model(x[3], a[1]) { my_model = 1 - x[1]*x[1] - x[2]*x[2] - x[3]*x[3]; }\n";
+  std::ofstream(model)
+      << "my_model(x[3], a[1]) { my_model = 1 - x[1]*x[1] - x[2]*x[2] - x[3]*x[3]; }\n";
   fs::path errf = dir / "cli_err.txt";
   std::string cmd = "'" HFRT_BINARY_DIR "/tools/hfrt/hfrt' render '" + model.string() + "' -o '" +
                     (dir / "cli.png").string() + "' " + options + " 2> '" + errf.string() + "'";
@@ -319,10 +335,12 @@ TEST(ReplSet, BadValuesFailWithTheCommandLinesMessages) {
   // Each bad value: :set fails, changes nothing, and says what `hfrt render` says (after its
   // "hfrt render: " prefix, the session's is "hfrt: ").
   const std::vector<std::pair<std::string, std::string>> bad = {
-      {"size", "0x5"},      {"bbox", "1,2,3"},    {"bbox", "1,1,1,0,2,2"}, {"eye", "1,2"},
-      {"up", "0,0,0"},      {"fov", "200"},       {"ortho", "-1"},         {"root", "maybe"},
-      {"spp", "0"},         {"threads", "-2"},    {"a", "1,x"},            {"light", "sun:1,2,3"},
-      {"light", "dir:0,0,0"}, {"step", "-1"},     {"aov", "depth,colour"}, {"background", "red"}};
+      {"size", "0x5"},        {"bbox", "1,2,3"}, {"bbox", "1,1,1,0,2,2"},
+      {"eye", "1,2"},         {"up", "0,0,0"},   {"fov", "200"},
+      {"ortho", "-1"},        {"root", "maybe"}, {"spp", "0"},
+      {"threads", "-2"},      {"a", "1,x"},      {"light", "sun:1,2,3"},
+      {"light", "dir:0,0,0"}, {"step", "-1"},    {"aov", "depth,colour"},
+      {"background", "red"}};
   for (const auto& [name, value] : bad) {
     SessionResult r = s.run(":set " + name + " " + value);
     EXPECT_FALSE(r.ok) << name << " " << value;
@@ -350,12 +368,14 @@ TEST(ReplSet, ParametersObjectLightsAovAndStatsReachTheRender) {
   Session s;
   fs::path dir = temp_dir();
   // A sphere of radius a[1] (0 without -a: empty), and a second object.
-  ASSERT_TRUE(s.run("ball(x[3], a[1]) { ball = a[1]*a[1] - x[1]*x[1] - x[2]*x[2] - x[3]*x[3]; }").ok);
+  ASSERT_TRUE(
+      s.run("ball(x[3], a[1]) { ball = a[1]*a[1] - x[1]*x[1] - x[2]*x[2] - x[3]*x[3]; }").ok);
   ASSERT_TRUE(s.run("big(x[3], a[1]) { big = 4 - x[1]*x[1] - x[2]*x[2] - x[3]*x[3]; }").ok);
   EXPECT_EQ(s.current(), "big");
   std::string out = (dir / "p.png").string();
   // A fixed camera so that coverage compares sizes.
-  SessionResult r = s.run(":render " + out + " --size 48x48 --bbox -3,-3,-3,3,3,3 --eye 0,0,8 --look-at 0,0,0 "
+  SessionResult r = s.run(":render " + out +
+                          " --size 48x48 --bbox -3,-3,-3,3,3,3 --eye 0,0,8 --look-at 0,0,0 "
                           "--object ball -a 1 --root sign");
   ASSERT_TRUE(r.ok) << r.err;
   const double small = coverage(s);
@@ -403,7 +423,8 @@ TEST(ReplSet, ParametersObjectLightsAovAndStatsReachTheRender) {
   EXPECT_GT(s.compiles(), compiles);  // the backend is part of the cache key
   ASSERT_EQ(s.last_image()->rgb.size(), jit_rgb.size());
   double diff = 0;
-  for (size_t i = 0; i < jit_rgb.size(); ++i) diff = std::max(diff, double(std::abs(jit_rgb[i] - s.last_image()->rgb[i])));
+  for (size_t i = 0; i < jit_rgb.size(); ++i)
+    diff = std::max(diff, double(std::abs(jit_rgb[i] - s.last_image()->rgb[i])));
   EXPECT_LT(diff, 0.05);
   fs::remove_all(dir);
 }
@@ -422,8 +443,8 @@ TEST(ReplCancel, RendererStopsWhenTheFlagIsSet) {
       *maybe_nan = true;
       return {-1e30f, 1e30f};
     }
-    void eval_gradient(size_t n, const float* x, const float* y, const float* z, float* f, float* dx,
-                       float* dy, float* dz) const override {
+    void eval_gradient(size_t n, const float* x, const float* y, const float* z, float* f,
+                       float* dx, float* dy, float* dz) const override {
       eval(n, x, y, z, f);
       for (size_t i = 0; i < n; ++i) {
         dx[i] = -2 * x[i];
@@ -555,7 +576,8 @@ TEST(ReplWatch, WatchStepReloadsTheChangedFileAndRendersAgain) {
   Session s;
   fs::path dir = temp_dir();
   fs::path model = dir / "watched.hf";
-  std::ofstream(model) << "my_model(x[3], a[1]) { my_model = 1 - x[1]*x[1] - x[2]*x[2] - x[3]*x[3]; }\n";
+  std::ofstream(model)
+      << "my_model(x[3], a[1]) { my_model = 1 - x[1]*x[1] - x[2]*x[2] - x[3]*x[3]; }\n";
   ASSERT_TRUE(s.run(":load " + model.string()).ok);
   const std::string out = (dir / "w.png").string();
   ASSERT_TRUE(s.run(":render " + out + " --size 32x32 --bbox 3 --eye 0,0,9 --look-at 0,0,0").ok);
@@ -564,7 +586,8 @@ TEST(ReplWatch, WatchStepReloadsTheChangedFileAndRendersAgain) {
   ASSERT_TRUE(r.ok) << r.err;
   EXPECT_EQ(r.watch_file, model.string());
   // The file changes (as an editor writes it); the front end calls watch_step.
-  std::ofstream(model) << "my_model(x[3], a[1]) { my_model = 4 - x[1]*x[1] - x[2]*x[2] - x[3]*x[3]; }\n";
+  std::ofstream(model)
+      << "my_model(x[3], a[1]) { my_model = 4 - x[1]*x[1] - x[2]*x[2] - x[3]*x[3]; }\n";
   r = s.watch_step(model.string());
   ASSERT_TRUE(r.ok) << r.err;
   EXPECT_TRUE(r.rendered);

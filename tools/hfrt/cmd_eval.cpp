@@ -78,7 +78,8 @@ bool parse_params(std::string text, std::vector<double>* out) {
   size_t pos = 0;
   while (pos <= text.size()) {
     size_t comma = text.find(',', pos);
-    std::string item = text.substr(pos, comma == std::string::npos ? std::string::npos : comma - pos);
+    std::string item =
+        text.substr(pos, comma == std::string::npos ? std::string::npos : comma - pos);
     char* end = nullptr;
     double v = std::strtod(item.c_str(), &end);
     if (item.empty() || *end != '\0') return false;
@@ -166,8 +167,8 @@ int eval_boxes(const Model& model, size_t* count) {
     rlo.assign(m, 0.0);
     rhi.assign(m, 0.0);
     rnan.assign(m, 0);
-    model.eval_interval_batch(static_cast<int64_t>(m), lo.data(), hi.data(), rlo.data(),
-                              rhi.data(), rnan.data());
+    model.eval_interval_batch(static_cast<int64_t>(m), lo.data(), hi.data(), rlo.data(), rhi.data(),
+                              rnan.data());
     for (size_t i = 0; i < m; ++i) {
       append_number(out, rlo[i]);
       out += ' ';
@@ -264,10 +265,13 @@ int run_eval(const EvalOptions& opts) {
     if (opts.stats) {
       const double eval_ms = ms_since(t0);
       ModelStats st = model.stats();
-      const bool jit = opts.interval ? model.interval_engine() == DomainEngine::kJit
-                                     : model.gradient_engine(f32 ? Precision::kF32 : Precision::kF64) ==
-                                           DomainEngine::kJit;
-      const ModelStats::Domain& d = opts.interval ? st.interval : f32 ? st.gradient_f32 : st.gradient_f64;
+      const bool jit = opts.interval
+                           ? model.interval_engine() == DomainEngine::kJit
+                           : model.gradient_engine(f32 ? Precision::kF32 : Precision::kF64) ==
+                                 DomainEngine::kJit;
+      const ModelStats::Domain& d = opts.interval ? st.interval
+                                    : f32         ? st.gradient_f32
+                                                  : st.gradient_f64;
       std::fprintf(stderr,
                    "stats: object %s, %d IR instructions (domain JIT weight %lld), %s domain, "
                    "engine %s\n",
@@ -300,11 +304,13 @@ int run_eval(const EvalOptions& opts) {
     if (f32) {
       xs32.assign(m * dims, 0.0f);
       for (size_t i = 0; i < m; ++i) {
-        for (int k = 0; k < dims; ++k) xs32[k * m + i] = static_cast<float>(rows[(start + i) * dims + k]);
+        for (int k = 0; k < dims; ++k)
+          xs32[k * m + i] = static_cast<float>(rows[(start + i) * dims + k]);
       }
       f32v.assign(m, 0.0f);
       s32.assign(m * ns, 0.0f);
-      model.eval_batch(static_cast<int64_t>(m), xs32.data(), f32v.data(), ns ? s32.data() : nullptr);
+      model.eval_batch(static_cast<int64_t>(m), xs32.data(), f32v.data(),
+                       ns ? s32.data() : nullptr);
       for (size_t i = 0; i < m; ++i) f[i] = f32v[i];
       for (size_t i = 0; i < m * ns; ++i) s[i] = s32[i];
     } else {
@@ -357,8 +363,8 @@ int run_eval(const EvalOptions& opts) {
                    j == &st.jit_f64 ? "f64" : "f32", j->lanes, j->emit_ms, j->optimize_ms,
                    j->codegen_ms, j->llvm_insts_before, j->llvm_insts_after);
     }
-    std::fprintf(stderr, "stats: evaluated %zu points in %.3f ms (%.1f ns/point, incl. output)\n", n,
-                 eval_ms, n ? eval_ms * 1e6 / static_cast<double>(n) : 0.0);
+    std::fprintf(stderr, "stats: evaluated %zu points in %.3f ms (%.1f ns/point, incl. output)\n",
+                 n, eval_ms, n ? eval_ms * 1e6 / static_cast<double>(n) : 0.0);
   }
   return 0;
 }

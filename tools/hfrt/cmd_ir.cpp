@@ -60,7 +60,8 @@ int run_ir(const IrOptions& opts) {
 
 CommandRunner register_ir(CLI::App& app) {
   auto opts = std::make_shared<IrOptions>();
-  CLI::App* cmd = app.add_subcommand("ir", "Print the intermediate representation of a HyperFun object");
+  CLI::App* cmd =
+      app.add_subcommand("ir", "Print the intermediate representation of a HyperFun object");
   cmd->add_option("file", opts->file, "HyperFun source file (.hf)")->required();
   cmd->add_option("--object", opts->object,
                   "Object to print (default: my_model if present, else the first object)");

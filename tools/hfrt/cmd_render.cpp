@@ -93,9 +93,8 @@ int run_render(const RenderCli& cli) {
   }
   const render::RenderStats& st = result.stats;
   std::string why = root.why.empty() ? "" : " (auto: " + root.why + ")";
-  std::fprintf(stderr, "hfrt: wrote %s (%dx%d, %d spp, root search %s%s)\n",
-               cli.output.c_str(), opt.width, opt.height, opt.spp,
-               render::root_mode_name(st.root_used), why.c_str());
+  std::fprintf(stderr, "hfrt: wrote %s (%dx%d, %d spp, root search %s%s)\n", cli.output.c_str(),
+               opt.width, opt.height, opt.spp, render::root_mode_name(st.root_used), why.c_str());
   for (size_t i = 1; i < written.value().size(); ++i) {
     std::fprintf(stderr, "hfrt: wrote %s\n", written.value()[i].c_str());
   }
@@ -124,9 +123,11 @@ int run_render(const RenderCli& cli) {
 
 CommandRunner register_render(CLI::App& app) {
   auto cli = std::make_shared<RenderCli>();
-  CLI::App* sub = app.add_subcommand("render", "ray trace a model to an image (PNG, EXR, TIFF, JPEG)");
+  CLI::App* sub =
+      app.add_subcommand("render", "ray trace a model to an image (PNG, EXR, TIFF, JPEG)");
   sub->add_option("model", cli->model.file, "HyperFun model file")->required();
-  sub->add_option("-o,--output", cli->output, "output image; the format follows the extension")->required();
+  sub->add_option("-o,--output", cli->output, "output image; the format follows the extension")
+      ->required();
   add_render_options(*sub, cli.get());
   return [cli] { return run_render(*cli); };
 }

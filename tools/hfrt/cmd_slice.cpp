@@ -52,7 +52,8 @@ int run_slice(const SliceCli& cli) {
   if (!cli.bbox.empty()) {
     std::vector<float> b;
     if (!parse_floats(cli.bbox, &b, 4) || !(b[0] < b[2] && b[1] < b[3])) {
-      return usage_error("--bbox expects x0,y0,x1,y1 with x0 < x1 and y0 < y1 (got '" + cli.bbox + "')");
+      return usage_error("--bbox expects x0,y0,x1,y1 with x0 < x1 and y0 < y1 (got '" + cli.bbox +
+                         "')");
     }
     opt.x0 = b[0], opt.y0 = b[1], opt.x1 = b[2], opt.y1 = b[3];
   }
@@ -65,7 +66,8 @@ int run_slice(const SliceCli& cli) {
   auto loaded = load_model(cli.model, /*eager_f32=*/true, &code);
   if (!loaded) return code;
   ModelField field(*loaded->model, cli.model.file);
-  const double prepare_ms = prepare_render_code(*loaded->model, field.has_interval(), /*gradient=*/false);
+  const double prepare_ms =
+      prepare_render_code(*loaded->model, field.has_interval(), /*gradient=*/false);
 
   render::ProgressBar bar("slicing", isatty(STDERR_FILENO) != 0);
   opt.progress = [&bar](size_t done, size_t total) { bar.update(done, total); };
@@ -88,9 +90,11 @@ int run_slice(const SliceCli& cli) {
                  st.nan_explanation.c_str());
   }
   if (cli.stats) {
-    std::fprintf(stderr, "stats: compile %.1f ms (+ %.1f ms interval code: %s), slice %.3f s on %d threads\n",
-                 loaded->compile_ms, prepare_ms, describe_domain_engines(*loaded->model).c_str(),
-                 st.seconds, st.threads);
+    std::fprintf(
+        stderr,
+        "stats: compile %.1f ms (+ %.1f ms interval code: %s), slice %.3f s on %d threads\n",
+        loaded->compile_ms, prepare_ms, describe_domain_engines(*loaded->model).c_str(), st.seconds,
+        st.threads);
     std::fprintf(stderr,
                  "stats: evaluator calls: point %llu (%llu points), interval %llu; %llu pixels "
                  "settled by intervals\n",
@@ -105,15 +109,18 @@ int run_slice(const SliceCli& cli) {
 
 CommandRunner register_slice(CLI::App& app) {
   auto cli = std::make_shared<SliceCli>();
-  CLI::App* sub = app.add_subcommand("slice", "render a 2-D model or a z slice as an inside/outside image");
+  CLI::App* sub =
+      app.add_subcommand("slice", "render a 2-D model or a z slice as an inside/outside image");
   sub->add_option("model", cli->model.file, "HyperFun model file")->required();
-  sub->add_option("-o,--output", cli->output, "output image; the format follows the extension")->required();
+  sub->add_option("-o,--output", cli->output, "output image; the format follows the extension")
+      ->required();
   sub->add_option("--size", cli->size, "image size WxH (default 1024x1024)");
   sub->add_option("--bbox", cli->bbox, "region x0,y0,x1,y1 (default -10,-10,10,10)");
   sub->add_option("--z", cli->z, "z of the slice for 3-D models (default 0)");
   sub->add_option("--threads", cli->threads, "worker threads (default: all cores)");
   sub->add_option("-a", cli->model.params, "parameter values a[1],a[2],... separated by commas");
-  sub->add_option("--object", cli->model.object, "object to render (default: my_model or the first)");
+  sub->add_option("--object", cli->model.object,
+                  "object to render (default: my_model or the first)");
   sub->add_option("--backend", cli->model.backend, "evaluator: jit (default) or interp")
       ->check(CLI::IsMember({"jit", "interp"}));
   sub->add_flag("--stats", cli->stats, "print time and evaluator calls on stderr");

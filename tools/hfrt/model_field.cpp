@@ -24,7 +24,8 @@ thread_local Scratch t_scratch;
 /// [lo, hi] after the conversion to float).
 float round_down(double v) {
   float f = static_cast<float>(v);
-  return static_cast<double>(f) > v ? std::nextafter(f, -std::numeric_limits<float>::infinity()) : f;
+  return static_cast<double>(f) > v ? std::nextafter(f, -std::numeric_limits<float>::infinity())
+                                    : f;
 }
 float round_up(double v) {
   float f = static_cast<float>(v);
@@ -43,7 +44,9 @@ void pack(int dims, size_t n, const float* x, const float* y, const float* z,
 }  // namespace
 
 ModelField::ModelField(const Model& model, std::string file)
-    : model_(model), file_(std::move(file)), dims_(model.num_inputs()),
+    : model_(model),
+      file_(std::move(file)),
+      dims_(model.num_inputs()),
       analytic_(model.analytic_info()) {}
 
 void ModelField::ray_candidates(render::Vec3 o, render::Vec3 d, float t0, float t1,
@@ -116,8 +119,8 @@ render::Interval ModelField::eval_interval(const render::Box& box, bool* maybe_n
   return {round_down(r.lo), round_up(r.hi)};
 }
 
-void ModelField::eval_gradient(size_t n, const float* x, const float* y, const float* z,
-                               float* f, float* dx, float* dy, float* dz) const {
+void ModelField::eval_gradient(size_t n, const float* x, const float* y, const float* z, float* f,
+                               float* dx, float* dy, float* dz) const {
   if (n == 0) return;
   Scratch& sc = t_scratch;
   pack(dims_, n, x, y, z, &sc.xs);
@@ -166,11 +169,13 @@ double prepare_render_code(const Model& model, bool interval, bool gradient) {
     if (worker.joinable()) worker.join();
   }
   if (!interval_ok) {
-    std::fprintf(stderr, "hfrt: warning: interval JIT failed (%s); using the interval interpreter\n",
+    std::fprintf(stderr,
+                 "hfrt: warning: interval JIT failed (%s); using the interval interpreter\n",
                  interval_error.c_str());
   }
   if (!gradient_ok) {
-    std::fprintf(stderr, "hfrt: warning: gradient JIT failed (%s); using the gradient interpreter\n",
+    std::fprintf(stderr,
+                 "hfrt: warning: gradient JIT failed (%s); using the gradient interpreter\n",
                  gradient_error.c_str());
   }
   return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
@@ -222,7 +227,8 @@ bool parse_doubles(const std::string& text, std::vector<double>* out, size_t cou
   size_t pos = 0;
   while (true) {
     size_t comma = text.find(',', pos);
-    std::string item = text.substr(pos, comma == std::string::npos ? std::string::npos : comma - pos);
+    std::string item =
+        text.substr(pos, comma == std::string::npos ? std::string::npos : comma - pos);
     char* end = nullptr;
     double v = std::strtod(item.c_str(), &end);
     if (item.empty() || *end != '\0' || !std::isfinite(v)) return false;

@@ -31,8 +31,8 @@ class ModelField final : public render::Field {
   void eval(size_t n, const float* x, const float* y, const float* z, float* out_f) const override;
   bool has_interval() const override { return true; }
   render::Interval eval_interval(const render::Box& box, bool* maybe_nan) const override;
-  void eval_gradient(size_t n, const float* x, const float* y, const float* z, float* f,
-                     float* dx, float* dy, float* dz) const override;
+  void eval_gradient(size_t n, const float* x, const float* y, const float* z, float* f, float* dx,
+                     float* dy, float* dz) const override;
   int num_attributes() const override { return model_.num_attributes(); }
   void eval_attributes(size_t n, const float* x, const float* y, const float* z,
                        float* out_s) const override;
@@ -75,8 +75,8 @@ class WithoutIntervals final : public render::Field {
   render::Interval eval_interval(const render::Box& box, bool* maybe_nan) const override {
     return field_.eval_interval(box, maybe_nan);
   }
-  void eval_gradient(size_t n, const float* x, const float* y, const float* z, float* f,
-                     float* dx, float* dy, float* dz) const override {
+  void eval_gradient(size_t n, const float* x, const float* y, const float* z, float* f, float* dx,
+                     float* dy, float* dz) const override {
     field_.eval_gradient(n, x, y, z, f, dx, dy, dz);
   }
   int num_attributes() const override { return field_.num_attributes(); }

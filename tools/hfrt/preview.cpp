@@ -17,15 +17,23 @@ bool starts_with(const char* s, const char* prefix) {
   return s && std::strncmp(s, prefix, std::strlen(prefix)) == 0;
 }
 
-bool equals(const char* s, const char* t) { return s && std::strcmp(s, t) == 0; }
+bool equals(const char* s, const char* t) {
+  return s && std::strcmp(s, t) == 0;
+}
 
 constexpr int kCubeLevels = 6;
 constexpr int kCubeSize = kCubeLevels * kCubeLevels * kCubeLevels;  // 216
-constexpr int kGreys = 256 - kCubeSize;                              // 40
+constexpr int kGreys = 256 - kCubeSize;                             // 40
 
-int cube_level(uint8_t v) { return (int(v) * (kCubeLevels - 1) + 127) / 255; }
-uint8_t cube_value(int level) { return uint8_t(level * 255 / (kCubeLevels - 1)); }
-uint8_t grey_value(int i) { return uint8_t((i + 1) * 255 / (kGreys + 1)); }
+int cube_level(uint8_t v) {
+  return (int(v) * (kCubeLevels - 1) + 127) / 255;
+}
+uint8_t cube_value(int level) {
+  return uint8_t(level * 255 / (kCubeLevels - 1));
+}
+uint8_t grey_value(int i) {
+  return uint8_t((i + 1) * 255 / (kGreys + 1));
+}
 
 int dist2(const uint8_t a[3], const uint8_t b[3]) {
   int d = 0;
@@ -37,16 +45,21 @@ int dist2(const uint8_t a[3], const uint8_t b[3]) {
 
 const char* preview_mode_name(PreviewMode mode) {
   switch (mode) {
-    case PreviewMode::kOff: return "off";
-    case PreviewMode::kAnsi: return "ansi";
-    case PreviewMode::kSixel: return "sixel";
-    case PreviewMode::kKitty: return "kitty";
+    case PreviewMode::kOff:
+      return "off";
+    case PreviewMode::kAnsi:
+      return "ansi";
+    case PreviewMode::kSixel:
+      return "sixel";
+    case PreviewMode::kKitty:
+      return "kitty";
   }
   return "off";
 }
 
 bool parse_preview_mode(const std::string& text, PreviewMode* mode) {
-  for (PreviewMode m : {PreviewMode::kOff, PreviewMode::kAnsi, PreviewMode::kSixel, PreviewMode::kKitty}) {
+  for (PreviewMode m :
+       {PreviewMode::kOff, PreviewMode::kAnsi, PreviewMode::kSixel, PreviewMode::kKitty}) {
     if (text == preview_mode_name(m)) {
       *mode = m;
       return true;
@@ -62,7 +75,8 @@ PreviewMode detect_preview(const std::function<const char*(const char*)>& getenv
   const char* program = getenv("TERM_PROGRAM");
   if (equals(term, "dumb")) return PreviewMode::kOff;
   if (equals(term, "xterm-kitty") || getenv("KITTY_WINDOW_ID") || equals(program, "WezTerm") ||
-      equals(program, "ghostty") || equals(term, "xterm-ghostty") || getenv("GHOSTTY_RESOURCES_DIR")) {
+      equals(program, "ghostty") || equals(term, "xterm-ghostty") ||
+      getenv("GHOSTTY_RESOURCES_DIR")) {
     return PreviewMode::kKitty;
   }
   if (equals(program, "iTerm.app") || equals(program, "mlterm") || starts_with(term, "foot") ||
@@ -130,7 +144,8 @@ std::string ansi_preview(const render::Image& image, int max_cols) {
 }
 
 std::string base64_encode(const uint8_t* data, size_t n) {
-  static const char kAlphabet[] = "ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
+  static const char kAlphabet[] =
+      "ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
   std::string out;
   out.reserve((n + 2) / 3 * 4);
   size_t i = 0;
@@ -178,7 +193,8 @@ std::string kitty_preview(const render::Image& image, int max_width, bool keep_c
     const bool last = pos + kChunk >= payload.size();
     out += "\x1b_G";
     if (pos == 0) {
-      out += "a=T,f=24,q=2,s=" + std::to_string(img.width) + ",v=" + std::to_string(img.height) + ",";
+      out +=
+          "a=T,f=24,q=2,s=" + std::to_string(img.width) + ",v=" + std::to_string(img.height) + ",";
       if (keep_cursor) out += "C=1,";
     }
     out += last ? "m=0;" : "m=1;";
@@ -201,7 +217,8 @@ void sixel_palette_color(int index, uint8_t rgb[3]) {
 
 int sixel_palette_index(uint8_t r, uint8_t g, uint8_t b) {
   const uint8_t want[3] = {r, g, b};
-  const int cube = cube_level(r) * kCubeLevels * kCubeLevels + cube_level(g) * kCubeLevels + cube_level(b);
+  const int cube =
+      cube_level(r) * kCubeLevels * kCubeLevels + cube_level(g) * kCubeLevels + cube_level(b);
   uint8_t c[3];
   sixel_palette_color(cube, c);
   // The nearest grey by the mean, then whichever of the two is nearer.
@@ -235,8 +252,8 @@ std::string sixel_preview(const render::Image& image, int max_width) {
     if (!used[k]) continue;  // only the registers the image uses
     uint8_t c[3];
     sixel_palette_color(k, c);
-    std::snprintf(buf, sizeof buf, "#%d;2;%d;%d;%d", k, (c[0] * 100 + 127) / 255, (c[1] * 100 + 127) / 255,
-                  (c[2] * 100 + 127) / 255);
+    std::snprintf(buf, sizeof buf, "#%d;2;%d;%d;%d", k, (c[0] * 100 + 127) / 255,
+                  (c[1] * 100 + 127) / 255, (c[2] * 100 + 127) / 255);
     out += buf;
   }
   std::vector<uint8_t> bits(static_cast<size_t>(w));

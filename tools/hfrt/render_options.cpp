@@ -74,8 +74,8 @@ class ProbeField final : public render::Field {
     }
     return field_.eval_interval(box, maybe_nan);
   }
-  void eval_gradient(size_t n, const float* x, const float* y, const float* z, float* f,
-                     float* dx, float* dy, float* dz) const override {
+  void eval_gradient(size_t n, const float* x, const float* y, const float* z, float* f, float* dx,
+                     float* dy, float* dz) const override {
     field_.eval_gradient(n, x, y, z, f, dx, dy, dz);
   }
   uint64_t calls() const { return calls_.load(); }
@@ -142,7 +142,8 @@ bool parse_size(const std::string& text, int* w, int* h) {
 
 void add_render_options(CLI::App& app, RenderCli* cli) {
   app.add_option("--size", cli->size, "image size WxH (default 512x512)");
-  app.add_option("--bbox", cli->bbox, "bounding box xmin,ymin,zmin,xmax,ymax,zmax (default -10..10)");
+  app.add_option("--bbox", cli->bbox,
+                 "bounding box xmin,ymin,zmin,xmax,ymax,zmax (default -10..10)");
   app.add_option("--eye", cli->eye, "camera position x,y,z (default: framed three-quarter view)");
   app.add_option("--look-at", cli->look_at, "point looked at x,y,z (default: the solid's centre)");
   app.add_option("--up", cli->up, "camera up direction x,y,z (default 0,1,0)");
@@ -152,7 +153,8 @@ void add_render_options(CLI::App& app, RenderCli* cli) {
   app.add_option("--spp", cli->spp, "samples per pixel, stratified and jittered (default 1)");
   app.add_option("--threads", cli->threads, "worker threads (default: all cores)");
   app.add_option("-a", cli->model.params, "parameter values a[1],a[2],... separated by commas");
-  app.add_option("--object", cli->model.object, "object to render (default: my_model or the first)");
+  app.add_option("--object", cli->model.object,
+                 "object to render (default: my_model or the first)");
   app.add_option("--light", cli->lights,
                  "a light: dir:x,y,z[,intensity] (towards the light) or point:x,y,z[,intensity]; "
                  "repeatable (default: key and fill lights)");
@@ -168,13 +170,15 @@ void add_render_options(CLI::App& app, RenderCli* cli) {
 
 const std::vector<std::string>& render_option_names() {
   static const std::vector<std::string> names = {
-      "size",  "bbox",   "eye",  "look-at", "up",      "fov",        "ortho",      "root",
-      "spp",   "threads", "a",   "object",  "light",   "step",       "epsilon",    "aov",
-      "background", "no-shadows", "backend", "stats"};
+      "size",    "bbox", "eye",        "look-at",    "up",      "fov",   "ortho",
+      "root",    "spp",  "threads",    "a",          "object",  "light", "step",
+      "epsilon", "aov",  "background", "no-shadows", "backend", "stats"};
   return names;
 }
 
-bool render_option_is_flag(const std::string& name) { return name == "no-shadows" || name == "stats"; }
+bool render_option_is_flag(const std::string& name) {
+  return name == "no-shadows" || name == "stats";
+}
 
 bool parse_root_mode(const std::string& text, render::RootMode* mode) {
   if (text == "sign") {
@@ -191,7 +195,9 @@ bool parse_root_mode(const std::string& text, render::RootMode* mode) {
   return true;
 }
 
-const char* root_mode_choices() { return "sign, interval, analytic or auto"; }
+const char* root_mode_choices() {
+  return "sign, interval, analytic or auto";
+}
 
 bool translate_render_options(const RenderCli& cli, RenderSetup* out, std::string* err) {
   RenderSetup s;
@@ -201,7 +207,8 @@ bool translate_render_options(const RenderCli& cli, RenderSetup* out, std::strin
     return false;
   };
   if (!parse_size(cli.size, &opt.width, &opt.height)) {
-    return fail("--size expects WxH with positive integers, e.g. --size 512x512 (got '" + cli.size + "')");
+    return fail("--size expects WxH with positive integers, e.g. --size 512x512 (got '" + cli.size +
+                "')");
   }
   if (!cli.bbox.empty()) {
     std::vector<float> b;
@@ -210,7 +217,8 @@ bool translate_render_options(const RenderCli& cli, RenderSetup* out, std::strin
     } else if (parse_floats(cli.bbox, &b, 1) && b[0] > 0) {
       opt.bbox = {{-b[0], -b[0], -b[0]}, {b[0], b[0], b[0]}};
     } else {
-      return fail("--bbox expects xmin,ymin,zmin,xmax,ymax,zmax (or one half-size), got '" + cli.bbox + "'");
+      return fail("--bbox expects xmin,ymin,zmin,xmax,ymax,zmax (or one half-size), got '" +
+                  cli.bbox + "'");
     }
     if (!(opt.bbox.lo.x < opt.bbox.hi.x && opt.bbox.lo.y < opt.bbox.hi.y &&
           opt.bbox.lo.z < opt.bbox.hi.z)) {
@@ -224,7 +232,8 @@ bool translate_render_options(const RenderCli& cli, RenderSetup* out, std::strin
     cam.eye = v;
   }
   if (!cli.look_at.empty()) {
-    if (!parse_vec3(cli.look_at, &v)) return fail("--look-at expects x,y,z (got '" + cli.look_at + "')");
+    if (!parse_vec3(cli.look_at, &v))
+      return fail("--look-at expects x,y,z (got '" + cli.look_at + "')");
     cam.look_at = v;
   }
   if (!cli.up.empty()) {
@@ -254,7 +263,8 @@ bool translate_render_options(const RenderCli& cli, RenderSetup* out, std::strin
   for (const std::string& l : cli.lights) {
     render::Light light;
     if (!parse_light(l, &light)) {
-      return fail("--light expects dir:x,y,z[,intensity] or point:x,y,z[,intensity] (got '" + l + "')");
+      return fail("--light expects dir:x,y,z[,intensity] or point:x,y,z[,intensity] (got '" + l +
+                  "')");
     }
     opt.lights.push_back(light);
   }
@@ -262,7 +272,8 @@ bool translate_render_options(const RenderCli& cli, RenderSetup* out, std::strin
     size_t pos = 0;
     while (pos <= cli.aov.size()) {
       size_t comma = cli.aov.find(',', pos);
-      std::string name = cli.aov.substr(pos, comma == std::string::npos ? std::string::npos : comma - pos);
+      std::string name =
+          cli.aov.substr(pos, comma == std::string::npos ? std::string::npos : comma - pos);
       if (name == "depth") {
         s.aovs.depth = true;
       } else if (name == "normal") {
@@ -282,7 +293,8 @@ bool translate_render_options(const RenderCli& cli, RenderSetup* out, std::strin
   }
   opt.shadows = !cli.no_shadows;
   if (!parse_doubles(cli.model.params, &s.params)) {
-    return fail("-a expects numbers separated by commas, e.g. -a 1,0.5 (got '" + cli.model.params + "')");
+    return fail("-a expects numbers separated by commas, e.g. -a 1,0.5 (got '" + cli.model.params +
+                "')");
   }
   if (cli.model.backend != "jit" && cli.model.backend != "interp") {
     return fail("--backend expects jit or interp (got '" + cli.model.backend + "')");
@@ -317,7 +329,8 @@ bool frame_camera(const render::Field& field, const render::CameraRequest& camer
                                          &info->extent_by_interval);
     }
   }
-  opt->camera = render::resolve_camera(camera, info->extent, float(opt->width) / float(opt->height));
+  opt->camera =
+      render::resolve_camera(camera, info->extent, float(opt->width) / float(opt->height));
   info->ms = ms_since(t0);
   render::Vec3 view = opt->camera.look_at - opt->camera.eye;
   if (length(view) == 0) {
@@ -353,8 +366,8 @@ RootDecision settle_root(const render::Field& field, render::RenderOptions* opt,
     return d;
   }
   if (analytic && !analytic->qualifies) {
-    d.analytic_fallback = analytic->reason.empty() ? "not a set operation of polynomial leaves"
-                                                   : analytic->reason;
+    d.analytic_fallback =
+        analytic->reason.empty() ? "not a set operation of polynomial leaves" : analytic->reason;
     if (analytic->line > 0) {
       d.analytic_fallback += " at " + file + ":" + std::to_string(analytic->line) + ":" +
                              std::to_string(analytic->col);
@@ -378,9 +391,10 @@ std::string analytic_root_diagnostic(const AnalyticInfo& analytic, const std::st
   diag.severity = lang::Severity::kError;
   diag.message = "--root analytic: the model is not a set operation of polynomial leaves: " +
                  (analytic.reason.empty() ? std::string("unsupported construct") : analytic.reason);
-  diag.hint = "the analytic search needs min/max/|/&/\\ over polynomials of degree <= 4 in x "
-              "(quadrics, tori, planes, blocks, moved by shifts, rotations and scales); use "
-              "--root auto, interval or sign for this model";
+  diag.hint =
+      "the analytic search needs min/max/|/&/\\ over polynomials of degree <= 4 in x "
+      "(quadrics, tori, planes, blocks, moved by shifts, rotations and scales); use "
+      "--root auto, interval or sign for this model";
   std::string text;
   if (analytic.line > 0) {
     std::ifstream in(file, std::ios::binary);
@@ -400,8 +414,9 @@ std::string format_render_stats(const RenderReport& r) {
   std::string out;
   char buf[512];
   double mrays = double(st.primary_rays + st.shadow_rays) / std::max(st.seconds, 1e-9) * 1e-6;
-  std::snprintf(buf, sizeof buf, "stats: compile %.1f ms (+ %.1f ms interval and gradient code: %s)\n",
-                r.compile_ms, r.prepare_ms, r.engines.c_str());
+  std::snprintf(buf, sizeof buf,
+                "stats: compile %.1f ms (+ %.1f ms interval and gradient code: %s)\n", r.compile_ms,
+                r.prepare_ms, r.engines.c_str());
   out += buf;
   char probe[64] = "";
   if (r.auto_root) std::snprintf(probe, sizeof probe, ", auto probe %.1f ms", r.root.probe_ms);
@@ -411,7 +426,8 @@ std::string format_render_stats(const RenderReport& r) {
                                  : " (camera given)",
                 probe, st.seconds, st.threads);
   out += buf;
-  std::snprintf(buf, sizeof buf, "stats: %llu primary + %llu shadow rays, %.2f Mrays/s, %llu hits\n",
+  std::snprintf(buf, sizeof buf,
+                "stats: %llu primary + %llu shadow rays, %.2f Mrays/s, %llu hits\n",
                 (unsigned long long)st.primary_rays, (unsigned long long)st.shadow_rays, mrays,
                 (unsigned long long)st.hits);
   out += buf;
@@ -423,7 +439,8 @@ std::string format_render_stats(const RenderReport& r) {
                 (unsigned long long)e.gradient_points, (unsigned long long)e.attribute_calls,
                 (unsigned long long)e.interval_fallbacks);
   out += buf;
-  std::string tiles = r.culled ? std::to_string(st.tiles_empty) + " empty by intervals" : "no interval culling";
+  std::string tiles =
+      r.culled ? std::to_string(st.tiles_empty) + " empty by intervals" : "no interval culling";
   std::snprintf(buf, sizeof buf,
                 "stats: tiles %zu (%s); thread time: culling %.3f s, root search %.3f s, "
                 "shading %.3f s\n",

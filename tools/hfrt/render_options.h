@@ -65,10 +65,10 @@ bool render_option_is_flag(const std::string& name);
 
 /// The translated, validated options.
 struct RenderSetup {
-  render::RenderOptions options;   ///< everything but the camera (set by frame_camera())
+  render::RenderOptions options;  ///< everything but the camera (set by frame_camera())
   render::CameraRequest camera;
   render::AovSet aovs;
-  std::vector<double> params;      ///< -a
+  std::vector<double> params;  ///< -a
 };
 
 /// Parses a `--root` word into `mode`; false when it is not a root mode.
@@ -93,9 +93,9 @@ const render::Field& render_field(const Model& model, const ModelField& model_fi
 
 /// How the camera was found, for --stats.
 struct FramingInfo {
-  bool framed = false;             ///< the solid's extent was searched (no eye or no look-at)
-  bool extent_by_interval = false; ///< ... and found by intervals (else by sampling)
-  render::Box extent;              ///< the box framed (the bbox when not framed)
+  bool framed = false;              ///< the solid's extent was searched (no eye or no look-at)
+  bool extent_by_interval = false;  ///< ... and found by intervals (else by sampling)
+  render::Box extent;               ///< the box framed (the bbox when not framed)
   double ms = 0;
 };
 
@@ -140,12 +140,12 @@ std::string analytic_root_diagnostic(const AnalyticInfo& analytic, const std::st
 /// What `--stats` prints about one render.
 struct RenderReport {
   double compile_ms = 0;
-  double prepare_ms = 0;          ///< interval and gradient code
-  std::string engines;            ///< describe_domain_engines()
+  double prepare_ms = 0;  ///< interval and gradient code
+  std::string engines;    ///< describe_domain_engines()
   FramingInfo framing;
-  bool auto_root = false;         ///< `--root auto` was asked
+  bool auto_root = false;  ///< `--root auto` was asked
   RootDecision root;
-  bool culled = false;            ///< tile culling by intervals was on
+  bool culled = false;  ///< tile culling by intervals was on
   render::RenderStats stats;
 };
 

@@ -18,13 +18,13 @@
 #include <sys/stat.h>
 #include <unistd.h>
 
+#include <algorithm>
+#include <atomic>
 #include <chrono>
 #include <csignal>
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
-#include <algorithm>
-#include <atomic>
 #include <iostream>
 #include <optional>
 #include <string>
@@ -113,7 +113,8 @@ char** complete(const char* text, int start, int /*end*/) {
   std::string line(rl_line_buffer, start);
   if (start > 0 && (line.rfind(":load", 0) == 0 || line.rfind(":render", 0) == 0 ||
                     line.rfind(":watch", 0) == 0)) {
-    if (line.find_first_not_of(' ', line.find(' ')) == std::string::npos) return nullptr;  // default: files
+    if (line.find_first_not_of(' ', line.find(' ')) == std::string::npos)
+      return nullptr;  // default: files
   }
   rl_attempted_completion_over = 1;
   return rl_completion_matches(text, word_generator);
@@ -148,7 +149,7 @@ std::string preview_text(const render::Image& image, PreviewMode mode, bool keep
 }
 
 int64_t mtime_ns(const std::string& file) {
-  struct stat st{};
+  struct stat st {};
   if (stat(file.c_str(), &st) != 0) return -1;
   return int64_t(st.st_mtim.tv_sec) * 1000000000 + st.st_mtim.tv_nsec;
 }
@@ -301,7 +302,7 @@ int run_repl(const std::string& model_file) {
   rl_getc_function = getc_interruptible;
   g_cancel = &fe.session.cancel_flag();
   fe.update_coarse_hook();
-  struct sigaction sa{};
+  struct sigaction sa {};
   sa.sa_handler = on_sigint;
   sigemptyset(&sa.sa_mask);
   sa.sa_flags = 0;  // no SA_RESTART: the prompt's read() must see EINTR

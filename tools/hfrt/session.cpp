@@ -1,7 +1,7 @@
 #include "tools/hfrt/session.h"
 
-#include <algorithm>
 #include <CLI/CLI.hpp>
+#include <algorithm>
 #include <cctype>
 #include <chrono>
 #include <cmath>
@@ -65,7 +65,8 @@ std::string object_name(std::string_view text) {
     }
   }
   size_t b = i;
-  while (i < text.size() && (std::isalnum(static_cast<unsigned char>(text[i])) || text[i] == '_')) ++i;
+  while (i < text.size() && (std::isalnum(static_cast<unsigned char>(text[i])) || text[i] == '_'))
+    ++i;
   return std::string(text.substr(b, i - b));
 }
 
@@ -78,7 +79,8 @@ std::vector<std::string> split_objects(std::string_view text) {
   size_t pos = 0;
   while (pos < text.size()) {
     size_t nl = text.find('\n', pos);
-    std::string_view line = text.substr(pos, nl == std::string_view::npos ? std::string_view::npos : nl - pos + 1);
+    std::string_view line =
+        text.substr(pos, nl == std::string_view::npos ? std::string_view::npos : nl - pos + 1);
     pos = nl == std::string_view::npos ? text.size() : nl + 1;
     cur += line;
     int d = brace_delta(line);
@@ -95,7 +97,9 @@ std::vector<std::string> split_objects(std::string_view text) {
   return out;
 }
 
-int count_lines(std::string_view s) { return int(std::count(s.begin(), s.end(), '\n')); }
+int count_lines(std::string_view s) {
+  return int(std::count(s.begin(), s.end(), '\n'));
+}
 
 /// Diagnostics of a compile, with lines moved by `line_offset` and named `file`; those outside
 /// the typed text (line <= 0 after the shift) keep the session-source location.
@@ -104,8 +108,9 @@ std::string format_diagnostics(const CompileResult& r, int line_offset, std::str
   std::string out;
   for (const SourceDiagnostic& d : r.diagnostics) {
     int line = d.line - line_offset;
-    std::string where = line > 0 ? std::string(file) + ":" + std::to_string(line) + ":" + std::to_string(d.col)
-                                 : "<session>:" + std::to_string(d.line) + ":" + std::to_string(d.col);
+    std::string where =
+        line > 0 ? std::string(file) + ":" + std::to_string(line) + ":" + std::to_string(d.col)
+                 : "<session>:" + std::to_string(d.line) + ":" + std::to_string(d.col);
     const char* sev = d.severity == SourceDiagnostic::Severity::kError     ? "error"
                       : d.severity == SourceDiagnostic::Severity::kWarning ? "warning"
                                                                            : "note";
@@ -138,7 +143,8 @@ const char* kHelp =
     "  :render OUT [options]      render to OUT; options (as hfrt render) are remembered;\n"
     "                             edits of the same object keep its camera (:set frames anew)\n"
     "  :set OPTION VALUE...       set any option of hfrt render (size, bbox, eye, look-at, up,\n"
-    "                             fov, ortho, root, spp, threads, a, object, light, step, epsilon,\n"
+    "                             fov, ortho, root, spp, threads, a, object, light, step, "
+    "epsilon,\n"
     "                             aov, background, no-shadows, backend, stats; flags take on|off;\n"
     "                             VALUE 'default' restores the default; light takes several)\n"
     "  :show  :objects  :stats    session state\n"
@@ -166,9 +172,9 @@ Session::Session() {
 }
 
 const std::vector<std::string>& Session::command_names() {
-  static const std::vector<std::string> names = {":load",    ":eval",  ":render", ":set",
-                                                 ":show",    ":objects", ":stats", ":watch",
-                                                 ":preview", ":help",  ":quit"};
+  static const std::vector<std::string> names = {":load",    ":eval",    ":render", ":set",
+                                                 ":show",    ":objects", ":stats",  ":watch",
+                                                 ":preview", ":help",    ":quit"};
   return names;
 }
 
@@ -271,10 +277,12 @@ const Model* Session::model_for(const std::string& source, const std::string& ob
 
 SessionResult Session::define(std::string_view text) {
   std::string name = object_name(text);
-  if (name.empty()) return failure("<input>:1:1: error: expected an object definition `name(x[3], a[1]) { ... }`");
+  if (name.empty())
+    return failure("<input>:1:1: error: expected an object definition `name(x[3], a[1]) { ... }`");
   // The candidate source: the object replaced in place, or appended.
   auto objects = objects_;
-  auto it = std::find_if(objects.begin(), objects.end(), [&](const auto& o) { return o.first == name; });
+  auto it =
+      std::find_if(objects.begin(), objects.end(), [&](const auto& o) { return o.first == name; });
   int line_offset = 0;
   std::string def(text);
   if (!def.empty() && def.back() != '\n') def += '\n';
@@ -318,7 +326,8 @@ SessionResult Session::cmd_load(const std::vector<std::string>& args) {
   for (const std::string& d : defs) {
     std::string name = object_name(d);
     if (name.empty()) continue;
-    auto it = std::find_if(objects.begin(), objects.end(), [&](const auto& o) { return o.first == name; });
+    auto it = std::find_if(objects.begin(), objects.end(),
+                           [&](const auto& o) { return o.first == name; });
     if (it != objects.end()) {
       it->second = d;
     } else {
@@ -353,7 +362,8 @@ SessionResult Session::cmd_eval(const std::vector<std::string>& args) {
   std::vector<double> x, a;
   for (size_t i = 0; i < args.size(); ++i) {
     double v;
-    if (!parse_double(args[i], &v)) return failure("hfrt: :eval cannot read '" + args[i] + "' as a number");
+    if (!parse_double(args[i], &v))
+      return failure("hfrt: :eval cannot read '" + args[i] + "' as a number");
     (int(i) < m->num_inputs() ? x : a).push_back(v);
   }
   if (int(x.size()) < m->num_inputs()) {
@@ -391,28 +401,50 @@ namespace {
 /// What `:set NAME default` restores: the option's value in a fresh RenderCli.
 bool reset_option(const std::string& name, RenderCli* cli) {
   const RenderCli d;
-  if (name == "size") cli->size = d.size;
-  else if (name == "bbox") cli->bbox = d.bbox;
-  else if (name == "eye") cli->eye = d.eye;
-  else if (name == "look-at") cli->look_at = d.look_at;
-  else if (name == "up") cli->up = d.up;
-  else if (name == "fov") cli->fov = d.fov;
-  else if (name == "ortho") cli->ortho = d.ortho;
-  else if (name == "root") cli->root = d.root;
-  else if (name == "spp") cli->spp = d.spp;
-  else if (name == "threads") cli->threads = d.threads;
-  else if (name == "a") cli->model.params = d.model.params;
-  else if (name == "object") cli->model.object = d.model.object;
-  else if (name == "light") cli->lights = d.lights;
-  else if (name == "step") cli->step = d.step;
-  else if (name == "epsilon") cli->epsilon = d.epsilon;
-  else if (name == "aov") cli->aov = d.aov;
-  else if (name == "background") cli->background = d.background;
-  else if (name == "no-shadows") cli->no_shadows = d.no_shadows;
-  else if (name == "shadows") cli->no_shadows = d.no_shadows;
-  else if (name == "backend") cli->model.backend = d.model.backend;
-  else if (name == "stats") cli->stats = d.stats;
-  else return false;
+  if (name == "size")
+    cli->size = d.size;
+  else if (name == "bbox")
+    cli->bbox = d.bbox;
+  else if (name == "eye")
+    cli->eye = d.eye;
+  else if (name == "look-at")
+    cli->look_at = d.look_at;
+  else if (name == "up")
+    cli->up = d.up;
+  else if (name == "fov")
+    cli->fov = d.fov;
+  else if (name == "ortho")
+    cli->ortho = d.ortho;
+  else if (name == "root")
+    cli->root = d.root;
+  else if (name == "spp")
+    cli->spp = d.spp;
+  else if (name == "threads")
+    cli->threads = d.threads;
+  else if (name == "a")
+    cli->model.params = d.model.params;
+  else if (name == "object")
+    cli->model.object = d.model.object;
+  else if (name == "light")
+    cli->lights = d.lights;
+  else if (name == "step")
+    cli->step = d.step;
+  else if (name == "epsilon")
+    cli->epsilon = d.epsilon;
+  else if (name == "aov")
+    cli->aov = d.aov;
+  else if (name == "background")
+    cli->background = d.background;
+  else if (name == "no-shadows")
+    cli->no_shadows = d.no_shadows;
+  else if (name == "shadows")
+    cli->no_shadows = d.no_shadows;
+  else if (name == "backend")
+    cli->model.backend = d.model.backend;
+  else if (name == "stats")
+    cli->stats = d.stats;
+  else
+    return false;
   return true;
 }
 
@@ -481,8 +513,9 @@ SessionResult Session::cmd_set(const std::vector<std::string>& args) {
   }
   // The spellings of the first REPL: "auto" for a framed camera, "off" for perspective.
   std::vector<std::string> values(args.begin() + 1, args.end());
-  if (values.size() == 1 && ((values[0] == "auto" && (name == "eye" || name == "look-at" || name == "up")) ||
-                             (values[0] == "off" && name == "ortho"))) {
+  if (values.size() == 1 &&
+      ((values[0] == "auto" && (name == "eye" || name == "look-at" || name == "up")) ||
+       (values[0] == "off" && name == "ortho"))) {
     values[0] = name == "ortho" ? "0" : "";
   }
   std::vector<std::string> words;
@@ -517,7 +550,8 @@ SessionResult Session::cmd_render(const std::vector<std::string>& args) {
   RenderCli saved_cli = cli_;
   RenderSetup saved_setup = setup_;
   std::string out = args.empty() ? last_output_ : args[0];
-  if (!out.empty() && out[0] == '-') return failure("hfrt: :render expects OUT first, then options");
+  if (!out.empty() && out[0] == '-')
+    return failure("hfrt: :render expects OUT first, then options");
   std::string err;
   if (args.size() > 1) {
     // A repeated option given here replaces the remembered list (as on the command line).
@@ -591,8 +625,8 @@ SessionResult Session::render_to(const std::string& out) {
   // The view of the last render of this object with these options (see ViewCache).
   std::string key = object + '\x1f' + cli_.size + '\x1f' + cli_.bbox + '\x1f' + cli_.eye + '\x1f' +
                     cli_.look_at + '\x1f' + cli_.up + '\x1f' + std::to_string(cli_.fov) + '\x1f' +
-                    std::to_string(cli_.ortho) + '\x1f' + cli_.root + '\x1f' + cli_.model.params + '\x1f' +
-                    cli_.model.backend + '\x1f' + std::to_string(cli_.threads);
+                    std::to_string(cli_.ortho) + '\x1f' + cli_.root + '\x1f' + cli_.model.params +
+                    '\x1f' + cli_.model.backend + '\x1f' + std::to_string(cli_.threads);
   // --root analytic on a model that does not qualify: its located diagnostic, as hfrt render.
   if (opt.root == render::RootMode::kAnalytic) {
     std::string diag = analytic_root_diagnostic(model_field.analytic_info(), "<session>");
@@ -602,7 +636,8 @@ SessionResult Session::render_to(const std::string& out) {
   // model non-polynomial, or too large for the interval JIT).
   const bool reuse = view_.key == key && view_.has_interval == field.has_interval() &&
                      view_.ray_candidates == field.has_ray_candidates();
-  if (!frame_camera(field, setup_.camera, &opt, &report.framing, &err, reuse ? &view_.extent : nullptr)) {
+  if (!frame_camera(field, setup_.camera, &opt, &report.framing, &err,
+                    reuse ? &view_.extent : nullptr)) {
     return failure("hfrt: " + err);
   }
   if (reuse) {
@@ -611,8 +646,9 @@ SessionResult Session::render_to(const std::string& out) {
     report.root.why = view_.why;
   } else {
     report.root = settle_root(field, &opt, &model_field.analytic_info(), "<session>");
-    view_ = ViewCache{key,     report.framing.extent, field.has_interval(), field.has_ray_candidates(),
-                      opt.root, opt.tile_culling,        report.root.why};
+    view_ =
+        ViewCache{key,      report.framing.extent, field.has_interval(), field.has_ray_candidates(),
+                  opt.root, opt.tile_culling,      report.root.why};
   }
   report.auto_root = cli_.root == "auto";
   opt.cancel = &cancel_;
@@ -642,7 +678,8 @@ SessionResult Session::render_to(const std::string& out) {
   last_image_ = std::move(result.image);
   ++renders_;
   char buf[160];
-  std::snprintf(buf, sizeof buf, "%s %dx%d %.1f ms", out.c_str(), opt.width, opt.height, last_render_ms_);
+  std::snprintf(buf, sizeof buf, "%s %dx%d %.1f ms", out.c_str(), opt.width, opt.height,
+                last_render_ms_);
   std::string text = buf;
   for (size_t i = 1; i < written.value().size(); ++i) text += "\n" + written.value()[i];
   if (cli_.stats) {
@@ -688,14 +725,17 @@ SessionResult Session::cmd_show() const {
     return std::string(b);
   };
   s << "size " << o.width << "x" << o.height << "\n";
-  s << "bbox " << o.bbox.lo.x << "," << o.bbox.lo.y << "," << o.bbox.lo.z << "," << o.bbox.hi.x << ","
-    << o.bbox.hi.y << "," << o.bbox.hi.z << "\n";
+  s << "bbox " << o.bbox.lo.x << "," << o.bbox.lo.y << "," << o.bbox.lo.z << "," << o.bbox.hi.x
+    << "," << o.bbox.hi.y << "," << o.bbox.hi.z << "\n";
   s << "eye " << vec(c.eye) << "\nlook-at " << vec(c.look_at) << "\nup " << vec(c.up) << "\n";
   s << "fov " << (c.fov_deg ? std::to_string(*c.fov_deg) : "35") << "\n";
   s << "ortho " << (c.ortho_width ? std::to_string(*c.ortho_width) : "off") << "\n";
-  s << "root " << render::root_mode_name(o.root) << "\nspp " << o.spp << "\nthreads " << o.threads << "\n";
+  s << "root " << render::root_mode_name(o.root) << "\nspp " << o.spp << "\nthreads " << o.threads
+    << "\n";
   s << "shadows " << (o.shadows ? "on" : "off") << "\n";
-  auto typed = [&s](const char* name, const std::string& v) { s << name << ' ' << (v.empty() ? "default" : v) << "\n"; };
+  auto typed = [&s](const char* name, const std::string& v) {
+    s << name << ' ' << (v.empty() ? "default" : v) << "\n";
+  };
   std::string lights;
   for (const std::string& l : cli_.lights) lights += (lights.empty() ? "" : " ") + l;
   typed("light", lights);
@@ -720,8 +760,8 @@ SessionResult Session::cmd_stats() const {
   std::snprintf(buf, sizeof buf,
                 "objects %zu, compiles %d, cached models %zu, last compile %.1f ms, renders %d "
                 "(last %.1f ms), evals %d",
-                objects_.size(), compiles_, cache_.size(), last_compile_ms_, renders_, last_render_ms_,
-                evals_);
+                objects_.size(), compiles_, cache_.size(), last_compile_ms_, renders_,
+                last_render_ms_, evals_);
   return success(buf);
 }
 

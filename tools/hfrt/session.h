@@ -31,9 +31,9 @@ struct SessionResult {
   bool ok = true;
   std::string out;
   std::string err;
-  bool quit = false;           ///< `:quit`
-  bool rendered = false;       ///< a new image is in Session::last_image()
-  std::string watch_file;      ///< `:watch FILE`: the front end polls FILE (see Session::watch_step)
+  bool quit = false;       ///< `:quit`
+  bool rendered = false;   ///< a new image is in Session::last_image()
+  std::string watch_file;  ///< `:watch FILE`: the front end polls FILE (see Session::watch_step)
 };
 
 /// The render settings a session remembers between `:render` calls, translated from the
@@ -163,6 +163,5 @@ class Session {
 
 /// The change in brace depth of a line of HyperFun (comments `--` skipped).
 int brace_delta(std::string_view line);
-
 
 }  // namespace hfrt::tools

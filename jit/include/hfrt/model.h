@@ -28,10 +28,10 @@ enum class Backend { kJit, kInterp };
 enum class Precision { kF64, kF32 };
 
 struct ModelOptions {
-  std::string object;             ///< object to evaluate; empty: `my_model`, else the first
+  std::string object;  ///< object to evaluate; empty: `my_model`, else the first
   Backend backend = Backend::kJit;
-  int opt_level = 2;              ///< LLVM pipeline O0..O3 (JIT backend)
-  int lanes = 0;                  ///< JIT SIMD lanes per block (power of two); 0 = host width
+  int opt_level = 2;  ///< LLVM pipeline O0..O3 (JIT backend)
+  int lanes = 0;      ///< JIT SIMD lanes per block (power of two); 0 = host width
   /// Precisions the JIT compiles inside compile(); the others compile on first use.
   bool eager_f64 = true;
   bool eager_f32 = false;
@@ -105,8 +105,8 @@ enum class DomainEngine {
 /// One mesh or patch surface of the object (hfMesh, hfTriangles, hfBezierSurface,
 /// hfBezierPatches), for `hfrt render --stats`.
 struct SurfaceStats {
-  std::string source;      ///< the file, or the inline function's name
-  size_t triangles = 0;    ///< triangles (for patches: of the field's tessellation)
+  std::string source;    ///< the file, or the inline function's name
+  size_t triangles = 0;  ///< triangles (for patches: of the field's tessellation)
   size_t patches = 0;
   size_t degenerate_skipped = 0;
   size_t bvh_nodes = 0;
