@@ -1,5 +1,7 @@
 #include "geom/mesh_surface.h"
 
+#include <immintrin.h>
+
 #include <algorithm>
 #include <chrono>
 #include <numbers>
@@ -13,6 +15,107 @@ namespace {
 // Deep enough for any BVH the binned builder makes from 2^31 primitives (the builder halves
 // ranges it cannot split, so depth stays logarithmic in practice; 128 leaves a large margin).
 constexpr int kStackSize = 128;
+
+// The ray of the 4-lane triangle test: the watertight ray's permuted origin and shear
+// broadcast to all lanes, built once per ray.
+struct PacketRay {
+  int kx, ky, kz;
+  __m128 okx, oky, okz, sx, sy, sz;
+  explicit PacketRay(const WatertightRay& r)
+      : kx(r.kx),
+        ky(r.ky),
+        kz(r.kz),
+        okx(_mm_set1_ps(r.org[r.kx])),
+        oky(_mm_set1_ps(r.org[r.ky])),
+        okz(_mm_set1_ps(r.org[r.kz])),
+        sx(_mm_set1_ps(r.sx)),
+        sy(_mm_set1_ps(r.sy)),
+        sz(_mm_set1_ps(r.sz)) {}
+};
+
+// intersect_triangle() on the triangles in slots [s, s + n) (n <= 4) at once, one per SSE
+// lane, with tmin < t < tmax; each hit goes to `accept(slot, hit)` in slot order (a nearest-hit
+// caller shrinks its own limit there and rejects t >= it, as the scalar loop over a leaf would
+// with tmax = the current limit). Every lane runs the same IEEE operations in the same order as
+// the scalar test (no FMA: geom/ builds with -ffp-contract=off; true division), so a lane's
+// edge functions, det and t are bitwise the scalar ones and shared edges stay exact negations.
+// A lane with a zero edge function takes the scalar path (exact recomputation in double,
+// symbolic tie-breaking).
+// `corners` must be readable one float past the last triangle (MeshSurface pads it).
+template <typename Accept>
+[[gnu::always_inline]] inline void intersect_packet(const WatertightRay& r, const PacketRay& pr,
+                                                    const Vec3* corners, uint32_t s, uint32_t n,
+                                                    float tmin, float tmax, Accept&& accept) {
+  // Rows: triangle i's corners as (x0 y0 z0 x1), (x1 y1 z1 x2), (x2 y2 z2 *); transposed to
+  // one register per coordinate. Lanes past n repeat triangle s and are masked out.
+  const float* p0 = &corners[3 * s].x;
+  const float* p1 = n > 1 ? p0 + 9 : p0;
+  const float* p2 = n > 2 ? p0 + 18 : p0;
+  const float* p3 = n > 3 ? p0 + 27 : p0;
+  __m128 v0[4] = {_mm_loadu_ps(p0), _mm_loadu_ps(p1), _mm_loadu_ps(p2), _mm_loadu_ps(p3)};
+  __m128 v1[4] = {_mm_loadu_ps(p0 + 3), _mm_loadu_ps(p1 + 3), _mm_loadu_ps(p2 + 3),
+                  _mm_loadu_ps(p3 + 3)};
+  __m128 v2[4] = {_mm_loadu_ps(p0 + 6), _mm_loadu_ps(p1 + 6), _mm_loadu_ps(p2 + 6),
+                  _mm_loadu_ps(p3 + 6)};
+  _MM_TRANSPOSE4_PS(v0[0], v0[1], v0[2], v0[3]);
+  _MM_TRANSPOSE4_PS(v1[0], v1[1], v1[2], v1[3]);
+  _MM_TRANSPOSE4_PS(v2[0], v2[1], v2[2], v2[3]);
+  // a = v0 - org in the permuted frame, then the shear, as in intersect_triangle().
+  const __m128 akx = _mm_sub_ps(v0[pr.kx], pr.okx), aky = _mm_sub_ps(v0[pr.ky], pr.oky),
+               akz = _mm_sub_ps(v0[pr.kz], pr.okz);
+  const __m128 bkx = _mm_sub_ps(v1[pr.kx], pr.okx), bky = _mm_sub_ps(v1[pr.ky], pr.oky),
+               bkz = _mm_sub_ps(v1[pr.kz], pr.okz);
+  const __m128 ckx = _mm_sub_ps(v2[pr.kx], pr.okx), cky = _mm_sub_ps(v2[pr.ky], pr.oky),
+               ckz = _mm_sub_ps(v2[pr.kz], pr.okz);
+  const __m128 ax = _mm_sub_ps(akx, _mm_mul_ps(pr.sx, akz)),
+               ay = _mm_sub_ps(aky, _mm_mul_ps(pr.sy, akz));
+  const __m128 bx = _mm_sub_ps(bkx, _mm_mul_ps(pr.sx, bkz)),
+               by = _mm_sub_ps(bky, _mm_mul_ps(pr.sy, bkz));
+  const __m128 cx = _mm_sub_ps(ckx, _mm_mul_ps(pr.sx, ckz)),
+               cy = _mm_sub_ps(cky, _mm_mul_ps(pr.sy, ckz));
+  const __m128 u = _mm_sub_ps(_mm_mul_ps(cx, by), _mm_mul_ps(cy, bx));
+  const __m128 v = _mm_sub_ps(_mm_mul_ps(ax, cy), _mm_mul_ps(ay, cx));
+  const __m128 w = _mm_sub_ps(_mm_mul_ps(bx, ay), _mm_mul_ps(by, ax));
+  const __m128 zero = _mm_setzero_ps();
+  const int active = (1 << n) - 1;
+  const int zero_mask =
+      _mm_movemask_ps(_mm_or_ps(_mm_or_ps(_mm_cmpeq_ps(u, zero), _mm_cmpeq_ps(v, zero)),
+                                _mm_cmpeq_ps(w, zero))) &
+      active;
+  const __m128 neg =
+      _mm_or_ps(_mm_or_ps(_mm_cmplt_ps(u, zero), _mm_cmplt_ps(v, zero)), _mm_cmplt_ps(w, zero));
+  const __m128 pos =
+      _mm_or_ps(_mm_or_ps(_mm_cmpgt_ps(u, zero), _mm_cmpgt_ps(v, zero)), _mm_cmpgt_ps(w, zero));
+  const __m128 det = _mm_add_ps(_mm_add_ps(u, v), w);
+  const __m128 az = _mm_mul_ps(pr.sz, akz), bz = _mm_mul_ps(pr.sz, bkz),
+               cz = _mm_mul_ps(pr.sz, ckz);
+  const __m128 tt = _mm_add_ps(_mm_add_ps(_mm_mul_ps(u, az), _mm_mul_ps(v, bz)), _mm_mul_ps(w, cz));
+  const __m128 inv = _mm_div_ps(_mm_set1_ps(1.0f), det);
+  const __m128 t = _mm_mul_ps(tt, inv);
+  const __m128 ok =
+      _mm_and_ps(_mm_and_ps(_mm_andnot_ps(_mm_and_ps(neg, pos), _mm_cmpneq_ps(det, zero)),
+                            _mm_cmpgt_ps(t, _mm_set1_ps(tmin))),
+                 _mm_cmplt_ps(t, _mm_set1_ps(tmax)));
+  const int hit_mask = _mm_movemask_ps(ok) & active & ~zero_mask;
+  if (!(hit_mask | zero_mask)) return;
+  alignas(16) float ts[4], vs[4], ws[4], dets[4];
+  _mm_store_ps(ts, t);
+  _mm_store_ps(vs, v);
+  _mm_store_ps(ws, w);
+  _mm_store_ps(dets, det);
+  for (uint32_t i = 0; i < n; ++i) {
+    if (hit_mask >> i & 1) {
+      const float inv_i = 1.0f / dets[i];
+      accept(s + i, TriangleHitInfo{ts[i], vs[i] * inv_i, ws[i] * inv_i, dets[i] > 0 ? 1 : -1});
+    } else if (zero_mask >> i & 1) {
+      const uint32_t q = s + i;
+      TriangleHitInfo h;
+      if (intersect_triangle(r, corners[3 * q], corners[3 * q + 1], corners[3 * q + 2], tmin, tmax,
+                             &h))
+        accept(q, h);
+    }
+  }
+}
 
 }  // namespace
 
@@ -31,7 +134,8 @@ std::unique_ptr<MeshSurface> MeshSurface::build(const TriangleMesh& mesh, const 
   boxes = {};
   s->nodes_ = std::move(bvh.nodes);
   s->prim_order_ = std::move(bvh.prim_order);
-  s->corners_.resize(3 * n);
+  // One Vec3 of padding: the 4-lane triangle test reads one float past a triangle's corners.
+  s->corners_.resize(3 * n + 1);
   for (size_t slot = 0; slot < n; ++slot)
     for (int k = 0; k < 3; ++k) s->corners_[3 * slot + k] = mesh.corner(s->prim_order_[slot], k);
   s->beta_ = options.winding_beta;
@@ -90,16 +194,18 @@ bool MeshSurface::intersect(const Ray& ray, float tmin, float tmax, SurfaceHit* 
   uint32_t best_slot = ~0u;
   TriangleHitInfo best{};
   float closest = tmax;
+  const PacketRay pr(r);
+  const Vec3* corners = corners_.data();
   wide_.traverse(nodes_, r, tmin, &closest, [&](const BvhNode& n, float* limit) {
-    for (uint32_t s = n.index; s < n.index + n.count; ++s) {
-      TriangleHitInfo h;
-      if (intersect_triangle(r, corners_[3 * s], corners_[3 * s + 1], corners_[3 * s + 2], tmin,
-                             *limit, &h)) {
-        *limit = h.t;
-        best = h;
-        best_slot = s;
-      }
-    }
+    for (uint32_t s = n.index, end = n.index + n.count; s < end; s += 4)
+      intersect_packet(r, pr, corners, s, std::min<uint32_t>(4, end - s), tmin, *limit,
+                       [&](uint32_t slot, const TriangleHitInfo& h) {
+                         if (h.t < *limit) {
+                           *limit = h.t;
+                           best = h;
+                           best_slot = slot;
+                         }
+                       });
   });
   if (best_slot == ~0u) return false;
   hit->t = best.t;
@@ -202,13 +308,13 @@ void MeshSurface::crossings(const Ray& ray, float tmin, float tmax,
                             std::vector<Crossing>* out) const {
   out->clear();
   const WatertightRay r(ray);
+  const PacketRay pr(r);
   auto leaf = [&](const BvhNode& n) {
-    for (uint32_t s = n.index; s < n.index + n.count; ++s) {
-      TriangleHitInfo h;
-      if (intersect_triangle(r, corners_[3 * s], corners_[3 * s + 1], corners_[3 * s + 2], tmin,
-                             tmax, &h))
-        out->push_back({h.t, h.facing, prim_order_[s]});
-    }
+    for (uint32_t s = n.index, end = n.index + n.count; s < end; s += 4)
+      intersect_packet(r, pr, corners_.data(), s, std::min<uint32_t>(4, end - s), tmin, tmax,
+                       [&](uint32_t slot, const TriangleHitInfo& h) {
+                         out->push_back({h.t, h.facing, prim_order_[slot]});
+                       });
   };
   if (!wide_.empty()) {
     float limit = tmax;  // never shrinks: every crossing is wanted

@@ -86,7 +86,7 @@ class MeshSurface final : public Surface {
   void build_dipoles();
 
   std::vector<BvhNode> nodes_;
-  std::vector<Vec3> corners_;         // 3 per triangle, in leaf order
+  std::vector<Vec3> corners_;         // 3 per triangle, in leaf order, + 1 padding Vec3
   std::vector<uint32_t> prim_order_;  // leaf order -> original index
   std::vector<Dipole> dipoles_;       // one per node
   WideBvh wide_;                      // 4-wide upper levels, for rays

@@ -8,6 +8,7 @@
 #include <immintrin.h>
 
 #include <cstdint>
+#include <utility>
 #include <vector>
 
 #include "geom/bvh.h"
@@ -50,9 +51,18 @@ class WideBvh {
 template <typename Leaf>
 void WideBvh::traverse(const std::vector<BvhNode>& binary, const WatertightRay& r, float tmin,
                        float* closest, Leaf&& leaf) const {
-  const std::vector<WideNode>& wide = nodes;
-  // Per axis, the near and far planes' arrays (by the direction's sign), as in slab_hit().
-  const int nx = r.near_is_hi[0], ny = r.near_is_hi[1], nz = r.near_is_hi[2];
+  const WideNode* const wide = nodes.data();
+  const BvhNode* const bin = binary.data();
+  // Per axis, the near and far planes' arrays, chosen once per ray by the direction's sign, as
+  // in slab_hit().
+  using Planes = float(WideNode::*)[4];
+  const bool hx = r.near_is_hi[0], hy = r.near_is_hi[1], hz = r.near_is_hi[2];
+  const Planes near_x = hx ? &WideNode::hi_x : &WideNode::lo_x,
+               far_x = hx ? &WideNode::lo_x : &WideNode::hi_x;
+  const Planes near_y = hy ? &WideNode::hi_y : &WideNode::lo_y,
+               far_y = hy ? &WideNode::lo_y : &WideNode::hi_y;
+  const Planes near_z = hz ? &WideNode::hi_z : &WideNode::lo_z,
+               far_z = hz ? &WideNode::lo_z : &WideNode::hi_z;
   const __m128 ox = _mm_set1_ps(r.org.x), oy = _mm_set1_ps(r.org.y), oz = _mm_set1_ps(r.org.z);
   const __m128 ix = _mm_set1_ps(r.inv_dir.x), iy = _mm_set1_ps(r.inv_dir.y),
                iz = _mm_set1_ps(r.inv_dir.z);
@@ -64,47 +74,72 @@ void WideBvh::traverse(const std::vector<BvhNode>& binary, const WatertightRay& 
   };
   Entry stack[kWideStackSize];
   int sp = 0;
-  stack[sp++] = {0, tmin};
-  while (sp > 0) {
-    const Entry e = stack[--sp];
-    if (e.tnear > *closest) continue;
-    if (e.ref & kLeafBit) {
-      leaf(binary[e.ref & ~kLeafBit], closest);
-      continue;
-    }
-    const WideNode& w = wide[e.ref];
-    // The same robust slab test as slab_hit(), four boxes at once; _mm_max_ps / _mm_min_ps
-    // return their second operand when the first is NaN, so a NaN slab never narrows.
-    const __m128 lox = _mm_load_ps(nx ? w.hi_x : w.lo_x), hix = _mm_load_ps(nx ? w.lo_x : w.hi_x);
-    const __m128 loy = _mm_load_ps(ny ? w.hi_y : w.lo_y), hiy = _mm_load_ps(ny ? w.lo_y : w.hi_y);
-    const __m128 loz = _mm_load_ps(nz ? w.hi_z : w.lo_z), hiz = _mm_load_ps(nz ? w.lo_z : w.hi_z);
-    __m128 tn = tmin4, tf = _mm_set1_ps(*closest);
-    tn = _mm_max_ps(_mm_mul_ps(_mm_sub_ps(lox, ox), ix), tn);
-    tn = _mm_max_ps(_mm_mul_ps(_mm_sub_ps(loy, oy), iy), tn);
-    tn = _mm_max_ps(_mm_mul_ps(_mm_sub_ps(loz, oz), iz), tn);
-    tf = _mm_min_ps(_mm_mul_ps(_mm_mul_ps(_mm_sub_ps(hix, ox), ix), widen), tf);
-    tf = _mm_min_ps(_mm_mul_ps(_mm_mul_ps(_mm_sub_ps(hiy, oy), iy), widen), tf);
-    tf = _mm_min_ps(_mm_mul_ps(_mm_mul_ps(_mm_sub_ps(hiz, oz), iz), widen), tf);
-    int mask = _mm_movemask_ps(_mm_cmple_ps(tn, tf));
-    if (!mask) continue;
-    alignas(16) float tns[4];
-    _mm_store_ps(tns, tn);
-    // Push the hit children farthest first, so the nearest is popped next.
-    Entry hits[4];
-    int nh = 0;
-    while (mask) {
-      const int k = __builtin_ctz(mask);
-      mask &= mask - 1;
-      Entry c{w.child[k], tns[k]};
-      int j = nh++;
-      while (j > 0 && hits[j - 1].tnear < c.tnear) {
-        hits[j] = hits[j - 1];
-        --j;
+  // `ref` is the node being visited; the nearest hit child is visited next without a round
+  // trip through the stack, the others are pushed farthest first.
+  uint32_t ref = 0;
+  while (true) {
+    if (ref & kLeafBit) {
+      leaf(bin[ref & ~kLeafBit], closest);
+    } else {
+      const WideNode& w = wide[ref];
+      // The same robust slab test as slab_hit(), four boxes at once; _mm_max_ps / _mm_min_ps
+      // return their second operand when the first is NaN, so a NaN slab never narrows.
+      __m128 tn = tmin4, tf = _mm_set1_ps(*closest);
+      tn = _mm_max_ps(_mm_mul_ps(_mm_sub_ps(_mm_load_ps(w.*near_x), ox), ix), tn);
+      tn = _mm_max_ps(_mm_mul_ps(_mm_sub_ps(_mm_load_ps(w.*near_y), oy), iy), tn);
+      tn = _mm_max_ps(_mm_mul_ps(_mm_sub_ps(_mm_load_ps(w.*near_z), oz), iz), tn);
+      tf = _mm_min_ps(_mm_mul_ps(_mm_mul_ps(_mm_sub_ps(_mm_load_ps(w.*far_x), ox), ix), widen), tf);
+      tf = _mm_min_ps(_mm_mul_ps(_mm_mul_ps(_mm_sub_ps(_mm_load_ps(w.*far_y), oy), iy), widen), tf);
+      tf = _mm_min_ps(_mm_mul_ps(_mm_mul_ps(_mm_sub_ps(_mm_load_ps(w.*far_z), oz), iz), widen), tf);
+      int mask = _mm_movemask_ps(_mm_cmple_ps(tn, tf));
+      if (mask) {
+        const uint32_t* child = w.child;
+        const int k0 = __builtin_ctz(mask);
+        mask &= mask - 1;
+        if (!mask) {  // one child: no ordering needed
+          ref = child[k0];
+          continue;
+        }
+        alignas(16) float tns[4];
+        _mm_store_ps(tns, tn);
+        const int k1 = __builtin_ctz(mask);
+        mask &= mask - 1;
+        if (!mask) {  // two children (the common case)
+          HFRT_CHECK_LT(sp, kWideStackSize);
+          if (tns[k0] <= tns[k1]) {
+            stack[sp++] = {child[k1], tns[k1]};
+            ref = child[k0];
+          } else {
+            stack[sp++] = {child[k0], tns[k0]};
+            ref = child[k1];
+          }
+          continue;
+        }
+        // Three or four: sorted farthest first, the nearest is visited next.
+        Entry hits[4] = {{child[k0], tns[k0]}, {child[k1], tns[k1]}};
+        int nh = 2;
+        if (hits[0].tnear < hits[1].tnear) std::swap(hits[0], hits[1]);
+        while (mask) {
+          const int k = __builtin_ctz(mask);
+          mask &= mask - 1;
+          const Entry c{child[k], tns[k]};
+          int j = nh++;
+          while (j > 0 && hits[j - 1].tnear < c.tnear) {
+            hits[j] = hits[j - 1];
+            --j;
+          }
+          hits[j] = c;
+        }
+        HFRT_CHECK_LE(sp + nh - 1, kWideStackSize);
+        for (int k = 0; k < nh - 1; ++k) stack[sp++] = hits[k];
+        ref = hits[nh - 1].ref;
+        continue;
       }
-      hits[j] = c;
     }
-    HFRT_CHECK_LE(sp + nh, kWideStackSize);
-    for (int k = 0; k < nh; ++k) stack[sp++] = hits[k];
+    // Pop the next node that can still hold a closer hit.
+    while (sp > 0 && stack[sp - 1].tnear > *closest) --sp;
+    if (sp == 0) break;
+    ref = stack[--sp].ref;
   }
 }
 

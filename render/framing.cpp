@@ -56,27 +56,50 @@ Box extent_by_intervals(const Field& field, const Box& bbox, int depth) {
   return found;
 }
 
+/// The bounding box of the inside points of an n^3 grid over `bbox` (one cell of margin added),
+/// found by sweeping whole grid slices inwards from each side and stopping at the first slice
+/// with an inside point: the same box as testing every grid point, at the cost of the slices
+/// outside the solid only (a few slices for a tight box instead of n^3 points, which matters
+/// for fields that are expensive per point, such as mesh and patch leaves).
 Box extent_by_sampling(const Field& field, const Box& bbox, int depth) {
   const int n = (1 << std::min(depth, 7)) + 1;
-  Vec3 cell = bbox.size() / float(n - 1);
-  Box found = empty_box();
+  const Vec3 cell = bbox.size() / float(n - 1);
+  auto coord = [&](int axis, int i) {
+    return i == n - 1 ? bbox.hi[axis] : bbox.lo[axis] + cell[axis] * float(i);
+  };
   std::vector<float> xs(size_t(n) * n), ys(xs.size()), zs(xs.size()), fs(xs.size());
-  for (int k = 0; k < n; ++k) {
-    float z = k == n - 1 ? bbox.hi.z : bbox.lo.z + cell.z * float(k);
-    for (int j = 0; j < n; ++j) {
-      for (int i = 0; i < n; ++i) {
-        size_t idx = size_t(j) * n + i;
-        xs[idx] = i == n - 1 ? bbox.hi.x : bbox.lo.x + cell.x * float(i);
-        ys[idx] = j == n - 1 ? bbox.hi.y : bbox.lo.y + cell.y * float(j);
-        zs[idx] = z;
+  // Grid index ranges [lo[a], hi[a]] still to consider on each axis.
+  int lo[3] = {0, 0, 0}, hi[3] = {n - 1, n - 1, n - 1};
+  // Whether the slice `axis` = i (the other two axes over their current ranges) holds a point
+  // where F >= 0 (NaN counts as outside).
+  auto slice_has_inside = [&](int axis, int i) {
+    const int u = (axis + 1) % 3, v = (axis + 2) % 3;
+    size_t m = 0;
+    float* p[3] = {xs.data(), ys.data(), zs.data()};
+    for (int b = lo[v]; b <= hi[v]; ++b) {
+      for (int a = lo[u]; a <= hi[u]; ++a, ++m) {
+        p[axis][m] = coord(axis, i);
+        p[u][m] = coord(u, a);
+        p[v][m] = coord(v, b);
       }
     }
-    field.eval(xs.size(), xs.data(), ys.data(), zs.data(), fs.data());
-    for (size_t idx = 0; idx < xs.size(); ++idx) {
-      if (fs[idx] >= 0) grow(found, Box{{xs[idx], ys[idx], zs[idx]}, {xs[idx], ys[idx], zs[idx]}});
+    field.eval(m, xs.data(), ys.data(), zs.data(), fs.data());
+    for (size_t k = 0; k < m; ++k) {
+      if (fs[k] >= 0) return true;
     }
+    return false;
+  };
+  for (int axis = 0; axis < 3; ++axis) {
+    int first = lo[axis];
+    while (first <= hi[axis] && !slice_has_inside(axis, first)) ++first;
+    if (first > hi[axis]) return empty_box();  // no grid point is inside
+    int last = hi[axis];
+    while (last > first && !slice_has_inside(axis, last)) --last;
+    lo[axis] = first;
+    hi[axis] = last;
   }
-  if (found.empty()) return found;
+  Box found{{coord(0, lo[0]), coord(1, lo[1]), coord(2, lo[2])},
+            {coord(0, hi[0]), coord(1, hi[1]), coord(2, hi[2])}};
   // The surface can be up to one cell beyond the outermost inside sample.
   found.lo = vmax(found.lo - cell, bbox.lo);
   found.hi = vmin(found.hi + cell, bbox.hi);

@@ -4,6 +4,7 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <random>
 
 #include "geom/mesh_surface.h"
@@ -176,6 +177,63 @@ TEST(Watertight, HeightfieldBoxEdgesAndVerticesExactly) {
           EXPECT_EQ(at_p, 1) << "through (" << p.x << "," << p.y << "," << p.z << ")";
         }
       }
+}
+
+// The nearest-hit query tests a leaf's triangles four at a time (SSE) and sends a triangle with
+// a zero edge function to the scalar kernel: rays exactly through vertices and edges must still
+// hit, and hit the very triangle the all-crossings query (and the binary BVH's scalar loop)
+// picks, with bitwise the same t and barycentrics.
+void expect_nearest_is_first_crossing(const MeshSurface& s, const Ray& ray,
+                                      const std::string& what) {
+  std::vector<Crossing> cr;
+  s.crossings(ray, 0, kInf, &cr);
+  SurfaceHit h, b;
+  const bool hit = s.intersect(ray, 0, kInf, &h);
+  ASSERT_EQ(hit, !cr.empty()) << what;
+  ASSERT_EQ(s.intersect_binary(ray, 0, kInf, &b), hit) << what;
+  if (!hit) return;
+  const Crossing* first = &cr[0];
+  for (const Crossing& c : cr)
+    if (c.t < first->t) first = &c;
+  EXPECT_EQ(h.t, first->t) << what;
+  EXPECT_EQ(b.t, h.t) << what;
+  // Two triangles hit at exactly the same t (at the box's rim, a touched silhouette vertex):
+  // either may be the nearest.
+  if (std::count_if(cr.begin(), cr.end(), [&](const Crossing& c) { return c.t == h.t; }) > 1)
+    return;
+  EXPECT_EQ(h.prim, first->prim) << what;
+  EXPECT_EQ(b.prim, h.prim) << what;
+  EXPECT_EQ(b.u, h.u) << what;
+  EXPECT_EQ(b.v, h.v) << what;
+}
+
+TEST(Watertight, NearestHitExactlyThroughVerticesAndEdges) {
+  const int n = 24;
+  const TriangleMesh m = testing::heightfield_box(n, 5);
+  const auto s = MeshSurface::build(m);
+  const Vec3 dirs[] = {{0, 0, -1}, {0, 0, 1}, {1, 2, -8}, {-2, 1, -4}, {0.5f, -1, 8}, {1, 1, -4}};
+  for (const Vec3& d : dirs)
+    for (int j = 0; j <= 2 * n; ++j)
+      for (int i = 0; i <= 2 * n; ++i) {
+        const int i0 = i / 2, j0 = j / 2, i1 = (i + 1) / 2, j1 = (j + 1) / 2;
+        const Vec3 p = (m.vertices[j0 * (n + 1) + i0] + m.vertices[j1 * (n + 1) + i1]) * 0.5f;
+        const Ray ray{p - d * 16.0f, d};
+        expect_nearest_is_first_crossing(*s, ray,
+                                         "through (" + std::to_string(p.x) + "," +
+                                             std::to_string(p.y) + "," + std::to_string(p.z) + ")");
+        if (::testing::Test::HasFatalFailure()) return;
+      }
+  // Armadillo: axis rays exactly through every 7th vertex.
+  const TriangleMesh& arm = testing::armadillo();
+  const MeshSurface& as = testing::armadillo_surface();
+  for (size_t v = 0; v < arm.vertices.size(); v += 7)
+    for (int axis = 0; axis < 3; ++axis) {
+      Vec3 org = arm.vertices[v], dir{0, 0, 0};
+      org[axis] = as.bounds().lo[axis] - 10;
+      dir[axis] = 1;
+      expect_nearest_is_first_crossing(as, {org, dir}, "vertex " + std::to_string(v));
+      if (::testing::Test::HasFatalFailure()) return;
+    }
 }
 
 TEST(Watertight, RandomRaysThroughTheHeightfieldBox) {

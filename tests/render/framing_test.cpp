@@ -42,6 +42,65 @@ TEST(Framing, ExtentBySamplingWithoutIntervals) {
   EXPECT_LT(e.hi.x, 5.0f + 0.7f);
 }
 
+/// Counts the points evaluated through a wrapped field.
+class CountingField final : public Field {
+ public:
+  explicit CountingField(const Field& f) : f_(f) {}
+  void eval(size_t n, const float* x, const float* y, const float* z, float* out) const override {
+    points += n;
+    f_.eval(n, x, y, z, out);
+  }
+  bool has_interval() const override { return f_.has_interval(); }
+  Interval eval_interval(const Box& box, bool* maybe_nan) const override {
+    return f_.eval_interval(box, maybe_nan);
+  }
+  void eval_gradient(size_t n, const float* x, const float* y, const float* z, float* f, float* dx,
+                     float* dy, float* dz) const override {
+    f_.eval_gradient(n, x, y, z, f, dx, dy, dz);
+  }
+  mutable size_t points = 0;
+
+ private:
+  const Field& f_;
+};
+
+TEST(Framing, SamplingSweepFindsTheSameBoxAsEveryGridPoint) {
+  // Regression for the slice sweep of the sampled extent: it must give the box of the inside
+  // points of the whole grid (plus one cell); after the interval octree has found a tight box
+  // it evaluates far fewer points than the n^3 of the grid.
+  using Ball = testing::BallsField::Ball;
+  testing::BallsField balls({Ball{{3, -2, 1}, 2}, Ball{{-4, 5, -6}, 1.5}, Ball{{6, 6, 6}, 0.7}});
+  balls.set_has_interval(false);
+  const int depth = 6, n = (1 << depth) + 1;
+  const Vec3 cell = kDefaultBox.size() / float(n - 1);
+  Vec3 lo{1e30f, 1e30f, 1e30f}, hi{-1e30f, -1e30f, -1e30f};
+  for (int k = 0; k < n; ++k) {
+    for (int j = 0; j < n; ++j) {
+      for (int i = 0; i < n; ++i) {
+        Vec3 p{i == n - 1 ? kDefaultBox.hi.x : kDefaultBox.lo.x + cell.x * float(i),
+               j == n - 1 ? kDefaultBox.hi.y : kDefaultBox.lo.y + cell.y * float(j),
+               k == n - 1 ? kDefaultBox.hi.z : kDefaultBox.lo.z + cell.z * float(k)};
+        float f;
+        balls.eval(1, &p.x, &p.y, &p.z, &f);
+        if (f >= 0) lo = vmin(lo, p), hi = vmax(hi, p);
+      }
+    }
+  }
+  Box want{vmax(lo - cell, kDefaultBox.lo), vmin(hi + cell, kDefaultBox.hi)};
+  CountingField counted(balls);
+  Box got = find_extent(counted, kDefaultBox, depth);
+  for (int a = 0; a < 3; ++a) {
+    EXPECT_EQ(got.lo[a], want.lo[a]) << "axis " << a;
+    EXPECT_EQ(got.hi[a], want.hi[a]) << "axis " << a;
+  }
+  testing::BallsField ball({Ball{{3, -2, 1}, 2}});
+  CountingField counted_ball(ball);
+  Box e = find_extent(counted_ball, kDefaultBox, depth);
+  EXPECT_LE(e.lo.x, 1.0f);
+  EXPECT_GE(e.hi.x, 5.0f);
+  EXPECT_LT(counted_ball.points, size_t(n) * n * n / 2);  // measured: a third
+}
+
 TEST(Framing, EmptyModelFallsBackToTheBox) {
   SphereField nothing({50, 50, 50}, 1);
   Box e = find_extent(nothing, kDefaultBox);
