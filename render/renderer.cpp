@@ -70,6 +70,9 @@ struct ThreadState {
   std::vector<Piece> stack;
   std::vector<float> hx, hy, hz, f, gx, gy, gz, attrs;
   std::vector<int> hit_index;
+  /// Per light: the ranges of t along the shadow rays of the current tile that its bundle
+  /// culling could not prove empty (see TileRenderer::cull_shadow_bundle).
+  std::vector<std::vector<Span>> shadow_spans;
   std::vector<float> accum;  // per pixel: r g b hits depth nx ny nz
   double cull_seconds = 0, search_seconds = 0, shade_seconds = 0;
   uint64_t primary_rays = 0, shadow_rays = 0, hits = 0;
@@ -112,6 +115,7 @@ class TileRenderer {
 
   void render_tile(int tx0, int ty0, int tx1, int ty1, ThreadState& ts) {
     auto t_start = Clock::now();
+    ts.searcher.set_plain_bisection(!opt_.interval_march_first);
     int tw = tx1 - tx0, th = ty1 - ty0;
     size_t npix = size_t(tw) * th;
     ts.accum.assign(npix * 8, 0.0f);
@@ -247,7 +251,55 @@ class TileRenderer {
     }
   }
 
-  bool occluded(Vec3 p, Vec3 n, const Light& light, ThreadState& ts) {
+  /// The shadow rays of a tile towards a directional light are parallel: for t in [a, b] their
+  /// points lie in the box of their origins moved by [a, b] along the light. Bisects [0, the
+  /// box diagonal] like cull_tile and keeps in `spans` the ranges of t whose box may hold the
+  /// surface, so that the per-ray searches skip what is empty for the whole tile (far from the
+  /// surface the rays leave, most of the way to the light).
+  void cull_shadow_bundle(const Box& origins, Vec3 l, std::vector<Span>* spans, ThreadState& ts) {
+    spans->clear();
+    const float width = std::max(origins.max_extent(), step_);
+    const float t_end = length(opt_.bbox.size()) + origins.max_extent();
+    ts.stack.clear();
+    ts.stack.push_back({0.0f, t_end, 0});
+    EvalCounters& c = ts.searcher.counters();
+    while (!ts.stack.empty()) {
+      auto p = ts.stack.back();
+      ts.stack.pop_back();
+      Box box = origins;
+      for (int i = 0; i < 3; ++i) {
+        float u = p.a * l[i], v = p.b * l[i];
+        // The ray points o + t l round: pad by a few ulps of the operands, as segment_box does.
+        float pad = 4e-7f * (std::max(std::abs(origins.lo[i]), std::abs(origins.hi[i])) +
+                             std::max(std::abs(u), std::abs(v))) +
+                    1e-30f;
+        box.lo[i] += std::min(u, v) - pad;
+        box.hi[i] += std::max(u, v) + pad;
+      }
+      box = intersect(box, opt_.bbox);
+      if (box.empty()) continue;
+      bool maybe_nan = false;
+      Interval iv = field_.eval_interval(box, &maybe_nan);
+      c.interval_calls++;
+      if (iv.hi < 0) continue;
+      if (p.level < 20 && (p.b - p.a) > width) {
+        float mid = p.a + (p.b - p.a) * 0.5f;
+        if (mid > p.a && mid < p.b) {
+          ts.stack.push_back({mid, p.b, p.level + 1});
+          ts.stack.push_back({p.a, mid, p.level + 1});
+          continue;
+        }
+      }
+      if (!spans->empty() && spans->back().b == p.a) {
+        spans->back().b = p.b;
+      } else {
+        spans->push_back({p.a, p.b});
+      }
+    }
+  }
+
+  bool occluded(Vec3 p, Vec3 n, const Light& light, const std::vector<Span>* spans,
+                ThreadState& ts) {
     Vec3 o = p + n * shadow_bias_;
     Vec3 l;
     float dist = std::numeric_limits<float>::infinity();
@@ -265,6 +317,16 @@ class TileRenderer {
     tx = std::min(tx, dist);
     if (!(te <= tx)) return false;
     ts.shadow_rays++;
+    if (spans && !use_analytic_) {
+      for (const Span& span : *spans) {
+        float a = std::max(span.a, te), b = std::min(span.b, tx);
+        if (!(a <= b)) continue;
+        RootHit h = use_interval_ ? ts.searcher.interval_search(r, a, b, eps_, step_, true)
+                                  : ts.searcher.pruned_sign_search(r, a, b, step_, eps_, true);
+        if (h.hit) return true;
+      }
+      return false;
+    }
     RootHit h = use_analytic_   ? ts.searcher.analytic_search(r, te, tx)
                 : use_interval_ ? ts.searcher.interval_search(r, te, tx, eps_, step_, true)
                 : cull_         ? ts.searcher.pruned_sign_search(r, te, tx, step_, eps_, true)
@@ -298,6 +360,28 @@ class TileRenderer {
       c.attribute_calls++;
       c.attribute_points += n;
     }
+    // Bundle culling of the shadow rays towards each directional light (when the field has
+    // intervals and culling is on). Their origins p + n bias lie within bias of the hit points.
+    const bool bundles = opt_.shadows && cull_ && !use_analytic_;
+    if (bundles) {
+      Box origins{{ts.hx[0], ts.hy[0], ts.hz[0]}, {ts.hx[0], ts.hy[0], ts.hz[0]}};
+      for (size_t k = 1; k < n; ++k) {
+        Vec3 p{ts.hx[k], ts.hy[k], ts.hz[k]};
+        origins.lo = vmin(origins.lo, p);
+        origins.hi = vmax(origins.hi, p);
+      }
+      const float grow = shadow_bias_ * 1.001f;
+      for (int i = 0; i < 3; ++i) {
+        origins.lo[i] -= grow + 4e-7f * std::abs(origins.lo[i]);
+        origins.hi[i] += grow + 4e-7f * std::abs(origins.hi[i]);
+      }
+      ts.shadow_spans.resize(lights_.size());
+      for (size_t li = 0; li < lights_.size(); ++li) {
+        if (lights_[li].kind == Light::Kind::kDirectional) {
+          cull_shadow_bundle(origins, normalize(lights_[li].v), &ts.shadow_spans[li], ts);
+        }
+      }
+    }
     for (size_t k = 0; k < n; ++k) {
       Sample& s = ts.samples[ts.hit_index[k]];
       Vec3 p{ts.hx[k], ts.hy[k], ts.hz[k]};
@@ -319,11 +403,14 @@ class TileRenderer {
         if (is_finite(a)) albedo = vmin(vmax(a, Vec3{0, 0, 0}), Vec3{1, 1, 1});
       }
       Vec3 color = albedo * kAmbient;
-      for (const Light& light : lights_) {
+      for (size_t li = 0; li < lights_.size(); ++li) {
+        const Light& light = lights_[li];
+        const std::vector<Span>* spans =
+            bundles && light.kind == Light::Kind::kDirectional ? &ts.shadow_spans[li] : nullptr;
         Vec3 l = light.kind == Light::Kind::kPoint ? normalize(light.v - p) : normalize(light.v);
         float ndotl = dot(nrm, l);
         if (ndotl <= 0) continue;
-        if (opt_.shadows && occluded(p, nrm, light, ts)) continue;
+        if (opt_.shadows && occluded(p, nrm, light, spans, ts)) continue;
         Vec3 h = normalize(l + view);
         float spec = kSpecular * std::pow(std::max(0.0f, dot(nrm, h)), kShininess);
         color += mul(albedo, light.color) * ndotl + light.color * spec;

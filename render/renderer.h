@@ -64,6 +64,11 @@ struct RenderOptions {
   Vec3 albedo{0.78f, 0.76f, 0.7f};
   /// Per-tile interval culling of empty space (used only when the field has intervals).
   bool tile_culling = true;
+  /// The interval search of camera rays marches to the first sample inside and bisects only
+  /// what lies before it (RootSearcher::interval_search). false: the plain bisection of the
+  /// whole range, whose count of interval evaluations the auto probe compares with its limit
+  /// (so that its verdict on a model's enclosures does not depend on that shortcut).
+  bool interval_march_first = true;
   ProgressFn progress;
   /// When set and it becomes true, the render stops: tiles not yet started are skipped (it is
   /// read once per tile), and RenderStats::cancelled tells the image is incomplete. The REPL

@@ -130,11 +130,62 @@ RootHit RootSearcher::sign_search(const Ray& ray, float t0, float t1, float step
 RootHit RootSearcher::interval_search(const Ray& ray, float t0, float t1, float eps,
                                       float fallback_step, bool any_hit) {
   if (!(t0 <= t1)) return {};
-  stack_.clear();
-  stack_.push_back({t0, t1});
   int budget = kIntervalBudget;
+  stack_.clear();
+  if (any_hit) {
+    // A shadow ray starts next to the surface it leaves, where only short pieces can be proven
+    // empty: start with pieces growing geometrically away from t0 (one march step, then
+    // doubling) instead of halving [t0, t1] down to them. Pushed back to front.
+    float len = fallback_step > 0 ? fallback_step : t1 - t0;
+    size_t first = stack_.size();
+    for (float a = t0; a < t1; len *= 2) {
+      float b = len < t1 - a ? a + len : t1;
+      if (!(b > a)) b = t1;
+      stack_.push_back({a, b, false});
+      a = b;
+    }
+    if (stack_.size() == first) stack_.push_back({t0, t1, false});  // t0 == t1: one point
+    std::reverse(stack_.begin() + first, stack_.end());
+    return bisect(ray, t0, eps, fallback_step, any_hit, &budget);
+  }
+  if (plain_bisection_) {
+    stack_.push_back({t0, t1, false});
+    return bisect(ray, t0, eps, fallback_step, false, &budget);
+  }
+  // Find the first crossing cheaply: a march with point samples (many per call, each far
+  // cheaper than an interval evaluation) and the refinement of its bracket.
+  RootHit m = sign_search(ray, t0, t1, fallback_step, eps * 0.25f, false);
+  if (!m.hit) {
+    // No sample inside: only the bisection can tell a miss from a feature thinner than the step.
+    stack_.push_back({t0, t1, false});
+    return bisect(ray, t0, eps, fallback_step, false, &budget);
+  }
+  if (m.at_start) return m;
+  // Then prove with intervals that nothing lies before it: [t0, m.t - kVerifyGap eps] is
+  // covered by pieces that grow by kVerifyGrowth away from the root, each at least as far from
+  // the root as it is long, so that one interval evaluation usually excludes it; a piece that is
+  // not excluded is bisected as usual and its first leaf that may hold the surface is the hit.
+  // The last few eps before the root are left out: there the bisection itself cannot tell a
+  // feature from the root (the enclosures of pieces that close to a root reach 0 too) and
+  // reports a leaf within about that distance. So the answer is the bisection's to within a few
+  // eps, at a fraction of its interval evaluations, which near a root are spent on pieces too
+  // close to it to be excluded.
+  float len = kVerifyGap * eps;
+  for (float b = m.t - kVerifyGap * eps; b > t0; len *= kVerifyGrowth) {
+    float a = len < b - t0 ? b - len : t0;
+    if (!(a < b)) a = t0;
+    stack_.push_back({a, b, false});
+    b = a;
+  }
+  RootHit h = bisect(ray, t0, eps, fallback_step, false, &budget);
+  return h.hit ? h : m;
+}
+
+RootHit RootSearcher::bisect(const Ray& ray, float t0, float eps, float fallback_step, bool any_hit,
+                             int* budget) {
+  const float march_span = kPrunedSpan * fallback_step;
   while (!stack_.empty()) {
-    if (budget-- <= 0) {
+    if ((*budget)-- <= 0) {
       // Out of budget: finish the remaining pieces, front to back, by marching.
       counters_.interval_fallbacks++;
       while (!stack_.empty()) {
@@ -160,11 +211,19 @@ RootHit RootSearcher::interval_search(const Ray& ray, float t0, float t1, float 
       // its start.
       return {true, p.a, p.a == t0};
     }
+    if (any_hit && !p.marched && p.b - p.a <= march_span) {
+      // A shadow ray only asks whether some point is inside, in any order: one march over the
+      // piece settles most occluded rays without bisecting down to the tolerance. A miss of the
+      // march proves nothing (a thinner feature), so the bisection goes on.
+      RootHit h = sign_search(ray, p.a, p.b, fallback_step, eps, true);
+      if (h.hit) return {true, h.t, h.at_start && p.a == t0};
+      p.marched = true;
+    }
     float mid = p.a + (p.b - p.a) * 0.5f;
     bool leaf = p.b - p.a <= eps || !(mid > p.a && mid < p.b);
     if (!leaf) {
-      stack_.push_back({mid, p.b});
-      stack_.push_back({p.a, mid});
+      stack_.push_back({mid, p.b, p.marched});
+      stack_.push_back({p.a, mid, p.marched});
       continue;
     }
     ts_.resize(std::max<size_t>(ts_.size(), 3));
@@ -221,7 +280,7 @@ RootHit RootSearcher::pruned_sign_search(const Ray& ray, float t0, float t1, flo
                                          bool any_hit) {
   if (!(t0 <= t1)) return {};
   const float span = kPrunedSpan * step;
-  std::vector<Piece> stack{{t0, t1}};  // separate from stack_: sign_search does not use it
+  std::vector<Piece> stack{{t0, t1, false}};  // separate from stack_: sign_search does not use it
   while (!stack.empty()) {
     Piece p = stack.back();
     stack.pop_back();
@@ -231,8 +290,8 @@ RootHit RootSearcher::pruned_sign_search(const Ray& ray, float t0, float t1, flo
     if (iv.hi < 0) continue;
     float mid = p.a + (p.b - p.a) * 0.5f;
     if (p.b - p.a > span && mid > p.a && mid < p.b) {
-      stack.push_back({mid, p.b});
-      stack.push_back({p.a, mid});
+      stack.push_back({mid, p.b, false});
+      stack.push_back({p.a, mid, false});
       continue;
     }
     // Everything before p.a was excluded or marched without a hit.

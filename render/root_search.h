@@ -10,7 +10,9 @@
 //    one that straddles 0 is split, down to the tolerance. A piece that still straddles at the
 //    tolerance counts as a hit even when no sample inside it is >= 0: that is what keeps thin
 //    shells and tangent touches from being missed (at worst a hit is reported within about
-//    the tolerance of the true surface).
+//    the tolerance of the true surface). Camera rays march to the first sample inside first
+//    (point samples are far cheaper than interval evaluations) and bisect only the pieces
+//    before it, which grow away from it; shadow rays march each short piece before bisecting it.
 //  - analytic: the Field lists every parameter where F may change sign on the ray (the real
 //    roots of its polynomial leaves, Field::ray_candidates); F is evaluated once between
 //    consecutive candidates, and the hit is the first candidate after which F >= 0. Exact to
@@ -62,13 +64,26 @@ class RootSearcher {
   /// crossing is not refined.
   RootHit sign_search(const Ray& ray, float t0, float t1, float step, float eps, bool any_hit);
 
-  /// Interval bisection search (needs field.has_interval()). `eps` in units of t. A ray that
+  /// Interval search (needs field.has_interval()): the first t where the interval enclosure of
+  /// F over a piece of length <= `eps` (units of t) still reaches 0, so that no feature thinner
+  /// than the march step is missed. Without `any_hit` it marches (`fallback_step`) to the first
+  /// sample inside, refines it, and bisects only what lies before it (see kVerifyGap); with
+  /// `any_hit` (shadow rays) it bisects pieces growing away from t0 and marches each piece of at
+  /// most kPrunedSpan steps once before bisecting it further. A ray that
   /// needs more than kIntervalBudget interval evaluations (an evaluator whose enclosures stay
   /// wide, e.g. [-inf, inf] after a division) finishes its remaining pieces with the sign-change
   /// march at `fallback_step`, so that no ray costs unbounded time; such rays are counted.
   RootHit interval_search(const Ray& ray, float t0, float t1, float eps, float fallback_step,
                           bool any_hit);
   static constexpr int kIntervalBudget = 4096;
+  /// The primary search marches to the first sample inside, refines it, then proves with
+  /// intervals that [t0, root - kVerifyGap eps] holds no surface, covered by pieces growing by
+  /// kVerifyGrowth away from the root (bisected as usual where not excluded).
+  static constexpr float kVerifyGap = 4;
+  static constexpr float kVerifyGrowth = 3;
+  /// With `on`, interval_search without any_hit is the plain bisection of [t0, t1] (no march
+  /// first): what RenderOptions::interval_march_first = false asks for.
+  void set_plain_bisection(bool on) { plain_bisection_ = on; }
 
   /// Sign-change search that first drops pieces of [t0, t1] whose interval is below 0, marching
   /// only pieces of at most kPrunedSpan steps that may hold the surface. For rays that no
@@ -103,11 +118,17 @@ class RootSearcher {
   std::vector<float> ts_, xs_, ys_, zs_, fs_;
   struct Piece {
     float a, b;
+    bool marched;  // a shadow ray's piece (or its parent) already marched without a hit
   };
+  /// The bisection of interval_search over the pieces on stack_ (the front one on top), front
+  /// to back; at_start is relative to t0. Counts interval evaluations against `*budget`.
+  RootHit bisect(const Ray& ray, float t0, float eps, float fallback_step, bool any_hit,
+                 int* budget);
   std::vector<Piece> stack_;
   std::vector<double> candidates_;
   bool has_nan_point_ = false;
   Vec3 nan_point_;
+  bool plain_bisection_ = false;
 };
 
 /// A box enclosing the segment o + t d, t in [a, b], widened for rounding so that every sample

@@ -76,6 +76,59 @@ TEST(RootSearch, ThinShellMissedByCoarseStepFoundByIntervals) {
   EXPECT_LT(sign_hits, 50);  // the coarse march does miss it: the test can tell them apart
 }
 
+/// A thin shell (radius 5, 0.01 thick) around a solid ball of radius 2: F = max(shell, ball).
+class ShellAroundBall final : public testing::AnalyticField {
+ public:
+  double value(double x, double y, double z) const override {
+    return std::max(shell_.value(x, y, z), ball_.value(x, y, z));
+  }
+  Vec3 gradient(double x, double y, double z) const override {
+    return shell_.value(x, y, z) > ball_.value(x, y, z) ? shell_.gradient(x, y, z)
+                                                        : ball_.gradient(x, y, z);
+  }
+  Interval interval(const Box& b) const override {
+    Interval s = shell_.interval(b), c = ball_.interval(b);
+    return {std::max(s.lo, c.lo), std::max(s.hi, c.hi)};
+  }
+
+ private:
+  ShellField shell_{5, 0.01};
+  SphereField ball_{{0, 0, 0}, 2};
+};
+
+TEST(RootSearch, IntervalMarchFirstStillFindsAThinShellInFrontOfASolid) {
+  // The march (step 0.3) steps over the shell and finds the ball; the intervals over what lies
+  // before the ball must still find the shell, as the plain bisection does.
+  ShellAroundBall f;
+  RootSearcher fast(f), plain(f);
+  plain.set_plain_bisection(true);
+  for (int i = 0; i < 50; ++i) {
+    Ray ray{{0.01f * float(i), 0.3f, 20}, {0, 0, -1}};
+    RootHit a = fast.interval_search(ray, 0, 40, 1e-5f, 0.3f, false);
+    RootHit b = plain.interval_search(ray, 0, 40, 1e-5f, 0.3f, false);
+    ASSERT_TRUE(a.hit && b.hit);
+    double rho2 = double(ray.o.x) * ray.o.x + 0.09;
+    EXPECT_NEAR(a.t, 20 - std::sqrt(25 - rho2), 1e-4);
+    EXPECT_NEAR(a.t, b.t, 1e-4);
+  }
+}
+
+TEST(RootSearch, IntervalMarchFirstAgreesWithBisectionWithFewerIntervals) {
+  SphereField sphere({0, 0, 0}, 3);
+  RootSearcher fast(sphere), plain(sphere);
+  plain.set_plain_bisection(true);
+  for (int i = 0; i < 40; ++i) {
+    Ray ray{{0.07f * float(i), 0.5f, 20}, {0, 0, -1}};
+    RootHit a = fast.interval_search(ray, 0, 40, 1e-5f, 0.05f, false);
+    RootHit b = plain.interval_search(ray, 0, 40, 1e-5f, 0.05f, false);
+    ASSERT_EQ(a.hit, b.hit) << i;
+    if (a.hit) {
+      EXPECT_NEAR(a.t, b.t, 1e-4) << i;
+    }
+  }
+  EXPECT_LT(fast.counters().interval_calls, plain.counters().interval_calls);
+}
+
 TEST(RootSearch, TangentTouchIsFound) {
   // A ray that grazes the ball at exactly one point (F <= 0 on the whole ray, = 0 once).
   SphereField sphere({0, 0, 0}, 2);

@@ -97,6 +97,7 @@ std::string probe_auto_root(const render::Field& field, render::RenderOptions* o
   probe.spp = 1;
   probe.shadows = false;
   probe.root = render::RootMode::kInterval;
+  probe.interval_march_first = false;  // the verdict measures the enclosures, not the search
   probe.progress = nullptr;
   probe.threads = opt->threads;
   const uint64_t rays = uint64_t(probe.width) * uint64_t(probe.height);
