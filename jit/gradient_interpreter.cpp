@@ -163,42 +163,7 @@ Dual apply_dual(Op op, const Dual& a, const Dual& b, const Dual& c) {
 
 GradientInterpreter::GradientInterpreter(const Function& fn, int64_t loop_limit)
     : fn_(fn), loop_limit_(loop_limit) {
-  // kIf -> kElse or kEndIf; kElse -> kEndIf; kLoop -> kLoopTest; kLoopTest -> kEndLoop;
-  // kEndLoop -> kLoop.
-  match_.assign(fn.insts.size(), -1);
-  std::vector<size_t> stack, loops;
-  for (size_t i = 0; i < fn.insts.size(); ++i) {
-    switch (fn.insts[i].op) {
-      case Op::kIf:
-        stack.push_back(i);
-        break;
-      case Op::kLoop:
-        stack.push_back(i);
-        loops.push_back(i);
-        break;
-      case Op::kElse:
-      case Op::kLoopTest:
-        HFRT_CHECK(!stack.empty());
-        match_[stack.back()] = static_cast<int32_t>(i);
-        stack.back() = i;
-        break;
-      case Op::kEndIf:
-        HFRT_CHECK(!stack.empty());
-        match_[stack.back()] = static_cast<int32_t>(i);
-        stack.pop_back();
-        break;
-      case Op::kEndLoop:
-        HFRT_CHECK(!stack.empty() && !loops.empty());
-        match_[stack.back()] = static_cast<int32_t>(i);
-        match_[i] = static_cast<int32_t>(loops.back());
-        stack.pop_back();
-        loops.pop_back();
-        break;
-      default:
-        break;
-    }
-  }
-  HFRT_CHECK(stack.empty());
+  match_ = match_regions(fn);
   values_.resize(fn.insts.size());
 }
 

@@ -562,35 +562,7 @@ Interval apply_interval(Op op, Interval a, Interval b, Interval c, bool same_arg
 
 IntervalInterpreter::IntervalInterpreter(const Function& fn, int loop_limit)
     : fn_(fn), loop_limit_(loop_limit) {
-  match_.assign(fn.insts.size(), -1);
-  std::vector<size_t> stack;
-  for (size_t i = 0; i < fn.insts.size(); ++i) {
-    switch (fn.insts[i].op) {
-      case Op::kIf:
-      case Op::kLoop:
-        stack.push_back(i);
-        break;
-      case Op::kElse:
-        HFRT_CHECK(!stack.empty());
-        match_[stack.back()] = static_cast<int32_t>(i);
-        stack.back() = i;
-        break;
-      case Op::kLoopTest:
-        HFRT_CHECK(!stack.empty());
-        match_[stack.back()] = static_cast<int32_t>(i);
-        stack.back() = i;
-        break;
-      case Op::kEndIf:
-      case Op::kEndLoop:
-        HFRT_CHECK(!stack.empty());
-        match_[stack.back()] = static_cast<int32_t>(i);
-        stack.pop_back();
-        break;
-      default:
-        break;
-    }
-  }
-  HFRT_CHECK(stack.empty());
+  match_ = match_regions(fn);
   values_.resize(fn.insts.size());
 }
 

@@ -43,6 +43,7 @@ enum class ErrorKind : uint8_t {
 };
 
 std::string_view op_name(Op op);
+
 int op_num_args(Op op);
 unsigned op_flags_of(Op op);
 inline bool op_is_pure(Op op) {
@@ -98,6 +99,11 @@ std::string verify(const Function& fn);
 /// Text form for `hfrt ir` and golden tests: one instruction per line, indented by nesting,
 /// e.g. `%12 = add %10, %11    ; 3:14`.
 std::string print(const Function& fn);
+
+/// Control-flow partners, for evaluators that jump over regions: kIf -> its kElse or kEndIf,
+/// kElse -> kEndIf, kLoop -> kLoopTest, kLoopTest -> kEndLoop, kEndLoop -> its kLoop; -1
+/// elsewhere. HFRT_CHECKs proper nesting (the verifier's contract).
+std::vector<int32_t> match_regions(const Function& fn);
 
 /// Builds a Function with constant folding and common-subexpression sharing of pure ops
 /// (only against values whose region encloses the insertion point, so sharing never breaks

@@ -10,35 +10,6 @@
 
 namespace hfrt::jit {
 
-std::vector<int32_t> match_regions(const Function& fn) {
-  std::vector<int32_t> match(fn.insts.size(), -1);
-  std::vector<size_t> stack;
-  for (size_t i = 0; i < fn.insts.size(); ++i) {
-    switch (fn.insts[i].op) {
-      case Op::kIf:
-      case Op::kLoop:
-        stack.push_back(i);
-        break;
-      case Op::kElse:
-      case Op::kLoopTest:
-        HFRT_CHECK(!stack.empty());
-        match[stack.back()] = static_cast<int32_t>(i);
-        stack.back() = i;
-        break;
-      case Op::kEndIf:
-      case Op::kEndLoop:
-        HFRT_CHECK(!stack.empty());
-        match[stack.back()] = static_cast<int32_t>(i);
-        stack.pop_back();
-        break;
-      default:
-        break;
-    }
-  }
-  HFRT_CHECK(stack.empty());
-  return match;
-}
-
 std::vector<int> written_slots(const Function& fn, size_t begin, size_t end) {
   std::vector<char> w(fn.num_slots, 0);
   for (size_t i = begin; i < end; ++i) {

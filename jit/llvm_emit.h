@@ -16,10 +16,6 @@
 
 namespace hfrt::jit {
 
-/// Control-flow partners: kIf -> its kElse or kEndIf, kElse -> kEndIf, kLoop -> kLoopTest,
-/// kLoopTest -> kEndLoop; -1 elsewhere.
-std::vector<int32_t> match_regions(const Function& fn);
-
 /// Slots written (kStoreSlot, kStoreIdx) by the instructions in [begin, end), ascending.
 std::vector<int> written_slots(const Function& fn, size_t begin, size_t end);
 
