@@ -181,6 +181,32 @@ TEST(ReplSession, RenderRemembersOptions) {
   fs::remove_all(dir);
 }
 
+TEST(ReplSession, RendersAMeshLeafWithTheAnalyticSearch) {
+  // A mesh leaf in CSG with a ball renders through the session with the analytic search (the
+  // session prepares it as `hfrt render` does: ModelField::prepare_render).
+  Session s;
+  fs::path dir = temp_dir();
+  ASSERT_TRUE(s.run("my_model(x[3], a[1]) {\n"
+                    "  array v[24], t[36], c[3];\n"
+                    "  v = [-1,-1,-1, 1,-1,-1, 1,1,-1, -1,1,-1, -1,-1,1, 1,-1,1, 1,1,1, -1,1,1];\n"
+                    "  t = [1,3,2, 1,4,3, 5,6,7, 5,7,8, 1,2,6, 1,6,5, 4,8,7, 4,7,3, 1,5,8, 1,8,4,"
+                    " 2,3,7, 2,7,6];\n"
+                    "  c = [1, 1, 1];\n"
+                    "  my_model = hfTriangles(x, v, t) \\ hfSphere(x, c, 0.8);\n"
+                    "}")
+                  .ok);
+  EXPECT_GT(eval_value(s, "0 0 0"), 0.0);        // inside the cube, outside the ball
+  EXPECT_LT(eval_value(s, "0.9 0.9 0.9"), 0.0);  // cut away by the sphere
+  std::string out = (dir / "mesh.png").string();
+  SessionResult r = s.run(":render " + out + " --size 48x48 --bbox -2,-2,-2,2,2,2 --stats");
+  ASSERT_TRUE(r.ok) << r.err;
+  EXPECT_NE((r.out + r.err).find("root: analytic"), std::string::npos) << r.out << r.err;
+  const render::Image& img = *s.last_image();
+  EXPECT_GT(img.alpha[size_t(24) * 48 + 24], 0.5f);  // the cube is in the middle
+  EXPECT_EQ(img.alpha[0], 0.0f);
+  fs::remove_all(dir);
+}
+
 TEST(ReplSession, AnsiPreview) {
   render::Image img;
   img.resize(4, 4);

@@ -67,19 +67,9 @@ int run_render(const RenderCli& cli) {
   FramingInfo framing;
   if (!frame_camera(field, setup.camera, &opt, &framing, &err)) return usage_error(err);
   const RootDecision root = settle_root(field, &opt, &model_field.analytic_info(), cli.model.file);
-  // Compile the polynomial JIT before the render, not inside the first worker's first ray.
-  if (opt.root == render::RootMode::kAnalytic) {
-    model.prepare_polynomial();
-    // The analytic search samples only F's sign: mesh and patch leaves then cost a winding
-    // number instead of a distance query (ModelField::set_sign_only_eval). Its code is
-    // compiled here too (one evaluation).
-    model_field.set_sign_only_eval(true);
-    if (model_field.analytic_info().num_surface_leaves > 0) {
-      std::vector<float> origin(size_t(std::max(model.num_inputs(), 1)), 0.0f);
-      float f = 0;
-      model.eval_batch_sign(1, origin.data(), &f);
-    }
-  }
+  // The analytic search samples only F's sign: mesh and patch leaves then cost a winding
+  // number instead of a distance query.
+  model_field.prepare_render(opt.root);
 
   render::ProgressBar bar("rendering", isatty(STDERR_FILENO) != 0);
   opt.progress = [&bar](size_t done, size_t total) { bar.update(done, total); };

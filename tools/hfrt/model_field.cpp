@@ -279,4 +279,15 @@ std::optional<LoadedModel> load_model(const ModelRequest& request, bool eager_f3
   return loaded;
 }
 
+void ModelField::prepare_render(render::RootMode root) {
+  if (root != render::RootMode::kAnalytic) return;
+  model_.prepare_polynomial();
+  set_sign_only_eval(true);
+  if (sign_only_) {
+    std::vector<float> origin(size_t(std::max(model_.num_inputs(), 1)), 0.0f);
+    float f = 0;
+    model_.eval_batch_sign(1, origin.data(), &f);
+  }
+}
+
 }  // namespace hfrt::tools

@@ -19,6 +19,7 @@
 
 #include "hfrt/model.h"
 #include "render/field.h"
+#include "render/renderer.h"
 
 namespace hfrt::tools {
 
@@ -53,6 +54,10 @@ class ModelField final : public render::Field {
   void set_sign_only_eval(bool on) {
     sign_only_ = on && analytic_.qualifies && analytic_.num_surface_leaves > 0;
   }
+  /// Before a render with `root` (as settled): for the analytic search, compiles the
+  /// polynomial code now rather than inside the first worker's first ray, and switches eval()
+  /// to the sign-only path (compiling it too, by one evaluation). Nothing for other methods.
+  void prepare_render(render::RootMode root);
 
  private:
   const Model& model_;

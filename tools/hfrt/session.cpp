@@ -651,6 +651,7 @@ SessionResult Session::render_to(const std::string& out) {
                   opt.root, opt.tile_culling,      report.root.why};
   }
   report.auto_root = cli_.root == "auto";
+  model_field.prepare_render(opt.root);
   opt.cancel = &cancel_;
   if (on_coarse && opt.width >= 64 && opt.height >= 8) {
     render::RenderOptions coarse = opt;
