@@ -16,6 +16,26 @@ namespace {
 // ranges it cannot split, so depth stays logarithmic in practice; 128 leaves a large margin).
 constexpr int kStackSize = 128;
 
+/// A node of a distance search (closest point, distance bounds) and its squared distance.
+struct DistanceEntry {
+  uint32_t node;
+  float d2;
+};
+
+/// Pushes two sibling nodes so that the nearer is on top: it is searched first and tightens
+/// the bound that prunes the farther one.
+inline void push_nearer_on_top(DistanceEntry* stack, int& sp, uint32_t c0, float d0, uint32_t c1,
+                               float d1) {
+  HFRT_CHECK_LT(sp + 1, kStackSize);
+  if (d0 <= d1) {
+    stack[sp++] = {c1, d1};
+    stack[sp++] = {c0, d0};
+  } else {
+    stack[sp++] = {c0, d0};
+    stack[sp++] = {c1, d1};
+  }
+}
+
 // The ray of the 4-lane triangle test: the watertight ray's permuted origin and shear
 // broadcast to all lanes, built once per ray.
 struct PacketRay {
@@ -359,16 +379,12 @@ ClosestPoint MeshSurface::closest_point(Vec3 p, float max_distance) const {
   float best_d2 = max_distance < std::numeric_limits<float>::infinity()
                       ? max_distance * max_distance
                       : std::numeric_limits<float>::infinity();
-  struct Entry {
-    uint32_t node;
-    float d2;
-  };
-  Entry stack[kStackSize];
+  DistanceEntry stack[kStackSize];
   int sp = 0;
   stack[sp++] = {0, nodes_[0].bounds().distance2(p)};
   uint32_t best_slot = ~0u;
   while (sp > 0) {
-    const Entry e = stack[--sp];
+    const DistanceEntry e = stack[--sp];
     if (e.d2 >= best_d2) continue;
     const BvhNode& n = nodes_[e.node];
     if (n.is_leaf()) {
@@ -385,15 +401,7 @@ ClosestPoint MeshSurface::closest_point(Vec3 p, float max_distance) const {
     } else {
       const uint32_t c0 = n.index, c1 = n.index + 1;
       const float d0 = nodes_[c0].bounds().distance2(p), d1 = nodes_[c1].bounds().distance2(p);
-      HFRT_CHECK_LT(sp + 1, kStackSize);
-      // The nearer child goes on top so it is searched first and tightens best_d2.
-      if (d0 <= d1) {
-        stack[sp++] = {c1, d1};
-        stack[sp++] = {c0, d0};
-      } else {
-        stack[sp++] = {c0, d0};
-        stack[sp++] = {c1, d1};
-      }
+      push_nearer_on_top(stack, sp, c0, d0, c1, d1);
     }
   }
   if (best_slot != ~0u) {
@@ -465,15 +473,11 @@ float MeshSurface::signed_distance(Vec3 p, Vec3* gradient) const {
 
 float MeshSurface::distance_lower_bound(const Bounds3& box) const {
   float best = std::numeric_limits<float>::infinity();
-  struct Entry {
-    uint32_t node;
-    float d2;
-  };
-  Entry stack[kStackSize];
+  DistanceEntry stack[kStackSize];
   int sp = 0;
   stack[sp++] = {0, nodes_[0].bounds().distance2(box)};
   while (sp > 0) {
-    const Entry e = stack[--sp];
+    const DistanceEntry e = stack[--sp];
     if (e.d2 >= best) continue;
     const BvhNode& n = nodes_[e.node];
     if (n.is_leaf()) {
@@ -486,14 +490,7 @@ float MeshSurface::distance_lower_bound(const Bounds3& box) const {
     } else {
       const uint32_t c0 = n.index, c1 = n.index + 1;
       const float d0 = nodes_[c0].bounds().distance2(box), d1 = nodes_[c1].bounds().distance2(box);
-      HFRT_CHECK_LT(sp + 1, kStackSize);
-      if (d0 <= d1) {
-        stack[sp++] = {c1, d1};
-        stack[sp++] = {c0, d0};
-      } else {
-        stack[sp++] = {c0, d0};
-        stack[sp++] = {c1, d1};
-      }
+      push_nearer_on_top(stack, sp, c0, d0, c1, d1);
     }
   }
   // Rounding in the squared distance: shrink slightly so the bound stays a lower bound.
