@@ -4,12 +4,13 @@
 // in an R x R grid; the points are the boxes' centres.
 //
 //   hfrt_bench_interval [MODEL.hf] [--grid R] [--seconds S] [-O N] [--no-trace] [--compile-only]
-//                       [--inline-limit N]
+//                       [--inline-limit N] [--lanes W]
 //
 // -O picks the LLVM pipeline of the interval and gradient JITs (default 1); --no-trace
 // compiles the interval JIT without the min/max trace; --compile-only prints the compile
 // times (with their emit / optimise / codegen split) and evaluates nothing; --inline-limit
-// sets IntervalJit::Options::inline_limit (0: every op through its helper). The gradient
+// sets IntervalJit::Options::inline_limit (0: every op through its helper); --lanes the boxes per
+// SIMD block (default: the host's f64 width). The gradient
 // interpreter and JIT (f64, points/s at the box centres) are measured too.
 
 #include <algorithm>
@@ -58,6 +59,7 @@ int main(int argc, char** argv) {
   int opt_level = 1;
   bool trace = true;
   bool compile_only = false;
+  int lanes = 0;
   int inline_limit = jit::IntervalJit::Options{}.inline_limit;
   std::setvbuf(stdout, nullptr, _IOLBF, 0);
   for (int i = 1; i < argc; ++i) {
@@ -69,6 +71,8 @@ int main(int argc, char** argv) {
       trace = false;
     else if (!std::strcmp(argv[i], "--compile-only"))
       compile_only = true;
+    else if (!std::strcmp(argv[i], "--lanes") && i + 1 < argc)
+      lanes = std::atoi(argv[++i]);
     else if (!std::strcmp(argv[i], "--inline-limit") && i + 1 < argc)
       inline_limit = std::atoi(argv[++i]);
     else if (!std::strcmp(argv[i], "--seconds") && i + 1 < argc)
@@ -142,6 +146,7 @@ int main(int argc, char** argv) {
     o.trace = trace;
     o.opt_level = opt_level;
     o.inline_limit = inline_limit;
+    o.lanes = lanes;
     auto t0 = Clock::now();
     auto ij = jit::IntervalJit::compile(fn, o);
     double compile_s = seconds_since(t0);

@@ -8,7 +8,7 @@
 //   trunc/round, comparisons, logic, select) are emitted as vector code with the same
 //   formulas, outward rounding included (v +- max(|v| 2^-52, denorm_min): a few FP ops per
 //   endpoint, no rounding-mode changes, no fast-math); the
-//   libm-based ops (exp, log, trig, pow, fmod, div, ...) call apply_interval per lane through
+//   libm-based ops (exp, log, trig, pow, fmod, ...) call apply_interval per lane through
 //   a C-ABI helper.
 // - Code shape (compile time): every computed value lives in a home of a scratch buffer
 //   (ValueHomes, llvm_emit.h): stored where it is defined, loaded where it is used, so each
@@ -236,6 +236,25 @@ class IntervalEmitter : public VectorEmitter {
     llvm::Value* lo = vmin(vmin(c0, c1), vmin(c2, c3));
     llvm::Value* hi = vmax(vmax(c0, c1), vmax(c2, c3));
     return {down(lo), up(hi), nan};
+  }
+  /// The interpreter's div(): the four quotients where the divisor excludes 0, else
+  /// [-inf, inf]. Vector code (one correctly rounded fdiv per quotient), so that models dividing
+  /// by constants (blends: h / k) do not take the per-lane helper.
+  IV div(const IV& a, const IV& b) {
+    llvm::Value* nan0 = OR(a.nan, b.nan);
+    llvm::Value* b_inf = OR(isinf(b.lo), isinf(b.hi));
+    llvm::Value* a_inf = OR(isinf(a.lo), isinf(a.hi));
+    llvm::Value* bz = contains_zero(b);
+    auto q = [&](llvm::Value* u, llvm::Value* v) {
+      llvm::Value* r = b_.CreateFDiv(u, v);
+      return sel(isnan(r), splat(0), r);
+    };
+    llvm::Value *c0 = q(a.lo, b.lo), *c1 = q(a.lo, b.hi), *c2 = q(a.hi, b.lo), *c3 = q(a.hi, b.hi);
+    llvm::Value* lo = down(vmin(vmin(c0, c1), vmin(c2, c3)));
+    llvm::Value* hi = up(vmax(vmax(c0, c1), vmax(c2, c3)));
+    llvm::Value* nan_z = OR(nan0, OR(contains_zero(a), b_inf));
+    llvm::Value* nan_nz = OR(nan0, AND(a_inf, b_inf));
+    return {sel(bz, splat(-kInf), lo), sel(bz, splat(kInf), hi), sel(bz, nan_z, nan_nz)};
   }
   IV square(const IV& a) {
     llvm::Value *al = fabs(a.lo), *ah = fabs(a.hi);
@@ -698,6 +717,9 @@ class IntervalEmitter : public VectorEmitter {
       case Op::kMul:
         r = same ? square(a) : mul(a, b);
         break;
+      case Op::kDiv:
+        r = div(a, b);
+        break;
       case Op::kNeg:
         r = neg(a);
         break;
@@ -783,7 +805,7 @@ class IntervalEmitter : public VectorEmitter {
       }
       default:
         r = lane_call(op, a, b);
-        break;  // libm-based ops, div, pow, fmod, sign
+        break;  // libm-based ops, pow, fmod, sign
     }
     return r;
   }
