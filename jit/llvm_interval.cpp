@@ -52,15 +52,32 @@
 #include "jit/scalar_ops.h"
 #include "lang/check.h"
 
-/// apply_interval for one lane, called from JIT code for the libm-based ops.
+/// apply_interval for one lane, called from JIT code for the libm-based ops. A block that holds
+/// fewer boxes than lanes (one box per call from a bisection, the tail of a batch) repeats its
+/// last box in the spare lanes: the previous call's result is reused when the operands are the
+/// same bits, so those lanes cost a comparison instead of a libm enclosure.
 extern "C" void hfrt_interval_lane(int32_t op, double alo, double ahi, double anan, double blo,
                                    double bhi, double bnan, double* out) noexcept {
   using hfrt::jit::Interval;
+  struct Last {
+    int32_t op = -1;
+    double args[6];
+    double out[3];
+  };
+  thread_local Last last;
+  const double args[6] = {alo, ahi, anan, blo, bhi, bnan};
+  if (last.op == op && std::memcmp(last.args, args, sizeof args) == 0) {
+    std::memcpy(out, last.out, sizeof last.out);
+    return;
+  }
   Interval r = hfrt::jit::apply_interval(static_cast<hfrt::jit::Op>(op), {alo, ahi, anan != 0},
                                          {blo, bhi, bnan != 0}, {}, false);
   out[0] = r.lo;
   out[1] = r.hi;
   out[2] = r.maybe_nan ? 1.0 : 0.0;
+  last.op = op;
+  std::memcpy(last.args, args, sizeof args);
+  std::memcpy(last.out, out, sizeof last.out);
 }
 
 namespace hfrt::jit {
@@ -987,39 +1004,50 @@ void IntervalJit::eval(int64_t n, const double* x_lo, const double* x_hi, std::s
                        double* out_lo, double* out_hi, uint8_t* out_nan, uint8_t* choices) const {
   const Impl& im = *impl_;
   const int w = im.lanes, dims = im.num_inputs;
-  std::vector<double> params(std::max(im.num_params, 1), 0.0);
-  for (size_t k = 0; k < a.size() && k < params.size(); ++k) params[k] = a[k];
-  std::vector<uint8_t> no_choices;
+  // The renderer calls this for every few boxes of a bisection, millions of times a frame:
+  // per-thread buffers, so that no call allocates.
+  struct Scratch {
+    std::vector<double> params, homes, lo, hi, olo, ohi;
+    std::vector<uint8_t> no_choices, onan;
+  };
+  thread_local Scratch sc;
+  sc.params.assign(std::max(im.num_params, 1), 0.0);
+  for (size_t k = 0; k < a.size() && k < sc.params.size(); ++k) sc.params[k] = a[k];
   if (!choices) {
-    no_choices.assign(im.num_insts, 0);
-    choices = no_choices.data();
+    // Only OR-ed into: its contents do not matter.
+    if (sc.no_choices.size() < im.num_insts) sc.no_choices.resize(im.num_insts);
+    choices = sc.no_choices.data();
   }
-  std::vector<double> homes(static_cast<size_t>(std::max(im.num_homes, 1)) * 3 * w);
-  double* scratch = homes.data();
+  const size_t home_doubles = static_cast<size_t>(std::max(im.num_homes, 1)) * 3 * w;
+  if (sc.homes.size() < home_doubles) sc.homes.resize(home_doubles);
+  double* scratch = sc.homes.data();
+  const double* params = sc.params.data();
   int64_t full = n - n % w;
   for (int64_t i = 0; i < full; i += w) {
-    im.block(x_lo + i, x_hi + i, n, params.data(), out_lo + i, out_hi + i, out_nan + i, choices,
-             scratch);
+    im.block(x_lo + i, x_hi + i, n, params, out_lo + i, out_hi + i, out_nan + i, choices, scratch);
   }
   if (full < n) {
-    // The tail: a padded block whose extra lanes repeat the last box (harmless for the trace).
+    // The tail: a padded block whose extra lanes repeat the last box (harmless for the trace,
+    // and cheap for the per-lane helpers, which reuse the previous lane's result).
     const int64_t m = n - full;
-    std::vector<double> lo(static_cast<size_t>(w) * std::max(dims, 1)), hi(lo.size());
+    sc.lo.resize(static_cast<size_t>(w) * std::max(dims, 1));
+    sc.hi.resize(sc.lo.size());
     for (int k = 0; k < dims; ++k) {
       for (int j = 0; j < w; ++j) {
         int64_t src = full + std::min<int64_t>(j, m - 1);
-        lo[k * w + j] = x_lo[k * n + src];
-        hi[k * w + j] = x_hi[k * n + src];
+        sc.lo[k * w + j] = x_lo[k * n + src];
+        sc.hi[k * w + j] = x_hi[k * n + src];
       }
     }
-    std::vector<double> olo(w), ohi(w);
-    std::vector<uint8_t> onan(w);
-    im.block(lo.data(), hi.data(), w, params.data(), olo.data(), ohi.data(), onan.data(), choices,
-             scratch);
+    sc.olo.resize(w);
+    sc.ohi.resize(w);
+    sc.onan.resize(w);
+    im.block(sc.lo.data(), sc.hi.data(), w, params, sc.olo.data(), sc.ohi.data(), sc.onan.data(),
+             choices, scratch);
     for (int64_t j = 0; j < m; ++j) {
-      out_lo[full + j] = olo[j];
-      out_hi[full + j] = ohi[j];
-      out_nan[full + j] = onan[j];
+      out_lo[full + j] = sc.olo[j];
+      out_hi[full + j] = sc.ohi[j];
+      out_nan[full + j] = sc.onan[j];
     }
   }
 }

@@ -151,7 +151,7 @@ struct Compiled {
   std::unique_ptr<jit::Interpreter> interp;
   int opt_level = 2;
   int lanes = 0;
-  int interval_lanes = 1;
+  int interval_lanes = 0;
   bool interval_jit = false;  ///< the interval domain uses the JIT (else the interpreter)
   bool gradient_jit = false;
   mutable LazySlot<jit::JitFunction> jit[2];
@@ -504,38 +504,24 @@ IntervalValue Model::eval_interval(std::span<const double> lo, std::span<const d
     HFRT_CHECK_MSG(*l <= *h, "eval_interval: a box needs lo <= hi on every coordinate");
   };
   if (const jit::IntervalJit* code = c.get_interval()) {
-    // The renderer calls this once per box, millions of times a frame: fill one whole SIMD
-    // block (every lane the same box) from per-thread buffers, so that no call allocates
-    // here nor takes the JIT's padded-tail path. The trace goes to a scratch buffer when
-    // the caller does not want it.
+    // One box: the JIT pads its SIMD block with copies of it (the per-lane helpers of the
+    // libm-based ops compute a copy once), from per-thread buffers, so no call allocates.
     struct Scratch {
-      std::vector<double> lo, hi, out_lo, out_hi;
-      std::vector<uint8_t> out_nan, trace;
+      std::vector<double> lo, hi;
     };
     thread_local Scratch sc;
-    const size_t w = static_cast<size_t>(code->lanes());
-    sc.lo.resize(w * static_cast<size_t>(std::max(nx, 1)));
+    sc.lo.resize(static_cast<size_t>(std::max(nx, 1)));
     sc.hi.resize(sc.lo.size());
-    for (int k = 0; k < nx; ++k) {
-      double l, h;
-      coord(k, &l, &h);
-      std::fill_n(sc.lo.begin() + k * w, w, l);
-      std::fill_n(sc.hi.begin() + k * w, w, h);
-    }
-    sc.out_lo.resize(w);
-    sc.out_hi.resize(w);
-    sc.out_nan.resize(w);
+    for (int k = 0; k < nx; ++k) coord(k, &sc.lo[k], &sc.hi[k]);
+    double out_lo = 0, out_hi = 0;
+    uint8_t out_nan = 0;
     uint8_t* trace = nullptr;
     if (choices) {
       choices->assign(c.fn.insts.size(), 0);
       trace = choices->data();
-    } else {
-      sc.trace.resize(c.fn.insts.size());  // contents irrelevant: only OR-ed into
-      trace = sc.trace.data();
     }
-    code->eval(static_cast<int64_t>(w), sc.lo.data(), sc.hi.data(), impl_->params_f64,
-               sc.out_lo.data(), sc.out_hi.data(), sc.out_nan.data(), trace);
-    return {sc.out_lo[0], sc.out_hi[0], sc.out_nan[0] != 0};
+    code->eval(1, sc.lo.data(), sc.hi.data(), impl_->params_f64, &out_lo, &out_hi, &out_nan, trace);
+    return {out_lo, out_hi, out_nan != 0};
   }
   std::vector<jit::Interval> box(static_cast<size_t>(std::max(nx, 0)), jit::Interval{});
   for (int k = 0; k < nx; ++k) {

@@ -63,6 +63,13 @@ class Field {
   /// so a box with hi < 0 is empty even then.
   virtual Interval eval_interval(const Box& box, bool* maybe_nan) const = 0;
 
+  /// eval_interval() of n boxes at once: out[i] and maybe_nan[i] for boxes[i], the same values.
+  /// The renderer's searches batch their boxes, because the interval JIT evaluates a SIMD block
+  /// of boxes for about the cost of one and the per-call cost is paid once.
+  virtual void eval_intervals(size_t n, const Box* boxes, Interval* out, bool* maybe_nan) const {
+    for (size_t i = 0; i < n; ++i) out[i] = eval_interval(boxes[i], &maybe_nan[i]);
+  }
+
   /// F and its gradient at n points. The gradient points into the solid (F grows inside);
   /// the renderer uses -grad/|grad| as the outward surface normal.
   virtual void eval_gradient(size_t n, const float* x, const float* y, const float* z, float* f,

@@ -70,6 +70,8 @@ struct ThreadState {
   std::vector<Piece> stack;
   std::vector<float> hx, hy, hz, f, gx, gy, gz, attrs;
   std::vector<int> hit_index;
+  /// Per camera sample / per shadow ray: its ray in the searcher's batch (-1: none).
+  std::vector<int> batch_index;
   /// Per light: the ranges of t along the shadow rays of the current tile that its bundle
   /// culling could not prove empty (see TileRenderer::cull_shadow_bundle).
   std::vector<std::vector<Span>> shadow_spans;
@@ -138,7 +140,11 @@ class TileRenderer {
     }
     // 2. Camera samples and their root search.
     make_samples(tx0, ty0, tx1, ty1, ts);
-    for (Sample& s : ts.samples) search_primary(s, ts);
+    if (use_interval_ && opt_.interval_march_first) {
+      search_primary_batched(ts);
+    } else {
+      for (Sample& s : ts.samples) search_primary(s, ts);
+    }
     auto t_search = Clock::now();
     ts.search_seconds += std::chrono::duration<double>(t_search - t_cull).count();
     // 3. Normals, colours, shadows; accumulate into pixels.
@@ -251,6 +257,86 @@ class TileRenderer {
     }
   }
 
+  /// The interval search of every camera sample of the tile, batched: each ray marches to its
+  /// first sample inside (RootSearcher::interval_search does the same per ray), then the
+  /// pieces that must be proven empty for all rays (the spans before the one the march hit
+  /// in, and in that span the pieces growing away from the root) are bisected together by
+  /// RootSearcher::batch_run, so that the interval evaluator gets boxes by the hundred.
+  void search_primary_batched(ThreadState& ts) {
+    RootSearcher& rs = ts.searcher;
+    rs.batch_clear();
+    ts.batch_index.assign(ts.samples.size(), -1);
+    for (size_t si = 0; si < ts.samples.size(); ++si) {
+      Sample& s = ts.samples[si];
+      float te, tx;
+      int axis;
+      if (!intersect_box(s.ray, opt_.bbox, &te, &tx, &axis)) continue;
+      if (!frame_.orthographic() && te < 0) {
+        te = 0;
+        axis = -1;  // the eye is inside the box
+      }
+      s.cap_axis = axis;
+      const float dlen = length(s.ray.d);
+      const float eps = eps_ / dlen, step = step_ / dlen;
+      RootSearcher::BatchRay br;
+      br.ray = s.ray;
+      br.t_start = te;
+      br.eps = eps;
+      br.step = step;
+      size_t hit_span = ts.spans.size();
+      for (size_t j = 0; j < ts.spans.size(); ++j) {
+        float a = std::max(ts.spans[j].a, te), b = std::min(ts.spans[j].b, tx);
+        if (!(a <= b)) continue;
+        RootHit m = rs.sign_search(s.ray, a, b, step, eps * 0.25f, false);
+        if (m.hit) {
+          m.at_start = m.at_start && a == te;
+          br.otherwise = m;
+          hit_span = j;
+          break;
+        }
+      }
+      // What lies in front of the march's hit (or everything, when it found none).
+      bool any_piece = false;
+      int ray = -1;
+      for (size_t j = 0; j <= hit_span && j < ts.spans.size(); ++j) {
+        float a = std::max(ts.spans[j].a, te), b = std::min(ts.spans[j].b, tx);
+        if (!(a <= b)) continue;
+        if (j == hit_span) {
+          if (br.otherwise.at_start || br.otherwise.t == a) break;
+          b = br.otherwise.t - RootSearcher::kVerifyGap * eps;
+          if (!(b > a)) break;
+        }
+        if (ray < 0) ray = rs.batch_add_ray(br);
+        if (j == hit_span) {
+          rs.batch_add_growing(ray, a, b, RootSearcher::kVerifyGap * eps,
+                               RootSearcher::kVerifyGrowth, true);
+        } else {
+          rs.batch_add_piece(ray, a, b);
+        }
+        any_piece = true;
+      }
+      if (!any_piece) {
+        // Nothing to prove: the march's answer stands.
+        if (br.otherwise.hit) set_hit(s, br.otherwise);
+        continue;
+      }
+      ts.batch_index[si] = ray;
+    }
+    rs.batch_run();
+    for (size_t si = 0; si < ts.samples.size(); ++si) {
+      if (ts.batch_index[si] < 0) continue;
+      const RootHit& h = rs.batch_result(ts.batch_index[si]);
+      if (h.hit) set_hit(ts.samples[si], h);
+    }
+  }
+
+  /// A sample's hit; at_start (the solid already at the box entry) makes it a cap.
+  static void set_hit(Sample& s, const RootHit& h) {
+    s.hit = true;
+    s.t = h.t;
+    s.cap = h.at_start && s.cap_axis >= 0;
+  }
+
   /// The shadow rays of a tile towards a directional light are parallel: for t in [a, b] their
   /// points lie in the box of their origins moved by [a, b] along the light. Bisects [0, the
   /// box diagonal] like cull_tile and keeps in `spans` the ranges of t whose box may hold the
@@ -298,8 +384,9 @@ class TileRenderer {
     }
   }
 
-  bool occluded(Vec3 p, Vec3 n, const Light& light, const std::vector<Span>* spans,
-                ThreadState& ts) {
+  /// The shadow ray from surface point p (normal n) towards `light`, and the range [*te, *tx]
+  /// of it inside the box and before the light; false when there is none (nothing occludes).
+  bool shadow_ray(Vec3 p, Vec3 n, const Light& light, Ray* ray, float* te, float* tx) const {
     Vec3 o = p + n * shadow_bias_;
     Vec3 l;
     float dist = std::numeric_limits<float>::infinity();
@@ -310,12 +397,18 @@ class TileRenderer {
     } else {
       l = normalize(light.v);
     }
-    Ray r{o, l};
+    *ray = Ray{o, l};
+    if (!intersect_box(*ray, opt_.bbox, te, tx, nullptr)) return false;
+    *te = std::max(*te, 0.0f);
+    *tx = std::min(*tx, dist);
+    return *te <= *tx;
+  }
+
+  bool occluded(Vec3 p, Vec3 n, const Light& light, const std::vector<Span>* spans,
+                ThreadState& ts) {
+    Ray r;
     float te, tx;
-    if (!intersect_box(r, opt_.bbox, &te, &tx, nullptr)) return false;
-    te = std::max(te, 0.0f);
-    tx = std::min(tx, dist);
-    if (!(te <= tx)) return false;
+    if (!shadow_ray(p, n, light, &r, &te, &tx)) return false;
     ts.shadow_rays++;
     if (spans && !use_analytic_) {
       for (const Span& span : *spans) {
@@ -382,9 +475,9 @@ class TileRenderer {
         }
       }
     }
+    // Shading normals, in place of the gradients.
     for (size_t k = 0; k < n; ++k) {
-      Sample& s = ts.samples[ts.hit_index[k]];
-      Vec3 p{ts.hx[k], ts.hy[k], ts.hz[k]};
+      const Sample& s = ts.samples[ts.hit_index[k]];
       Vec3 view = -normalize(s.ray.d);
       Vec3 nrm;
       if (s.cap) {
@@ -397,6 +490,52 @@ class TileRenderer {
         nrm = (l > 0 && std::isfinite(l)) ? nrm / l : view;
       }
       if (dot(nrm, view) < 0) nrm = -nrm;  // seen from behind (noisy gradients): shade both sides
+      ts.gx[k] = nrm.x, ts.gy[k] = nrm.y, ts.gz[k] = nrm.z;
+    }
+    // With the interval search, the shadow rays of the whole tile are searched in one batch.
+    const size_t nl = lights_.size();
+    const bool batched = opt_.shadows && use_interval_;
+    if (batched) {
+      RootSearcher& rs = ts.searcher;
+      rs.batch_clear();
+      ts.batch_index.assign(n * nl, -1);
+      for (size_t k = 0; k < n; ++k) {
+        Vec3 p{ts.hx[k], ts.hy[k], ts.hz[k]}, nrm{ts.gx[k], ts.gy[k], ts.gz[k]};
+        for (size_t li = 0; li < nl; ++li) {
+          const Light& light = lights_[li];
+          Vec3 l = light.kind == Light::Kind::kPoint ? normalize(light.v - p) : normalize(light.v);
+          if (dot(nrm, l) <= 0) continue;
+          RootSearcher::BatchRay br;
+          float te, tx;
+          if (!shadow_ray(p, nrm, light, &br.ray, &te, &tx)) continue;
+          ts.shadow_rays++;
+          br.t_start = te;
+          br.eps = eps_;
+          br.step = step_;
+          br.any_hit = true;
+          int ray = rs.batch_add_ray(br);
+          ts.batch_index[k * nl + li] = ray;
+          // Pieces growing away from the surface (one march step, then doubling), over what the
+          // tile's bundle culling left of the ray.
+          const std::vector<Span>* spans =
+              bundles && light.kind == Light::Kind::kDirectional ? &ts.shadow_spans[li] : nullptr;
+          if (!spans) {
+            rs.batch_add_growing(ray, te, tx, step_, 2, false);
+            continue;
+          }
+          for (const Span& span : *spans) {
+            float a = std::max(span.a, te), b = std::min(span.b, tx);
+            if (a <= b) rs.batch_add_growing(ray, a, b, step_, 2, false);
+          }
+        }
+      }
+      rs.batch_run();
+    }
+    for (size_t k = 0; k < n; ++k) {
+      Sample& s = ts.samples[ts.hit_index[k]];
+      Vec3 p{ts.hx[k], ts.hy[k], ts.hz[k]};
+      Vec3 view = -normalize(s.ray.d);
+      Vec3 nrm{ts.gx[k], ts.gy[k], ts.gz[k]};
       Vec3 albedo = opt_.albedo;
       if (attrs_) {
         Vec3 a{ts.attrs[k], ts.attrs[n + k], ts.attrs[2 * n + k]};
@@ -410,7 +549,12 @@ class TileRenderer {
         Vec3 l = light.kind == Light::Kind::kPoint ? normalize(light.v - p) : normalize(light.v);
         float ndotl = dot(nrm, l);
         if (ndotl <= 0) continue;
-        if (opt_.shadows && occluded(p, nrm, light, spans, ts)) continue;
+        if (batched) {
+          int ray = ts.batch_index[k * nl + li];
+          if (ray >= 0 && ts.searcher.batch_result(ray).hit) continue;
+        } else if (opt_.shadows && occluded(p, nrm, light, spans, ts)) {
+          continue;
+        }
         Vec3 h = normalize(l + view);
         float spec = kSpecular * std::pow(std::max(0.0f, dot(nrm, h)), kShininess);
         color += mul(albedo, light.color) * ndotl + light.color * spec;

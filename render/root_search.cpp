@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 
 namespace hfrt::render {
 
@@ -302,6 +303,165 @@ RootHit RootSearcher::pruned_sign_search(const Ray& ray, float t0, float t1, flo
     }
   }
   return {};
+}
+
+}  // namespace hfrt::render
+
+namespace hfrt::render {
+
+void RootSearcher::batch_clear() {
+  batch_rays_.clear();
+  batch_pieces_.clear();
+  batch_over_.clear();
+}
+
+int RootSearcher::batch_add_ray(const BatchRay& ray) {
+  BatchState st;
+  static_cast<BatchRay&>(st) = ray;
+  st.best = std::numeric_limits<float>::infinity();
+  batch_rays_.push_back(st);
+  return int(batch_rays_.size()) - 1;
+}
+
+void RootSearcher::batch_add_piece(int ray, float a, float b) {
+  if (a <= b) batch_pieces_.push_back({ray, a, b, false});
+}
+
+void RootSearcher::batch_add_growing(int ray, float a, float b, float first, float growth,
+                                     bool from_b) {
+  if (!(a <= b)) return;
+  float len = first > 0 ? first : b - a;
+  if (from_b) {
+    for (float hi = b; hi > a; len *= growth) {
+      float lo = len < hi - a ? hi - len : a;
+      if (!(lo < hi)) lo = a;
+      batch_pieces_.push_back({ray, lo, hi, false});
+      hi = lo;
+    }
+  } else {
+    size_t first_piece = batch_pieces_.size();
+    for (float lo = a; lo < b; len *= growth) {
+      float hi = len < b - lo ? lo + len : b;
+      if (!(hi > lo)) hi = b;
+      batch_pieces_.push_back({ray, lo, hi, false});
+      lo = hi;
+    }
+    if (batch_pieces_.size() == first_piece) batch_pieces_.push_back({ray, a, b, false});
+  }
+}
+
+void RootSearcher::batch_hit(BatchState& r, float t, bool at_start) {
+  if (r.any_hit) {
+    r.done = true;
+    r.best = t;
+    r.result = {true, t, at_start};
+    return;
+  }
+  if (t < r.best) {
+    r.best = t;
+    r.result = {true, t, at_start};
+  }
+}
+
+void RootSearcher::batch_run() {
+  for (BatchState& r : batch_rays_) r.result = {};
+  while (!batch_pieces_.empty()) {
+    // The boxes of this round: every piece of a ray still searching, in front of its best hit.
+    batch_live_.clear();
+    batch_boxes_.clear();
+    for (const BatchPiece& p : batch_pieces_) {
+      BatchState& r = batch_rays_[size_t(p.ray)];
+      if (r.done || !(p.a < r.best)) continue;
+      if (r.evals >= kIntervalBudget) {
+        batch_over_.push_back(p);
+        continue;
+      }
+      r.evals++;
+      batch_live_.push_back(p);
+      batch_boxes_.push_back(segment_box(r.ray, p.a, p.b));
+    }
+    const size_t n = batch_boxes_.size();
+    batch_ivs_.resize(n);
+    if (batch_nan_size_ < n) {
+      batch_nan_size_ = std::max(n, 2 * batch_nan_size_);
+      batch_nan_.reset(new bool[batch_nan_size_]);
+    }
+    if (n > 0) field_.eval_intervals(n, batch_boxes_.data(), batch_ivs_.data(), batch_nan_.get());
+    counters_.interval_calls += n;
+    batch_next_.clear();
+    for (size_t i = 0; i < n; ++i) {
+      BatchPiece p = batch_live_[i];
+      BatchState& r = batch_rays_[size_t(p.ray)];
+      // An earlier piece of this round may have settled the ray or found a nearer hit.
+      if (r.done || !(p.a < r.best)) continue;
+      const Interval iv = batch_ivs_[i];
+      const bool maybe_nan = batch_nan_[i];
+      if (iv.hi < 0) continue;
+      const bool known = !std::isnan(iv.lo) && !std::isnan(iv.hi);
+      if (known && iv.lo >= 0 && !maybe_nan) {
+        batch_hit(r, p.a, p.a == r.t_start);
+        continue;
+      }
+      if (r.any_hit && !p.marched && p.b - p.a <= kPrunedSpan * r.step) {
+        RootHit h = sign_search(r.ray, p.a, p.b, r.step, r.eps, true);
+        if (h.hit) {
+          batch_hit(r, h.t, h.at_start && p.a == r.t_start);
+          continue;
+        }
+        p.marched = true;
+      }
+      float mid = p.a + (p.b - p.a) * 0.5f;
+      bool leaf = p.b - p.a <= r.eps || !(mid > p.a && mid < p.b);
+      if (!leaf) {
+        batch_next_.push_back({p.ray, p.a, mid, p.marched});
+        batch_next_.push_back({p.ray, mid, p.b, p.marched});
+        continue;
+      }
+      ts_.resize(std::max<size_t>(ts_.size(), 3));
+      ts_[0] = p.a, ts_[1] = mid, ts_[2] = p.b;
+      eval_params(r.ray, 3);
+      bool found = false;
+      for (int k = 0; k < 3 && !found; ++k) {
+        if (fs_[k] >= 0) {
+          found = true;
+          if (k == 0) {
+            batch_hit(r, p.a, p.a == r.t_start);
+          } else if (r.any_hit) {
+            batch_hit(r, ts_[k], false);
+          } else {
+            batch_hit(r, refine(r.ray, ts_[k - 1], fs_[k - 1], ts_[k], fs_[k], r.eps * 0.25f),
+                      false);
+          }
+        }
+      }
+      // No sample inside but the interval reaches 0 at the tolerance: a feature thinner than
+      // eps or a tangent touch, reported rather than punched through (as bisect() does).
+      if (!found && known && iv.hi >= 0) batch_hit(r, mid, false);
+    }
+    batch_pieces_.swap(batch_next_);
+  }
+  // Rays out of budget: their remaining pieces, front to back, by marching.
+  if (!batch_over_.empty()) {
+    std::stable_sort(batch_over_.begin(), batch_over_.end(),
+                     [](const BatchPiece& u, const BatchPiece& v) {
+                       return u.ray != v.ray ? u.ray < v.ray : u.a < v.a;
+                     });
+    int last_ray = -1;
+    for (const BatchPiece& p : batch_over_) {
+      BatchState& r = batch_rays_[size_t(p.ray)];
+      if (p.ray != last_ray) {
+        counters_.interval_fallbacks++;
+        last_ray = p.ray;
+      }
+      if (r.done || !(p.a < r.best)) continue;
+      RootHit h = sign_search(r.ray, p.a, p.b, r.step, r.eps, r.any_hit);
+      if (h.hit) batch_hit(r, h.t, h.at_start && p.a == r.t_start);
+    }
+    batch_over_.clear();
+  }
+  for (BatchState& r : batch_rays_) {
+    if (!r.result.hit) r.result = r.otherwise;
+  }
 }
 
 }  // namespace hfrt::render

@@ -20,6 +20,7 @@
 
 #include <cstddef>
 #include <cstdint>
+#include <memory>
 #include <vector>
 
 #include "render/camera.h"
@@ -100,6 +101,35 @@ class RootSearcher {
   /// (a tangent ray) is not a hit. Shadow rays use it unchanged: there is nothing to refine.
   RootHit analytic_search(const Ray& ray, float t0, float t1);
 
+  /// Batched interval search: the bisection of interval_search for many rays at once. Every
+  /// ray has pieces of its range, added front to back or in any order; the pieces of all rays
+  /// are evaluated together in rounds (one Field::eval_intervals call per round), and each
+  /// round splits what the last one could not exclude. Per ray the answer is what bisect()
+  /// would give for the same pieces: the first parameter, in t, of a piece that is inside or
+  /// of a leaf that may hold the surface (refined as bisect() refines it); a ray with
+  /// `any_hit` stops at the first one found. Pieces behind a ray's best answer so far are
+  /// dropped. A ray's interval evaluations count against kIntervalBudget as in
+  /// interval_search; past it, its remaining pieces are marched front to back.
+  struct BatchRay {
+    Ray ray;
+    float t_start = 0;  ///< a hit at a piece's start is at_start when it is here
+    float eps = 0;      ///< tolerance, in units of t
+    float step = 0;     ///< march step (fallback and shadow marches), in units of t
+    bool any_hit = false;
+    /// The answer when no piece holds a hit (a march's hit that the pieces lie in front of).
+    RootHit otherwise;
+  };
+  void batch_clear();
+  /// Adds a ray; returns its index for batch_add_piece and batch_result.
+  int batch_add_ray(const BatchRay& ray);
+  void batch_add_piece(int ray, float a, float b);
+  /// Covers [a, b] with pieces whose lengths grow by `growth` from `first` (at least) away
+  /// from the end at b (`from_b`) or at a: the proof pieces in front of a root, or a shadow
+  /// ray's pieces leaving the surface.
+  void batch_add_growing(int ray, float a, float b, float first, float growth, bool from_b);
+  void batch_run();
+  const RootHit& batch_result(int ray) const { return batch_rays_[size_t(ray)].result; }
+
   EvalCounters& counters() { return counters_; }
 
   /// The first point where a sample had no value, if any was seen since the last reset.
@@ -125,6 +155,27 @@ class RootSearcher {
   RootHit bisect(const Ray& ray, float t0, float eps, float fallback_step, bool any_hit,
                  int* budget);
   std::vector<Piece> stack_;
+  /// The batched search's state: per ray its request and answer so far, the pieces of the
+  /// current and the next round, and the boxes and enclosures of a round.
+  struct BatchState : BatchRay {
+    RootHit result;
+    float best = 0;  ///< the earliest hit found so far (+inf: none)
+    int evals = 0;
+    bool done = false;
+  };
+  struct BatchPiece {
+    int ray;
+    float a, b;
+    bool marched;
+  };
+  /// Records a hit of ray r at t (at_start: F >= 0 at the start of the searched range).
+  void batch_hit(BatchState& r, float t, bool at_start);
+  std::vector<BatchState> batch_rays_;
+  std::vector<BatchPiece> batch_pieces_, batch_next_, batch_live_, batch_over_;
+  std::vector<Box> batch_boxes_;
+  std::vector<Interval> batch_ivs_;
+  std::unique_ptr<bool[]> batch_nan_;
+  size_t batch_nan_size_ = 0;
   std::vector<double> candidates_;
   bool has_nan_point_ = false;
   Vec3 nan_point_;

@@ -100,6 +100,10 @@ class AnalyticField : public Field {
     interval_calls.fetch_add(1, std::memory_order_relaxed);
     return interval(box);
   }
+  void eval_intervals(size_t n, const Box* boxes, Interval* out, bool* maybe_nan) const override {
+    interval_batches.fetch_add(1, std::memory_order_relaxed);
+    Field::eval_intervals(n, boxes, out, maybe_nan);
+  }
   void eval_gradient(size_t n, const float* x, const float* y, const float* z, float* f, float* dx,
                      float* dy, float* dz) const override {
     for (size_t i = 0; i < n; ++i) {
@@ -111,7 +115,9 @@ class AnalyticField : public Field {
   /// Pretend there is no interval evaluator (to test the sign-change path and fallbacks).
   void set_has_interval(bool on) { intervals_ = on; }
 
+  /// eval_interval() calls (boxes), and eval_intervals() calls (batches of them).
   mutable std::atomic<long> interval_calls{0};
+  mutable std::atomic<long> interval_batches{0};
 
  private:
   bool intervals_ = true;

@@ -129,6 +129,114 @@ TEST(RootSearch, IntervalMarchFirstAgreesWithBisectionWithFewerIntervals) {
   EXPECT_LT(fast.counters().interval_calls, plain.counters().interval_calls);
 }
 
+/// Batched search of `rays` over [t0, t1] (one piece each, or the shadow rays' growing pieces
+/// with any_hit), as the renderer batches a tile.
+std::vector<RootHit> batch_search(RootSearcher& s, const std::vector<Ray>& rays, float t0, float t1,
+                                  float eps, float step, bool any_hit) {
+  s.batch_clear();
+  std::vector<int> index;
+  for (const Ray& ray : rays) {
+    RootSearcher::BatchRay br;
+    br.ray = ray;
+    br.t_start = t0;
+    br.eps = eps;
+    br.step = step;
+    br.any_hit = any_hit;
+    int r = s.batch_add_ray(br);
+    if (any_hit) {
+      s.batch_add_growing(r, t0, t1, step, 2, false);
+    } else {
+      s.batch_add_piece(r, t0, t1);
+    }
+    index.push_back(r);
+  }
+  s.batch_run();
+  std::vector<RootHit> out;
+  for (int r : index) out.push_back(s.batch_result(r));
+  return out;
+}
+
+TEST(RootSearch, BatchedBisectionGivesTheSameHitsAsOneRayAtATime) {
+  // Rays that miss everything, cross only the thin shell (which a march of 0.3 steps over),
+  // or cross the shell and then the ball; one that starts inside the shell's wall.
+  ShellAroundBall f;
+  RootSearcher batched(f), plain(f);
+  plain.set_plain_bisection(true);
+  std::vector<Ray> rays;
+  for (int i = 0; i < 64; ++i) rays.push_back({{0.09f * float(i), 0.3f, 20}, {0, 0, -1}});
+  rays.push_back({{0, 0, 5.0f}, {0, 0, -1}});
+  std::vector<RootHit> got = batch_search(batched, rays, 0, 40, 1e-5f, 0.3f, false);
+  int hits = 0, misses = 0;
+  for (size_t i = 0; i < rays.size(); ++i) {
+    RootHit want = plain.interval_search(rays[i], 0, 40, 1e-5f, 0.3f, false);
+    ASSERT_EQ(got[i].hit, want.hit) << i;
+    EXPECT_EQ(got[i].t, want.t) << i;
+    EXPECT_EQ(got[i].at_start, want.at_start) << i;
+    (want.hit ? hits : misses)++;
+  }
+  EXPECT_GT(hits, 40);
+  EXPECT_GT(misses, 5);
+  EXPECT_TRUE(got.back().at_start);
+  // The batch asks for its boxes a round at a time: a few dozen calls for thousands of boxes.
+  EXPECT_GT(batched.counters().interval_calls, 1000u);
+  EXPECT_LT(f.interval_batches.load(), 100);
+}
+
+TEST(RootSearch, BatchedAnyHitAgreesWithTheShadowSearch) {
+  // Shadow-like rays leaving the ball's surface outwards: every one must cross the thin shell.
+  // Rays leaving the shell's outside into empty space must not.
+  ShellAroundBall f;
+  RootSearcher batched(f), one(f);
+  std::vector<Ray> out_of_ball, out_of_shell;
+  for (int i = 0; i < 40; ++i) {
+    float a = 0.157f * float(i);
+    Vec3 d{std::cos(a), std::sin(a) * 0.6f, std::sin(a) * 0.8f};
+    out_of_ball.push_back({d * 2.001f, d});
+    out_of_shell.push_back({d * 5.02f, d});
+  }
+  for (const auto* rays : {&out_of_ball, &out_of_shell}) {
+    std::vector<RootHit> got = batch_search(batched, *rays, 0, 20, 1e-5f, 0.3f, true);
+    for (size_t i = 0; i < rays->size(); ++i) {
+      RootHit want = one.interval_search((*rays)[i], 0, 20, 1e-5f, 0.3f, true);
+      ASSERT_EQ(got[i].hit, want.hit) << i;
+      EXPECT_EQ(got[i].hit, rays == &out_of_ball) << i;
+      if (got[i].hit) {
+        EXPECT_NEAR(got[i].t, 3.0f, 0.35f) << i;  // at the shell, within a march step
+      }
+    }
+  }
+}
+
+/// A ball whose interval evaluator knows nothing ([-1e30, 1e30] everywhere).
+class BallWithUselessIntervals final : public testing::AnalyticField {
+ public:
+  double value(double x, double y, double z) const override { return ball_.value(x, y, z); }
+  Vec3 gradient(double x, double y, double z) const override { return ball_.gradient(x, y, z); }
+  Interval interval(const Box&) const override { return {-1e30f, 1e30f}; }
+
+ private:
+  SphereField ball_{{0, 0, 0}, 2};
+};
+
+TEST(RootSearch, BatchedRaysOutOfBudgetFinishByMarching) {
+  // eps far below what the bisection reaches within its budget, with enclosures that never
+  // exclude anything: every ray runs out of budget and marches its remaining pieces.
+  BallWithUselessIntervals f;
+  RootSearcher batched(f);
+  std::vector<Ray> rays = {
+      {{0, 0, 10}, {0, 0, -1}}, {{1.5f, 0, 10}, {0, 0, -1}}, {{2.5f, 0, 10}, {0, 0, -1}}};
+  std::vector<RootHit> got = batch_search(batched, rays, 0, 20, 1e-30f, 0.01f, false);
+  EXPECT_EQ(batched.counters().interval_fallbacks, 3u);
+  EXPECT_LE(batched.counters().interval_calls, 3u * RootSearcher::kIntervalBudget);
+  for (size_t i = 0; i < rays.size(); ++i) {
+    ASSERT_EQ(got[i].hit, i < 2) << i;
+    if (got[i].hit) {
+      double rho = rays[i].o.x;
+      EXPECT_NEAR(got[i].t, 10 - std::sqrt(4 - rho * rho), 1e-3) << i;
+    }
+  }
+}
+
 TEST(RootSearch, TangentTouchIsFound) {
   // A ray that grazes the ball at exactly one point (F <= 0 on the whole ray, = 0 once).
   SphereField sphere({0, 0, 0}, 2);

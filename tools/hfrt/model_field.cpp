@@ -1,6 +1,7 @@
 #include "tools/hfrt/model_field.h"
 
 #include <algorithm>
+#include <bit>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -22,14 +23,21 @@ thread_local Scratch t_scratch;
 
 /// The float nearest to v on the side of -inf / +inf (so [down(lo), up(hi)] still encloses
 /// [lo, hi] after the conversion to float).
+/// (std::nextafter by its bits: it is a libm call, and the renderer converts millions of
+/// bounds a frame.)
 float round_down(double v) {
   float f = static_cast<float>(v);
-  return static_cast<double>(f) > v ? std::nextafter(f, -std::numeric_limits<float>::infinity())
-                                    : f;
+  if (!(static_cast<double>(f) > v)) return f;
+  if (f == 0) return -std::numeric_limits<float>::denorm_min();
+  uint32_t u = std::bit_cast<uint32_t>(f);
+  return std::bit_cast<float>(f > 0 ? u - 1 : u + 1);  // +inf -> FLT_MAX
 }
 float round_up(double v) {
   float f = static_cast<float>(v);
-  return static_cast<double>(f) < v ? std::nextafter(f, std::numeric_limits<float>::infinity()) : f;
+  if (!(static_cast<double>(f) < v)) return f;
+  if (f == 0) return std::numeric_limits<float>::denorm_min();
+  uint32_t u = std::bit_cast<uint32_t>(f);
+  return std::bit_cast<float>(f < 0 ? u - 1 : u + 1);  // -inf -> -FLT_MAX
 }
 
 /// Packs up to three coordinate arrays into the structure-of-arrays layout of the model
@@ -104,7 +112,44 @@ render::Interval ModelField::eval_interval(const render::Box& box, bool* maybe_n
   // Float box corners are exact in double; the f64 enclosure is rounded outwards.
   const double lo[3] = {box.lo.x, box.lo.y, box.lo.z};
   const double hi[3] = {box.hi.x, box.hi.y, box.hi.z};
-  IntervalValue r = model_.eval_interval(lo, hi);
+  return to_render_interval(model_.eval_interval(lo, hi), maybe_nan);
+}
+
+void ModelField::eval_intervals(size_t n, const render::Box* boxes, render::Interval* out,
+                                bool* maybe_nan) const {
+  if (n == 0) return;
+  struct BoxScratch {
+    std::vector<double> lo, hi, out_lo, out_hi;
+    std::vector<uint8_t> out_nan;
+  };
+  thread_local BoxScratch sc;
+  // Structure of arrays over the model's coordinates; any beyond the third are held at 0.
+  const size_t dims = size_t(std::max(dims_, 1));
+  sc.lo.resize(dims * n);
+  sc.hi.resize(dims * n);
+  if (dims_ != 3) {
+    std::fill(sc.lo.begin(), sc.lo.end(), 0.0);
+    std::fill(sc.hi.begin(), sc.hi.end(), 0.0);
+  }
+  for (size_t k = 0; k < std::min<size_t>(size_t(dims_), 3); ++k) {
+    double* lo = sc.lo.data() + k * n;
+    double* hi = sc.hi.data() + k * n;
+    for (size_t i = 0; i < n; ++i) {
+      lo[i] = boxes[i].lo[int(k)];
+      hi[i] = boxes[i].hi[int(k)];
+    }
+  }
+  sc.out_lo.resize(n);
+  sc.out_hi.resize(n);
+  sc.out_nan.resize(n);
+  model_.eval_interval_batch(int64_t(n), sc.lo.data(), sc.hi.data(), sc.out_lo.data(),
+                             sc.out_hi.data(), sc.out_nan.data());
+  for (size_t i = 0; i < n; ++i) {
+    out[i] = to_render_interval({sc.out_lo[i], sc.out_hi[i], sc.out_nan[i] != 0}, &maybe_nan[i]);
+  }
+}
+
+render::Interval ModelField::to_render_interval(const IntervalValue& r, bool* maybe_nan) {
   *maybe_nan = r.maybe_nan;
   if (r.maybe_nan && r.hi >= 0 && (std::isinf(r.lo) || std::isinf(r.hi))) {
     // An enclosure with NaN possible and an infinite bound that reaches 0 (an interval loop

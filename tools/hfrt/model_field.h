@@ -32,6 +32,8 @@ class ModelField final : public render::Field {
   void eval(size_t n, const float* x, const float* y, const float* z, float* out_f) const override;
   bool has_interval() const override { return true; }
   render::Interval eval_interval(const render::Box& box, bool* maybe_nan) const override;
+  void eval_intervals(size_t n, const render::Box* boxes, render::Interval* out,
+                      bool* maybe_nan) const override;
   void eval_gradient(size_t n, const float* x, const float* y, const float* z, float* f, float* dx,
                      float* dy, float* dz) const override;
   int num_attributes() const override { return model_.num_attributes(); }
@@ -60,6 +62,9 @@ class ModelField final : public render::Field {
   void prepare_render(render::RootMode root);
 
  private:
+  /// The f64 enclosure rounded outwards to float bounds (NaN bounds for an unknown one).
+  static render::Interval to_render_interval(const IntervalValue& r, bool* maybe_nan);
+
   const Model& model_;
   std::string file_;
   int dims_;
@@ -79,6 +84,10 @@ class WithoutIntervals final : public render::Field {
   bool has_interval() const override { return false; }
   render::Interval eval_interval(const render::Box& box, bool* maybe_nan) const override {
     return field_.eval_interval(box, maybe_nan);
+  }
+  void eval_intervals(size_t n, const render::Box* boxes, render::Interval* out,
+                      bool* maybe_nan) const override {
+    field_.eval_intervals(n, boxes, out, maybe_nan);
   }
   void eval_gradient(size_t n, const float* x, const float* y, const float* z, float* f, float* dx,
                      float* dy, float* dz) const override {
