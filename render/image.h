@@ -27,20 +27,27 @@ struct AovSet {
   bool normal = false;
 };
 
+/// How hard PNG writing compresses. kSmall: zlib level 3 with libpng's adaptive row filters
+/// (hfrt render). kFast: level 1 without row filters, 2.5x faster (3.3 ms instead of 8.4 ms
+/// for a 512x512 render) for files about a quarter larger: the REPL's edit-to-image latency.
+enum class PngCompression { kSmall, kFast };
+
 /// Writes `image` to `path`; the format follows the extension (.png, .exr, .tif/.tiff, .jpg/.jpeg,
 /// anything else OpenImageIO knows). EXR keeps linear float (and gets the AOVs as extra
 /// channels Z and N.X/N.Y/N.Z in the same file); 8- and 16-bit formats are sRGB-encoded, and
 /// their AOVs go to sibling files `<stem>.depth.<ext>` (depth normalised to the hit range,
 /// near = white) and `<stem>.normal.<ext>` (0.5 + 0.5 n). Returns the paths written.
 Result<std::vector<std::string>> write_image(const Image& image, const std::string& path,
-                                             const AovSet& aovs = {});
+                                             const AovSet& aovs = {},
+                                             PngCompression png = PngCompression::kSmall);
 
 /// Writes `channels` floats per pixel (row-major from the top-left). `encode_srgb` converts
 /// linear values to sRGB for integer formats; EXR always stores the values as they are.
 Result<std::vector<std::string>> write_pixels(const std::string& path, int width, int height,
                                               int channels, const std::vector<float>& data,
                                               bool encode_srgb,
-                                              const std::vector<std::string>& channel_names = {});
+                                              const std::vector<std::string>& channel_names = {},
+                                              PngCompression png = PngCompression::kSmall);
 
 /// Reads an image as floats (used by tests and golden-image comparisons). Values of integer
 /// formats come back in [0, 1] as stored (still sRGB-encoded).

@@ -645,6 +645,12 @@ std::vector<Light> default_lights(const CameraFrame& frame) {
 }
 
 RenderResult render(const Field& field, const RenderOptions& options) {
+  RenderResult result;
+  render_into(field, options, &result);
+  return result;
+}
+
+void render_into(const Field& field, const RenderOptions& options, RenderResult* out) {
   HFRT_CHECK(options.width > 0 && options.height > 0);
   HFRT_CHECK(options.spp >= 1 && options.spp <= 65536);
   HFRT_CHECK(options.tile_size >= 1);
@@ -654,7 +660,8 @@ RenderResult render(const Field& field, const RenderOptions& options) {
   HFRT_CHECK_MSG(options.root != RootMode::kAnalytic || field.has_ray_candidates(),
                  "--root analytic needs a field with ray candidates");
   auto start = Clock::now();
-  RenderResult result;
+  RenderResult& result = *out;
+  result.stats = RenderStats{};
   result.image.resize(options.width, options.height);
   TileRenderer tiles(field, options, &result.image);
 
@@ -722,7 +729,6 @@ RenderResult render(const Field& field, const RenderOptions& options) {
     s.nan_explanation = field.explain_nan(nan_point);
   }
   s.seconds = seconds_since(start);
-  return result;
 }
 
 }  // namespace hfrt::render

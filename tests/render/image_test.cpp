@@ -108,6 +108,27 @@ TEST(Image, EightBitCodesAreTheRoundedEncoding) {
   }
 }
 
+TEST(Image, FastPngHoldsTheSamePixels) {
+  // The REPL's fast settings (no row filters, zlib level 1) change the bytes, not the image.
+  Image img;
+  img.resize(64, 48);
+  for (size_t i = 0; i < img.rgb.size(); ++i) img.rgb[i] = float((i * 37) % 101) / 100.0f;
+  std::vector<float> pixels[2];
+  int k = 0;
+  for (PngCompression png : {PngCompression::kSmall, PngCompression::kFast}) {
+    std::string path = temp_path(k == 0 ? "small.png" : "fast.png");
+    ASSERT_TRUE(write_image(img, path, {}, png).ok());
+    int w, h, c;
+    auto back = read_image(path, &w, &h, &c);
+    ASSERT_TRUE(back.ok()) << back.error().message;
+    EXPECT_EQ(w, 64);
+    EXPECT_EQ(h, 48);
+    pixels[k++] = back.value();
+    std::filesystem::remove(path);
+  }
+  EXPECT_EQ(pixels[0], pixels[1]);
+}
+
 TEST(Image, UnknownExtensionIsAnError) {
   Image img = test_image();
   auto written = write_image(img, temp_path("c.notaformat"));

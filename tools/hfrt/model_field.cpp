@@ -23,21 +23,23 @@ thread_local Scratch t_scratch;
 
 /// The float nearest to v on the side of -inf / +inf (so [down(lo), up(hi)] still encloses
 /// [lo, hi] after the conversion to float).
-/// (std::nextafter by its bits: it is a libm call, and the renderer converts millions of
-/// bounds a frame.)
+/// (The neighbour is taken by its bits and selected without a branch: whether the conversion
+/// rounded up or down is a coin toss per bound, and the renderer converts millions a frame.)
 float round_down(double v) {
   float f = static_cast<float>(v);
-  if (!(static_cast<double>(f) > v)) return f;
-  if (f == 0) return -std::numeric_limits<float>::denorm_min();
-  uint32_t u = std::bit_cast<uint32_t>(f);
-  return std::bit_cast<float>(f > 0 ? u - 1 : u + 1);  // +inf -> FLT_MAX
+  int32_t i = std::bit_cast<int32_t>(f);
+  // The next float towards -inf: +-0 -> -denorm_min, +inf -> FLT_MAX (-inf is never taken).
+  int32_t below = f == 0 ? int32_t(0x80000001u) : (i < 0 ? i + 1 : i - 1);
+  int32_t take = -int32_t(static_cast<double>(f) > v);  // all ones or zero: no branch
+  return std::bit_cast<float>((below & take) | (i & ~take));
 }
 float round_up(double v) {
   float f = static_cast<float>(v);
-  if (!(static_cast<double>(f) < v)) return f;
-  if (f == 0) return std::numeric_limits<float>::denorm_min();
-  uint32_t u = std::bit_cast<uint32_t>(f);
-  return std::bit_cast<float>(f < 0 ? u - 1 : u + 1);  // -inf -> -FLT_MAX
+  int32_t i = std::bit_cast<int32_t>(f);
+  // The next float towards +inf: +-0 -> denorm_min, -inf -> -FLT_MAX (+inf is never taken).
+  int32_t above = f == 0 ? int32_t(1) : (i < 0 ? i - 1 : i + 1);
+  int32_t take = -int32_t(static_cast<double>(f) < v);
+  return std::bit_cast<float>((above & take) | (i & ~take));
 }
 
 /// Packs up to three coordinate arrays into the structure-of-arrays layout of the model

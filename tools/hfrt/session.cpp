@@ -664,18 +664,24 @@ SessionResult Session::render_to(const std::string& out) {
     on_coarse(preview.image);
   }
   auto t_render = std::chrono::steady_clock::now();
-  render::RenderResult result = render::render(field, opt);
+  // Into the image buffer of the render before last (the last one is still shown): its pages
+  // are already mapped.
+  render::RenderResult result;
+  result.image = std::move(spare_image_);
+  render::render_into(field, opt, &result);
   timings_.prepare = report.prepare_ms;
   timings_.frame = report.framing.ms;
   timings_.probe = report.root.probe_ms;
   timings_.render = ms_since(t_render);
   if (result.stats.cancelled) return failure("hfrt: render cancelled");
   auto t_write = std::chrono::steady_clock::now();
-  auto written = render::write_image(result.image, out, setup_.aovs);
+  // The REPL writes for the next look, not for keeping: the fast PNG settings.
+  auto written = render::write_image(result.image, out, setup_.aovs, render::PngCompression::kFast);
   timings_.write = ms_since(t_write);
   if (!written.ok()) return failure("hfrt: " + written.error().message);
   last_render_ms_ = ms_since(t0);
   last_output_ = out;
+  if (last_image_) spare_image_ = std::move(*last_image_);
   last_image_ = std::move(result.image);
   ++renders_;
   char buf[160];

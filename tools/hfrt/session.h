@@ -156,6 +156,8 @@ class Session {
   std::atomic<bool> cancel_{false};
   std::string last_output_;
   std::optional<render::Image> last_image_;
+  /// The buffers of the render before last, reused by the next one (render::render_into).
+  render::Image spare_image_;
   double last_compile_ms_ = 0, last_render_ms_ = 0;
   SessionTimings timings_;
   int evals_ = 0, renders_ = 0;
