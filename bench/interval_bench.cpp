@@ -4,13 +4,14 @@
 // in an R x R grid; the points are the boxes' centres.
 //
 //   hfrt_bench_interval [MODEL.hf] [--grid R] [--seconds S] [-O N] [--no-trace] [--compile-only]
-//                       [--inline-limit N] [--lanes W]
+//                       [--inline-limit N] [--lanes W] [--hoist]
 //
 // -O picks the LLVM pipeline of the interval and gradient JITs (default 1); --no-trace
 // compiles the interval JIT without the min/max trace; --compile-only prints the compile
 // times (with their emit / optimise / codegen split) and evaluates nothing; --inline-limit
 // sets IntervalJit::Options::inline_limit (0: every op through its helper); --lanes the boxes per
-// SIMD block (default: the host's f64 width). The gradient
+// SIMD block (default: the host's f64 width); --hoist compiles the numbers as parameters
+// (jit::hoist_constants, what the REPL compiles). The gradient
 // interpreter and JIT (f64, points/s at the box centres) are measured too.
 
 #include <algorithm>
@@ -60,6 +61,7 @@ int main(int argc, char** argv) {
   bool trace = true;
   bool compile_only = false;
   int lanes = 0;
+  bool hoist = false;
   int inline_limit = jit::IntervalJit::Options{}.inline_limit;
   std::setvbuf(stdout, nullptr, _IOLBF, 0);
   for (int i = 1; i < argc; ++i) {
@@ -71,6 +73,8 @@ int main(int argc, char** argv) {
       trace = false;
     else if (!std::strcmp(argv[i], "--compile-only"))
       compile_only = true;
+    else if (!std::strcmp(argv[i], "--hoist"))
+      hoist = true;
     else if (!std::strcmp(argv[i], "--lanes") && i + 1 < argc)
       lanes = std::atoi(argv[++i]);
     else if (!std::strcmp(argv[i], "--inline-limit") && i + 1 < argc)
@@ -93,6 +97,8 @@ int main(int argc, char** argv) {
     return 1;
   }
   jit::Function fn = jit::lower_object(*program, program->default_object(), nullptr);
+  const int user_params = fn.num_params;
+  const std::vector<double> hoisted = hoist ? jit::hoist_constants(&fn) : std::vector<double>{};
   std::printf("model %s: %zu IR instructions, %d x %d boxes over [-1,1]^2\n", path.c_str(),
               fn.insts.size(), grid, grid);
 
@@ -115,6 +121,7 @@ int main(int argc, char** argv) {
     }
   }
   std::vector<double> a(std::max(fn.num_params, 1), 0.0);
+  for (size_t j = 0; j < hoisted.size(); ++j) a[user_params + j] = hoisted[j];
 
   auto print_stats = [](const char* what, double wall_ms, const jit::JitStats& st) {
     std::printf(

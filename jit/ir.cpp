@@ -1,6 +1,7 @@
 // The IR's op table, verifier and printer (see ir.h, ir_ops.h).
 #include "jit/ir.h"
 
+#include <algorithm>
 #include <array>
 #include <cmath>
 #include <cstdio>
@@ -364,6 +365,88 @@ std::vector<int32_t> match_regions(const Function& fn) {
   }
   HFRT_CHECK(stack.empty());
   return match;
+}
+
+std::vector<double> hoist_constants(Function* fn) {
+  const size_t n = fn->insts.size();
+  // Per value: may it become a parameter? Until a use says otherwise, a constant may.
+  std::vector<uint8_t> ok(n, 0), used(n, 0);
+  for (size_t i = 0; i < n; ++i) {
+    ok[i] = fn->insts[i].op == Op::kConst && std::isfinite(fn->insts[i].imm);
+  }
+  for (const Inst& in : fn->insts) {
+    bool arithmetic = false;
+    switch (in.op) {
+      case Op::kAdd:
+      case Op::kSub:
+      case Op::kMul:
+      case Op::kDiv:
+      case Op::kMin:
+      case Op::kMax:
+      case Op::kNeg:
+      case Op::kStoreSlot:
+        arithmetic = true;
+        break;
+      default:
+        break;
+    }
+    for (ValueId a : in.args) {
+      if (a == kNoValue) continue;
+      used[size_t(a)] = 1;
+      if (!arithmetic) ok[size_t(a)] = 0;
+    }
+  }
+  if (fn->result != kNoValue) ok[size_t(fn->result)] = 0;
+  std::vector<double> values;
+  for (size_t i = 0; i < n; ++i) {
+    if (!ok[i] || !used[i]) continue;
+    Inst& in = fn->insts[i];
+    values.push_back(in.imm);
+    in.op = Op::kParam;
+    in.aux = fn->num_params + int32_t(values.size()) - 1;
+    in.imm = 0;
+  }
+  if (!values.empty()) fn->hoisted_params_from = std::min(fn->hoisted_params_from, fn->num_params);
+  fn->num_params += int(values.size());
+  return values;
+}
+
+std::string structure_key(const Function& fn) {
+  std::string key;
+  auto put = [&key](const void* p, size_t size) { key.append(static_cast<const char*>(p), size); };
+  auto put_int = [&](int64_t v) { put(&v, sizeof v); };
+  auto put_double = [&](double v) { put(&v, sizeof v); };
+  put_int(fn.num_inputs);
+  put_int(fn.num_params);
+  put_int(fn.hoisted_params_from);
+  put_int(fn.num_slots);
+  put_int(fn.result);
+  put_int(int64_t(fn.insts.size()));
+  for (const Inst& in : fn.insts) {
+    put_int(int64_t(in.op));
+    for (ValueId a : in.args) put_int(a);
+    put_double(in.imm);
+    put_int(in.aux);
+    if (in.op != Op::kParam) {
+      put_int(in.loc.line);
+      put_int(in.loc.col);
+    }
+  }
+  put_int(int64_t(fn.slot_init.size()));
+  for (double v : fn.slot_init) put_double(v);
+  put_int(int64_t(fn.s_slots.size()));
+  for (int32_t s : fn.s_slots) put_int(s);
+  put_int(int64_t(fn.tables.size()));
+  for (const auto& t : fn.tables) {
+    put_int(int64_t(t.size()));
+    for (double v : t) put_double(v);
+  }
+  put_int(int64_t(fn.surfaces.size()));
+  for (const auto& s : fn.surfaces) {
+    const void* p = s.get();
+    put(&p, sizeof p);
+  }
+  return key;
 }
 
 }  // namespace hfrt::jit

@@ -76,7 +76,10 @@ struct Function {
   std::vector<Inst> insts;
   int num_inputs = 3;  ///< x size of the object's header
   int num_params = 1;  ///< a size
-  int num_slots = 0;   ///< mutable scalar slots (locals, array elements, x copy, ...)
+  /// Parameters from this index on are numbers of the source turned into parameters
+  /// (hoist_constants): always finite, so evaluators need not guard them against NaN.
+  int hoisted_params_from = 1 << 30;
+  int num_slots = 0;  ///< mutable scalar slots (locals, array elements, x copy, ...)
   std::vector<double>
       slot_init;              ///< initial value of each slot at every evaluation (NaN = undefined)
   ValueId result = kNoValue;  ///< F: a value defined at the outermost level
@@ -104,6 +107,23 @@ std::string print(const Function& fn);
 /// kElse -> kEndIf, kLoop -> kLoopTest, kLoopTest -> kEndLoop, kEndLoop -> its kLoop; -1
 /// elsewhere. HFRT_CHECKs proper nesting (the verifier's contract).
 std::vector<int32_t> match_regions(const Function& fn);
+
+/// Turns the numeric constants of `fn` whose every use is plain arithmetic (an operand of
+/// + - * /, min, max, negation, or a value stored to a variable) into parameters
+/// a[num_params + j] and returns their values (value j for parameter num_params + j, in
+/// instruction order); fn.num_params grows by their number. Every evaluator computes the
+/// same results with those values passed as parameters (constants and parameters are both
+/// runtime-invariant inputs to every domain), so that code compiled for the hoisted function
+/// serves every edit that changes only such numbers (the REPL). Constants that other uses
+/// read as compile-time facts stay: exponents, comparisons and conditions, indices,
+/// surface arguments, and anything else not listed.
+std::vector<double> hoist_constants(Function* fn);
+
+/// A text equal for two functions exactly when they compute the same from the same inputs
+/// and parameters: instructions (ops, operands, immediates), slots and their initial values,
+/// tables, surfaces, attributes, and the line and column of every instruction but a
+/// hoisted parameter (where errors are reported). The key of compiled-code sharing.
+std::string structure_key(const Function& fn);
 
 /// Builds a Function with constant folding and common-subexpression sharing of pure ops
 /// (only against values whose region encloses the insertion point, so sharing never breaks

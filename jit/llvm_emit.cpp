@@ -26,7 +26,7 @@ std::vector<int> written_slots(const Function& fn, size_t begin, size_t end) {
   return out;
 }
 
-ValueHomes plan_value_homes(const Function& fn) {
+ValueHomes plan_value_homes(const Function& fn, bool params_at_use) {
   const size_t n = fn.insts.size();
   // The innermost loop around each instruction (-1: none); a kLoop marker is outside its loop.
   std::vector<int32_t> loop_of(n, -1), loop_end(n, -1), parent(n, -1);
@@ -66,7 +66,7 @@ ValueHomes plan_value_homes(const Function& fn) {
   std::vector<std::vector<int32_t>> dies_at(n + 1);
   for (size_t i = 0; i < n; ++i) {
     const Op op = fn.insts[i].op;
-    if (op_has_value(op) && op != Op::kConst) {
+    if (op_has_value(op) && op != Op::kConst && !(params_at_use && op == Op::kParam)) {
       if (free_homes.empty()) {
         h.home[i] = h.num_homes++;
       } else {

@@ -32,7 +32,10 @@ struct ValueHomes {
   std::vector<int32_t> home;  ///< per instruction: its home, or -1 (no value, or a constant)
   int num_homes = 0;          ///< homes needed at once
 };
-ValueHomes plan_value_homes(const Function& fn);
+/// `params_at_use`: parameters get no home either (the emitter loads them where they are used:
+/// a broadcast load from the parameter array is cheaper than a home's three vectors, and
+/// hoisted numbers make many parameters, see hoist_constants).
+ValueHomes plan_value_homes(const Function& fn, bool params_at_use = false);
 
 /// Base of the emitters: one IR Function -> LLVM code over <W x T> vectors (lane i = point or
 /// box i of a block). Holds the builder and the types; emitters add their value

@@ -131,7 +131,7 @@ class IntervalEmitter : public VectorEmitter {
     choices_ = &*arg++;
     scratch_ = &*arg++;
     f_->addParamAttr(8, llvm::Attribute::NoAlias);
-    homes_ = plan_value_homes(fn_);
+    homes_ = plan_value_homes(fn_, /*params_at_use=*/!outline_);
     auto* entry = llvm::BasicBlock::Create(ctx_, "entry", f_);
     b_.SetInsertPoint(entry);
     err_ = b_.CreateAlloca(mt_, nullptr, "err");
@@ -404,8 +404,18 @@ class IntervalEmitter : public VectorEmitter {
     const uint64_t at = (static_cast<uint64_t>(homes_.home[v]) * 3 + part) * w_;
     return b_.CreateConstInBoundsGEP1_64(dt_, scratch_, at);
   }
+  /// a[k] as a point interval (NaN: maybe-NaN over [0, 0]; a hoisted number is finite).
+  IV param(int k) {
+    llvm::Value* v = b_.CreateLoad(dt_, b_.CreateConstInBoundsGEP1_64(dt_, a_, k));
+    llvm::Value* vs = b_.CreateVectorSplat(w_, v);
+    if (k >= fn_.hoisted_params_from) return {vs, vs, fals()};
+    llvm::Value* n = isnan(vs);
+    vs = sel(n, splat(0), vs);
+    return {vs, vs, n};
+  }
   IV value(ValueId v) {
     HFRT_CHECK(v != kNoValue);
+    if (homes_.home[v] < 0 && fn_.insts[v].op == Op::kParam) return param(fn_.insts[v].aux);
     if (homes_.home[v] < 0) {
       HFRT_CHECK_MSG(values_[v].lo, "use of a value without code: %" << v);
       return values_[v];
@@ -617,14 +627,9 @@ class IntervalEmitter : public VectorEmitter {
                    fals()});
         return;
       }
-      case Op::kParam: {
-        llvm::Value* v = b_.CreateLoad(dt_, b_.CreateConstInBoundsGEP1_64(dt_, a_, in.aux));
-        llvm::Value* vs = b_.CreateVectorSplat(w_, v);
-        llvm::Value* n = isnan(vs);
-        vs = sel(n, splat(0), vs);
-        define(i, {vs, vs, n});
+      case Op::kParam:
+        if (homes_.home[i] >= 0) define(i, param(in.aux));  // else loaded where used
         return;
-      }
       case Op::kLoadSlot:
         define(i, load_slot(in.aux));
         return;

@@ -148,6 +148,10 @@ struct Compiled {
   explicit Compiled() : interval_pool(fn), gradient_pool(fn) {}
 
   jit::Function fn;
+  /// The object's own parameters a[]: fn.num_params less the hoisted numbers.
+  int user_params = 0;
+  /// The options that shape the code and fn's structure_key (Model::code_key).
+  std::string key;
   std::unique_ptr<jit::Interpreter> interp;
   int opt_level = 2;
   int lanes = 0;
@@ -223,23 +227,32 @@ struct Model::Impl {
   std::shared_ptr<const lang::SourceFile> file;
   std::unique_ptr<lang::Program> program;
   std::vector<SourceDiagnostic> warnings;
-  std::unique_ptr<Compiled> compiled;
+  /// Shared by the models whose code it is (Model::share_code).
+  std::shared_ptr<const Compiled> compiled;
   std::string object_name;
-  std::vector<double> params;      ///< as set by the user
-  std::vector<double> params_f64;  ///< padded to num_params
+  std::vector<double> params;  ///< as set by the user
+  /// The hoisted numbers of this model's source (ModelOptions::hoist_constants): parameters
+  /// user_params + j of the code.
+  std::vector<double> constants;
+  std::vector<double> params_f64;  ///< padded to num_params, then the hoisted numbers
   std::vector<float> params_f32;
   ModelStats stats;
 
   void pad_params() {
     size_t n = static_cast<size_t>(std::max(compiled->fn.num_params, 1));
+    size_t user = static_cast<size_t>(compiled->user_params);
     params_f64.assign(n, 0.0);
-    for (size_t i = 0; i < n && i < params.size(); ++i) params_f64[i] = params[i];
+    for (size_t i = 0; i < user && i < params.size(); ++i) params_f64[i] = params[i];
+    for (size_t j = 0; j < constants.size() && user + j < n; ++j)
+      params_f64[user + j] = constants[j];
     params_f32.assign(params_f64.begin(), params_f64.end());
   }
 
-  /// Lowers object `index` into a fresh Compiled (JIT code per the eager options).
+  /// Lowers object `index` into a fresh Compiled (JIT code per the eager options); its
+  /// hoisted numbers go to `*hoisted`.
   std::unique_ptr<Compiled> build(int index, std::vector<SourceDiagnostic>* diags,
-                                  std::string* rendered, std::string* error) {
+                                  std::string* rendered, std::string* error,
+                                  std::vector<double>* hoisted) {
     auto c = std::make_unique<Compiled>();  // (the pools refer to c->fn: it never moves)
     c->opt_level = options.opt_level;
     c->lanes = options.lanes;
@@ -259,6 +272,9 @@ struct Model::Impl {
       if (!rendered && error) *error = sink.render(false);
       return nullptr;
     }
+    c->user_params = c->fn.num_params;
+    hoisted->clear();
+    if (options.hoist_constants) *hoisted = jit::hoist_constants(&c->fn);
     c->interp = std::make_unique<jit::Interpreter>(c->fn);
     const int64_t weight = domain_jit_weight(c->fn);
     stats.domain_jit_weight = weight;
@@ -266,6 +282,10 @@ struct Model::Impl {
     c->interval_jit = options.backend == Backend::kJit && within(options.interval_jit_max_insts);
     c->gradient_jit = options.backend == Backend::kJit && within(options.gradient_jit_max_insts);
     c->poly_jit_enabled = options.backend == Backend::kJit;
+    c->key = std::to_string(static_cast<int>(options.backend)) + ' ' +
+             std::to_string(options.opt_level) + ' ' + std::to_string(options.lanes) + ' ' +
+             std::to_string(options.interval_lanes) + ' ' + std::to_string(c->interval_jit) +
+             std::to_string(c->gradient_jit) + '\n' + jit::structure_key(c->fn);
     if (options.backend == Backend::kJit) {
       for (Precision p : {Precision::kF64, Precision::kF32}) {
         bool eager = p == Precision::kF64 ? options.eager_f64 : options.eager_f32;
@@ -317,7 +337,8 @@ CompileResult Model::compile(std::string_view source, const ModelOptions& option
     return result;
   }
   size_t before = result.diagnostics.size();
-  impl->compiled = impl->build(index, &result.diagnostics, &result.rendered, &result.error);
+  impl->compiled =
+      impl->build(index, &result.diagnostics, &result.rendered, &result.error, &impl->constants);
   if (!impl->compiled) return result;
   for (size_t i = before; i < result.diagnostics.size(); ++i) {
     impl->warnings.push_back(result.diagnostics[i]);
@@ -356,12 +377,14 @@ bool Model::select_object(std::string_view name, std::string* error) {
   }
   std::string why;
   std::vector<SourceDiagnostic> warnings;
-  auto compiled = impl_->build(index, &warnings, nullptr, &why);
+  std::vector<double> constants;
+  auto compiled = impl_->build(index, &warnings, nullptr, &why, &constants);
   if (!compiled) {
     if (error) *error = why;
     return false;
   }
   impl_->compiled = std::move(compiled);  // frees the old object's code (its ResourceTrackers)
+  impl_->constants = std::move(constants);
   impl_->warnings = std::move(warnings);
   impl_->object_name = impl_->program->objects[index].name;
   impl_->pad_params();
@@ -375,7 +398,19 @@ int Model::num_inputs() const {
   return impl_->compiled->fn.num_inputs;
 }
 int Model::num_params() const {
-  return impl_->compiled->fn.num_params;
+  return impl_->compiled->user_params;
+}
+
+const std::string& Model::code_key() const {
+  return impl_->compiled->key;
+}
+
+bool Model::share_code(const Model& other) {
+  if (impl_->compiled == other.impl_->compiled) return true;
+  if (impl_->compiled->key != other.impl_->compiled->key) return false;
+  impl_->compiled = other.impl_->compiled;
+  impl_->pad_params();
+  return true;
 }
 int Model::num_attributes() const {
   return static_cast<int>(impl_->compiled->fn.s_slots.size());

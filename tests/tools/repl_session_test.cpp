@@ -576,6 +576,37 @@ TEST(ReplView, AnEditThatChangesTheEvaluatorsDecidesTheRootSearchAgain) {
   fs::remove_all(dir);
 }
 
+TEST(ReplView, AnEditOfANumberReusesTheCodeAndShowsTheEditedModel) {
+  fs::path dir = temp_dir();
+  std::string out = (dir / "n.png").string();
+  auto def = [](const char* k) {
+    return std::string("blob(x[3], a[1]) {\n  k = ") + k +
+           ";\n  blob = k - sqrt(x[1]*x[1] + 2*x[2]*x[2] + x[3]*x[3]);\n}";
+  };
+  Session s;
+  ASSERT_TRUE(s.run(def("0.75")).ok);
+  // A fixed camera: the comparison below is of the evaluators, not of the framing.
+  const std::string view = " --size 40x40 --bbox 2 --eye 0.5,-6,2 --look-at 0,0,0";
+  ASSERT_TRUE(s.run(":render " + out + view).ok);
+  const double small = coverage(s);
+  ASSERT_TRUE(s.run(def("1.25")).ok);
+  EXPECT_EQ(s.code_shares(), 1);  // compiled anew for its diagnostics, but not JIT-compiled
+  SessionResult r = s.run(":render " + out);
+  ASSERT_TRUE(r.ok) << r.err;
+  EXPECT_GT(coverage(s), 2 * small);
+  const std::vector<float> edited = s.last_image()->rgb;
+  // A session that never saw the first value renders the same bits.
+  Session fresh;
+  ASSERT_TRUE(fresh.run(def("1.25")).ok);
+  EXPECT_EQ(fresh.code_shares(), 0);
+  ASSERT_TRUE(fresh.run(":render " + out + view).ok);
+  EXPECT_TRUE(fresh.last_image()->rgb == edited);
+  // Another structure shares nothing.
+  ASSERT_TRUE(s.run("blob(x[3], a[1]) { blob = 1 - abs(x[1]); }").ok);
+  EXPECT_EQ(s.code_shares(), 1);
+  fs::remove_all(dir);
+}
+
 TEST(ReplView, CoarsePictureComesFirstWhenAsked) {
   Session s;
   fs::path dir = temp_dir();

@@ -261,6 +261,9 @@ const Model* Session::model_for(const std::string& source, const std::string& ob
   // evaluators it needs in parallel (prepare_for_render), :eval its f64 code on first use.
   mo.eager_f64 = false;
   mo.eager_f32 = false;
+  // Numbers as hidden parameters: an edit that changes only numbers (a radius, a blend
+  // factor) gets the code of the model it was edited from, compiled or not, and costs no JIT.
+  mo.hoist_constants = true;
   auto t0 = std::chrono::steady_clock::now();
   CompileResult r = Model::compile(source, mo, "<session>");
   ++compiles_;
@@ -268,10 +271,18 @@ const Model* Session::model_for(const std::string& source, const std::string& ob
     *err = format_diagnostics(r, line_offset, file);
     return nullptr;
   }
+  for (const auto& [k, cached] : cache_) {
+    if (r.model->share_code(cached)) {
+      ++code_shares_;
+      break;
+    }
+  }
   last_compile_ms_ = ms_since(t0);
   timings_.compile = last_compile_ms_;
-  // A small cache: the session's models change rarely, but keep memory bounded.
-  if (cache_.size() >= 16) cache_.clear();
+  // A small cache: the session's models change rarely, but keep memory bounded. The newest
+  // model stays (an edit shares its code), the oldest goes first.
+  if (cache_.size() >= 16) cache_.erase(cache_order_.front()), cache_order_.pop_front();
+  cache_order_.push_back(key);
   return &cache_.emplace(std::move(key), std::move(*r.model)).first->second;
 }
 

@@ -8,6 +8,7 @@
 // models are cached by (source text, object): only a change recompiles.
 
 #include <atomic>
+#include <deque>
 #include <functional>
 #include <map>
 #include <optional>
@@ -96,6 +97,9 @@ class Session {
   std::function<void(const render::Image&)> on_coarse;
   /// Number of compiles that were not served by the cache (for tests and `:stats`).
   int compiles() const { return compiles_; }
+  /// How many of those compiles reused the code of an earlier model (Model::share_code):
+  /// edits that changed only numbers.
+  int code_shares() const { return code_shares_; }
   const SessionTimings& timings() const { return timings_; }
 
   /// For `:watch`: reloads FILE and re-renders with the remembered output (when there was a
@@ -135,7 +139,9 @@ class Session {
   std::vector<std::pair<std::string, std::string>> objects_;
   std::string current_;
   std::map<std::pair<std::string, std::string>, Model> cache_;
+  std::deque<std::pair<std::string, std::string>> cache_order_;  ///< oldest first
   int compiles_ = 0;
+  int code_shares_ = 0;
   RenderCli cli_;
   RenderSetup setup_;
   /// The view of the last render, kept while the same object is edited with the same options:

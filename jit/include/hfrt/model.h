@@ -52,6 +52,12 @@ struct ModelOptions {
   /// 133 ns and 143 ns), so batches of boxes (the renderer's) go up to 8x faster, and a single
   /// box costs no more (the libm-based ops, run lane by lane, compute a padded copy once).
   int interval_lanes = 0;
+  /// Compile the numbers of the source that only feed arithmetic as hidden parameters
+  /// (jit::hoist_constants): the code then serves every source that differs from this one
+  /// only in such numbers, and Model::share_code lets a model compiled from an edited
+  /// source reuse another's code instead of compiling its own (the REPL: an edit of a radius
+  /// costs no JIT compile). The same values as without it, bit for bit.
+  bool hoist_constants = false;
 };
 
 /// One compile-time diagnostic (error, warning or note), located in the source.
@@ -184,6 +190,14 @@ class Model {
   /// Returns false and leaves the model as it was when there is no such object or the JIT
   /// fails; `error` says why.
   bool select_object(std::string_view name, std::string* error = nullptr);
+
+  /// Identifies the compiled code: equal for two models compiled with the same options from
+  /// objects that differ at most in hoisted numbers (ModelOptions::hoist_constants).
+  const std::string& code_key() const;
+  /// Makes this model use `other`'s code, compiled or still to be compiled, in every domain,
+  /// when their code_key() is equal; this model keeps its own numbers and parameters. Returns
+  /// false (and changes nothing) when the keys differ. Not thread-safe, like set_params.
+  bool share_code(const Model& other);
 
   Backend backend() const;
   int num_inputs() const;      ///< x size of the object's header
