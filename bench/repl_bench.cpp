@@ -6,7 +6,9 @@
 // a gear radius) of three corpus models to the finished 512x512 image on all cores, each edit
 // a compile and a `:render` through the Session, with where the time went (parse and lowering,
 // the JIT of the point, interval and gradient code, framing, auto probe, ray tracing, image
-// writing). Run:
+// writing). Edits that change only numbers reuse the compiled code (Session::share_code); each
+// set of edits is measured that way and again with every edit compiled anew, which is what an
+// edit of the structure costs. Run:
 //   build/bench/hfrt_bench_repl [--rounds N] [--edits N] [--size N] [--only NAME]
 #include <algorithm>
 #include <chrono>
@@ -76,7 +78,7 @@ struct Stat {
 
 /// Edits of one model: each a new definition (compile) then `:render` to 512x512. False on error.
 bool bench_edits(const EditCase& c, int edits, int size, const std::string& extra,
-                 const std::string& out) {
+                 const std::string& out, bool share) {
   const std::string text = slurp(std::string(HFRT_CORPUS_DIR) + "/models/" + c.file);
   const size_t at = text.find(c.original);
   if (text.empty() || at == std::string::npos) {
@@ -84,6 +86,7 @@ bool bench_edits(const EditCase& c, int edits, int size, const std::string& extr
     return false;
   }
   hfrt::tools::Session s;
+  s.share_code = share;
   // The benchmark scenes' domain is [-1.6, 1.6]^3 (FRep-Designer-Bench scenes/MATH.md).
   const std::string opts =
       " --size " + std::to_string(size) + "x" + std::to_string(size) + " --bbox 1.6" + extra;
@@ -139,7 +142,8 @@ int main(int argc, char** argv) {
   if (!check(s.run(":render " + out + " --size 128x128 --bbox -3,-3,-3,3,3,3"))) return 1;
   double define_ms = 0, cached_ms = 0, eval_ms = 0, render_ms = 0;
   for (int i = 0; i < rounds; ++i) {
-    // A different constant each round: a real recompile.
+    // A different number each round: a new model to parse and lower (its compiled code is
+    // shared with the first round's, Session::share_code).
     std::string def = "top(x[3], a[1]) { v = base(x, a); top = v - 0." + std::to_string(i + 1) +
                       " * sin(4 * x[1]); }";
     auto t0 = std::chrono::steady_clock::now();
@@ -164,13 +168,21 @@ int main(int argc, char** argv) {
   const std::string out512 =
       (std::filesystem::temp_directory_path() / "hfrt_bench_repl_edit.png").string();
   // The default options (shadows, `--root auto`), then the quick look: the sign-change march
-  // without shadow rays.
-  for (const char* extra : {"", " --root sign --no-shadows"}) {
-    std::printf("%d edits of one constant each, compile + :render%s on all cores:\n", edits,
-                *extra ? extra : " (default options)");
+  // without shadow rays. An edit of a number reuses the compiled code (Session::share_code);
+  // the same edits compiled anew measure what an edit of the structure costs.
+  struct Mode {
+    const char* extra;
+    bool share;
+  };
+  for (Mode m : {Mode{"", true}, Mode{"", false}, Mode{" --root sign --no-shadows", true},
+                 Mode{" --root sign --no-shadows", false}}) {
+    std::printf("%d edits of one constant each, compile + :render%s on all cores, %s:\n", edits,
+                *m.extra ? m.extra : " (default options)",
+                m.share ? "numbers only: the compiled code is reused"
+                        : "every edit JIT-compiled anew, as an edit of the structure is");
     for (const EditCase& c : kCases) {
       if (!only.empty() && only != c.name) continue;
-      if (!bench_edits(c, edits, size, extra, out512)) return 1;
+      if (!bench_edits(c, edits, size, m.extra, out512, m.share)) return 1;
     }
   }
   std::filesystem::remove(out512);

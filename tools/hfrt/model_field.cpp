@@ -42,6 +42,23 @@ float round_up(double v) {
   return std::bit_cast<float>((above & take) | (i & ~take));
 }
 
+/// The f64 enclosure rounded outwards to float bounds (NaN bounds for an unknown one).
+/// Inline: the renderer converts millions of enclosures a frame.
+inline render::Interval to_render_interval(const IntervalValue& r, bool* maybe_nan) {
+  *maybe_nan = r.maybe_nan;
+  if (r.maybe_nan && r.hi >= 0 && (std::isinf(r.lo) || std::isinf(r.hi))) {
+    // An enclosure with NaN possible and an infinite bound that reaches 0 (an interval loop
+    // that gave up, e.g. the Newton iterations of hfDEllipsoid: [-inf, 0] even over a point)
+    // does not shrink with the box, so it says nothing about where the surface is. Report it
+    // as unknown (NaN ends): the renderer then subdivides and samples, instead of taking a
+    // piece that still reaches 0 at the tolerance for a thin feature (which would fill the
+    // whole box with a false solid).
+    const float nan = std::numeric_limits<float>::quiet_NaN();
+    return {nan, nan};
+  }
+  return {round_down(r.lo), round_up(r.hi)};
+}
+
 /// Packs up to three coordinate arrays into the structure-of-arrays layout of the model
 /// (x[1..3]; any further coordinates, e.g. time, are held at 0).
 void pack(int dims, size_t n, const float* x, const float* y, const float* z,
@@ -149,21 +166,6 @@ void ModelField::eval_intervals(size_t n, const render::Box* boxes, render::Inte
   for (size_t i = 0; i < n; ++i) {
     out[i] = to_render_interval({sc.out_lo[i], sc.out_hi[i], sc.out_nan[i] != 0}, &maybe_nan[i]);
   }
-}
-
-render::Interval ModelField::to_render_interval(const IntervalValue& r, bool* maybe_nan) {
-  *maybe_nan = r.maybe_nan;
-  if (r.maybe_nan && r.hi >= 0 && (std::isinf(r.lo) || std::isinf(r.hi))) {
-    // An enclosure with NaN possible and an infinite bound that reaches 0 (an interval loop
-    // that gave up, e.g. the Newton iterations of hfDEllipsoid: [-inf, 0] even over a point)
-    // does not shrink with the box, so it says nothing about where the surface is. Report it
-    // as unknown (NaN ends): the renderer then subdivides and samples, instead of taking a
-    // piece that still reaches 0 at the tolerance for a thin feature (which would fill the
-    // whole box with a false solid).
-    const float nan = std::numeric_limits<float>::quiet_NaN();
-    return {nan, nan};
-  }
-  return {round_down(r.lo), round_up(r.hi)};
 }
 
 void ModelField::eval_gradient(size_t n, const float* x, const float* y, const float* z, float* f,

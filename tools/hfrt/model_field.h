@@ -62,9 +62,6 @@ class ModelField final : public render::Field {
   void prepare_render(render::RootMode root);
 
  private:
-  /// The f64 enclosure rounded outwards to float bounds (NaN bounds for an unknown one).
-  static render::Interval to_render_interval(const IntervalValue& r, bool* maybe_nan);
-
   const Model& model_;
   std::string file_;
   int dims_;

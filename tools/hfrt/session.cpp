@@ -272,7 +272,7 @@ const Model* Session::model_for(const std::string& source, const std::string& ob
     return nullptr;
   }
   for (const auto& [k, cached] : cache_) {
-    if (r.model->share_code(cached)) {
+    if (share_code && r.model->share_code(cached)) {
       ++code_shares_;
       break;
     }

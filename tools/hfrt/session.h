@@ -95,6 +95,10 @@ class Session {
   /// shadows: about 1/64 of the work) and passes it here before the full render, so that a
   /// terminal shows something at once and then the refined picture.
   std::function<void(const render::Image&)> on_coarse;
+  /// A new definition that differs from a cached one only in numbers reuses its compiled
+  /// code (Model::share_code). Off: every new definition compiles its own, as an edit of the
+  /// structure does (benchmarks of that path).
+  bool share_code = true;
   /// Number of compiles that were not served by the cache (for tests and `:stats`).
   int compiles() const { return compiles_; }
   /// How many of those compiles reused the code of an earlier model (Model::share_code):
