@@ -108,6 +108,13 @@ std::string print(const Function& fn);
 /// elsewhere. HFRT_CHECKs proper nesting (the verifier's contract).
 std::vector<int32_t> match_regions(const Function& fn);
 
+/// Per instruction: 1 when its value is the same for every point (every lane of a vector
+/// evaluator): computed from constants, parameters and tables by pure ops, and from variables
+/// (slots) that only ever hold such values, stored under conditions that are such values
+/// (a loop over a constant count, `if mod(i, 2) = 0`). A vector evaluator may compute such a
+/// value once and broadcast it (the per-lane libm calls of sin, cos, fmod, pow).
+std::vector<uint8_t> uniform_values(const Function& fn);
+
 /// Turns the numeric constants of `fn` whose every use is plain arithmetic (an operand of
 /// + - * /, min, max, negation, or a value stored to a variable) into parameters
 /// a[num_params + j] and returns their values (value j for parameter num_params + j, in

@@ -142,6 +142,13 @@ llvm::FunctionCallee VectorEmitter::pure_function(const char* name, int args) {
 }
 
 llvm::Value* VectorEmitter::call_lanes(llvm::FunctionCallee f, llvm::Value* a, llvm::Value* b) {
+  if (uniform_op_) {
+    llvm::Value* a0 = b_.CreateExtractElement(a, uint64_t(0));
+    llvm::CallInst* call = b ? b_.CreateCall(f, {a0, b_.CreateExtractElement(b, uint64_t(0))})
+                             : b_.CreateCall(f, {a0});
+    call->setDoesNotThrow();
+    return b_.CreateVectorSplat(w_, call);
+  }
   llvm::Value* r = llvm::PoisonValue::get(vt_);
   for (int i = 0; i < w_; ++i) {
     llvm::Value* ai = b_.CreateExtractElement(a, uint64_t(i));

@@ -83,8 +83,10 @@ class VectorEmitter {
     return is_f32_ ? f32_name : f64_name;
   }
   /// Calls a scalar function on every lane (all lanes: the functions are pure, and the
-  /// results of inactive lanes are never stored).
+  /// results of inactive lanes are never stored); once on lane 0, broadcast, while
+  /// uniform_op_ says the op's value is the same on every lane (uniform_values).
   llvm::Value* call_lanes(llvm::FunctionCallee f, llvm::Value* a, llvm::Value* b = nullptr);
+  bool uniform_op_ = false;
 
   /// Function::surfaces[index] as a constant pointer of the code (the Function owns it).
   llvm::Value* surface_pointer(int index);

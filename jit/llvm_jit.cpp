@@ -236,6 +236,7 @@ class Emitter : public VectorEmitter {
     b_.CreateStore(llvm::ConstantInt::getFalse(mt_), err_);
 
     values_.assign(fn_.insts.size(), nullptr);
+    uniform_ = uniform_values(fn_);
     for (size_t i = 0; i < fn_.insts.size(); ++i) {
       const Inst& inst = fn_.insts[i];
       auto arg = [&](int k) {
@@ -306,8 +307,10 @@ class Emitter : public VectorEmitter {
           end_loop();
           break;
         default:
+          uniform_op_ = uniform_[i] != 0;
           v = scalar_op(inst.op, arg(0), inst.args[1] != kNoValue ? arg(1) : nullptr,
                         inst.args[2] != kNoValue ? arg(2) : nullptr);
+          uniform_op_ = false;
           break;
       }
       values_[i] = v;
@@ -417,6 +420,7 @@ class Emitter : public VectorEmitter {
 
   llvm::Function* body_ = nullptr;
   std::vector<llvm::Value*> values_;
+  std::vector<uint8_t> uniform_;  ///< uniform_values(fn_): per-lane libm calls made once
   std::vector<llvm::Value*> slot_ptr_;
   std::vector<int> slot_group_;
   std::vector<Group> groups_;

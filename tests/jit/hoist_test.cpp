@@ -221,3 +221,96 @@ TEST(HoistConstants, AnEditedNumberSharesTheCodeAndGivesItsOwnValues) {
 
 }  // namespace
 }  // namespace hfrt::jit
+
+namespace hfrt::jit {
+namespace {
+
+/// uniform_values of the model's instructions that compute `op`, in order.
+std::vector<int> uniform_of(const std::string& body, Op op) {
+  auto c = testutil::compile("my_model(x[3], a[1]) {\n" + body + "\n}\n");
+  EXPECT_TRUE(c.ok) << c.diagnostics;
+  std::vector<uint8_t> u = uniform_values(c.fn);
+  std::vector<int> out;
+  for (size_t i = 0; i < c.fn.insts.size(); ++i) {
+    if (c.fn.insts[i].op == op) out.push_back(u[i]);
+  }
+  return out;
+}
+
+TEST(UniformValues, ALoopOverAConstantCountIsTheSameOnEveryLane) {
+  // blend.hf's shape: the angle, its sine and the mod of the counter are uniform; the
+  // distance to x is not.
+  EXPECT_EQ(uniform_of("  acc = 0; i = 0;\n"
+                       "  while i < 6 loop\n"
+                       "    acc = acc + sin(i * 1.047) * x[1];\n"
+                       "    if mod(i, 2) = 0 then acc = acc + cos(i); endif;\n"
+                       "    i = i + 1;\n"
+                       "  endloop;\n"
+                       "  my_model = acc;",
+                       Op::kSin),
+            std::vector<int>{1});
+  std::vector<int> two = uniform_of("  my_model = sin(x[1]) + sin(a[1]);", Op::kSin);
+  std::sort(two.begin(), two.end());
+  EXPECT_EQ(two, (std::vector<int>{0, 1}));
+  // The cosine under the uniform `if` and the mod of the counter are uniform too.
+  EXPECT_EQ(uniform_of("  acc = 0; i = 0;\n"
+                       "  while i < 6 loop\n"
+                       "    if mod(i, 2) = 0 then acc = acc + cos(i) * x[2]; endif;\n"
+                       "    i = i + 1;\n"
+                       "  endloop;\n"
+                       "  my_model = acc;",
+                       Op::kCos),
+            std::vector<int>{1});
+}
+
+TEST(UniformValues, TheJitComputingThemOnceGivesTheInterpretersBits) {
+  // examples/blend.hf: six spheres placed by sin and cos of a loop counter, radii chosen by
+  // mod(i, 2). The JIT calls those once per block; values must stay the interpreter's.
+  Result<std::string> text = read_file(HFRT_SOURCE_DIR "/examples/blend.hf");
+  ASSERT_TRUE(text.ok());
+  ModelOptions jit_options, interp_options;
+  interp_options.backend = Backend::kInterp;
+  CompileResult jit = Model::compile(text.value(), jit_options, "blend.hf");
+  CompileResult interp = Model::compile(text.value(), interp_options, "blend.hf");
+  ASSERT_TRUE(jit.ok() && interp.ok());
+  const int n = 203;  // not a multiple of any lane count: a padded block too
+  std::mt19937_64 rng(5);
+  std::uniform_real_distribution<double> u(-8, 8);
+  std::vector<double> xs(3 * n), fj(n), fi(n);
+  for (double& v : xs) v = u(rng);
+  jit.model->eval_batch(n, xs.data(), fj.data());
+  interp.model->eval_batch(n, xs.data(), fi.data());
+  int inside = 0;
+  for (int i = 0; i < n; ++i) {
+    EXPECT_TRUE(same_bits(fj[i], fi[i])) << i << ": " << fj[i] << " vs " << fi[i];
+    inside += fi[i] >= 0;
+  }
+  EXPECT_GT(inside, 0);
+}
+
+TEST(UniformValues, VariablesSetWhereLanesDivergeAreNot) {
+  // Stored under a condition on x: lanes differ afterwards.
+  EXPECT_EQ(uniform_of("  t = 1;\n"
+                       "  if x[1] > 0 then t = 2; endif;\n"
+                       "  my_model = sin(t) - x[2];",
+                       Op::kSin),
+            std::vector<int>{0});
+  // A loop whose test depends on x: lanes leave at different iterations.
+  EXPECT_EQ(uniform_of("  i = 0;\n"
+                       "  while i < x[1] loop i = i + 1; endloop;\n"
+                       "  my_model = sin(i);",
+                       Op::kSin),
+            std::vector<int>{0});
+  // An array element chosen by x.
+  EXPECT_EQ(uniform_of("  array v[2];\n"
+                       "  v = [1, 2];\n"
+                       "  j = 1;\n"
+                       "  if x[1] > 0 then j = 2; endif;\n"
+                       "  v[j] = 5;\n"
+                       "  my_model = sin(v[1]) - x[3];",
+                       Op::kSin),
+            std::vector<int>{0});
+}
+
+}  // namespace
+}  // namespace hfrt::jit
