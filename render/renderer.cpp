@@ -220,25 +220,28 @@ class TileRenderer {
     }
   }
 
+  /// The range [*te, *tx] of a camera ray inside the box and the axis of the face it enters
+  /// by (-1: the eye is inside the box, where the range starts); false when it misses the box.
+  bool box_range(const Ray& ray, float* te, float* tx, int* axis) const {
+    if (!intersect_box(ray, opt_.bbox, te, tx, axis)) return false;
+    if (!frame_.orthographic() && *te < 0) {
+      *te = 0;
+      *axis = -1;
+    }
+    return true;
+  }
+
   void search_primary(Sample& s, ThreadState& ts) {
     float te, tx;
-    int axis;
-    if (!intersect_box(s.ray, opt_.bbox, &te, &tx, &axis)) return;
-    if (!frame_.orthographic() && te < 0) {
-      te = 0;
-      axis = -1;  // the eye is inside the box
-    }
+    if (!box_range(s.ray, &te, &tx, &s.cap_axis)) return;
     if (use_analytic_) {
       // One search over all spans: the candidates are exact, and the gaps between spans (proven
       // outside) cannot hold a hit, so only the first span's start matters.
       float a = std::max(ts.spans.front().a, te), b = std::min(ts.spans.back().b, tx);
       if (!(a <= b)) return;
       RootHit h = ts.searcher.analytic_search(s.ray, a, b);
-      if (!h.hit) return;
-      s.hit = true;
-      s.t = h.t;
-      s.cap = h.at_start && a == te && axis >= 0;
-      s.cap_axis = axis;
+      h.at_start = h.at_start && a == te;
+      if (h.hit) set_hit(s, h);
       return;
     }
     float dlen = length(s.ray.d);
@@ -249,10 +252,8 @@ class TileRenderer {
                       ? ts.searcher.interval_search(s.ray, a, b, eps_ / dlen, step_ / dlen, false)
                       : ts.searcher.sign_search(s.ray, a, b, step_ / dlen, eps_ / dlen, false);
       if (!h.hit) continue;
-      s.hit = true;
-      s.t = h.t;
-      s.cap = h.at_start && a == te && axis >= 0;
-      s.cap_axis = axis;
+      h.at_start = h.at_start && a == te;
+      set_hit(s, h);
       return;
     }
   }
@@ -269,13 +270,7 @@ class TileRenderer {
     for (size_t si = 0; si < ts.samples.size(); ++si) {
       Sample& s = ts.samples[si];
       float te, tx;
-      int axis;
-      if (!intersect_box(s.ray, opt_.bbox, &te, &tx, &axis)) continue;
-      if (!frame_.orthographic() && te < 0) {
-        te = 0;
-        axis = -1;  // the eye is inside the box
-      }
-      s.cap_axis = axis;
+      if (!box_range(s.ray, &te, &tx, &s.cap_axis)) continue;
       const float dlen = length(s.ray.d);
       const float eps = eps_ / dlen, step = step_ / dlen;
       RootSearcher::BatchRay br;

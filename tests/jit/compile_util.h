@@ -3,8 +3,11 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
+#include <filesystem>
 #include <memory>
 #include <string>
+#include <vector>
 
 #include "jit/interpreter.h"
 #include "jit/lower.h"
@@ -35,6 +38,17 @@ inline Compiled compile(const std::string& text, const std::string& object = "",
   }
   c.diagnostics = diags.render(false);
   return c;
+}
+
+/// The .hf files under `dir` (recursively), sorted; none when it does not exist.
+inline std::vector<std::string> hf_files(const std::string& dir) {
+  std::vector<std::string> out;
+  std::error_code ec;
+  for (const auto& e : std::filesystem::recursive_directory_iterator(dir, ec)) {
+    if (e.path().extension() == ".hf") out.push_back(e.path().string());
+  }
+  std::sort(out.begin(), out.end());
+  return out;
 }
 
 /// Evaluates the model of `text` at x with a = 0.

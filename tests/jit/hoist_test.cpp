@@ -79,16 +79,6 @@ TEST(HoistConstants, TheKeyIgnoresTheNumbersButNotTheStructure) {
   EXPECT_TRUE(key("  my_model = 2 * x[1] + 2 * x[2];") != key("  my_model = 2 * x[1] + 3 * x[2];"));
 }
 
-std::vector<std::string> corpus_files(const std::string& dir) {
-  std::vector<std::string> out;
-  std::error_code ec;
-  for (const auto& e : fs::recursive_directory_iterator(dir, ec)) {
-    if (e.path().extension() == ".hf") out.push_back(e.path().string());
-  }
-  std::sort(out.begin(), out.end());
-  return out;
-}
-
 bool same_bits(double u, double v) {
   return std::memcmp(&u, &v, sizeof u) == 0 || (std::isnan(u) && std::isnan(v));
 }
@@ -170,7 +160,7 @@ int compare_models(const std::string& path, Backend backend) {
 
 TEST(HoistConstants, CorpusModelsGiveTheSameBitsWithTheInterpreters) {
   int files = 0, diffs = 0;
-  for (const std::string& path : corpus_files(HFRT_CORPUS_DIR "/models")) {
+  for (const std::string& path : testutil::hf_files(HFRT_CORPUS_DIR "/models")) {
     diffs += compare_models(path, Backend::kInterp);
     ++files;
   }
@@ -183,7 +173,7 @@ TEST(HoistConstants, BenchModelsGiveTheSameBitsWithTheJit) {
   // domain): blends, CSG, a gyroid (trigonometry), a twist, a gear of 255 instructions.
   int checked = 0, diffs = 0;
   for (const std::string& path :
-       corpus_files(HFRT_CORPUS_DIR "/models/github/alexander-penev__FRep-Designer-Bench")) {
+       testutil::hf_files(HFRT_CORPUS_DIR "/models/github/alexander-penev__FRep-Designer-Bench")) {
     if (path.find("historical") != std::string::npos) continue;
     diffs += compare_models(path, Backend::kJit);
     ++checked;

@@ -24,21 +24,12 @@
 #include "jit/lower.h"
 #include "lang/frontend.h"
 #include "lang/result.h"
+#include "tests/jit/compile_util.h"
 
 namespace hfrt::jit {
 namespace {
 
 namespace fs = std::filesystem;
-
-std::vector<std::string> corpus_files(const std::string& dir) {
-  std::vector<std::string> out;
-  std::error_code ec;
-  for (const auto& e : fs::recursive_directory_iterator(dir, ec)) {
-    if (e.path().extension() == ".hf") out.push_back(e.path().string());
-  }
-  std::sort(out.begin(), out.end());
-  return out;
-}
 
 /// The default object of a corpus file, lowered; nullopt when it does not compile.
 std::optional<Function> lower_file(const std::string& path) {
@@ -163,7 +154,7 @@ void check_gradients(const std::string& path, const Function& fn, Totals* t) {
 
 void run_corpus(const std::string& dir, bool intervals, int min_compiled) {
   Totals t;
-  for (const std::string& path : corpus_files(dir)) {
+  for (const std::string& path : testutil::hf_files(dir)) {
     ++t.files;
     std::optional<Function> fn = lower_file(path);
     if (!fn) continue;
