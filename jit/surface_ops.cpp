@@ -2,6 +2,7 @@
 #include "jit/surface_ops.h"
 
 #include <cmath>
+#include <cstring>
 #include <limits>
 
 #include "geom/surface.h"
@@ -113,12 +114,28 @@ float hfrt_surface_sign_f32(const void* s, float x, float y, float z) noexcept {
 
 void hfrt_surface_interval(const void* s, const double* in, double* out) noexcept {
   using hfrt::jit::Interval;
+  // A block with fewer boxes than lanes repeats its last box in the spare lanes (one box per
+  // call from a bisection): reuse the previous lane's bound, a BVH walk of ~26 us, when the
+  // surface and the box are the same bits.
+  struct Last {
+    const void* surface = nullptr;
+    double in[9];
+    double out[3];
+  };
+  thread_local Last last;
+  if (last.surface == s && std::memcmp(last.in, in, sizeof last.in) == 0) {
+    std::memcpy(out, last.out, sizeof last.out);
+    return;
+  }
   Interval r = hfrt::jit::surface_interval(
       *static_cast<const hfrt::geom::Surface*>(s), Interval::of(in[0], in[1], in[2] != 0),
       Interval::of(in[3], in[4], in[5] != 0), Interval::of(in[6], in[7], in[8] != 0));
   out[0] = r.lo;
   out[1] = r.hi;
   out[2] = r.maybe_nan ? 1.0 : 0.0;
+  last.surface = s;
+  std::memcpy(last.in, in, sizeof last.in);
+  std::memcpy(last.out, out, sizeof last.out);
 }
 
 void hfrt_surface_dual(const void* s, const double* in, double* out) noexcept {
