@@ -234,6 +234,7 @@ struct Model::Impl {
   /// The hoisted numbers of this model's source (ModelOptions::hoist_constants): parameters
   /// user_params + j of the code.
   std::vector<double> constants;
+  bool shares_code = false;        ///< compiled is another model's (share_code)
   std::vector<double> params_f64;  ///< padded to num_params, then the hoisted numbers
   std::vector<float> params_f32;
   ModelStats stats;
@@ -385,6 +386,7 @@ bool Model::select_object(std::string_view name, std::string* error) {
   }
   impl_->compiled = std::move(compiled);  // frees the old object's code (its ResourceTrackers)
   impl_->constants = std::move(constants);
+  impl_->shares_code = false;
   impl_->warnings = std::move(warnings);
   impl_->object_name = impl_->program->objects[index].name;
   impl_->pad_params();
@@ -409,8 +411,13 @@ bool Model::share_code(const Model& other) {
   if (impl_->compiled == other.impl_->compiled) return true;
   if (impl_->compiled->key != other.impl_->compiled->key) return false;
   impl_->compiled = other.impl_->compiled;
+  impl_->shares_code = true;
   impl_->pad_params();
   return true;
+}
+
+bool Model::shares_code() const {
+  return impl_->shares_code;
 }
 int Model::num_attributes() const {
   return static_cast<int>(impl_->compiled->fn.s_slots.size());

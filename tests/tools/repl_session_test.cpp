@@ -591,8 +591,10 @@ TEST(ReplView, AnEditOfANumberReusesTheCodeAndShowsTheEditedModel) {
   const double small = coverage(s);
   ASSERT_TRUE(s.run(def("1.25")).ok);
   EXPECT_EQ(s.code_shares(), 1);  // compiled anew for its diagnostics, but not JIT-compiled
-  SessionResult r = s.run(":render " + out);
+  SessionResult r = s.run(":render " + out + " --stats");
   ASSERT_TRUE(r.ok) << r.err;
+  EXPECT_NE(r.out.find("lanes, shared: compiled for an earlier edit in"), std::string::npos)
+      << r.out;
   EXPECT_GT(coverage(s), 2 * small);
   const std::vector<float> edited = s.last_image()->rgb;
   // A session that never saw the first value renders the same bits.

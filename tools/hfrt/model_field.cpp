@@ -234,7 +234,11 @@ std::string describe_domain_engines(const Model& model) {
   ModelStats st = model.stats();
   auto one = [&](const char* name, DomainEngine engine, const ModelStats::Domain& d) {
     char buf[160];
-    if (engine == DomainEngine::kJit && d.compiled) {
+    if (engine == DomainEngine::kJit && d.compiled && model.shares_code()) {
+      std::snprintf(buf, sizeof buf,
+                    "%s JIT (%d lanes, shared: compiled for an earlier edit in %.1f ms)", name,
+                    d.lanes, d.compile_ms);
+    } else if (engine == DomainEngine::kJit && d.compiled) {
       std::snprintf(buf, sizeof buf, "%s JIT (%d lanes, %.1f ms)", name, d.lanes, d.compile_ms);
     } else if (engine == DomainEngine::kJit) {
       std::snprintf(buf, sizeof buf, "%s JIT (not compiled)", name);

@@ -198,6 +198,9 @@ class Model {
   /// when their code_key() is equal; this model keeps its own numbers and parameters. Returns
   /// false (and changes nothing) when the keys differ. Not thread-safe, like set_params.
   bool share_code(const Model& other);
+  /// True when this model runs code compiled for another (share_code): its JIT statistics
+  /// are that compile's.
+  bool shares_code() const;
 
   Backend backend() const;
   int num_inputs() const;      ///< x size of the object's header
