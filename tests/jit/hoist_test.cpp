@@ -13,6 +13,7 @@
 #include <vector>
 
 #include "hfrt/model.h"
+#include "jit/interval.h"
 #include "jit/ir.h"
 #include "lang/result.h"
 #include "tests/jit/compile_util.h"
@@ -182,6 +183,45 @@ TEST(HoistConstants, BenchModelsGiveTheSameBitsWithTheJit) {
   EXPECT_EQ(diffs, 0);
 }
 
+TEST(HoistConstants, OutlinedIntervalCodeReadsTheHoistedNumbersToo) {
+  // Objects above IntervalJit::Options::inline_limit call one helper per op with operands in
+  // their homes (hoisted parameters get homes there): the same intervals as the interpreter.
+  for (const char* name : {"s3_blend.hf", "c1_gear.hf"}) {
+    const std::string path = std::string(HFRT_CORPUS_DIR) +
+                             "/models/github/alexander-penev__FRep-Designer-Bench/" + name;
+    Result<std::string> text = read_file(path);
+    ASSERT_TRUE(text.ok()) << path;
+    auto c = testutil::compile(text.value());
+    ASSERT_TRUE(c.ok) << c.diagnostics;
+    Function fn = c.fn;
+    const int user = fn.num_params;
+    std::vector<double> hoisted = hoist_constants(&fn);
+    ASSERT_FALSE(hoisted.empty());
+    std::vector<double> a(size_t(fn.num_params), 0.0);
+    std::copy(hoisted.begin(), hoisted.end(), a.begin() + user);
+    for (int limit : {0, 1 << 20}) {
+      IntervalJit::Options options;
+      options.inline_limit = limit;
+      auto jit = IntervalJit::compile(fn, options);
+      ASSERT_TRUE(jit.ok()) << jit.error().message;
+      IntervalInterpreter ii(fn);
+      std::mt19937_64 rng(9);
+      std::uniform_real_distribution<double> u(-1.5, 1.5);
+      for (int i = 0; i < 50; ++i) {
+        std::vector<Interval> box;
+        for (int k = 0; k < 3; ++k) {
+          double lo = u(rng), w = std::abs(u(rng)) * 0.3;
+          box.push_back(Interval::of(lo, lo + w));
+        }
+        Interval want = ii.eval(box, a), got = jit.value()->eval_one(box, a);
+        EXPECT_TRUE(same_bits(want.lo, got.lo) && same_bits(want.hi, got.hi) &&
+                    want.maybe_nan == got.maybe_nan)
+            << name << " inline_limit " << limit << " box " << i;
+      }
+    }
+  }
+}
+
 TEST(HoistConstants, AnEditedNumberSharesTheCodeAndGivesItsOwnValues) {
   ModelOptions o;
   o.hoist_constants = true;
@@ -196,7 +236,7 @@ TEST(HoistConstants, AnEditedNumberSharesTheCodeAndGivesItsOwnValues) {
   CompileResult other =
       Model::compile("my_model(x[3], a[1]) { my_model = 1 - abs(x[1]) + a[1]; }\n", o, "other.hf");
   ASSERT_TRUE(one.ok() && two.ok() && other.ok());
-  ASSERT_TRUE(one.model->prepare(Precision::kF64));
+  ASSERT_TRUE(one.model->prepare(hfrt::Precision::kF64));
   EXPECT_TRUE(one.model->code_key() == two.model->code_key());
   EXPECT_FALSE(other.model->share_code(*one.model));
   ASSERT_TRUE(two.model->share_code(*one.model));
