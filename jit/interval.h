@@ -74,6 +74,17 @@ inline constexpr uint8_t kChoiceBoth = 3;
 Interval apply_interval(Op op, Interval a, Interval b, Interval c, bool same_args = false,
                         uint8_t* choice = nullptr);
 
+/// The enclosure of an R-function node f1 + f2 +- sqrt(f1^2 + f2^2) (match_r_function) given
+/// its op-by-op enclosure `composed` and those of f1 and f2: both R-functions are
+/// non-decreasing in each argument (d/df1 = 1 +- f1 / sqrt(f1^2 + f2^2) >= 0), so the value
+/// lies between the formula at the lower ends and at the upper ends, widened by a bound on
+/// the formula's rounding in double (2^-48 (|f1| + |f2|) at most, plus 1e-150 for
+/// underflow). Op by op the enclosure is loose (f1 and f2 occur twice: the dependency
+/// problem); the result is its intersection with this one. Unchanged when an operand may be
+/// NaN, has an infinite end or is beyond 1e150.
+Interval r_function_interval(const Interval& composed, const Interval& f1, const Interval& f2,
+                             bool plus);
+
 /// Default bound on interval loop iterations before giving up with [-inf, inf].
 inline constexpr int kIntervalLoopLimit = 256;
 
@@ -104,6 +115,10 @@ class IntervalInterpreter {
   int loop_limit_;
   std::vector<int32_t> match_;  ///< kIf -> kElse or kEndIf; kElse -> kEndIf; kLoop -> kLoopTest;
                                 ///< kLoopTest -> kEndLoop
+  /// Per instruction: 0, or 1 / 2 for an R-function union / intersection node, whose operands
+  /// are r_args_[2 i], r_args_[2 i + 1] (r_function_interval).
+  std::vector<uint8_t> r_kind_;
+  std::vector<ValueId> r_args_;
   std::vector<Interval> values_;
   std::vector<Interval> slots_;
   std::span<const Interval> x_;

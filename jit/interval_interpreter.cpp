@@ -560,10 +560,41 @@ Interval apply_interval(Op op, Interval a, Interval b, Interval c, bool same_arg
 // ---------------------------------------------------------------------------------------
 // IntervalInterpreter
 
+Interval r_function_interval(const Interval& composed, const Interval& f1, const Interval& f2,
+                             bool plus) {
+  if (f1.maybe_nan || f2.maybe_nan) return composed;
+  const double m1 = std::max(std::fabs(f1.lo), std::fabs(f1.hi));
+  const double m2 = std::max(std::fabs(f2.lo), std::fabs(f2.hi));
+  const double m = m1 + m2;
+  if (!(m < 1e150)) return composed;  // also infinite or NaN ends
+  // Rounding: every value of the scalar evaluator at a point of the box, and the formula at
+  // the ends as computed here, is within 8 u (|f1| + |f2|) of the exact R-function (u = 2^-53).
+  const double slack = 0x1p-48 * m + 1e-150;
+  auto r = [plus](double x, double y) {
+    const double s = x + y, t = std::sqrt(x * x + y * y);
+    return plus ? s + t : s - t;
+  };
+  const double lo = down(r(f1.lo, f2.lo) - slack), hi = up(r(f1.hi, f2.hi) + slack);
+  Interval t{std::max(composed.lo, lo), std::min(composed.hi, hi), composed.maybe_nan};
+  if (!(t.lo <= t.hi)) return composed;
+  return t;
+}
+
 IntervalInterpreter::IntervalInterpreter(const Function& fn, int loop_limit)
     : fn_(fn), loop_limit_(loop_limit) {
   match_ = match_regions(fn);
   values_.resize(fn.insts.size());
+  r_kind_.assign(fn.insts.size(), 0);
+  r_args_.assign(2 * fn.insts.size(), kNoValue);
+  for (size_t i = 0; i < fn.insts.size(); ++i) {
+    ValueId f1, f2;
+    bool plus;
+    if (match_r_function(fn, ValueId(i), &f1, &f2, &plus)) {
+      r_kind_[i] = plus ? 1 : 2;
+      r_args_[2 * i] = f1;
+      r_args_[2 * i + 1] = f2;
+    }
+  }
 }
 
 Interval IntervalInterpreter::eval(std::span<const Interval> x, std::span<const double> a,
@@ -699,6 +730,10 @@ void IntervalInterpreter::run(size_t begin, size_t end) {
         Interval c = in.args[2] != kNoValue ? values_[in.args[2]] : Interval{};
         uint8_t* ch = choices_ ? &(*choices_)[i] : nullptr;
         values_[i] = apply_interval(in.op, values_[in.args[0]], b, c, same, ch);
+        if (r_kind_[i]) {
+          values_[i] = r_function_interval(values_[i], values_[r_args_[2 * i]],
+                                           values_[r_args_[2 * i + 1]], r_kind_[i] == 1);
+        }
         break;
       }
     }

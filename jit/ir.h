@@ -108,6 +108,11 @@ std::string print(const Function& fn);
 /// elsewhere. HFRT_CHECKs proper nesting (the verifier's contract).
 std::vector<int32_t> match_regions(const Function& fn);
 
+/// True when value v is the R-function f1 + f2 + sqrt(f1*f1 + f2*f2) (*plus: the union of the
+/// lowering's `|` and the library) or f1 + f2 - sqrt(...) (intersection `&`, subtraction `\`
+/// with f2 = -g), in the IR shape jit/lower.cpp r_function emits.
+bool match_r_function(const Function& fn, ValueId v, ValueId* f1, ValueId* f2, bool* plus);
+
 /// Per instruction: 1 when its value is the same for every point (every lane of a vector
 /// evaluator): computed from constants, parameters and tables by pure ops, and from variables
 /// (slots) that only ever hold such values, stored under conditions that are such values

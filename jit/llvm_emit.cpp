@@ -26,7 +26,8 @@ std::vector<int> written_slots(const Function& fn, size_t begin, size_t end) {
   return out;
 }
 
-ValueHomes plan_value_homes(const Function& fn, bool params_at_use) {
+ValueHomes plan_value_homes(const Function& fn, bool params_at_use,
+                            const std::vector<ValueId>& extra_uses) {
   const size_t n = fn.insts.size();
   // The innermost loop around each instruction (-1: none); a kLoop marker is outside its loop.
   std::vector<int32_t> loop_of(n, -1), loop_end(n, -1), parent(n, -1);
@@ -56,6 +57,11 @@ ValueHomes plan_value_homes(const Function& fn, bool params_at_use) {
   for (size_t i = 0; i < n; ++i) {
     for (ValueId a : fn.insts[i].args) {
       if (a != kNoValue) use(a, i);
+    }
+    if (!extra_uses.empty()) {
+      for (int k = 0; k < 2; ++k) {
+        if (extra_uses[2 * i + k] != kNoValue) use(extra_uses[2 * i + k], i);
+      }
     }
   }
   if (fn.result != kNoValue) last[fn.result] = static_cast<int64_t>(n);

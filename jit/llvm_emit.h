@@ -35,7 +35,10 @@ struct ValueHomes {
 /// `params_at_use`: parameters get no home either (the emitter loads them where they are used:
 /// a broadcast load from the parameter array is cheaper than a home's three vectors, and
 /// hoisted numbers make many parameters, see hoist_constants).
-ValueHomes plan_value_homes(const Function& fn, bool params_at_use = false);
+/// `extra_uses`: empty, or two values per instruction that it reads besides its arguments
+/// (kNoValue: none), so that they stay live until it (the interval emitter's R-function nodes).
+ValueHomes plan_value_homes(const Function& fn, bool params_at_use = false,
+                            const std::vector<ValueId>& extra_uses = {});
 
 /// Base of the emitters: one IR Function -> LLVM code over <W x T> vectors (lane i = point or
 /// box i of a block). Holds the builder and the types; emitters add their value

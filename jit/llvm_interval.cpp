@@ -80,9 +80,22 @@ extern "C" void hfrt_interval_lane(int32_t op, double alo, double ahi, double an
   std::memcpy(last.out, out, sizeof last.out);
 }
 
+/// r_function_interval for one lane, called from JIT code after an R-function node.
+extern "C" void hfrt_interval_rfunc(int32_t plus, double rlo, double rhi, double rnan, double alo,
+                                    double ahi, double anan, double blo, double bhi, double bnan,
+                                    double* out) noexcept {
+  using hfrt::jit::Interval;
+  Interval r = hfrt::jit::r_function_interval({rlo, rhi, rnan != 0}, {alo, ahi, anan != 0},
+                                              {blo, bhi, bnan != 0}, plus != 0);
+  out[0] = r.lo;
+  out[1] = r.hi;
+  out[2] = r.maybe_nan ? 1.0 : 0.0;
+}
+
 namespace hfrt::jit {
 const HostSymbol kIntervalSymbols[] = {
     {"hfrt_interval_lane", reinterpret_cast<void*>(&hfrt_interval_lane)},
+    {"hfrt_interval_rfunc", reinterpret_cast<void*>(&hfrt_interval_rfunc)},
 };
 std::span<const HostSymbol> interval_jit_symbols() {
   return kIntervalSymbols;
@@ -113,6 +126,17 @@ class IntervalEmitter : public VectorEmitter {
         outline_(outline) {
     dt_ = st_;
     match_ = match_regions(fn);
+    r_kind_.assign(fn.insts.size(), 0);
+    r_args_.assign(2 * fn.insts.size(), kNoValue);
+    for (size_t i = 0; i < fn.insts.size(); ++i) {
+      ValueId f1, f2;
+      bool plus;
+      if (match_r_function(fn, ValueId(i), &f1, &f2, &plus)) {
+        r_kind_[i] = plus ? 1 : 2;
+        r_args_[2 * i] = f1;
+        r_args_[2 * i + 1] = f2;
+      }
+    }
   }
 
   void emit(const std::string& name) {
@@ -131,7 +155,7 @@ class IntervalEmitter : public VectorEmitter {
     choices_ = &*arg++;
     scratch_ = &*arg++;
     f_->addParamAttr(8, llvm::Attribute::NoAlias);
-    homes_ = plan_value_homes(fn_, /*params_at_use=*/!outline_);
+    homes_ = plan_value_homes(fn_, /*params_at_use=*/!outline_, r_args_);
     auto* entry = llvm::BasicBlock::Create(ctx_, "entry", f_);
     b_.SetInsertPoint(entry);
     err_ = b_.CreateAlloca(mt_, nullptr, "err");
@@ -717,12 +741,44 @@ class IntervalEmitter : public VectorEmitter {
     }
     if (outline_) {
       call_helper(i, same);
-      return;
+    } else {
+      const IV none = point(0);
+      llvm::Value* choice = trace_ ? b_.CreateConstInBoundsGEP1_64(i8_, choices_, i) : nullptr;
+      define(i, compute(in.op, same, arg(0), in.args[1] != kNoValue ? arg(1) : none,
+                        in.args[2] != kNoValue ? arg(2) : none, choice));
     }
-    const IV none = point(0);
-    llvm::Value* choice = trace_ ? b_.CreateConstInBoundsGEP1_64(i8_, choices_, i) : nullptr;
-    define(i, compute(in.op, same, arg(0), in.args[1] != kNoValue ? arg(1) : none,
-                      in.args[2] != kNoValue ? arg(2) : none, choice));
+    if (r_kind_[i]) {
+      define(i, rfunc_lanes(r_kind_[i] == 1, value(ValueId(i)), value(r_args_[2 * i]),
+                            value(r_args_[2 * i + 1])));
+    }
+  }
+
+  /// r_function_interval on every lane (hfrt_interval_rfunc): the interpreter's very code.
+  IV rfunc_lanes(bool plus, const IV& r, const IV& a, const IV& b) {
+    auto* fty =
+        llvm::FunctionType::get(llvm::Type::getVoidTy(ctx_),
+                                {i32_, dt_, dt_, dt_, dt_, dt_, dt_, dt_, dt_, dt_, ptr_}, false);
+    llvm::FunctionCallee f = m_.getOrInsertFunction("hfrt_interval_rfunc", fty);
+    if (auto* fn = llvm::dyn_cast<llvm::Function>(f.getCallee())) fn->setDoesNotThrow();
+    llvm::Value* rnan = b_.CreateUIToFP(r.nan, vt_);
+    llvm::Value* anan = b_.CreateUIToFP(a.nan, vt_);
+    llvm::Value* bnan = b_.CreateUIToFP(b.nan, vt_);
+    IV out{llvm::PoisonValue::get(vt_), llvm::PoisonValue::get(vt_), llvm::PoisonValue::get(vt_)};
+    auto* at = llvm::ArrayType::get(dt_, 3);
+    llvm::AllocaInst* lane_out = entry_alloca(at, "rfunc_out");
+    for (int i = 0; i < w_; ++i) {
+      auto e = [&](llvm::Value* v) { return b_.CreateExtractElement(v, uint64_t(i)); };
+      b_.CreateCall(f, {llvm::ConstantInt::get(i32_, plus ? 1 : 0), e(r.lo), e(r.hi), e(rnan),
+                        e(a.lo), e(a.hi), e(anan), e(b.lo), e(b.hi), e(bnan), lane_out});
+      auto part = [&](unsigned k) {
+        return b_.CreateLoad(dt_, b_.CreateConstInBoundsGEP2_32(at, lane_out, 0, k));
+      };
+      out.lo = b_.CreateInsertElement(out.lo, part(0), uint64_t(i));
+      out.hi = b_.CreateInsertElement(out.hi, part(1), uint64_t(i));
+      out.nan = b_.CreateInsertElement(out.nan, part(2), uint64_t(i));
+    }
+    out.nan = b_.CreateFCmpUNE(out.nan, splat(0));
+    return out;
   }
 
   /// The interval extension of a pure op, as apply_interval computes it; `choice`: where the
@@ -937,6 +993,9 @@ class IntervalEmitter : public VectorEmitter {
   ValueHomes homes_;
   bool outline_ = false;
   std::unordered_map<int, llvm::Function*> helpers_;
+  /// As IntervalInterpreter: R-function nodes (1 union, 2 intersection) and their operands.
+  std::vector<uint8_t> r_kind_;
+  std::vector<ValueId> r_args_;
   std::unordered_map<ValueId, llvm::Constant*> const_homes_;
   llvm::AllocaInst* err_ = nullptr;
   std::vector<int32_t> match_;

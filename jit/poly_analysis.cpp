@@ -449,24 +449,8 @@ class Analyzer {
   // ---- skeleton ----------------------------------------------------------------------------
   /// f1 + f2 +- sqrt(f1*f1 + f2*f2): jit/lower.cpp r_function and the library's R-functions.
   bool match_r_function(ValueId v, ValueId* f1, ValueId* f2) const {
-    const Inst& in = fn_.insts[v];
-    if (in.op != Op::kAdd && in.op != Op::kSub) return false;
-    const Inst& sum = fn_.insts[in.args[0]];
-    const Inst& root = fn_.insts[in.args[1]];
-    if (sum.op != Op::kAdd || root.op != Op::kSqrt) return false;
-    const Inst& q = fn_.insts[root.args[0]];
-    if (q.op != Op::kAdd) return false;
-    const Inst& m1 = fn_.insts[q.args[0]];
-    const Inst& m2 = fn_.insts[q.args[1]];
-    if (m1.op != Op::kMul || m2.op != Op::kMul) return false;
-    if (m1.args[0] != m1.args[1] || m2.args[0] != m2.args[1]) return false;
-    const ValueId g = m1.args[0], h = m2.args[0];
-    if ((sum.args[0] == g && sum.args[1] == h) || (sum.args[0] == h && sum.args[1] == g)) {
-      *f1 = g;
-      *f2 = h;
-      return true;
-    }
-    return false;
+    bool plus = false;
+    return jit::match_r_function(fn_, v, f1, f2, &plus);
   }
 
   bool fail(PolyAnalysis* out, ValueId origin, const std::string& why) {

@@ -344,3 +344,71 @@ TEST(UniformValues, VariablesSetWhereLanesDivergeAreNot) {
 
 }  // namespace
 }  // namespace hfrt::jit
+
+namespace hfrt::jit {
+namespace {
+
+TEST(RFunctionIntervals, MonotoneEnclosuresAreSoundTightAndTheSameInTheJit) {
+  // Union, intersection and subtraction of quadrics, nested; the operands are dead before the
+  // R-function node in the op order (their JIT homes must live on until it).
+  const char* bodies[] = {
+      "  my_model = (1 - x[1]*x[1]) | (1 - x[2]*x[2]);",
+      "  my_model = (4 - x[1]*x[1] - x[2]*x[2]) & (x[3] + 0.5);",
+      "  b = 1 - x[1]*x[1] - x[3]*x[3];\n  my_model = ((2 - x[2]*x[2]) \\ b) | (x[1] - 1.5);",
+  };
+  std::mt19937_64 rng(11);
+  std::uniform_real_distribution<double> u(-4, 4), w(0, 3);
+  for (const char* body : bodies) {
+    auto c = testutil::compile(std::string("my_model(x[3], a[1]) {\n") + body + "\n}\n");
+    ASSERT_TRUE(c.ok) << c.diagnostics;
+    IntervalInterpreter ii(c.fn);
+    Interpreter point(c.fn);
+    std::vector<std::unique_ptr<IntervalJit>> jits;
+    for (int limit : {0, 1 << 20}) {
+      IntervalJit::Options o;
+      o.inline_limit = limit;
+      auto j = IntervalJit::compile(c.fn, o);
+      ASSERT_TRUE(j.ok()) << j.error().message;
+      jits.push_back(std::move(j.value()));
+    }
+    std::vector<double> a{0};
+    int excluded = 0;
+    for (int i = 0; i < 300; ++i) {
+      std::vector<Interval> box;
+      for (int k = 0; k < 3; ++k) {
+        double lo = u(rng);
+        box.push_back(Interval::of(lo, lo + w(rng) * (i % 3 == 0 ? 0.01 : 1)));
+      }
+      Interval r = ii.eval(box, a);
+      for (const auto& j : jits) {
+        Interval got = j->eval_one(box, a);
+        EXPECT_TRUE(same_bits(r.lo, got.lo) && same_bits(r.hi, got.hi) &&
+                    r.maybe_nan == got.maybe_nan)
+            << body << " box " << i;
+      }
+      for (int s = 0; s < 20; ++s) {
+        std::vector<double> p;
+        for (const Interval& b : box)
+          p.push_back(b.lo + (b.hi - b.lo) *
+                                 (s % 4 == 0 ? s % 8 / 4
+                                             : std::uniform_real_distribution<double>(0, 1)(rng)));
+        double v = point.eval(p, a).value;
+        EXPECT_TRUE(r.contains(v))
+            << body << " box " << i << ": " << v << " not in [" << r.lo << ", " << r.hi << "]";
+      }
+      excluded += r.hi < 0 || r.lo > 0;
+    }
+    EXPECT_GT(excluded, 50) << body;
+  }
+  // Far outside both quadrics: op by op the enclosure of the union reaches 0 (f1 and f2 each
+  // occur twice); by monotonicity it is [R(-8, -8), R(-3, -3)], entirely below 0.
+  auto c = testutil::compile(std::string("my_model(x[3], a[1]) {\n") + bodies[0] + "\n}\n");
+  IntervalInterpreter ii(c.fn);
+  std::vector<Interval> box{Interval::of(2, 3), Interval::of(2, 3), Interval::of(0, 0)};
+  Interval r = ii.eval(box, std::vector<double>{0});
+  EXPECT_NEAR(r.lo, -16 + std::sqrt(128.0), 1e-9);
+  EXPECT_NEAR(r.hi, -6 + std::sqrt(18.0), 1e-9);
+}
+
+}  // namespace
+}  // namespace hfrt::jit

@@ -49,12 +49,13 @@ bool parse_light(const std::string& text, render::Light* out) {
   return true;
 }
 
-/// Above this many interval evaluations per primary ray (probe average), the interval root
-/// search costs many times the sign-change march, and `auto` takes the march. Measured at
-/// 512x512 on 2 cores: a sphere needs ~10 per ray (interval search 2.5x the march's time), a
-/// torus ~50 (6x), the default example (R-function blends, whose enclosures are loose: the
-/// dependency problem of f1 + f2 + sqrt(f1^2 + f2^2)) ~400 (60x: 88 s instead of 1.5 s).
-constexpr double kAutoMaxIntervalEvalsPerRay = 64;
+/// Above this many interval evaluations per primary ray (probe average, the one-ray
+/// bisection), the interval root search costs clearly more than the sign-change march, and
+/// `auto` takes the march. Measured at 512x512 on 2 cores with the batched search: the
+/// FRep-Designer-Bench models need 12-13 per ray (interval search 1.0-1.7x the march's time),
+/// the default example 45 (its R-function enclosures tightened by their monotonicity; 0.85 s
+/// against 0.28 s for the march without culling, 3x; before that tightening ~400 per ray).
+constexpr double kAutoMaxIntervalEvalsPerRay = 24;
 constexpr int kAutoProbeSize = 24;  ///< the probe image's larger side, in pixels
 
 /// The field seen by the probe render: counts interval evaluations and, past the budget,
