@@ -49,12 +49,12 @@ bool parse_light(const std::string& text, render::Light* out) {
   return true;
 }
 
-/// Above this many interval evaluations per primary ray (probe average, the one-ray
-/// bisection), the interval root search costs clearly more than the sign-change march, and
-/// `auto` takes the march. Measured at 512x512 on 2 cores with the batched search: the
-/// FRep-Designer-Bench models need 12-13 per ray (interval search 1.0-1.7x the march's time),
-/// the default example 45 (its R-function enclosures tightened by their monotonicity; 0.85 s
-/// against 0.28 s for the march without culling, 3x; before that tightening ~400 per ray).
+/// Above this many interval evaluations per primary ray (probe average, the search the render
+/// runs: march first, then the batched proof), the interval root search costs clearly more
+/// than the sign-change march, and `auto` takes the march. Measured at 512x512 on 2 cores: the
+/// FRep-Designer-Bench models need 7-9 per ray (interval search 1.0-1.7x the march's time),
+/// the default example 38 (0.65 s against 0.33 s for the march), blend.hf 213 (29 s against
+/// 0.6 s: hfBlendUni's displacement term keeps its enclosures loose near the surface).
 constexpr double kAutoMaxIntervalEvalsPerRay = 24;
 constexpr int kAutoProbeSize = 24;  ///< the probe image's larger side, in pixels
 
@@ -98,7 +98,7 @@ std::string probe_auto_root(const render::Field& field, render::RenderOptions* o
   probe.spp = 1;
   probe.shadows = false;
   probe.root = render::RootMode::kInterval;
-  probe.interval_march_first = false;  // the verdict measures the enclosures, not the search
+  probe.interval_march_first = true;  // the search the render runs (batched, march first)
   probe.progress = nullptr;
   probe.threads = opt->threads;
   const uint64_t rays = uint64_t(probe.width) * uint64_t(probe.height);
