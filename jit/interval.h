@@ -115,10 +115,7 @@ class IntervalInterpreter {
   int loop_limit_;
   std::vector<int32_t> match_;  ///< kIf -> kElse or kEndIf; kElse -> kEndIf; kLoop -> kLoopTest;
                                 ///< kLoopTest -> kEndLoop
-  /// Per instruction: 0, or 1 / 2 for an R-function union / intersection node, whose operands
-  /// are r_args_[2 i], r_args_[2 i + 1] (r_function_interval).
-  std::vector<uint8_t> r_kind_;
-  std::vector<ValueId> r_args_;
+  RFunctionNodes r_nodes_;      ///< tightened by r_function_interval
   std::vector<Interval> values_;
   std::vector<Interval> slots_;
   std::span<const Interval> x_;

@@ -584,17 +584,7 @@ IntervalInterpreter::IntervalInterpreter(const Function& fn, int loop_limit)
     : fn_(fn), loop_limit_(loop_limit) {
   match_ = match_regions(fn);
   values_.resize(fn.insts.size());
-  r_kind_.assign(fn.insts.size(), 0);
-  r_args_.assign(2 * fn.insts.size(), kNoValue);
-  for (size_t i = 0; i < fn.insts.size(); ++i) {
-    ValueId f1, f2;
-    bool plus;
-    if (match_r_function(fn, ValueId(i), &f1, &f2, &plus)) {
-      r_kind_[i] = plus ? 1 : 2;
-      r_args_[2 * i] = f1;
-      r_args_[2 * i + 1] = f2;
-    }
-  }
+  r_nodes_ = find_r_functions(fn);
 }
 
 Interval IntervalInterpreter::eval(std::span<const Interval> x, std::span<const double> a,
@@ -730,9 +720,10 @@ void IntervalInterpreter::run(size_t begin, size_t end) {
         Interval c = in.args[2] != kNoValue ? values_[in.args[2]] : Interval{};
         uint8_t* ch = choices_ ? &(*choices_)[i] : nullptr;
         values_[i] = apply_interval(in.op, values_[in.args[0]], b, c, same, ch);
-        if (r_kind_[i]) {
-          values_[i] = r_function_interval(values_[i], values_[r_args_[2 * i]],
-                                           values_[r_args_[2 * i + 1]], r_kind_[i] == 1);
+        if (r_nodes_.kind[i]) {
+          values_[i] =
+              r_function_interval(values_[i], values_[r_nodes_.args[2 * i]],
+                                  values_[r_nodes_.args[2 * i + 1]], r_nodes_.kind[i] == 1);
         }
         break;
       }

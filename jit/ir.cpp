@@ -390,6 +390,22 @@ bool match_r_function(const Function& fn, ValueId v, ValueId* f1, ValueId* f2, b
   return false;
 }
 
+RFunctionNodes find_r_functions(const Function& fn) {
+  RFunctionNodes r;
+  r.kind.assign(fn.insts.size(), 0);
+  r.args.assign(2 * fn.insts.size(), kNoValue);
+  for (size_t i = 0; i < fn.insts.size(); ++i) {
+    ValueId f1, f2;
+    bool plus;
+    if (match_r_function(fn, ValueId(i), &f1, &f2, &plus)) {
+      r.kind[i] = plus ? 1 : 2;
+      r.args[2 * i] = f1;
+      r.args[2 * i + 1] = f2;
+    }
+  }
+  return r;
+}
+
 std::vector<uint8_t> uniform_values(const Function& fn) {
   const size_t n = fn.insts.size();
   std::vector<uint8_t> value(n, 0), slot(size_t(std::max(fn.num_slots, 0)), 1);

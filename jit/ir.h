@@ -113,6 +113,14 @@ std::vector<int32_t> match_regions(const Function& fn);
 /// with f2 = -g), in the IR shape jit/lower.cpp r_function emits.
 bool match_r_function(const Function& fn, ValueId v, ValueId* f1, ValueId* f2, bool* plus);
 
+/// The R-function nodes of a function, per instruction: kind 0 (none), 1 (union, plus) or 2
+/// (intersection), with its operands f1, f2 at args[2 i], args[2 i + 1] (kNoValue elsewhere).
+struct RFunctionNodes {
+  std::vector<uint8_t> kind;
+  std::vector<ValueId> args;
+};
+RFunctionNodes find_r_functions(const Function& fn);
+
 /// Per instruction: 1 when its value is the same for every point (every lane of a vector
 /// evaluator): computed from constants, parameters and tables by pure ops, and from variables
 /// (slots) that only ever hold such values, stored under conditions that are such values

@@ -126,17 +126,7 @@ class IntervalEmitter : public VectorEmitter {
         outline_(outline) {
     dt_ = st_;
     match_ = match_regions(fn);
-    r_kind_.assign(fn.insts.size(), 0);
-    r_args_.assign(2 * fn.insts.size(), kNoValue);
-    for (size_t i = 0; i < fn.insts.size(); ++i) {
-      ValueId f1, f2;
-      bool plus;
-      if (match_r_function(fn, ValueId(i), &f1, &f2, &plus)) {
-        r_kind_[i] = plus ? 1 : 2;
-        r_args_[2 * i] = f1;
-        r_args_[2 * i + 1] = f2;
-      }
-    }
+    r_nodes_ = find_r_functions(fn);
   }
 
   void emit(const std::string& name) {
@@ -155,7 +145,7 @@ class IntervalEmitter : public VectorEmitter {
     choices_ = &*arg++;
     scratch_ = &*arg++;
     f_->addParamAttr(8, llvm::Attribute::NoAlias);
-    homes_ = plan_value_homes(fn_, /*params_at_use=*/!outline_, r_args_);
+    homes_ = plan_value_homes(fn_, /*params_at_use=*/!outline_, r_nodes_.args);
     auto* entry = llvm::BasicBlock::Create(ctx_, "entry", f_);
     b_.SetInsertPoint(entry);
     err_ = b_.CreateAlloca(mt_, nullptr, "err");
@@ -387,21 +377,36 @@ class IntervalEmitter : public VectorEmitter {
 
   /// The per-lane helper (apply_interval) for the libm-based ops.
   IV lane_call(Op op, const IV& a, const IV& b) {
-    auto* fty = llvm::FunctionType::get(llvm::Type::getVoidTy(ctx_),
-                                        {i32_, dt_, dt_, dt_, dt_, dt_, dt_, ptr_}, false);
-    llvm::FunctionCallee f = m_.getOrInsertFunction("hfrt_interval_lane", fty);
+    return call_per_lane("hfrt_interval_lane", static_cast<int32_t>(op), {&a, &b});
+  }
+
+  /// Calls the C helper `void name(i32 code, (lo, hi, nan as double) per argument..., ptr out)`
+  /// lane by lane; out receives lo, hi and the NaN flag.
+  IV call_per_lane(const char* name, int32_t code, std::initializer_list<const IV*> args) {
+    std::vector<llvm::Type*> params{i32_};
+    for (size_t k = 0; k < 3 * args.size(); ++k) params.push_back(dt_);
+    params.push_back(ptr_);
+    auto* fty = llvm::FunctionType::get(llvm::Type::getVoidTy(ctx_), params, false);
+    llvm::FunctionCallee f = m_.getOrInsertFunction(name, fty);
     if (auto* fn = llvm::dyn_cast<llvm::Function>(f.getCallee())) fn->setDoesNotThrow();
-    llvm::Value* anan = b_.CreateUIToFP(a.nan, vt_);
-    llvm::Value* bnan = b_.CreateUIToFP(b.nan, vt_);
+    std::vector<llvm::Value*> nans;
+    for (const IV* a : args) nans.push_back(b_.CreateUIToFP(a->nan, vt_));
     IV r{llvm::PoisonValue::get(vt_), llvm::PoisonValue::get(vt_), llvm::PoisonValue::get(vt_)};
     auto* at = llvm::ArrayType::get(dt_, 3);
     llvm::AllocaInst* lane_out = entry_alloca(at, "lane_out");
     for (int i = 0; i < w_; ++i) {
       auto e = [&](llvm::Value* v) { return b_.CreateExtractElement(v, uint64_t(i)); };
-      b_.CreateCall(f, {llvm::ConstantInt::get(i32_, static_cast<int>(op)), e(a.lo), e(a.hi),
-                        e(anan), e(b.lo), e(b.hi), e(bnan), lane_out});
-      auto part = [&](unsigned k) {
-        return b_.CreateLoad(dt_, b_.CreateConstInBoundsGEP2_32(at, lane_out, 0, k));
+      std::vector<llvm::Value*> call_args{llvm::ConstantInt::get(i32_, code)};
+      size_t k = 0;
+      for (const IV* a : args) {
+        call_args.push_back(e(a->lo));
+        call_args.push_back(e(a->hi));
+        call_args.push_back(e(nans[k++]));
+      }
+      call_args.push_back(lane_out);
+      b_.CreateCall(f, call_args);
+      auto part = [&](unsigned c) {
+        return b_.CreateLoad(dt_, b_.CreateConstInBoundsGEP2_32(at, lane_out, 0, c));
       };
       r.lo = b_.CreateInsertElement(r.lo, part(0), uint64_t(i));
       r.hi = b_.CreateInsertElement(r.hi, part(1), uint64_t(i));
@@ -747,38 +752,13 @@ class IntervalEmitter : public VectorEmitter {
       define(i, compute(in.op, same, arg(0), in.args[1] != kNoValue ? arg(1) : none,
                         in.args[2] != kNoValue ? arg(2) : none, choice));
     }
-    if (r_kind_[i]) {
-      define(i, rfunc_lanes(r_kind_[i] == 1, value(ValueId(i)), value(r_args_[2 * i]),
-                            value(r_args_[2 * i + 1])));
+    if (r_nodes_.kind[i]) {
+      // r_function_interval per lane (hfrt_interval_rfunc): the interpreter's very code.
+      const IV r = value(ValueId(i)), f1 = value(r_nodes_.args[2 * i]),
+               f2 = value(r_nodes_.args[2 * i + 1]);
+      define(i,
+             call_per_lane("hfrt_interval_rfunc", r_nodes_.kind[i] == 1 ? 1 : 0, {&r, &f1, &f2}));
     }
-  }
-
-  /// r_function_interval on every lane (hfrt_interval_rfunc): the interpreter's very code.
-  IV rfunc_lanes(bool plus, const IV& r, const IV& a, const IV& b) {
-    auto* fty =
-        llvm::FunctionType::get(llvm::Type::getVoidTy(ctx_),
-                                {i32_, dt_, dt_, dt_, dt_, dt_, dt_, dt_, dt_, dt_, ptr_}, false);
-    llvm::FunctionCallee f = m_.getOrInsertFunction("hfrt_interval_rfunc", fty);
-    if (auto* fn = llvm::dyn_cast<llvm::Function>(f.getCallee())) fn->setDoesNotThrow();
-    llvm::Value* rnan = b_.CreateUIToFP(r.nan, vt_);
-    llvm::Value* anan = b_.CreateUIToFP(a.nan, vt_);
-    llvm::Value* bnan = b_.CreateUIToFP(b.nan, vt_);
-    IV out{llvm::PoisonValue::get(vt_), llvm::PoisonValue::get(vt_), llvm::PoisonValue::get(vt_)};
-    auto* at = llvm::ArrayType::get(dt_, 3);
-    llvm::AllocaInst* lane_out = entry_alloca(at, "rfunc_out");
-    for (int i = 0; i < w_; ++i) {
-      auto e = [&](llvm::Value* v) { return b_.CreateExtractElement(v, uint64_t(i)); };
-      b_.CreateCall(f, {llvm::ConstantInt::get(i32_, plus ? 1 : 0), e(r.lo), e(r.hi), e(rnan),
-                        e(a.lo), e(a.hi), e(anan), e(b.lo), e(b.hi), e(bnan), lane_out});
-      auto part = [&](unsigned k) {
-        return b_.CreateLoad(dt_, b_.CreateConstInBoundsGEP2_32(at, lane_out, 0, k));
-      };
-      out.lo = b_.CreateInsertElement(out.lo, part(0), uint64_t(i));
-      out.hi = b_.CreateInsertElement(out.hi, part(1), uint64_t(i));
-      out.nan = b_.CreateInsertElement(out.nan, part(2), uint64_t(i));
-    }
-    out.nan = b_.CreateFCmpUNE(out.nan, splat(0));
-    return out;
   }
 
   /// The interval extension of a pure op, as apply_interval computes it; `choice`: where the
@@ -993,9 +973,7 @@ class IntervalEmitter : public VectorEmitter {
   ValueHomes homes_;
   bool outline_ = false;
   std::unordered_map<int, llvm::Function*> helpers_;
-  /// As IntervalInterpreter: R-function nodes (1 union, 2 intersection) and their operands.
-  std::vector<uint8_t> r_kind_;
-  std::vector<ValueId> r_args_;
+  RFunctionNodes r_nodes_;  ///< as IntervalInterpreter: tightened by r_function_interval
   std::unordered_map<ValueId, llvm::Constant*> const_homes_;
   llvm::AllocaInst* err_ = nullptr;
   std::vector<int32_t> match_;
