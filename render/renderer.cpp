@@ -379,6 +379,11 @@ class TileRenderer {
     }
   }
 
+  /// The unit direction from surface point p towards `light`.
+  static Vec3 light_direction(const Light& light, Vec3 p) {
+    return light.kind == Light::Kind::kPoint ? normalize(light.v - p) : normalize(light.v);
+  }
+
   /// The shadow ray from surface point p (normal n) towards `light`, and the range [*te, *tx]
   /// of it inside the box and before the light; false when there is none (nothing occludes).
   bool shadow_ray(Vec3 p, Vec3 n, const Light& light, Ray* ray, float* te, float* tx) const {
@@ -498,7 +503,7 @@ class TileRenderer {
         Vec3 p{ts.hx[k], ts.hy[k], ts.hz[k]}, nrm{ts.gx[k], ts.gy[k], ts.gz[k]};
         for (size_t li = 0; li < nl; ++li) {
           const Light& light = lights_[li];
-          Vec3 l = light.kind == Light::Kind::kPoint ? normalize(light.v - p) : normalize(light.v);
+          Vec3 l = light_direction(light, p);
           if (dot(nrm, l) <= 0) continue;
           RootSearcher::BatchRay br;
           float te, tx;
@@ -541,7 +546,7 @@ class TileRenderer {
         const Light& light = lights_[li];
         const std::vector<Span>* spans =
             bundles && light.kind == Light::Kind::kDirectional ? &ts.shadow_spans[li] : nullptr;
-        Vec3 l = light.kind == Light::Kind::kPoint ? normalize(light.v - p) : normalize(light.v);
+        Vec3 l = light_direction(light, p);
         float ndotl = dot(nrm, l);
         if (ndotl <= 0) continue;
         if (batched) {

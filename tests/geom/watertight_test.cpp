@@ -134,6 +134,13 @@ TEST(Watertight, AxisRaysExactlyThroughArmadilloVertices) {
   EXPECT_GT(entered, static_cast<int>(3 * m.vertices.size() * 9 / 10));
 }
 
+/// The top surface of heightfield_box(n) above half-grid point (i/2, j/2), i, j in [0, 2n]: a
+/// vertex (both even) or an edge midpoint, with the vertices' own or averaged heights.
+Vec3 grid_point(const TriangleMesh& m, int n, int i, int j) {
+  const int i0 = i / 2, j0 = j / 2, i1 = (i + 1) / 2, j1 = (j + 1) / 2;
+  return (m.vertices[j0 * (n + 1) + i0] + m.vertices[j1 * (n + 1) + i1]) * 0.5f;
+}
+
 TEST(Watertight, HeightfieldBoxEdgesAndVerticesExactly) {
   const int n = 24;
   const TriangleMesh m = testing::heightfield_box(n, 5);
@@ -160,10 +167,7 @@ TEST(Watertight, HeightfieldBoxEdgesAndVerticesExactly) {
   for (const Vec3& d : dirs)
     for (int j = 0; j <= 2 * n; ++j)
       for (int i = 0; i <= 2 * n; ++i) {
-        // The point on the top surface above grid point (i/2, j/2) only exists for vertices;
-        // use the vertices' own heights and edge midpoints' averaged heights.
-        const int i0 = i / 2, j0 = j / 2, i1 = (i + 1) / 2, j1 = (j + 1) / 2;
-        const Vec3 p = (m.vertices[j0 * (n + 1) + i0] + m.vertices[j1 * (n + 1) + i1]) * 0.5f;
+        const Vec3 p = grid_point(m, n, i, j);
         const Ray ray{p - d * 16.0f, d};
         s->crossings(ray, 0, kInf, &cr);
         expect_alternating(cr, "oblique through (" + std::to_string(p.x) + "," +
@@ -215,8 +219,7 @@ TEST(Watertight, NearestHitExactlyThroughVerticesAndEdges) {
   for (const Vec3& d : dirs)
     for (int j = 0; j <= 2 * n; ++j)
       for (int i = 0; i <= 2 * n; ++i) {
-        const int i0 = i / 2, j0 = j / 2, i1 = (i + 1) / 2, j1 = (j + 1) / 2;
-        const Vec3 p = (m.vertices[j0 * (n + 1) + i0] + m.vertices[j1 * (n + 1) + i1]) * 0.5f;
+        const Vec3 p = grid_point(m, n, i, j);
         const Ray ray{p - d * 16.0f, d};
         expect_nearest_is_first_crossing(*s, ray,
                                          "through (" + std::to_string(p.x) + "," +
