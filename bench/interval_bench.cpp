@@ -11,7 +11,7 @@
 // times (with their emit / optimise / codegen split) and evaluates nothing; --inline-limit
 // sets IntervalJit::Options::inline_limit (0: every op through its helper); --lanes the boxes per
 // SIMD block (default: the host's f64 width); --hoist compiles the numbers as parameters
-// (jit::hoist_constants, what the REPL compiles). The gradient
+// (ir::hoist_constants, what the REPL compiles). The gradient
 // interpreter and JIT (f64, points/s at the box centres) are measured too.
 
 #include <algorithm>
@@ -23,13 +23,15 @@
 #include <string>
 #include <vector>
 
+#include "base/file.h"
+#include "base/result.h"
+#include "ir/hoist_constants.h"
 #include "jit/gradient.h"
 #include "jit/interpreter.h"
 #include "jit/interval.h"
 #include "jit/llvm_jit.h"
 #include "jit/lower.h"
 #include "lang/frontend.h"
-#include "lang/result.h"
 
 namespace {
 
@@ -96,16 +98,16 @@ int main(int argc, char** argv) {
     std::fprintf(stderr, "%s", diags.render().c_str());
     return 1;
   }
-  jit::Function fn = jit::lower_object(*program, program->default_object(), nullptr);
+  ir::Function fn = jit::lower_object(*program, program->default_object(), nullptr);
   const int user_params = fn.num_params;
-  const std::vector<double> hoisted = hoist ? jit::hoist_constants(&fn) : std::vector<double>{};
+  const std::vector<double> hoisted = hoist ? ir::hoist_constants(&fn) : std::vector<double>{};
   std::printf("model %s: %zu IR instructions, %d x %d boxes over [-1,1]^2\n", path.c_str(),
               fn.insts.size(), grid, grid);
 
   const size_t n = static_cast<size_t>(grid) * grid;
   const int dims = fn.num_inputs;
   std::vector<double> lo(dims * n, 0.0), hi(dims * n, 0.0), centre(dims * n, 0.0);
-  std::vector<std::vector<jit::Interval>> boxes(n, std::vector<jit::Interval>(dims));
+  std::vector<std::vector<hfrt::Interval>> boxes(n, std::vector<hfrt::Interval>(dims));
   const double step = 2.0 / grid;
   for (int j = 0; j < grid; ++j) {
     for (int i = 0; i < grid; ++i) {
@@ -136,7 +138,7 @@ int main(int argc, char** argv) {
     jit::IntervalInterpreter ii(fn);
     size_t ambiguous = 0;
     for (const auto& box : boxes) {
-      jit::Interval r = ii.eval(box, a);
+      hfrt::Interval r = ii.eval(box, a);
       if (r.lo <= 0 && r.hi >= 0) ++ambiguous;
     }
     ii_rate = rate(min_s, n, [&] {

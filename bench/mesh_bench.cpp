@@ -55,7 +55,7 @@ struct Camera {
   }
 };
 
-Camera frame(const Bounds3& b, int w, int h, Vec3 view_dir, Vec3 world_up) {
+Camera frame(const Box& b, int w, int h, Vec3 view_dir, Vec3 world_up) {
   const Vec3 c = b.center();
   const float r = 0.5f * length(b.diagonal());
   const float fov_tan = 0.45f;  // half-angle tangent
@@ -274,9 +274,9 @@ int main(int argc, char** argv) {
   {
     const TriangleMesh big = replicate(*arm, copies);
     const double mtris = big.triangles.size() / 1e6;
-    std::vector<Bounds3> boxes(big.triangles.size());
+    std::vector<Box> boxes(big.triangles.size());
     for (size_t i = 0; i < boxes.size(); ++i) {
-      Bounds3 b;
+      Box b;
       for (int k = 0; k < 3; ++k) b.extend(big.corner(i, k));
       boxes[i] = b;
     }

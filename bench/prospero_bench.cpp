@@ -24,19 +24,18 @@
 #include <thread>
 #include <vector>
 
+#include "base/file.h"
+#include "base/result.h"
+#include "base/timer.h"
 #include "hfrt/model.h"
-#include "jit/ir.h"
+#include "ir/ir.h"
 #include "jit/lower.h"
 #include "lang/frontend.h"
-#include "lang/result.h"
 
 namespace {
 
-using Clock = std::chrono::steady_clock;
-
-double ms_since(Clock::time_point t0) {
-  return std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
-}
+using hfrt::Clock;
+using hfrt::ms_since;
 
 struct Options {
   std::string model = HFRT_CORPUS_DIR "/bench/prospero.hf";
@@ -148,12 +147,12 @@ int compute_ops(const std::string& path) {
   hfrt::lang::DiagnosticSink diags(file);
   std::unique_ptr<hfrt::lang::Program> prog = hfrt::lang::compile_source(file, diags);
   if (!prog) return -1;
-  hfrt::jit::Function fn = hfrt::jit::lower_object(*prog, prog->default_object(), nullptr);
+  hfrt::ir::Function fn = hfrt::jit::lower_object(*prog, prog->default_object(), nullptr);
   int n = 0;
-  for (const hfrt::jit::Inst& in : fn.insts) {
-    using hfrt::jit::Op;
+  for (const hfrt::ir::Inst& in : fn.insts) {
+    using hfrt::ir::Op;
     if (in.op == Op::kConst || in.op == Op::kInput || in.op == Op::kParam) continue;
-    if (hfrt::jit::op_flags_of(in.op) & hfrt::jit::op_flags::kCtl) continue;
+    if (hfrt::ir::op_flags_of(in.op) & hfrt::ir::op_flags::kCtl) continue;
     ++n;
   }
   return n;

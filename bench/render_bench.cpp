@@ -10,7 +10,7 @@
 
 #include "render/framing.h"
 #include "render/renderer.h"
-#include "tests/render/analytic_fields.h"
+#include "testsupport/analytic_fields.h"
 
 namespace hfrt::render {
 namespace {

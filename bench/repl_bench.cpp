@@ -21,13 +21,12 @@
 #include <string>
 #include <vector>
 
+#include "base/timer.h"
 #include "tools/hfrt/session.h"
 
 namespace {
 
-double ms_since(std::chrono::steady_clock::time_point t0) {
-  return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
-}
+using hfrt::ms_since;
 
 bool check(const hfrt::tools::SessionResult& r) {
   if (!r.ok) std::fprintf(stderr, "%s", r.err.c_str());

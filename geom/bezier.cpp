@@ -6,6 +6,8 @@
 #include <optional>
 #include <sstream>
 
+#include "base/file.h"
+
 namespace hfrt::geom {
 namespace {
 
@@ -108,8 +110,8 @@ DVec3 BezierPatch::eval(double u, double v, DVec3* pu, DVec3* pv) const {
   return p;
 }
 
-Bounds3 BezierPatch::control_bounds() const {
-  Bounds3 b;
+Box BezierPatch::control_bounds() const {
+  Box b;
   for (int k = 0; k < num_control_points(); ++k) b.extend(cp[k]);
   return b;
 }
@@ -143,8 +145,8 @@ float BezierPatch::flatness() const {
   return worst;
 }
 
-Bounds3 PatchSet::bounds() const {
-  Bounds3 b;
+Box PatchSet::bounds() const {
+  Box b;
   for (const BezierPatch& p : patches) b.extend(p.control_bounds());
   return b;
 }

@@ -14,9 +14,9 @@
 #include <string>
 #include <vector>
 
+#include "base/result.h"
 #include "geom/mesh.h"
 #include "geom/vec.h"
-#include "lang/result.h"
 
 namespace hfrt::geom {
 
@@ -44,7 +44,7 @@ struct BezierPatch {
   DVec3 eval(double u, double v, DVec3* pu = nullptr, DVec3* pv = nullptr) const;
 
   /// The bounding box of the control points (contains the patch: convex hull property).
-  Bounds3 control_bounds() const;
+  Box control_bounds() const;
 
   /// The same surface restricted to [u0,u1] x [v0,v1], reparametrised over [0,1]^2.
   BezierPatch sub_patch(double u0, double u1, double v0, double v1) const;
@@ -59,7 +59,7 @@ struct PatchSet {
   std::vector<BezierPatch> patches;
   std::string source;
 
-  Bounds3 bounds() const;
+  Box bounds() const;
 };
 
 /// Parses BPT text; `name` is used in messages ("teapot.bpt:17: ..."). Errors: malformed

@@ -7,7 +7,7 @@
 #include <algorithm>
 #include <atomic>
 
-#include "lang/check.h"
+#include "base/check.h"
 
 namespace hfrt::geom {
 namespace {
@@ -15,7 +15,7 @@ namespace {
 constexpr int kMaxBins = 32;
 
 struct Bin {
-  Bounds3 bounds;
+  Box bounds;
   uint32_t count = 0;
 };
 
@@ -25,7 +25,7 @@ struct BinSet {
 
 class Builder {
  public:
-  Builder(std::span<const Bounds3> boxes, const BvhBuildOptions& opt, Bvh* out)
+  Builder(std::span<const Box> boxes, const BvhBuildOptions& opt, Bvh* out)
       : boxes_(boxes), opt_(opt), out_(out) {
     const size_t n = boxes.size();
     centroids_.resize(n);
@@ -45,7 +45,7 @@ class Builder {
 
  private:
   struct RangeInfo {
-    Bounds3 bounds, centroid_bounds;
+    Box bounds, centroid_bounds;
   };
 
   RangeInfo range_info(uint32_t begin, uint32_t end) const {
@@ -73,7 +73,7 @@ class Builder {
     return std::clamp(b, 0, nbins - 1);
   }
 
-  void fill_bins(uint32_t begin, uint32_t end, const Bounds3& cb, int nbins, BinSet* set) const {
+  void fill_bins(uint32_t begin, uint32_t end, const Box& cb, int nbins, BinSet* set) const {
     float scale[3];
     for (int a = 0; a < 3; ++a) {
       float ext = cb.hi[a] - cb.lo[a];
@@ -124,7 +124,7 @@ class Builder {
       return 1;
     }
     // Choose the split: SAH over binned centroids on all three axes.
-    const Bounds3& cb = info.centroid_bounds;
+    const Box& cb = info.centroid_bounds;
     const int nbins = std::clamp(opt_.bins, 2, kMaxBins);
     int best_axis = -1, best_split = 0;
     float best_cost = std::numeric_limits<float>::infinity();
@@ -136,7 +136,7 @@ class Builder {
         // Sweep from the right, then from the left.
         float right_area[kMaxBins];
         uint32_t right_count[kMaxBins];
-        Bounds3 acc;
+        Box acc;
         uint32_t cnt = 0;
         for (int k = nbins - 1; k > 0; --k) {
           acc.extend(set.bins[a][k].bounds);
@@ -144,7 +144,7 @@ class Builder {
           right_area[k] = acc.half_area();
           right_count[k] = cnt;
         }
-        acc = Bounds3{};
+        acc = Box{};
         cnt = 0;
         for (int k = 1; k < nbins; ++k) {
           acc.extend(set.bins[a][k - 1].bounds);
@@ -198,7 +198,7 @@ class Builder {
     return 1 + std::max(dl, dr);
   }
 
-  std::span<const Bounds3> boxes_;
+  std::span<const Box> boxes_;
   const BvhBuildOptions& opt_;
   Bvh* out_;
   std::vector<Vec3> centroids_;
@@ -207,7 +207,7 @@ class Builder {
 
 }  // namespace
 
-Bvh build_bvh(std::span<const Bounds3> prim_bounds, const BvhBuildOptions& options) {
+Bvh build_bvh(std::span<const Box> prim_bounds, const BvhBuildOptions& options) {
   HFRT_CHECK(!prim_bounds.empty());
   HFRT_CHECK_LT(prim_bounds.size(), size_t{1} << 31);
   Bvh bvh;

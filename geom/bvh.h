@@ -26,7 +26,7 @@ struct BvhNode {
   uint32_t count;
 
   bool is_leaf() const { return count != 0; }
-  Bounds3 bounds() const { return {{lo[0], lo[1], lo[2]}, {hi[0], hi[1], hi[2]}}; }
+  Box bounds() const { return {{lo[0], lo[1], lo[2]}, {hi[0], hi[1], hi[2]}}; }
 };
 static_assert(sizeof(BvhNode) == 32);
 
@@ -52,7 +52,7 @@ struct Bvh {
 };
 
 /// Builds a BVH over `prim_bounds` (at least one, all non-empty). Deterministic shape.
-Bvh build_bvh(std::span<const Bounds3> prim_bounds, const BvhBuildOptions& options = {});
+Bvh build_bvh(std::span<const Box> prim_bounds, const BvhBuildOptions& options = {});
 
 /// The SAH cost of a built tree (relative units): for tests and statistics.
 double sah_cost(const Bvh& bvh, const BvhBuildOptions& options = {});

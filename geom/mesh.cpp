@@ -13,10 +13,12 @@
 #include <optional>
 #include <sstream>
 
+#include "base/file.h"
+
 namespace hfrt::geom {
 
-Bounds3 TriangleMesh::bounds() const {
-  Bounds3 b;
+Box TriangleMesh::bounds() const {
+  Box b;
   for (Vec3 v : vertices) b.extend(v);
   return b;
 }

@@ -11,8 +11,8 @@
 #include <string>
 #include <vector>
 
+#include "base/result.h"
 #include "geom/vec.h"
-#include "lang/result.h"
 
 namespace hfrt::geom {
 
@@ -27,7 +27,7 @@ struct TriangleMesh {
   /// Where the mesh came from ("armadillo.off", "inline"), for messages and --stats.
   std::string source;
 
-  Bounds3 bounds() const;
+  Box bounds() const;
   Vec3 corner(size_t tri, int k) const { return vertices[triangles[tri][k]]; }
 };
 

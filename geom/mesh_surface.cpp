@@ -6,8 +6,8 @@
 #include <chrono>
 #include <numbers>
 
+#include "base/check.h"
 #include "geom/triangle.h"
-#include "lang/check.h"
 
 namespace hfrt::geom {
 namespace {
@@ -144,9 +144,9 @@ std::unique_ptr<MeshSurface> MeshSurface::build(const TriangleMesh& mesh, const 
   const auto start = std::chrono::steady_clock::now();
   std::unique_ptr<MeshSurface> s(new MeshSurface());
   const size_t n = mesh.triangles.size();
-  std::vector<Bounds3> boxes(n);
+  std::vector<Box> boxes(n);
   for (size_t i = 0; i < n; ++i) {
-    Bounds3 b;
+    Box b;
     for (int k = 0; k < 3; ++k) b.extend(mesh.corner(i, k));
     boxes[i] = b;
   }
@@ -471,7 +471,7 @@ float MeshSurface::signed_distance(Vec3 p, Vec3* gradient) const {
   return inside ? c.distance : -c.distance;
 }
 
-float MeshSurface::distance_lower_bound(const Bounds3& box) const {
+float MeshSurface::distance_lower_bound(const Box& box) const {
   float best = std::numeric_limits<float>::infinity();
   DistanceEntry stack[kStackSize];
   int sp = 0;
@@ -482,7 +482,7 @@ float MeshSurface::distance_lower_bound(const Bounds3& box) const {
     const BvhNode& n = nodes_[e.node];
     if (n.is_leaf()) {
       for (uint32_t s = n.index; s < n.index + n.count; ++s) {
-        Bounds3 tb;
+        Box tb;
         for (int k = 0; k < 3; ++k) tb.extend(corners_[3 * s + k]);
         best = std::min(best, tb.distance2(box));
       }
@@ -497,7 +497,7 @@ float MeshSurface::distance_lower_bound(const Bounds3& box) const {
   return std::sqrt(best) * (1.0f - 1e-6f);
 }
 
-DistanceBounds MeshSurface::signed_distance_bounds(const Bounds3& box) const {
+DistanceBounds MeshSurface::signed_distance_bounds(const Box& box) const {
   const Vec3 c = box.center();
   const float half_diag = 0.5f * length(box.diagonal()) * (1.0f + 1e-6f);
   const float dc = closest_point(c).distance;

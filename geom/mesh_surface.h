@@ -45,12 +45,12 @@ class MeshSurface final : public Surface {
     return build(mesh, Options{});
   }
 
-  Bounds3 bounds() const override { return nodes_[0].bounds(); }
+  Box bounds() const override { return nodes_[0].bounds(); }
   bool intersect(const Ray& ray, float tmin, float tmax, SurfaceHit* hit) const override;
   void crossings(const Ray& ray, float tmin, float tmax, std::vector<Crossing>* out) const override;
   double winding_number(Vec3 p) const override;
   float signed_distance(Vec3 p, Vec3* gradient = nullptr) const override;
-  DistanceBounds signed_distance_bounds(const Bounds3& box) const override;
+  DistanceBounds signed_distance_bounds(const Box& box) const override;
   SurfaceStats stats() const override;
 
   /// intersect() through the binary BVH only (the 4-wide one is the default): for tests.
@@ -64,7 +64,7 @@ class MeshSurface final : public Surface {
                              float max_distance = std::numeric_limits<float>::infinity()) const;
 
   /// A lower bound on the distance from `box` to the mesh (0 when the box may touch it).
-  float distance_lower_bound(const Bounds3& box) const;
+  float distance_lower_bound(const Box& box) const;
 
   /// The winding number summed exactly over every triangle (no hierarchy): for tests.
   double winding_number_exact(Vec3 p) const;

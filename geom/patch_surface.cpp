@@ -3,8 +3,8 @@
 #include <algorithm>
 #include <chrono>
 
+#include "base/check.h"
 #include "geom/triangle.h"
-#include "lang/check.h"
 
 namespace hfrt::geom {
 namespace {
@@ -100,7 +100,7 @@ std::unique_ptr<PatchSurface> PatchSurface::build(const PatchSet& set, const Opt
       piece_cp.push_back(sub);
     }
   }
-  std::vector<Bounds3> boxes(pieces.size());
+  std::vector<Box> boxes(pieces.size());
   for (size_t i = 0; i < pieces.size(); ++i) boxes[i] = piece_cp[i].control_bounds();
   Bvh bvh = build_bvh(boxes, BvhBuildOptions{.max_leaf_size = 2});
   s->nodes_ = std::move(bvh.nodes);
@@ -235,7 +235,7 @@ void PatchSurface::solve_piece(const Ray& ray, const double plane[2][4], uint32_
   for (int j = 0; j < 2; ++j)
     for (int i = 0; i < 2; ++i) {
       const BezierPatch child = sub.sub_patch(0.5 * i, 0.5 * (i + 1), 0.5 * j, 0.5 * (j + 1));
-      const Bounds3 b = child.control_bounds();
+      const Box b = child.control_bounds();
       const float lo[3] = {b.lo.x, b.lo.y, b.lo.z}, hi[3] = {b.hi.x, b.hi.y, b.hi.z};
       float tn;
       if (!slab_hit(wr, lo, hi, tmin, tmax, &tn)) continue;
@@ -332,7 +332,7 @@ void PatchSurface::crossings(const Ray& ray, float tmin, float tmax,
   }
 }
 
-DistanceBounds PatchSurface::signed_distance_bounds(const Bounds3& box) const {
+DistanceBounds PatchSurface::signed_distance_bounds(const Box& box) const {
   DistanceBounds b = field_->signed_distance_bounds(box);
   // The field is the tessellation's: widen by its distance to the true patches.
   return {b.lo - field_error_, b.hi + field_error_};

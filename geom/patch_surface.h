@@ -40,14 +40,14 @@ class PatchSurface final : public Surface {
   static std::unique_ptr<PatchSurface> build(const PatchSet& set, const Options& options);
   static std::unique_ptr<PatchSurface> build(const PatchSet& set) { return build(set, Options{}); }
 
-  Bounds3 bounds() const override { return bounds_; }
+  Box bounds() const override { return bounds_; }
   bool intersect(const Ray& ray, float tmin, float tmax, SurfaceHit* hit) const override;
   void crossings(const Ray& ray, float tmin, float tmax, std::vector<Crossing>* out) const override;
   double winding_number(Vec3 p) const override { return field_->winding_number(p); }
   float signed_distance(Vec3 p, Vec3* gradient = nullptr) const override {
     return field_->signed_distance(p, gradient);
   }
-  DistanceBounds signed_distance_bounds(const Bounds3& box) const override;
+  DistanceBounds signed_distance_bounds(const Box& box) const override;
   SurfaceStats stats() const override { return stats_; }
 
   const PatchSet& patches() const { return set_; }
@@ -92,7 +92,7 @@ class PatchSurface final : public Surface {
   std::vector<BezierPatch> piece_cp_;  // control points of each piece (for on-the-fly refinement)
   std::unique_ptr<MeshSurface> field_;
   float field_error_ = 0;
-  Bounds3 bounds_;
+  Box bounds_;
   SurfaceStats stats_;
 };
 

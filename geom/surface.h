@@ -54,7 +54,7 @@ class Surface {
  public:
   virtual ~Surface() = default;
 
-  virtual Bounds3 bounds() const = 0;
+  virtual Box bounds() const = 0;
 
   /// The nearest hit with tmin < t < tmax; false when none.
   virtual bool intersect(const Ray& ray, float tmin, float tmax, SurfaceHit* hit) const = 0;
@@ -74,7 +74,7 @@ class Surface {
 
   /// Sound bounds of signed_distance over `box` (for closed surfaces; for open ones the sign
   /// part assumes w does not cross 1/2 inside a box that touches no primitive).
-  virtual DistanceBounds signed_distance_bounds(const Bounds3& box) const = 0;
+  virtual DistanceBounds signed_distance_bounds(const Box& box) const = 0;
 
   virtual SurfaceStats stats() const = 0;
 };

@@ -11,9 +11,9 @@
 #include <utility>
 #include <vector>
 
+#include "base/check.h"
 #include "geom/bvh.h"
 #include "geom/triangle.h"
-#include "lang/check.h"
 
 namespace hfrt::geom {
 

@@ -17,22 +17,15 @@
 #include <span>
 #include <vector>
 
-#include "jit/ir.h"
+#include "base/result.h"
+#include "ir/dual_ops.h"
+#include "ir/ir.h"
 #include "jit/llvm_jit.h"  // Precision (no LLVM types)
-#include "lang/result.h"
 
 namespace hfrt::jit {
 
-/// A value and its partial derivatives d/dx[1], d/dx[2], d/dx[3].
-struct Dual {
-  double v = 0;
-  double d[3] = {0, 0, 0};
-
-  static Dual constant(double v) { return {v, {0, 0, 0}}; }
-};
-
-/// The dual extension of one pure op with arguments (the ops apply_op accepts).
-Dual apply_dual(Op op, const Dual& a, const Dual& b, const Dual& c);
+// jit/ evaluates the IR: its types and ops are used unqualified here.
+using namespace ::hfrt::ir;
 
 /// Iteration limit of while loops in the gradient interpreter (a point that exceeds it gets
 /// NaN, like the LoopLimit error of the scalar interpreter).

@@ -4,11 +4,15 @@
 #include <cmath>
 #include <limits>
 
-#include "jit/scalar_ops.h"
+#include "base/check.h"
+#include "ir/scalar_ops.h"
+#include "ir/verify.h"
 #include "jit/surface_ops.h"
-#include "lang/check.h"
 
 namespace hfrt::jit {
+
+// jit/ evaluates the IR: its types and ops are used unqualified here.
+using namespace ::hfrt::ir;
 
 Interpreter::Interpreter(const Function& fn, uint64_t max_iterations)
     : fn_(fn), max_iterations_(max_iterations), target_(fn.insts.size(), 0) {

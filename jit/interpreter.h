@@ -10,9 +10,12 @@
 #include <string>
 #include <vector>
 
-#include "jit/ir.h"
+#include "ir/ir.h"
 
 namespace hfrt::jit {
+
+// jit/ evaluates the IR: its types and ops are used unqualified here.
+using namespace ::hfrt::ir;
 
 /// A run-time error of the evaluated program (division by zero, ...) and the location of
 /// the instruction that raised it.

@@ -25,65 +25,17 @@
 #include <span>
 #include <vector>
 
-#include "jit/ir.h"
+#include "base/interval.h"
+#include "base/result.h"
+#include "ir/interval_ops.h"
+#include "ir/ir.h"
+#include "ir/r_functions.h"
 #include "jit/llvm_jit.h"  // JitStats (no LLVM types)
-#include "lang/result.h"
 
 namespace hfrt::jit {
 
-/// A closed interval [lo, hi] of doubles (lo <= hi, never NaN endpoints; infinite endpoints
-/// allowed) plus a bit saying that NaN is possible too. When every value is NaN the real
-/// part is some (arbitrary but valid) interval and maybe_nan is set.
-struct Interval {
-  double lo = 0;
-  double hi = 0;
-  bool maybe_nan = false;
-
-  static Interval point(double v) {
-    if (v != v) return {0, 0, true};
-    return {v, v, false};
-  }
-  static Interval of(double lo, double hi, bool maybe_nan = false) { return {lo, hi, maybe_nan}; }
-  static Interval entire() {
-    return {-std::numeric_limits<double>::infinity(), std::numeric_limits<double>::infinity(),
-            true};
-  }
-  /// True when v (a value of the scalar evaluator) is allowed by this interval.
-  bool contains(double v) const { return v != v ? maybe_nan : (lo <= v && v <= hi); }
-  bool is_point() const { return lo == hi && !maybe_nan; }
-  bool operator==(const Interval&) const = default;
-};
-
-/// The smallest interval holding both.
-inline Interval hull(const Interval& a, const Interval& b) {
-  return {a.lo < b.lo ? a.lo : b.lo, a.hi > b.hi ? a.hi : b.hi, a.maybe_nan || b.maybe_nan};
-}
-
-/// Values of the min/max/select trace (bit set: 1 = the left operand / then-value can be the
-/// result somewhere in the box, 2 = the right one can). 0 = the instruction was not reached
-/// (or is not a min/max/select). Loops OR the bits of every iteration.
-inline constexpr uint8_t kChoiceNone = 0;
-inline constexpr uint8_t kChoiceLeft = 1;
-inline constexpr uint8_t kChoiceRight = 2;
-inline constexpr uint8_t kChoiceBoth = 3;
-
-/// The sound interval extension of one pure op with arguments (the ops apply_op of
-/// scalar_ops.h accepts). `same_args` says that arguments 0 and 1 are the same SSA value
-/// (x*x is then a square, never negative). `choice`, when non-null, receives the trace bits
-/// for kMin/kMax/kSelect.
-Interval apply_interval(Op op, Interval a, Interval b, Interval c, bool same_args = false,
-                        uint8_t* choice = nullptr);
-
-/// The enclosure of an R-function node f1 + f2 +- sqrt(f1^2 + f2^2) (match_r_function) given
-/// its op-by-op enclosure `composed` and those of f1 and f2: both R-functions are
-/// non-decreasing in each argument (d/df1 = 1 +- f1 / sqrt(f1^2 + f2^2) >= 0), so the value
-/// lies between the formula at the lower ends and at the upper ends, widened by a bound on
-/// the formula's rounding in double (2^-48 (|f1| + |f2|) at most, plus 1e-150 for
-/// underflow). Op by op the enclosure is loose (f1 and f2 occur twice: the dependency
-/// problem); the result is its intersection with this one. Unchanged when an operand may be
-/// NaN, has an infinite end or is beyond 1e150.
-Interval r_function_interval(const Interval& composed, const Interval& f1, const Interval& f2,
-                             bool plus);
+// jit/ evaluates the IR: its types and ops are used unqualified here.
+using namespace ::hfrt::ir;
 
 /// Default bound on interval loop iterations before giving up with [-inf, inf].
 inline constexpr int kIntervalLoopLimit = 256;

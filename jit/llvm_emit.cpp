@@ -5,10 +5,13 @@
 #include <algorithm>
 #include <cmath>
 
-#include "jit/scalar_ops.h"
-#include "lang/check.h"
+#include "base/check.h"
+#include "ir/scalar_ops.h"
 
 namespace hfrt::jit {
+
+// jit/ evaluates the IR: its types and ops are used unqualified here.
+using namespace ::hfrt::ir;
 
 std::vector<int> written_slots(const Function& fn, size_t begin, size_t end) {
   std::vector<char> w(fn.num_slots, 0);

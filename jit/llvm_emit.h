@@ -11,10 +11,13 @@
 #include <cstdint>
 #include <vector>
 
-#include "jit/ir.h"
+#include "ir/ir.h"
 #include "jit/llvm_includes.h"
 
 namespace hfrt::jit {
+
+// jit/ evaluates the IR: its types and ops are used unqualified here.
+using namespace ::hfrt::ir;
 
 /// Slots written (kStoreSlot, kStoreIdx) by the instructions in [begin, end), ascending.
 std::vector<int> written_slots(const Function& fn, size_t begin, size_t end);

@@ -18,13 +18,16 @@
 #include <cmath>
 #include <limits>
 
+#include "base/check.h"
+#include "ir/scalar_ops.h"
 #include "jit/gradient.h"
 #include "jit/llvm_emit.h"
 #include "jit/llvm_session.h"
-#include "jit/scalar_ops.h"
-#include "lang/check.h"
 
 namespace hfrt::jit {
+
+// jit/ evaluates the IR: its types and ops are used unqualified here.
+using namespace ::hfrt::ir;
 namespace {
 
 struct DV {

@@ -46,11 +46,13 @@
 #include <limits>
 #include <unordered_map>
 
+#include "base/check.h"
+#include "ir/r_functions.h"
+#include "ir/regions.h"
+#include "ir/scalar_ops.h"
 #include "jit/interval.h"
 #include "jit/llvm_emit.h"
 #include "jit/llvm_session.h"
-#include "jit/scalar_ops.h"
-#include "lang/check.h"
 
 /// apply_interval for one lane, called from JIT code for the libm-based ops. A block that holds
 /// fewer boxes than lanes (one box per call from a bisection, the tail of a batch) repeats its
@@ -58,7 +60,7 @@
 /// same bits, so those lanes cost a comparison instead of a libm enclosure.
 extern "C" void hfrt_interval_lane(int32_t op, double alo, double ahi, double anan, double blo,
                                    double bhi, double bnan, double* out) noexcept {
-  using hfrt::jit::Interval;
+  using ::hfrt::Interval;
   struct Last {
     int32_t op = -1;
     double args[6];
@@ -84,7 +86,7 @@ extern "C" void hfrt_interval_lane(int32_t op, double alo, double ahi, double an
 extern "C" void hfrt_interval_rfunc(int32_t plus, double rlo, double rhi, double rnan, double alo,
                                     double ahi, double anan, double blo, double bhi, double bnan,
                                     double* out) noexcept {
-  using hfrt::jit::Interval;
+  using ::hfrt::Interval;
   Interval r = hfrt::jit::r_function_interval({rlo, rhi, rnan != 0}, {alo, ahi, anan != 0},
                                               {blo, bhi, bnan != 0}, plus != 0);
   out[0] = r.lo;
@@ -93,6 +95,9 @@ extern "C" void hfrt_interval_rfunc(int32_t plus, double rlo, double rhi, double
 }
 
 namespace hfrt::jit {
+
+// jit/ evaluates the IR: its types and ops are used unqualified here.
+using namespace ::hfrt::ir;
 const HostSymbol kIntervalSymbols[] = {
     {"hfrt_interval_lane", reinterpret_cast<void*>(&hfrt_interval_lane)},
     {"hfrt_interval_rfunc", reinterpret_cast<void*>(&hfrt_interval_rfunc)},

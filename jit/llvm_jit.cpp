@@ -21,10 +21,12 @@
 #include <cmath>
 #include <cstring>
 
+#include "base/check.h"
+#include "base/timer.h"
+#include "ir/scalar_ops.h"
+#include "ir/uniform_values.h"
 #include "jit/llvm_emit.h"
 #include "jit/llvm_session.h"
-#include "jit/scalar_ops.h"
-#include "lang/check.h"
 
 // Scalar helpers called per lane from JIT code: noexcept C-ABI leaves.
 extern "C" {
@@ -53,14 +55,9 @@ float hfrt_jit_powhf_f32(float b, float e) noexcept {
 }  // extern "C"
 
 namespace hfrt::jit {
-namespace {
 
-double ms_since(std::chrono::steady_clock::time_point t0) {
-  return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
-}
-
-}  // namespace
-
+// jit/ evaluates the IR: its types and ops are used unqualified here.
+using namespace ::hfrt::ir;
 const HostSymbol kScalarSymbols[] = {
     {"hfrt_jit_powhf_f64", reinterpret_cast<void*>(&hfrt_jit_powhf_f64)},
     {"hfrt_jit_powhf_f32", reinterpret_cast<void*>(&hfrt_jit_powhf_f32)},

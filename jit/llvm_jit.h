@@ -9,10 +9,13 @@
 #include <memory>
 #include <string>
 
-#include "jit/ir.h"
-#include "lang/result.h"
+#include "base/result.h"
+#include "ir/ir.h"
 
 namespace hfrt::jit {
+
+// jit/ evaluates the IR: its types and ops are used unqualified here.
+using namespace ::hfrt::ir;
 
 enum class Precision : uint8_t {
   kF64,  ///< exact conformance with the interpreter (same libm, no fast-math)

@@ -22,12 +22,15 @@
 #include <cmath>
 #include <limits>
 
+#include "base/check.h"
 #include "jit/llvm_emit.h"
 #include "jit/llvm_session.h"
 #include "jit/poly.h"
-#include "lang/check.h"
 
 namespace hfrt::jit {
+
+// jit/ evaluates the IR: its types and ops are used unqualified here.
+using namespace ::hfrt::ir;
 namespace {
 
 using Coeffs = std::array<llvm::Value*, kPolyCoeffs>;

@@ -16,15 +16,15 @@
 #include <cstring>
 #include <mutex>
 
+#include "base/check.h"
+#include "base/timer.h"
 #include "jit/surface_ops.h"
-#include "lang/check.h"
 
 namespace hfrt::jit {
-namespace {
 
-double ms_since(std::chrono::steady_clock::time_point t0) {
-  return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
-}
+// jit/ evaluates the IR: its types and ops are used unqualified here.
+using namespace ::hfrt::ir;
+namespace {
 
 template <typename F>
 void* fn_addr(F* f) {

@@ -27,11 +27,14 @@
 #include <string_view>
 #include <vector>
 
+#include "base/result.h"
 #include "jit/llvm_includes.h"
 #include "jit/llvm_jit.h"  // JitStats
-#include "lang/result.h"
 
 namespace hfrt::jit {
+
+// jit/ evaluates the IR: its types and ops are used unqualified here.
+using namespace ::hfrt::ir;
 
 /// A host function JIT code may call: registered under `name` at `addr`.
 struct HostSymbol {

@@ -15,13 +15,17 @@
 #include <optional>
 #include <vector>
 
-#include "jit/scalar_ops.h"
+#include "base/check.h"
+#include "ir/builder.h"
+#include "ir/scalar_ops.h"
 #include "lang/builtins.h"
-#include "lang/check.h"
 #include "lang/library_table.h"
 #include "stdlib/library.h"
 
 namespace hfrt::jit {
+
+// jit/ evaluates the IR: its types and ops are used unqualified here.
+using namespace ::hfrt::ir;
 
 namespace {
 

@@ -13,11 +13,14 @@
 //   - after those: locals, local arrays, copies made for object calls, "defined" flags,
 //     loop counters (layout not part of the contract).
 
-#include "jit/ir.h"
+#include "ir/ir.h"
 #include "lang/ast.h"
 #include "lang/diagnostics.h"
 
 namespace hfrt::jit {
+
+// jit/ evaluates the IR: its types and ops are used unqualified here.
+using namespace ::hfrt::ir;
 
 /// Maximum number of iterations of one `while` loop per entry; the loop then stops with a
 /// LoopLimit run-time error, so no evaluator can hang on a model.

@@ -9,23 +9,25 @@
 #include <cstring>
 #include <mutex>
 
+#include "base/check.h"
+#include "base/file.h"
+#include "base/result.h"
+#include "base/timer.h"
 #include "geom/surface.h"
+#include "ir/hoist_constants.h"
+#include "ir/print.h"
+#include "ir/structure_key.h"
+#include "jit/driver.h"
 #include "jit/gradient.h"
 #include "jit/interpreter.h"
 #include "jit/interval.h"
 #include "jit/llvm_jit.h"
 #include "jit/lower.h"
 #include "jit/poly.h"
-#include "lang/check.h"
 #include "lang/frontend.h"
-#include "lang/result.h"
 
 namespace hfrt {
 namespace {
-
-double ms_since(std::chrono::steady_clock::time_point t0) {
-  return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
-}
 
 SourceDiagnostic convert(const lang::Diagnostic& d, const std::string& file) {
   SourceDiagnostic out;
@@ -249,30 +251,17 @@ struct Model::Impl {
     params_f32.assign(params_f64.begin(), params_f64.end());
   }
 
-  /// Lowers object `index` into a fresh Compiled (JIT code per the eager options); its
-  /// hoisted numbers go to `*hoisted`.
-  std::unique_ptr<Compiled> build(int index, std::vector<SourceDiagnostic>* diags,
-                                  std::string* rendered, std::string* error,
+  /// Makes a fresh Compiled of the lowered object `lowered` (its Function is moved in; JIT
+  /// code per the eager options); its hoisted numbers go to `*hoisted`.
+  std::unique_ptr<Compiled> build(jit::LoweredSource& lowered, std::string* error,
                                   std::vector<double>* hoisted) {
     auto c = std::make_unique<Compiled>();  // (the pools refer to c->fn: it never moves)
     c->opt_level = options.opt_level;
     c->lanes = options.lanes;
     c->interval_lanes = options.interval_lanes;
-    lang::DiagnosticSink sink(file);
-    auto t0 = std::chrono::steady_clock::now();
-    c->fn = jit::lower_object(*program, index, &sink);
-    stats.lower_ms = ms_since(t0);
+    c->fn = std::move(lowered.fn);
+    stats.lower_ms = lowered.lower_ms;
     stats.ir_insts = static_cast<int>(c->fn.insts.size());
-    for (const lang::Diagnostic& d : sink.diagnostics()) {
-      if (diags) diags->push_back(convert(d, file->name()));
-    }
-    if (rendered && !sink.diagnostics().empty()) *rendered += sink.render(false);
-    // Errors found while lowering: a mesh or patch file that does not load (the surfaces are
-    // built at compile time). No model then, like a front-end error.
-    if (sink.has_errors()) {
-      if (!rendered && error) *error = sink.render(false);
-      return nullptr;
-    }
     c->user_params = c->fn.num_params;
     hoisted->clear();
     if (options.hoist_constants) *hoisted = jit::hoist_constants(&c->fn);
@@ -312,39 +301,32 @@ CompileResult Model::compile(std::string_view source, const ModelOptions& option
   impl->options = options;
   impl->file = std::make_shared<const lang::SourceFile>(std::move(name), std::string(source));
   lang::DiagnosticSink sink(impl->file);
-  auto t0 = std::chrono::steady_clock::now();
-  impl->program = lang::compile_source(impl->file, sink);
-  impl->stats.frontend_ms = ms_since(t0);
+  jit::LoweredSource lowered = jit::compile_source(sink, options.object);
+  impl->stats.frontend_ms = lowered.frontend_ms;
   for (const lang::Diagnostic& d : sink.diagnostics()) {
     result.diagnostics.push_back(convert(d, impl->file->name()));
   }
   result.rendered = sink.render(false);
-  if (!impl->program) return result;
-
-  int index = options.object.empty() ? impl->program->default_object()
-                                     : impl->program->find_object(options.object);
-  if (index < 0) {
+  if (!lowered.program) return result;
+  impl->program = std::move(lowered.program);
+  if (lowered.object < 0) {
     SourceDiagnostic d;
     d.file = impl->file->name();
-    d.message = options.object.empty() ? "the file defines no object"
-                                       : "no object named '" + options.object + "' in the file";
-    std::string names;
-    for (const lang::Object& o : impl->program->objects)
-      names += (names.empty() ? "" : ", ") + o.name;
-    if (!names.empty()) d.hint = "the objects are: " + names;
+    d.message = lowered.no_object;
+    d.hint = lowered.no_object_hint;
     result.diagnostics.push_back(d);
     result.rendered += impl->file->name() + ": error: " + d.message +
                        (d.hint.empty() ? "" : "\n  hint: " + d.hint) + "\n";
     return result;
   }
-  size_t before = result.diagnostics.size();
-  impl->compiled =
-      impl->build(index, &result.diagnostics, &result.rendered, &result.error, &impl->constants);
+  if (!lowered.ok()) return result;
+  impl->compiled = impl->build(lowered, &result.error, &impl->constants);
   if (!impl->compiled) return result;
-  for (size_t i = before; i < result.diagnostics.size(); ++i) {
+  // The warnings of the lowering (the front end's are in CompileResult::diagnostics only).
+  for (size_t i = lowered.frontend_diagnostics; i < result.diagnostics.size(); ++i) {
     impl->warnings.push_back(result.diagnostics[i]);
   }
-  impl->object_name = impl->program->objects[index].name;
+  impl->object_name = impl->program->objects[lowered.object].name;
   impl->pad_params();
   result.model.emplace(Model(std::move(impl)));
   return result;
@@ -379,7 +361,16 @@ bool Model::select_object(std::string_view name, std::string* error) {
   std::string why;
   std::vector<SourceDiagnostic> warnings;
   std::vector<double> constants;
-  auto compiled = impl_->build(index, &warnings, nullptr, &why, &constants);
+  lang::DiagnosticSink sink(impl_->file);
+  jit::LoweredSource lowered;
+  if (!jit::lower_into(*impl_->program, index, sink, &lowered)) {
+    if (error) *error = sink.render(false);
+    return false;
+  }
+  for (const lang::Diagnostic& d : sink.diagnostics()) {
+    warnings.push_back(convert(d, impl_->file->name()));
+  }
+  auto compiled = impl_->build(lowered, &why, &constants);
   if (!compiled) {
     if (error) *error = why;
     return false;
@@ -565,13 +556,13 @@ IntervalValue Model::eval_interval(std::span<const double> lo, std::span<const d
     code->eval(1, sc.lo.data(), sc.hi.data(), impl_->params_f64, &out_lo, &out_hi, &out_nan, trace);
     return {out_lo, out_hi, out_nan != 0};
   }
-  std::vector<jit::Interval> box(static_cast<size_t>(std::max(nx, 0)), jit::Interval{});
+  std::vector<hfrt::Interval> box(static_cast<size_t>(std::max(nx, 0)), hfrt::Interval{});
   for (int k = 0; k < nx; ++k) {
     double l, h;
     coord(k, &l, &h);
-    box[k] = jit::Interval::of(l, h);
+    box[k] = hfrt::Interval::of(l, h);
   }
-  jit::Interval r = c.interval_pool.take()->eval(box, impl_->params_f64, choices);
+  hfrt::Interval r = c.interval_pool.take()->eval(box, impl_->params_f64, choices);
   return {r.lo, r.hi, r.maybe_nan};
 }
 
@@ -587,11 +578,11 @@ void Model::eval_interval_batch(int64_t n, const double* lo, const double* hi, d
   }
   const int nx = c.fn.num_inputs;
   auto ii = c.interval_pool.take();
-  std::vector<jit::Interval> box(static_cast<size_t>(std::max(nx, 0)));
+  std::vector<hfrt::Interval> box(static_cast<size_t>(std::max(nx, 0)));
   std::vector<uint8_t> one;
   for (int64_t i = 0; i < n; ++i) {
-    for (int k = 0; k < nx; ++k) box[k] = jit::Interval::of(lo[k * n + i], hi[k * n + i]);
-    jit::Interval r = ii->eval(box, impl_->params_f64, choices ? &one : nullptr);
+    for (int k = 0; k < nx; ++k) box[k] = hfrt::Interval::of(lo[k * n + i], hi[k * n + i]);
+    hfrt::Interval r = ii->eval(box, impl_->params_f64, choices ? &one : nullptr);
     out_lo[i] = r.lo;
     out_hi[i] = r.hi;
     out_nan[i] = r.maybe_nan ? 1 : 0;
@@ -748,7 +739,7 @@ void Model::ray_surface_crossings(const double o[3], const double d[3], double t
       ray.org[k] = float(coeffs[0]);
       ray.dir[k] = float(coeffs[1]);
     }
-    if (!geom::is_finite(ray.org) || !geom::is_finite(ray.dir)) continue;
+    if (!is_finite(ray.org) || !is_finite(ray.dir)) continue;
     if (ray.dir.x == 0 && ray.dir.y == 0 && ray.dir.z == 0) continue;  // F constant on the ray
     c.fn.surfaces[s.surface]->crossings(ray, tmin, tmax, &crossings);
     for (const geom::Crossing& x : crossings) out->push_back(x.t);

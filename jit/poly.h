@@ -42,11 +42,14 @@
 #include <string>
 #include <vector>
 
-#include "jit/ir.h"
+#include "base/result.h"
+#include "ir/ir.h"
 #include "jit/llvm_jit.h"  // JitStats (no LLVM types)
-#include "lang/result.h"
 
 namespace hfrt::jit {
+
+// jit/ evaluates the IR: its types and ops are used unqualified here.
+using namespace ::hfrt::ir;
 
 inline constexpr int kPolyMaxDegree = 4;
 inline constexpr int kPolyCoeffs = kPolyMaxDegree + 1;

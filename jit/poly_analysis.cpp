@@ -5,12 +5,16 @@
 #include <cmath>
 #include <string>
 
+#include "base/check.h"
+#include "ir/r_functions.h"
+#include "ir/scalar_ops.h"
 #include "jit/poly.h"
-#include "jit/scalar_ops.h"
-#include "lang/check.h"
 #include "lang/library_table.h"
 
 namespace hfrt::jit {
+
+// jit/ evaluates the IR: its types and ops are used unqualified here.
+using namespace ::hfrt::ir;
 
 namespace {
 

@@ -3,11 +3,14 @@
 #include <cstring>
 #include <vector>
 
+#include "base/check.h"
+#include "ir/scalar_ops.h"
 #include "jit/poly.h"
-#include "jit/scalar_ops.h"
-#include "lang/check.h"
 
 namespace hfrt::jit {
+
+// jit/ evaluates the IR: its types and ops are used unqualified here.
+using namespace ::hfrt::ir;
 
 void PolyInterpreter::eval(const double o[3], const double d[3], std::span<const double> a,
                            double* out) const {

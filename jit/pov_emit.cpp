@@ -17,9 +17,12 @@
 #include <string_view>
 #include <unordered_map>
 
-#include "lang/check.h"
+#include "base/check.h"
 
 namespace hfrt::jit {
+
+// jit/ evaluates the IR: its types and ops are used unqualified here.
+using namespace ::hfrt::ir;
 namespace {
 
 using NodeId = uint32_t;

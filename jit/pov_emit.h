@@ -25,10 +25,13 @@
 #include <string>
 #include <vector>
 
-#include "jit/ir.h"
+#include "ir/ir.h"
 #include "lang/diagnostics.h"
 
 namespace hfrt::jit {
+
+// jit/ evaluates the IR: its types and ops are used unqualified here.
+using namespace ::hfrt::ir;
 
 /// Largest constant table that a computed-index read turns into a select() tree.
 inline constexpr int kMaxPovTable = 4096;

@@ -9,6 +9,9 @@
 
 namespace hfrt::jit {
 
+// jit/ evaluates the IR: its types and ops are used unqualified here.
+using namespace ::hfrt::ir;
+
 namespace {
 
 constexpr double kInf = std::numeric_limits<double>::infinity();
@@ -42,9 +45,9 @@ Interval surface_interval(const geom::Surface& s, const Interval& x, const Inter
   const bool nan = x.maybe_nan || y.maybe_nan || z.maybe_nan;
   // A box that is not finite in float (or not a box) gets the whole line: the distance
   // bounds need a centre and a diagonal.
-  geom::Bounds3 box(geom::Vec3(down(x.lo), down(y.lo), down(z.lo)),
-                    geom::Vec3(up(x.hi), up(y.hi), up(z.hi)));
-  if (!geom::is_finite(box.lo) || !geom::is_finite(box.hi) || box.empty()) {
+  geom::Box box(geom::Vec3(down(x.lo), down(y.lo), down(z.lo)),
+                geom::Vec3(up(x.hi), up(y.hi), up(z.hi)));
+  if (!::hfrt::is_finite(box.lo) || !::hfrt::is_finite(box.hi) || box.empty()) {
     return Interval::of(-kInf, kInf, nan);
   }
   geom::DistanceBounds b = s.signed_distance_bounds(box);
@@ -64,7 +67,7 @@ Dual surface_dual(const geom::Surface& s, const Dual& x, const Dual& y, const Du
   geom::Vec3 g;
   geom::Vec3 p(static_cast<float>(x.v), static_cast<float>(y.v), static_cast<float>(z.v));
   r.v = static_cast<double>(s.signed_distance(p, &g));
-  const float size = geom::length(s.bounds().diagonal());
+  const float size = ::hfrt::length(s.bounds().diagonal());
   if (std::abs(r.v) < kOnSurface * size) {
     // On the surface to rounding (a ray hit: where the renderer asks for normals), the
     // direction from the closest point is rounding noise and the side test is ambiguous, so
@@ -78,7 +81,7 @@ Dual surface_dual(const geom::Surface& s, const Dual& x, const Dual& y, const Du
       b[k] -= h;
       fd[k] = (s.signed_distance(a) - s.signed_distance(b)) / (2 * h);
     }
-    const float len = geom::length(fd);
+    const float len = ::hfrt::length(fd);
     if (len > 0 && std::isfinite(len)) g = fd / len;
   }
   for (int k = 0; k < 3; ++k)
@@ -113,7 +116,7 @@ float hfrt_surface_sign_f32(const void* s, float x, float y, float z) noexcept {
 }
 
 void hfrt_surface_interval(const void* s, const double* in, double* out) noexcept {
-  using hfrt::jit::Interval;
+  using ::hfrt::Interval;
   // A block with fewer boxes than lanes repeats its last box in the spare lanes (one box per
   // call from a bisection): reuse the previous lane's bound, a BVH walk of ~26 us, when the
   // surface and the box are the same bits.

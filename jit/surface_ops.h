@@ -16,6 +16,9 @@ class Surface;
 
 namespace hfrt::jit {
 
+// jit/ evaluates the IR: its types and ops are used unqualified here.
+using namespace ::hfrt::ir;
+
 /// Signed distance (positive inside) at (x, y, z); NaN when a coordinate is NaN.
 double surface_value(const geom::Surface& s, double x, double y, double z);
 

@@ -18,4 +18,15 @@ int Program::find_object(std::string_view name) const {
   return -1;
 }
 
+int Program::select_object(std::string_view name, std::string* message, std::string* hint) const {
+  const int index = name.empty() ? default_object() : find_object(name);
+  if (index >= 0) return index;
+  *message = name.empty() ? "the file defines no object"
+                          : "no object named '" + std::string(name) + "' in the file";
+  std::string names;
+  for (const Object& o : objects) names += (names.empty() ? "" : ", ") + o.name;
+  *hint = names.empty() ? "" : "the objects are: " + names;
+  return -1;
+}
+
 }  // namespace hfrt::lang

@@ -143,6 +143,10 @@ struct Program {
   int default_object() const;
   /// The object with this name (case-insensitive), or -1.
   int find_object(std::string_view name) const;
+  /// The object a command asked for: `name`, or the default object when `name` is empty.
+  /// When there is none, -1 with the message ("no object named 'x' in the file", "the file
+  /// defines no object") and a hint listing the objects there are (empty when none).
+  int select_object(std::string_view name, std::string* message, std::string* hint) const;
 };
 
 }  // namespace hfrt::lang

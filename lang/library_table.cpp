@@ -3,7 +3,7 @@
 
 #include <array>
 
-#include "lang/check.h"
+#include "base/check.h"
 #include "lang/names.h"
 
 namespace hfrt::lang {

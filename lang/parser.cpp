@@ -19,7 +19,7 @@
 #include <string>
 #include <vector>
 
-#include "lang/check.h"
+#include "base/check.h"
 #include "lang/frontend.h"
 #include "lang/lexer.h"
 #include "lang/library_table.h"

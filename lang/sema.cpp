@@ -12,8 +12,8 @@
 #include <unordered_map>
 #include <vector>
 
+#include "base/check.h"
 #include "lang/builtins.h"
-#include "lang/check.h"
 #include "lang/frontend.h"
 #include "lang/library_table.h"
 #include "lang/names.h"

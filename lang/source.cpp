@@ -3,7 +3,7 @@
 
 #include <algorithm>
 
-#include "lang/check.h"
+#include "base/check.h"
 
 namespace hfrt::lang {
 

@@ -4,7 +4,7 @@
 #include <cmath>
 #include <limits>
 
-#include "lang/check.h"
+#include "base/check.h"
 
 namespace hfrt::render {
 

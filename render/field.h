@@ -11,36 +11,15 @@
 #include <string>
 #include <vector>
 
+#include "base/interval.h"
 #include "render/vec.h"
 
 namespace hfrt::render {
 
-/// A closed interval [lo, hi] of F values. An evaluator that cannot bound F returns NaN ends;
-/// the renderer then treats the region as "unknown" and subdivides it.
-struct Interval {
-  float lo = 0, hi = 0;
-};
-
-/// An axis-aligned box of points (closed).
-struct Box {
-  Vec3 lo, hi;
-
-  Vec3 center() const { return (lo + hi) * 0.5f; }
-  Vec3 size() const { return hi - lo; }
-  float max_extent() const {
-    Vec3 s = size();
-    return std::max(s.x, std::max(s.y, s.z));
-  }
-  bool empty() const { return !(lo.x <= hi.x && lo.y <= hi.y && lo.z <= hi.z); }
-  bool contains(Vec3 p) const {
-    return p.x >= lo.x && p.x <= hi.x && p.y >= lo.y && p.y <= hi.y && p.z >= lo.z && p.z <= hi.z;
-  }
-};
-
-/// Intersection of two boxes (empty() when they do not overlap).
-inline Box intersect(const Box& a, const Box& b) {
-  return {vmax(a.lo, b.lo), vmin(a.hi, b.hi)};
-}
+/// The renderer's interval of F values: float bounds (lo, hi), filled by Field::eval_interval.
+/// An evaluator that cannot bound F returns NaN ends; the renderer then treats the region as
+/// "unknown" and subdivides it. (Whether F may be NaN travels separately, as `maybe_nan`.)
+using Interval = BasicInterval<float>;
 
 /// The model as a function of a 3-D point. Implementations must be thread-safe: the renderer
 /// calls every method concurrently from its worker threads (each call with its own buffers).

@@ -4,7 +4,7 @@
 #include <string>
 #include <vector>
 
-#include "lang/result.h"
+#include "base/result.h"
 #include "render/vec.h"
 
 namespace hfrt::render {

@@ -14,7 +14,7 @@
 #include <limits>
 #include <mutex>
 
-#include "lang/check.h"
+#include "base/check.h"
 
 namespace hfrt::render {
 

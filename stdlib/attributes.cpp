@@ -4,7 +4,8 @@
 #include <algorithm>
 #include <sstream>
 
-#include "lang/check.h"
+#include "base/check.h"
+#include "ir/builder.h"
 #include "stdlib/lib_util.h"
 
 namespace hfrt::stdlib::detail {

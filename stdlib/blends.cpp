@@ -1,7 +1,8 @@
 // Blends (library.md §4), distance blends (§8) and hfSawtooth (§9).
 #include <cmath>
 
-#include "lang/check.h"
+#include "base/check.h"
+#include "ir/builder.h"
 #include "stdlib/lib_util.h"
 
 namespace hfrt::stdlib::detail {

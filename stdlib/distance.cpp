@@ -1,7 +1,8 @@
 // Distance primitives (library.md §6): signed distances, positive inside.
 #include <array>
 
-#include "lang/check.h"
+#include "base/check.h"
+#include "ir/builder.h"
 #include "stdlib/lib_util.h"
 
 namespace hfrt::stdlib::detail {

@@ -12,13 +12,14 @@
 #include <string_view>
 #include <vector>
 
+#include "ir/builder.h"
 #include "stdlib/library.h"
 
 namespace hfrt::stdlib::detail {
 
-using jit::IrBuilder;
-using jit::Op;
-using jit::ValueId;
+using ir::IrBuilder;
+using ir::Op;
+using ir::ValueId;
 using lang::LibraryFn;
 
 /// The failure value most library functions return for a point array whose size is not 3.
@@ -33,7 +34,7 @@ inline constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 /// original code keeps its evaluation order (which matters at the 1e-15 level).
 struct V {
   IrBuilder* b = nullptr;
-  ValueId id = jit::kNoValue;
+  ValueId id = ir::kNoValue;
 };
 
 inline V bin(Op op, V a, V b) {

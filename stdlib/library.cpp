@@ -5,7 +5,7 @@
 #include <iomanip>
 #include <sstream>
 
-#include "lang/check.h"
+#include "base/check.h"
 #include "stdlib/lib_util.h"
 
 namespace hfrt::stdlib {
@@ -25,7 +25,7 @@ Call::Call(LibraryFn fn, LibContext& ctx, std::span<const LibArg> args)
       HFRT_CHECK(args[i].size >= 0 && args[i].base_slot >= 0);
       HFRT_CHECK_LE(args[i].base_slot + args[i].size, ctx.b.function().num_slots);
     } else {
-      HFRT_CHECK(args[i].value != jit::kNoValue);
+      HFRT_CHECK(args[i].value != ir::kNoValue);
     }
   }
 }
@@ -40,7 +40,7 @@ V Call::real(int i) const {
 }
 
 bool Call::real_constant(int i, double* out) const {
-  const jit::Inst& inst = ctx_.b.function().insts.at(real(i).id);
+  const ir::Inst& inst = ctx_.b.function().insts.at(real(i).id);
   if (inst.op != Op::kConst) return false;
   *out = inst.imm;
   return true;
@@ -123,7 +123,7 @@ V lower_hfr(Call& c) {
 }  // namespace
 }  // namespace detail
 
-jit::ValueId lower_library_call(lang::LibraryFn fn, LibContext& ctx, std::span<const LibArg> args) {
+ir::ValueId lower_library_call(lang::LibraryFn fn, LibContext& ctx, std::span<const LibArg> args) {
   using lang::LibraryFn;
   detail::Call call(fn, ctx, args);
   detail::V v;
@@ -240,7 +240,7 @@ jit::ValueId lower_library_call(lang::LibraryFn fn, LibContext& ctx, std::span<c
       v = detail::lower_surface(call);
       break;
   }
-  HFRT_CHECK_MSG(v.id != jit::kNoValue, "no IR for " << lang::library_fn_name(fn));
+  HFRT_CHECK_MSG(v.id != ir::kNoValue, "no IR for " << lang::library_fn_name(fn));
   return v.id;
 }
 

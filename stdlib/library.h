@@ -5,7 +5,8 @@
 #include <span>
 #include <string>
 
-#include "jit/ir.h"
+#include "ir/builder.h"
+#include "ir/ir.h"
 #include "lang/diagnostics.h"
 #include "lang/library_table.h"
 
@@ -14,11 +15,11 @@ namespace hfrt::stdlib {
 /// One argument of a library call, as the lowering hands it over.
 struct LibArg {
   bool is_array = false;
-  jit::ValueId value = jit::kNoValue;  ///< real argument, already evaluated
-  int base_slot = -1;                  ///< array argument: slots base_slot .. base_slot+size-1
-  int size = 0;                        ///< array argument: its declared size
-  lang::SourceRange range;             ///< the argument's text, for warnings
-  std::string text;                    ///< file argument ('F'): the string literal's text
+  ir::ValueId value = ir::kNoValue;  ///< real argument, already evaluated
+  int base_slot = -1;                ///< array argument: slots base_slot .. base_slot+size-1
+  int size = 0;                      ///< array argument: its declared size
+  lang::SourceRange range;           ///< the argument's text, for warnings
+  std::string text;                  ///< file argument ('F'): the string literal's text
 };
 
 /// Per-compilation state shared by the calls of one model (e.g. which Perlin table each
@@ -35,7 +36,7 @@ struct LibState {
 };
 
 struct LibContext {
-  jit::IrBuilder& b;
+  ir::IrBuilder& b;
   /// Located warnings (array size mismatches) and the errors of the mesh and patch leaves
   /// (a file that does not load: the Model fails to compile); may be null.
   lang::DiagnosticSink* diags = nullptr;
@@ -46,6 +47,6 @@ struct LibContext {
 /// Emits the IR of one library call and returns its value. Array arguments are read and
 /// written through their slots (transformations write the moved point back, attribute
 /// functions write s). Arity and argument kinds were checked by the front end.
-jit::ValueId lower_library_call(lang::LibraryFn fn, LibContext& ctx, std::span<const LibArg> args);
+ir::ValueId lower_library_call(lang::LibraryFn fn, LibContext& ctx, std::span<const LibArg> args);
 
 }  // namespace hfrt::stdlib

@@ -4,7 +4,7 @@
 #include <utility>
 #include <vector>
 
-#include "lang/check.h"
+#include "base/check.h"
 #include "stdlib/lib_util.h"
 
 namespace hfrt::stdlib::detail {

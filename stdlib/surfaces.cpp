@@ -19,6 +19,7 @@
 #include "geom/mesh.h"
 #include "geom/mesh_surface.h"
 #include "geom/patch_surface.h"
+#include "ir/builder.h"
 #include "stdlib/lib_util.h"
 
 namespace hfrt::stdlib::detail {
@@ -96,11 +97,11 @@ std::string data_key(const char* kind, const std::vector<double>& a, const std::
 /// The compile-time values of array argument i, or false (with an error) when some element
 /// is not a constant (inline meshes and patches are built when the model compiles).
 bool constant_array(Call& c, int i, const char* what, std::vector<double>* out) {
-  const jit::Function& fn = c.builder().function();
+  const ir::Function& fn = c.builder().function();
   out->clear();
   for (int k = 0; k < c.size(i); ++k) {
     V v = c.at(i, k);
-    const jit::Inst& in = fn.insts.at(v.id);
+    const ir::Inst& in = fn.insts.at(v.id);
     if (in.op != Op::kConst) {
       c.error(i,
               std::string(c.name()) + ": the " + what + " array '" + c.arg_text(i) +

@@ -3,7 +3,7 @@
 #include <array>
 #include <sstream>
 
-#include "lang/check.h"
+#include "base/check.h"
 #include "stdlib/lib_util.h"
 
 namespace hfrt::stdlib::detail {

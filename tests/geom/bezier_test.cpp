@@ -40,7 +40,7 @@ TEST(Bpt, LoadsTheTeapot) {
     EXPECT_EQ(p.du, 3);
     EXPECT_EQ(p.dv, 3);
   }
-  const Bounds3 b = t.bounds();
+  const Box b = t.bounds();
   EXPECT_NEAR(b.lo.z, 0.0f, 1e-5f);  // the base at z = 0
   EXPECT_NEAR(b.hi.z, 4.2f, 1e-5f);  // the lid's knob (corpus README)
 }
@@ -116,7 +116,7 @@ TEST(Bezier, DerivativesMatchFiniteDifferences) {
 }
 
 // Rays at the teapot from all around.
-Ray random_ray(std::mt19937& rng, const Bounds3& box) {
+Ray random_ray(std::mt19937& rng, const Box& box) {
   const Vec3 org = box.center() + testing::random_direction(rng) * (2 * length(box.diagonal()));
   return {org, testing::random_point(rng, box) - org};
 }
@@ -128,7 +128,7 @@ TEST(PatchSurface, HitsAreExactAndMatchADenseTessellation) {
   const auto mesh = MeshSurface::build(dense);
   ASSERT_LT(err, 2e-3f);
   std::mt19937 rng(12);
-  const Bounds3 box = s.bounds();
+  const Box box = s.bounds();
   int both = 0, disagree = 0, n = 4000;
   for (int i = 0; i < n; ++i) {
     const Ray ray = random_ray(rng, box);

@@ -16,10 +16,10 @@
 namespace hfrt::geom {
 namespace {
 
-std::vector<Bounds3> random_boxes(size_t n, uint32_t seed) {
+std::vector<Box> random_boxes(size_t n, uint32_t seed) {
   std::mt19937 rng(seed);
   std::uniform_real_distribution<float> pos(-100, 100), size(0, 3);
-  std::vector<Bounds3> boxes(n);
+  std::vector<Box> boxes(n);
   for (auto& b : boxes) {
     Vec3 lo{pos(rng), pos(rng), pos(rng)};
     b = {lo, lo + Vec3{size(rng), size(rng), size(rng)}};
@@ -27,16 +27,16 @@ std::vector<Bounds3> random_boxes(size_t n, uint32_t seed) {
   return boxes;
 }
 
-void check_invariants(const Bvh& bvh, const std::vector<Bounds3>& boxes, int max_leaf) {
+void check_invariants(const Bvh& bvh, const std::vector<Box>& boxes, int max_leaf) {
   std::vector<int> seen(boxes.size(), 0);
   std::vector<int> parents(bvh.nodes.size(), 0);
   for (size_t i = 0; i < bvh.nodes.size(); ++i) {
     const BvhNode& n = bvh.nodes[i];
-    const Bounds3 b = n.bounds();
+    const Box b = n.bounds();
     if (n.is_leaf()) {
       EXPECT_LE(n.count, static_cast<uint32_t>(max_leaf));
       for (uint32_t k = n.index; k < n.index + n.count; ++k) {
-        const Bounds3& pb = boxes[bvh.prim_order[k]];
+        const Box& pb = boxes[bvh.prim_order[k]];
         ++seen[bvh.prim_order[k]];
         for (int a = 0; a < 3; ++a) {
           EXPECT_LE(b.lo[a], pb.lo[a]);
@@ -48,7 +48,7 @@ void check_invariants(const Bvh& bvh, const std::vector<Bounds3>& boxes, int max
       EXPECT_GT(n.index, i);  // children after parents: bottom-up sweeps rely on it
       for (uint32_t c = n.index; c <= n.index + 1; ++c) {
         ++parents[c];
-        const Bounds3 cb = bvh.nodes[c].bounds();
+        const Box cb = bvh.nodes[c].bounds();
         for (int a = 0; a < 3; ++a) {
           EXPECT_LE(b.lo[a], cb.lo[a]);
           EXPECT_GE(b.hi[a], cb.hi[a]);
@@ -71,7 +71,7 @@ TEST(Bvh, InvariantsOnRandomBoxes) {
 }
 
 TEST(Bvh, IdenticalCentroidsStillSplit) {
-  std::vector<Bounds3> boxes(100, Bounds3{{0, 0, 0}, {1, 1, 1}});
+  std::vector<Box> boxes(100, Box{{0, 0, 0}, {1, 1, 1}});
   Bvh bvh = build_bvh(boxes);
   check_invariants(bvh, boxes, 4);
 }
@@ -99,7 +99,7 @@ TEST(Bvh, SahBeatsAMedianSplitByIndex) {
   for (size_t i = 0; i < boxes.size(); ++i) naive.prim_order[i] = static_cast<uint32_t>(i);
   // Build a balanced tree by index.
   std::function<void(uint32_t, uint32_t, uint32_t)> rec = [&](uint32_t id, uint32_t b, uint32_t e) {
-    Bounds3 bb;
+    Box bb;
     for (uint32_t i = b; i < e; ++i) bb.extend(boxes[i]);
     BvhNode n{{bb.lo.x, bb.lo.y, bb.lo.z}, b, {bb.hi.x, bb.hi.y, bb.hi.z}, e - b};
     if (e - b > 4) {
@@ -138,8 +138,8 @@ TEST(Bvh, NearestHitEqualsBruteForceOnTheArmadillo) {
   const TriangleMesh& mesh = testing::armadillo();
   const MeshSurface& s = testing::armadillo_surface();
   std::mt19937 rng(2024);
-  const Bounds3 box = mesh.bounds();
-  const Bounds3 outer = testing::grown(box, 0.5f);
+  const Box box = mesh.bounds();
+  const Box outer = testing::grown(box, 0.5f);
   int hits = 0;
   for (int i = 0; i < 1500; ++i) {
     // Half the rays start outside aiming in, half start inside the box in any direction.
@@ -183,8 +183,8 @@ TEST(Bvh, CrossingsEqualBruteForceOnTheArmadillo) {
   const TriangleMesh& mesh = testing::armadillo();
   const MeshSurface& s = testing::armadillo_surface();
   std::mt19937 rng(31);
-  const Bounds3 box = mesh.bounds();
-  const Bounds3 outer = testing::grown(box, 0.5f);
+  const Box box = mesh.bounds();
+  const Box outer = testing::grown(box, 0.5f);
   std::vector<Crossing> cr;
   size_t total = 0;
   for (int i = 0; i < 300; ++i) {

@@ -74,7 +74,7 @@ inline TriangleMesh heightfield_box(int n, uint32_t seed) {
 }
 
 /// A point uniformly distributed in box b.
-inline Vec3 random_point(std::mt19937& rng, const Bounds3& b) {
+inline Vec3 random_point(std::mt19937& rng, const Box& b) {
   std::uniform_real_distribution<float> u(0, 1);
   return {b.lo.x + u(rng) * (b.hi.x - b.lo.x), b.lo.y + u(rng) * (b.hi.y - b.lo.y),
           b.lo.z + u(rng) * (b.hi.z - b.lo.z)};
@@ -89,7 +89,7 @@ inline Vec3 random_direction(std::mt19937& rng) {
   return normalize(d);
 }
 
-inline Bounds3 grown(const Bounds3& b, float f) {
+inline Box grown(const Box& b, float f) {
   const Vec3 pad = b.diagonal() * f;
   return {b.lo - pad, b.hi + pad};
 }

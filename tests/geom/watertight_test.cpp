@@ -88,7 +88,7 @@ void expect_alternating(const std::vector<Crossing>& c, const std::string& what)
 
 TEST(Watertight, MillionRandomRaysThroughTheArmadillo) {
   const MeshSurface& s = testing::armadillo_surface();
-  const Bounds3 box = s.bounds();
+  const Box box = s.bounds();
   const Vec3 c = box.center();
   const float radius = length(box.diagonal());
   std::mt19937 rng(10);
@@ -113,7 +113,7 @@ TEST(Watertight, MillionRandomRaysThroughTheArmadillo) {
 TEST(Watertight, AxisRaysExactlyThroughArmadilloVertices) {
   const TriangleMesh& m = testing::armadillo();
   const MeshSurface& s = testing::armadillo_surface();
-  const Bounds3 box = s.bounds();
+  const Box box = s.bounds();
   std::vector<Crossing> cr;
   int entered = 0;
   for (size_t v = 0; v < m.vertices.size(); ++v) {
@@ -244,7 +244,7 @@ TEST(Watertight, RandomRaysThroughTheHeightfieldBox) {
   const auto s = MeshSurface::build(m);
   std::mt19937 rng(3);
   std::vector<Crossing> cr;
-  const Bounds3 box = s->bounds();
+  const Box box = s->bounds();
   for (int k = 0; k < 100000; ++k) {
     const Vec3 org = box.center() + testing::random_direction(rng) * 60.0f;
     s->crossings({org, testing::random_point(rng, box) - org}, 0, kInf, &cr);

@@ -34,7 +34,7 @@ TEST(Winding, HeightfieldBoxIsOneInsideZeroOutside) {
 TEST(Winding, ArmadilloWindingAgreesWithCrossingParity) {
   const MeshSurface& s = testing::armadillo_surface();
   std::mt19937 rng(77);
-  const Bounds3 box = testing::grown(s.bounds(), 0.05f);
+  const Box box = testing::grown(s.bounds(), 0.05f);
   int inside = 0, n = 4000;
   for (int i = 0; i < n; ++i) {
     const Vec3 p = testing::random_point(rng, box);
@@ -52,7 +52,7 @@ TEST(Winding, HierarchicalConvergesToTheExactSum) {
   // The far-field dipole error shrinks as the acceptance ratio beta grows (measured on the
   // armadillo: 0.08 at beta = 2, 0.03 at 3, 0.017 at 4).
   std::mt19937 rng(5);
-  const Bounds3 box = testing::grown(testing::armadillo_surface().bounds(), 0.3f);
+  const Box box = testing::grown(testing::armadillo_surface().bounds(), 0.3f);
   std::vector<Vec3> points;
   for (int i = 0; i < 100; ++i) points.push_back(testing::random_point(rng, box));
   double previous = 1;
@@ -83,7 +83,7 @@ TEST(SignedDistance, ArmadilloEqualsBruteForce) {
   const TriangleMesh& m = testing::armadillo();
   const MeshSurface& s = testing::armadillo_surface();
   std::mt19937 rng(99);
-  const Bounds3 box = testing::grown(s.bounds(), 0.2f);
+  const Box box = testing::grown(s.bounds(), 0.2f);
   for (int i = 0; i < 400; ++i) {
     // Half the points near the surface (a vertex plus a small offset).
     Vec3 p = i % 2 ? testing::random_point(rng, box)
@@ -108,7 +108,7 @@ TEST(SignedDistance, ArmadilloEqualsBruteForce) {
 TEST(SignedDistance, GradientMatchesFiniteDifferences) {
   const MeshSurface& s = testing::armadillo_surface();
   std::mt19937 rng(4);
-  const Bounds3 box = testing::grown(s.bounds(), 0.1f);
+  const Box box = testing::grown(s.bounds(), 0.1f);
   int good = 0, n = 300;
   const float h = 1e-2f;
   for (int i = 0; i < n; ++i) {
@@ -125,13 +125,13 @@ TEST(SignedDistance, GradientMatchesFiniteDifferences) {
 TEST(SignedDistance, BoxBoundsEncloseSamples) {
   const MeshSurface& s = testing::armadillo_surface();
   std::mt19937 rng(8);
-  const Bounds3 box = testing::grown(s.bounds(), 0.2f);
+  const Box box = testing::grown(s.bounds(), 0.2f);
   const float scale = box.diagonal().x;
   int constant_sign = 0;
   for (int i = 0; i < 300; ++i) {
     const Vec3 c = testing::random_point(rng, box);
     const float half = scale * std::pow(2.0f, -2.0f - static_cast<float>(i % 8));
-    const Bounds3 b{c - Vec3{half, half, half}, c + Vec3{half, half, half}};
+    const Box b{c - Vec3{half, half, half}, c + Vec3{half, half, half}};
     const DistanceBounds db = s.signed_distance_bounds(b);
     ASSERT_LE(db.lo, db.hi);
     constant_sign += db.lo > 0 || db.hi < 0;

@@ -15,6 +15,9 @@
 
 namespace hfrt::jit::testutil {
 
+// jit/ evaluates the IR: its types and ops are used unqualified here.
+using namespace ::hfrt::ir;
+
 struct Compiled {
   std::unique_ptr<lang::Program> program;
   Function fn;

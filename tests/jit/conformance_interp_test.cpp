@@ -11,11 +11,15 @@
 #include <sstream>
 #include <string>
 
-#include "lang/result.h"
+#include "base/result.h"
+#include "ir/print.h"
 #include "tests/jit/compile_util.h"
 #include "tests/jit/probe_values.h"
 
 namespace hfrt::jit {
+
+// jit/ evaluates the IR: its types and ops are used unqualified here.
+using namespace ::hfrt::ir;
 namespace {
 
 const std::string kCorpus = HFRT_CORPUS_DIR;

@@ -1,4 +1,4 @@
-// Numbers as hidden parameters (jit::hoist_constants, ModelOptions::hoist_constants): which
+// Numbers as hidden parameters (ir::hoist_constants, ModelOptions::hoist_constants): which
 // constants move, the structure key that decides code sharing, and the same values as without
 // it in every domain (points f64/f32, intervals, gradients, ray polynomials) on the corpus.
 
@@ -12,13 +12,21 @@
 #include <string>
 #include <vector>
 
+#include "base/file.h"
+#include "base/result.h"
 #include "hfrt/model.h"
+#include "ir/hoist_constants.h"
+#include "ir/ir.h"
+#include "ir/structure_key.h"
+#include "ir/uniform_values.h"
+#include "ir/verify.h"
 #include "jit/interval.h"
-#include "jit/ir.h"
-#include "lang/result.h"
 #include "tests/jit/compile_util.h"
 
 namespace hfrt::jit {
+
+// jit/ evaluates the IR: its types and ops are used unqualified here.
+using namespace ::hfrt::ir;
 namespace {
 
 namespace fs = std::filesystem;

@@ -8,7 +8,12 @@
 #include <thread>
 #include <vector>
 
+#include "ir/builder.h"
+
 namespace hfrt::jit {
+
+// jit/ evaluates the IR: its types and ops are used unqualified here.
+using namespace ::hfrt::ir;
 namespace {
 
 const double kNaN = std::numeric_limits<double>::quiet_NaN();

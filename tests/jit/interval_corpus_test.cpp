@@ -18,15 +18,19 @@
 #include <string>
 #include <vector>
 
+#include "base/file.h"
+#include "base/result.h"
 #include "jit/gradient.h"
 #include "jit/interpreter.h"
 #include "jit/interval.h"
 #include "jit/lower.h"
 #include "lang/frontend.h"
-#include "lang/result.h"
 #include "tests/jit/compile_util.h"
 
 namespace hfrt::jit {
+
+// jit/ evaluates the IR: its types and ops are used unqualified here.
+using namespace ::hfrt::ir;
 namespace {
 
 namespace fs = std::filesystem;

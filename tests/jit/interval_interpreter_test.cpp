@@ -11,11 +11,16 @@
 #include <random>
 #include <sstream>
 
+#include "ir/builder.h"
+#include "ir/print.h"
 #include "jit/interpreter.h"
 #include "jit/interval.h"
 #include "tests/jit/random_program.h"
 
 namespace hfrt::jit {
+
+// jit/ evaluates the IR: its types and ops are used unqualified here.
+using namespace ::hfrt::ir;
 namespace {
 
 constexpr double kInf = std::numeric_limits<double>::infinity();

@@ -14,10 +14,13 @@
 #include <string>
 #include <vector>
 
+#include "ir/scalar_ops.h"
 #include "jit/interval.h"
-#include "jit/scalar_ops.h"
 
 namespace hfrt::jit {
+
+// jit/ evaluates the IR: its types and ops are used unqualified here.
+using namespace ::hfrt::ir;
 namespace {
 
 constexpr double kInf = std::numeric_limits<double>::infinity();

@@ -3,10 +3,15 @@
 
 #include <cmath>
 
+#include "ir/builder.h"
+#include "ir/ir.h"
+#include "ir/verify.h"
 #include "jit/interpreter.h"
-#include "jit/ir.h"
 
 namespace hfrt::jit {
+
+// jit/ evaluates the IR: its types and ops are used unqualified here.
+using namespace ::hfrt::ir;
 namespace {
 
 int count_ops(const Function& fn, Op op) {

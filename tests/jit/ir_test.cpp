@@ -1,5 +1,5 @@
 // The op table, the verifier and the printer of jit/ir.h.
-#include "jit/ir.h"
+#include "ir/ir.h"
 
 #include <gtest/gtest.h>
 
@@ -7,7 +7,13 @@
 #include <set>
 #include <string>
 
+#include "ir/print.h"
+#include "ir/verify.h"
+
 namespace hfrt::jit {
+
+// jit/ evaluates the IR: its types and ops are used unqualified here.
+using namespace ::hfrt::ir;
 namespace {
 
 TEST(IrOps, NamesAreSnakeCaseAndUnique) {

@@ -8,11 +8,15 @@
 #include <set>
 #include <sstream>
 
+#include "ir/print.h"
 #include "jit/interpreter.h"
 #include "jit/llvm_jit.h"
 #include "tests/jit/random_program.h"
 
 namespace hfrt::jit {
+
+// jit/ evaluates the IR: its types and ops are used unqualified here.
+using namespace ::hfrt::ir;
 namespace {
 
 using testing::random_points;

@@ -6,9 +6,13 @@
 
 #include <cmath>
 
+#include "ir/print.h"
 #include "tests/jit/compile_util.h"
 
 namespace hfrt::jit {
+
+// jit/ evaluates the IR: its types and ops are used unqualified here.
+using namespace ::hfrt::ir;
 namespace {
 
 using testutil::compile;

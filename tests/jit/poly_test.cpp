@@ -17,10 +17,13 @@
 #include <vector>
 
 #include "hfrt/model.h"
-#include "jit/scalar_ops.h"
+#include "ir/scalar_ops.h"
 #include "tests/jit/compile_util.h"
 
 namespace hfrt::jit {
+
+// jit/ evaluates the IR: its types and ops are used unqualified here.
+using namespace ::hfrt::ir;
 namespace {
 
 using testutil::compile;

@@ -21,6 +21,9 @@
 #include "tests/jit/compile_util.h"
 
 namespace hfrt::jit {
+
+// jit/ evaluates the IR: its types and ops are used unqualified here.
+using namespace ::hfrt::ir;
 namespace {
 
 using testutil::compile;

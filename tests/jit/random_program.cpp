@@ -3,7 +3,12 @@
 #include <cmath>
 #include <random>
 
+#include "ir/builder.h"
+
 namespace hfrt::jit::testing {
+
+// jit/ evaluates the IR: its types and ops are used unqualified here.
+using namespace ::hfrt::ir;
 namespace {
 
 struct OpInfo {

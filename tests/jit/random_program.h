@@ -8,9 +8,13 @@
 #include <cstdint>
 #include <vector>
 
-#include "jit/ir.h"
+#include "ir/builder.h"
+#include "ir/ir.h"
 
 namespace hfrt::jit::testing {
+
+// jit/ evaluates the IR: its types and ops are used unqualified here.
+using namespace ::hfrt::ir;
 
 struct RandomProgramOptions {
   int num_inputs = 3;

@@ -595,7 +595,7 @@ TEST(SurfaceLeaf, IrPrintsTheOpAndPovEmitRefusesItWithALocation) {
   lang::DiagnosticSink sink(file);
   auto prog = lang::compile_source(file, sink);
   ASSERT_TRUE(prog);
-  jit::Function fn = jit::lower_object(*prog, 0, &sink);
+  ir::Function fn = jit::lower_object(*prog, 0, &sink);
   ASSERT_FALSE(sink.has_errors()) << sink.render(false);
   lang::DiagnosticSink pov_sink(file);
   jit::PovEmitOptions opts;

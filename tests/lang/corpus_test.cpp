@@ -12,7 +12,8 @@
 #include <string>
 #include <vector>
 
-#include "lang/result.h"
+#include "base/file.h"
+#include "base/result.h"
 #include "tests/lang/test_util.h"
 
 namespace hfrt::lang {

@@ -11,7 +11,7 @@
 #include <string>
 
 #include "render/renderer.h"
-#include "tests/render/analytic_fields.h"
+#include "testsupport/analytic_fields.h"
 
 namespace hfrt::render {
 namespace {

@@ -3,7 +3,7 @@
 #include <gtest/gtest.h>
 
 #include "render/renderer.h"
-#include "tests/render/analytic_fields.h"
+#include "testsupport/analytic_fields.h"
 
 namespace hfrt::render {
 namespace {

@@ -5,7 +5,7 @@
 #include <cmath>
 #include <cstring>
 
-#include "tests/render/analytic_fields.h"
+#include "testsupport/analytic_fields.h"
 
 namespace hfrt::render {
 namespace {

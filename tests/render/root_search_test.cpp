@@ -4,7 +4,7 @@
 
 #include <cmath>
 
-#include "tests/render/analytic_fields.h"
+#include "testsupport/analytic_fields.h"
 
 namespace hfrt::render {
 namespace {

@@ -8,8 +8,9 @@
 #include <string>
 #include <vector>
 
+#include "ir/builder.h"
+#include "ir/ir.h"
 #include "jit/interpreter.h"
-#include "jit/ir.h"
 #include "lang/diagnostics.h"
 #include "stdlib/library.h"
 
@@ -25,7 +26,7 @@ class LibHarness {
     fn_.num_params = 1;
   }
 
-  jit::IrBuilder& builder() { return b_; }
+  ir::IrBuilder& builder() { return b_; }
   lang::DiagnosticSink& diags() { return diags_; }
   LibState& state() { return state_; }
 
@@ -65,20 +66,20 @@ class LibHarness {
     a.value = b_.input(index0);
     return a;
   }
-  LibArg real_value(jit::ValueId v) {
+  LibArg real_value(ir::ValueId v) {
     LibArg a;
     a.value = v;
     return a;
   }
 
-  jit::ValueId call(lang::LibraryFn fn, const std::vector<LibArg>& args,
-                    lang::SourceRange call_range = {}) {
+  ir::ValueId call(lang::LibraryFn fn, const std::vector<LibArg>& args,
+                   lang::SourceRange call_range = {}) {
     LibContext ctx{b_, &diags_, call_range, state_};
     return lower_library_call(fn, ctx, args);
   }
 
   /// Finishes the function with `result`; the slots of `watched` arrays are reported as s.
-  void finish(jit::ValueId result, const std::vector<LibArg>& watched = {}) {
+  void finish(ir::ValueId result, const std::vector<LibArg>& watched = {}) {
     for (const LibArg& a : watched) {
       for (int i = 0; i < a.size; ++i) fn_.s_slots.push_back(a.base_slot + i);
     }
@@ -89,13 +90,13 @@ class LibHarness {
   jit::EvalResult eval(std::vector<double> x, std::vector<double> a = {0}) const {
     return interp_->eval(x, a);
   }
-  const jit::Function& function() const { return fn_; }
+  const ir::Function& function() const { return fn_; }
 
  private:
   std::shared_ptr<const lang::SourceFile> file_;
   lang::DiagnosticSink diags_;
-  jit::Function fn_;
-  jit::IrBuilder b_;
+  ir::Function fn_;
+  ir::IrBuilder b_;
   LibState state_;
   std::unique_ptr<jit::Interpreter> interp_;
 };

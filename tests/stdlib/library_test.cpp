@@ -7,6 +7,7 @@
 #include <cmath>
 #include <set>
 
+#include "ir/builder.h"
 #include "stdlib/lib_util.h"
 #include "tests/stdlib/lib_harness.h"
 
@@ -197,7 +198,7 @@ TEST(Attributes, SawtoothLoopAgreesWithUnrolledSum) {
       h.call(LibraryFn::kSawtooth, {h.real_from_input(1), h.real(7), h.real(1.5), h.real(0.8)});
   auto looped = h.call(LibraryFn::kSawtooth,
                        {h.real_from_input(1), h.real_from_input(0), h.real(1.5), h.real(0.8)});
-  h.finish(b.binary(jit::Op::kSub, unrolled, looped));
+  h.finish(b.binary(ir::Op::kSub, unrolled, looped));
   EXPECT_EQ(0.0, h.eval({7, 0.37, 0}).value);
   EXPECT_EQ(0.0, h.eval({7, -1.2, 0}).value);
 }
@@ -359,7 +360,7 @@ TEST(Warnings, ConeAndCylinderHaveTheirOwnFailureValues) {
   auto& b = h.builder();
   auto cone = h.call(LibraryFn::kDConeX, {x, c, h.real(1)});
   auto cyl = h.call(LibraryFn::kDCylinder, {x, c, u, h.real(1)});
-  h.finish(b.binary(jit::Op::kAdd, b.binary(jit::Op::kMul, cone, b.constant(0)), cyl));
+  h.finish(b.binary(ir::Op::kAdd, b.binary(ir::Op::kMul, cone, b.constant(0)), cyl));
   EXPECT_EQ(-11111111111.1, h.eval({0, 0}).value);
   ASSERT_EQ(2u, h.diags().diagnostics().size());
   EXPECT_NE(std::string::npos, h.diags().diagnostics()[0].message.find("-11111111111.0"));

@@ -18,6 +18,7 @@
 #include <thread>
 #include <vector>
 
+#include "lang/objects.h"
 #include "render/image.h"
 #include "tools/hfrt/session.h"
 
@@ -55,9 +56,9 @@ double eval_value(Session& s, const std::string& point) {
 }
 
 TEST(ReplSession, BraceDelta) {
-  EXPECT_EQ(brace_delta("f(x[3], a[1]) {"), 1);
-  EXPECT_EQ(brace_delta("} -- { in a comment"), -1);
-  EXPECT_EQ(brace_delta("{ }"), 0);
+  EXPECT_EQ(lang::brace_delta("f(x[3], a[1]) {"), 1);
+  EXPECT_EQ(lang::brace_delta("} -- { in a comment"), -1);
+  EXPECT_EQ(lang::brace_delta("{ }"), 0);
 }
 
 TEST(ReplSession, MultiLineDefinitionThenEval) {

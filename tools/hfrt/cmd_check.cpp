@@ -10,8 +10,9 @@
 #include <string>
 #include <vector>
 
+#include "base/file.h"
+#include "base/result.h"
 #include "lang/frontend.h"
-#include "lang/result.h"
 #include "tools/hfrt/commands.h"
 
 namespace hfrt::tools {

@@ -20,11 +20,11 @@
 #include <string>
 #include <vector>
 
-#include "jit/ir.h"
-#include "jit/lower.h"
+#include "base/file.h"
+#include "base/result.h"
+#include "ir/ir.h"
+#include "jit/driver.h"
 #include "jit/pov_emit.h"
-#include "lang/frontend.h"
-#include "lang/result.h"
 #include "render/camera.h"
 #include "tools/hfrt/commands.h"
 #include "tools/hfrt/model_field.h"
@@ -162,18 +162,14 @@ int run_emit(EmitCli& cli) {
   }
   auto file = std::make_shared<const lang::SourceFile>(req.file, std::move(text).value());
   lang::DiagnosticSink diags(file);
-  std::unique_ptr<lang::Program> prog = lang::compile_source(file, diags);
-  if (!prog) {
+  jit::LoweredSource lowered = jit::compile_source(diags, req.object);
+  if (!lowered.program || !report_no_object(lowered, req.file)) {
     std::fputs(diags.render(color).c_str(), stderr);
     return 1;
   }
-  int index = req.object.empty() ? prog->default_object() : prog->find_object(req.object);
-  if (index < 0) {
-    std::fprintf(stderr, "hfrt: %s has no object named '%s'\n", req.file.c_str(),
-                 req.object.c_str());
-    return 1;
-  }
-  jit::Function fn = jit::lower_object(*prog, index, &diags);
+  const int index = lowered.object;
+  const lang::Program* prog = lowered.program.get();
+  const ir::Function& fn = lowered.fn;
   jit::PovEmitOptions po;
   po.name = jit::pov_identifier(cli.name.empty() ? "hf_" + prog->objects[index].name : cli.name);
   if (!cli.name.empty() && po.name != cli.name) {
@@ -182,9 +178,9 @@ int run_emit(EmitCli& cli) {
   }
   po.params = setup.params;
   jit::PovFunction pov;
-  const bool ok = jit::emit_pov_function(fn, po, &pov, &diags);
+  // Lowering errors (a mesh or patch file that does not load) stop before emitting.
+  const bool ok = lowered.ok() && jit::emit_pov_function(fn, po, &pov, &diags);
   std::fputs(diags.render(color).c_str(), stderr);
-  // Lowering errors too (a mesh or patch file that does not load).
   if (!ok || diags.has_errors()) return 1;
 
   std::string out = "// Written by `hfrt emit --pov` from " + req.file + ", object " +

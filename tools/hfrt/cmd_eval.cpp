@@ -37,6 +37,7 @@
 #include <string>
 #include <vector>
 
+#include "base/timer.h"
 #include "hfrt/model.h"
 #include "tools/hfrt/commands.h"
 
@@ -56,10 +57,6 @@ struct EvalOptions {
   bool gradient = false;
   bool stats = false;
 };
-
-double ms_since(std::chrono::steady_clock::time_point t0) {
-  return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
-}
 
 void append_number(std::string& out, double v) {
   if (std::isnan(v)) {

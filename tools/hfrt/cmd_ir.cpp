@@ -9,10 +9,11 @@
 #include <memory>
 #include <string>
 
-#include "jit/ir.h"
-#include "jit/lower.h"
-#include "lang/frontend.h"
-#include "lang/result.h"
+#include "base/file.h"
+#include "base/result.h"
+#include "ir/ir.h"
+#include "ir/print.h"
+#include "jit/driver.h"
 #include "tools/hfrt/commands.h"
 
 namespace hfrt::tools {
@@ -32,25 +33,13 @@ int run_ir(const IrOptions& opts) {
   }
   auto file = std::make_shared<const lang::SourceFile>(opts.file, std::move(text).value());
   lang::DiagnosticSink diags(file);
-  std::unique_ptr<lang::Program> prog = lang::compile_source(file, diags);
-  if (!prog) {
-    std::fputs(diags.render(color).c_str(), stderr);
-    return 1;
-  }
-  int index = opts.object.empty() ? prog->default_object() : prog->find_object(opts.object);
-  if (index < 0) {
-    std::string names;
-    for (const lang::Object& o : prog->objects) names += (names.empty() ? "" : ", ") + o.name;
-    std::fprintf(stderr, "hfrt: %s has no object named '%s' (objects: %s)\n", opts.file.c_str(),
-                 opts.object.c_str(), names.c_str());
-    return 1;
-  }
-  jit::Function fn = jit::lower_object(*prog, index, &diags);
-  // Warnings of the front end and of the lowering (library argument sizes, ...).
+  jit::LoweredSource lowered = jit::compile_source(diags, opts.object);
+  // Errors and warnings of the front end and of the lowering (library argument sizes, a mesh
+  // or patch file that does not load, ...).
   std::fputs(diags.render(color).c_str(), stderr);
-  // Errors of the lowering: a mesh or patch file that does not load (issue 10).
-  if (diags.has_errors()) return 1;
-  std::string out = jit::print(fn);
+  if (!report_no_object(lowered, opts.file) || !lowered.ok()) return 1;
+  const ir::Function& fn = lowered.fn;
+  std::string out = ir::print(fn);
   std::fwrite(out.data(), 1, out.size(), stdout);
   std::fflush(stdout);
   return 0;

@@ -2,9 +2,13 @@
 // Each subcommand registers itself on the CLI11 app and returns the exit code through `run`.
 
 #include <functional>
+#include <string>
 
 namespace CLI {
 class App;
+}
+namespace hfrt::jit {
+struct LoweredSource;
 }
 
 namespace hfrt::tools {
@@ -22,5 +26,10 @@ CommandRunner register_emit(CLI::App& app);
 
 /// True when the stream is a terminal and colour is not disabled (NO_COLOR, TERM=dumb).
 bool use_color(int fd);
+
+/// When the source compiled but has no such object (jit::compile_source), prints the located
+/// error (`FILE: error: no object named 'x' in the file`, then a hint listing the objects) to
+/// stderr and returns false; true otherwise.
+bool report_no_object(const jit::LoweredSource& lowered, const std::string& file);
 
 }  // namespace hfrt::tools

@@ -2,10 +2,12 @@
 #include <unistd.h>
 
 #include <CLI/CLI.hpp>
+#include <cstdio>
 #include <cstdlib>
 #include <utility>
 #include <vector>
 
+#include "jit/driver.h"
 #include "tools/hfrt/commands.h"
 
 namespace hfrt::tools {
@@ -15,6 +17,14 @@ bool use_color(int fd) {
   const char* term = std::getenv("TERM");
   if (term && std::string(term) == "dumb") return false;
   return isatty(fd);
+}
+
+bool report_no_object(const jit::LoweredSource& lowered, const std::string& file) {
+  if (!lowered.program || lowered.object >= 0) return true;
+  std::string text = file + ": error: " + lowered.no_object + "\n";
+  if (!lowered.no_object_hint.empty()) text += "  hint: " + lowered.no_object_hint + "\n";
+  std::fputs(text.c_str(), stderr);
+  return false;
 }
 
 }  // namespace hfrt::tools

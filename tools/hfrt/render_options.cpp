@@ -10,15 +10,12 @@
 #include <fstream>
 #include <sstream>
 
+#include "base/timer.h"
 #include "lang/diagnostics.h"
 #include "lang/source.h"
 
 namespace hfrt::tools {
 namespace {
-
-double ms_since(std::chrono::steady_clock::time_point t0) {
-  return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
-}
 
 bool parse_vec3(const std::string& text, render::Vec3* out) {
   std::vector<float> v;

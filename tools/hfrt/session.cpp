@@ -11,15 +11,13 @@
 #include <sstream>
 #include <thread>
 
-#include "lang/check.h"
+#include "base/check.h"
+#include "base/timer.h"
+#include "lang/objects.h"
 #include "tools/hfrt/model_field.h"
 
 namespace hfrt::tools {
 namespace {
-
-double ms_since(std::chrono::steady_clock::time_point t0) {
-  return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
-}
 
 std::string trim(std::string_view s) {
   size_t b = 0, e = s.size();
@@ -50,51 +48,6 @@ bool parse_double(const std::string& s, double* v) {
   char* end = nullptr;
   *v = std::strtod(s.c_str(), &end);
   return !s.empty() && *end == '\0';
-}
-
-/// The name of the object a definition defines: its first identifier (comments skipped).
-std::string object_name(std::string_view text) {
-  size_t i = 0;
-  while (i < text.size()) {
-    if (std::isspace(static_cast<unsigned char>(text[i]))) {
-      ++i;
-    } else if (text.compare(i, 2, "--") == 0) {
-      while (i < text.size() && text[i] != '\n') ++i;
-    } else {
-      break;
-    }
-  }
-  size_t b = i;
-  while (i < text.size() && (std::isalnum(static_cast<unsigned char>(text[i])) || text[i] == '_'))
-    ++i;
-  return std::string(text.substr(b, i - b));
-}
-
-/// Splits a file into object definitions: each ends where its braces balance.
-std::vector<std::string> split_objects(std::string_view text) {
-  std::vector<std::string> out;
-  std::string cur;
-  int depth = 0;
-  bool opened = false;
-  size_t pos = 0;
-  while (pos < text.size()) {
-    size_t nl = text.find('\n', pos);
-    std::string_view line =
-        text.substr(pos, nl == std::string_view::npos ? std::string_view::npos : nl - pos + 1);
-    pos = nl == std::string_view::npos ? text.size() : nl + 1;
-    cur += line;
-    int d = brace_delta(line);
-    if (line.find('{') != std::string_view::npos) opened = true;
-    depth += d;
-    if (opened && depth <= 0) {
-      out.push_back(cur);
-      cur.clear();
-      depth = 0;
-      opened = false;
-    }
-  }
-  if (!trim(cur).empty() && opened) out.push_back(cur);
-  return out;
 }
 
 int count_lines(std::string_view s) {
@@ -154,16 +107,6 @@ const char* kHelp =
 
 }  // namespace
 
-int brace_delta(std::string_view line) {
-  int d = 0;
-  for (size_t i = 0; i < line.size(); ++i) {
-    if (line.compare(i, 2, "--") == 0) break;
-    if (line[i] == '{') ++d;
-    if (line[i] == '}') --d;
-  }
-  return d;
-}
-
 Session::Session() {
   std::string err;
   HFRT_CHECK(translate_render_options(cli_, &setup_, &err));
@@ -202,7 +145,7 @@ std::optional<SessionResult> Session::feed_line(std::string_view line) {
   }
   pending_ += line;
   pending_ += '\n';
-  pending_depth_ += brace_delta(line);
+  pending_depth_ += lang::brace_delta(line);
   bool opened = pending_.find('{') != std::string::npos;
   if (!opened || pending_depth_ > 0) return std::nullopt;
   std::string text = std::move(pending_);
@@ -287,7 +230,7 @@ const Model* Session::model_for(const std::string& source, const std::string& ob
 }
 
 SessionResult Session::define(std::string_view text) {
-  std::string name = object_name(text);
+  std::string name = lang::defined_object_name(text);
   if (name.empty())
     return failure("<input>:1:1: error: expected an object definition `name(x[3], a[1]) { ... }`");
   // The candidate source: the object replaced in place, or appended.
@@ -331,11 +274,11 @@ SessionResult Session::cmd_load(const std::vector<std::string>& args) {
   ++compiles_;
   last_compile_ms_ = ms_since(t0);
   if (!alone.ok()) return failure(alone.error.empty() ? alone.rendered : "hfrt: " + alone.error);
-  std::vector<std::string> defs = split_objects(text);
+  std::vector<std::string> defs = lang::split_objects(text);
   auto objects = objects_;
   std::string current;
   for (const std::string& d : defs) {
-    std::string name = object_name(d);
+    std::string name = lang::defined_object_name(d);
     if (name.empty()) continue;
     auto it = std::find_if(objects.begin(), objects.end(),
                            [&](const auto& o) { return o.first == name; });

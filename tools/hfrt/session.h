@@ -173,7 +173,4 @@ class Session {
   int evals_ = 0, renders_ = 0;
 };
 
-/// The change in brace depth of a line of HyperFun (comments `--` skipped).
-int brace_delta(std::string_view line);
-
 }  // namespace hfrt::tools

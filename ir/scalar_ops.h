@@ -7,9 +7,9 @@
 
 #include <cmath>
 
-#include "jit/ir.h"
+#include "ir/ir.h"
 
-namespace hfrt::jit {
+namespace hfrt::ir {
 
 /// HyperFun's tolerance for truth values, '=' / '/=', division and power checks.
 inline constexpr double kHfEps = 1e-6;
@@ -159,4 +159,4 @@ inline double apply_op(Op op, double a, double b, double c) {
   return std::nan("");
 }
 
-}  // namespace hfrt::jit
+}  // namespace hfrt::ir

@@ -1,5 +1,5 @@
 // HFRT_CHECK failure handler: a broken invariant is a bug in hfrt, never a user error.
-#include "lang/check.h"
+#include "base/check.h"
 
 #include <cstdio>
 #include <cstdlib>

@@ -1,5 +1,5 @@
-// Environment helpers that return Result instead of aborting.
-#include "lang/result.h"
+// Reading files whole (base/file.h).
+#include "base/file.h"
 
 #include <cerrno>
 #include <cstdio>

@@ -6,7 +6,7 @@
 #include <utility>
 #include <variant>
 
-#include "lang/check.h"
+#include "base/check.h"
 
 namespace hfrt {
 
@@ -45,8 +45,5 @@ class [[nodiscard]] Result {
  private:
   std::variant<T, Error> v_;
 };
-
-/// Reads a whole file (binary-safe).
-Result<std::string> read_file(const std::string& path);
 
 }  // namespace hfrt

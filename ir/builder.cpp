@@ -8,16 +8,19 @@
 //    arrays and the like become plain SSA data flow.
 // finish() then removes dead code (values nobody uses, stores to slots nobody reads) and
 // verifies the function.
+#include "ir/builder.h"
+
 #include <cmath>
 #include <cstring>
 #include <unordered_map>
 #include <unordered_set>
 
-#include "jit/ir.h"
-#include "jit/scalar_ops.h"
-#include "lang/check.h"
+#include "base/check.h"
+#include "ir/print.h"
+#include "ir/scalar_ops.h"
+#include "ir/verify.h"
 
-namespace hfrt::jit {
+namespace hfrt::ir {
 
 namespace {
 
@@ -443,4 +446,4 @@ void IrBuilder::finish(ValueId result) {
   HFRT_CHECK_MSG(err.empty(), "IrBuilder produced malformed IR: " << err << "\n" << print(fn_));
 }
 
-}  // namespace hfrt::jit
+}  // namespace hfrt::ir
