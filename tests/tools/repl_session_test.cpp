@@ -184,7 +184,7 @@ TEST(ReplSession, RenderRemembersOptions) {
 
 TEST(ReplSession, RendersAMeshLeafWithTheAnalyticSearch) {
   // A mesh leaf in CSG with a ball renders through the session with the analytic search (the
-  // session prepares it as `hfrt render` does: ModelField::prepare_render).
+  // session prepares it as `hfrt render` does: app::ModelField::prepare_render).
   Session s;
   fs::path dir = temp_dir();
   ASSERT_TRUE(s.run("my_model(x[3], a[1]) {\n"

@@ -20,6 +20,7 @@
 #include <string>
 #include <vector>
 
+#include "app/model_field.h"
 #include "base/file.h"
 #include "base/result.h"
 #include "ir/ir.h"
@@ -27,7 +28,6 @@
 #include "jit/pov_emit.h"
 #include "render/camera.h"
 #include "tools/hfrt/commands.h"
-#include "tools/hfrt/model_field.h"
 #include "tools/hfrt/render_options.h"
 
 namespace hfrt::tools {
@@ -147,7 +147,7 @@ std::string scene_text(const render::RenderOptions& opt, const std::string& name
 int run_emit(EmitCli& cli) {
   const bool color = use_color(STDERR_FILENO);
   if (!cli.pov) return usage_error("choose the output language: --pov (the only one so far)");
-  RenderSetup setup;
+  app::RenderSetup setup;
   std::string err;
   if (!translate_render_options(cli.render, &setup, &err)) return usage_error(err);
   if (cli.max_gradient < 0) return usage_error("--max-gradient must be positive");
@@ -210,11 +210,11 @@ int run_emit(EmitCli& cli) {
       auto loaded = load_model(req, /*eager_f32=*/true, &code);
       if (!loaded) return code;
       const Model& model = *loaded->model;
-      ModelField model_field(model, req.file);
-      WithoutIntervals sampled_field(model_field);
-      const render::Field& field = render_field(model, model_field, sampled_field, opt.root);
-      FramingInfo framing;
-      if (!frame_camera(field, setup.camera, &opt, &framing, &err)) return usage_error(err);
+      app::ModelField model_field(model, req.file);
+      app::WithoutIntervals sampled_field(model_field);
+      const render::Field& field = app::render_field(model, model_field, sampled_field, opt.root);
+      app::FramingInfo framing;
+      if (!app::frame_camera(field, setup.camera, &opt, &framing, &err)) return usage_error(err);
       if (max_gradient == 0) {
         max_gradient = std::max(1e-3f, 1.2f * estimate_max_gradient(field, opt.bbox));
       }

@@ -19,12 +19,12 @@
 #include <memory>
 #include <string>
 
+#include "app/render_job.h"
 #include "render/framing.h"
 #include "render/image.h"
 #include "render/progress.h"
 #include "render/renderer.h"
 #include "tools/hfrt/commands.h"
-#include "tools/hfrt/model_field.h"
 #include "tools/hfrt/render_options.h"
 
 namespace hfrt::tools {
@@ -39,50 +39,38 @@ int usage_error(const std::string& message) {
 }
 
 int run_render(const RenderCli& cli) {
-  RenderSetup setup;
+  app::RenderJob job;
   std::string err;
-  if (!translate_render_options(cli, &setup, &err)) return usage_error(err);
-  render::RenderOptions& opt = setup.options;
+  if (!translate_render_options(cli, &job.setup, &err)) return usage_error(err);
 
   int code = 0;
   auto loaded = load_model(cli.model, /*eager_f32=*/true, &code);
   if (!loaded) return code;
-  const Model& model = *loaded->model;
-  ModelField model_field(model, cli.model.file);
-  // Intervals serve framing and tile culling even with --root sign.
-  const double prepare_ms = prepare_render_code(model, /*interval=*/true, /*gradient=*/true);
-  WithoutIntervals sampled_field(model_field);
-  const render::Field& field = render_field(model, model_field, sampled_field, opt.root);
-
-  // --root analytic on a model that does not qualify is an error in the model's source (like a
-  // compile error: exit 1, located), not a usage error.
-  if (opt.root == render::RootMode::kAnalytic) {
-    std::string diag = analytic_root_diagnostic(model_field.analytic_info(), cli.model.file);
-    if (!diag.empty()) {
-      std::fputs(diag.c_str(), stderr);
-      return 1;
-    }
-  }
-
-  FramingInfo framing;
-  if (!frame_camera(field, setup.camera, &opt, &framing, &err)) return usage_error(err);
-  const RootDecision root = settle_root(field, &opt, &model_field.analytic_info(), cli.model.file);
-  // The analytic search samples only F's sign: mesh and patch leaves then cost a winding
-  // number instead of a distance query.
-  model_field.prepare_render(opt.root);
+  job.model = &*loaded->model;
+  job.file = cli.model.file;
 
   render::ProgressBar bar("rendering", isatty(STDERR_FILENO) != 0);
-  opt.progress = [&bar](size_t done, size_t total) { bar.update(done, total); };
-  render::RenderResult result = render::render(field, opt);
+  job.setup.options.progress = [&bar](size_t done, size_t total) { bar.update(done, total); };
+  render::RenderResult result;
+  app::RenderJobResult done = app::run_render_job(job, &result);
+  for (const std::string& w : done.warnings) std::fprintf(stderr, "%s\n", w.c_str());
+  // --root analytic on a model that does not qualify: located, like a compile error (exit 1).
+  if (done.status == app::RenderJobStatus::kSourceError) {
+    std::fputs(done.error.c_str(), stderr);
+    return 1;
+  }
+  if (done.status == app::RenderJobStatus::kUsageError) return usage_error(done.error);
   bar.finish();
 
-  auto written = render::write_image(result.image, cli.output, setup.aovs);
+  const render::RenderOptions& opt = done.options;
+  auto written = render::write_image(result.image, cli.output, job.setup.aovs);
   if (!written.ok()) {
     std::fprintf(stderr, "hfrt: %s\n", written.error().message.c_str());
     return 2;
   }
   const render::RenderStats& st = result.stats;
-  std::string why = root.why.empty() ? "" : " (auto: " + root.why + ")";
+  const std::string& auto_why = done.report.root.why;
+  std::string why = auto_why.empty() ? "" : " (auto: " + auto_why + ")";
   std::fprintf(stderr, "hfrt: wrote %s (%dx%d, %d spp, root search %s%s)\n", cli.output.c_str(),
                opt.width, opt.height, opt.spp, render::root_mode_name(st.root_used), why.c_str());
   for (size_t i = 1; i < written.value().size(); ++i) {
@@ -94,17 +82,11 @@ int run_render(const RenderCli& cli) {
                  st.nan_explanation.c_str());
   }
   if (cli.stats) {
-    RenderReport report;
+    app::RenderReport report = done.report;
     report.compile_ms = loaded->compile_ms;
-    report.prepare_ms = prepare_ms;
-    report.engines = describe_domain_engines(model);
-    report.framing = framing;
     report.auto_root = cli.root == "auto";
-    report.root = root;
-    report.culled = opt.tile_culling && field.has_interval();
-    report.stats = st;
-    std::fputs(format_render_stats(report).c_str(), stderr);
-    std::fputs(describe_surfaces(model).c_str(), stderr);
+    std::fputs(app::format_render_stats(report).c_str(), stderr);
+    std::fputs(app::describe_surfaces(*job.model).c_str(), stderr);
   }
   return 0;
 }

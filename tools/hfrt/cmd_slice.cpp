@@ -16,11 +16,12 @@
 #include <string>
 #include <vector>
 
+#include "app/model_field.h"
 #include "render/image.h"
 #include "render/progress.h"
 #include "render/slice.h"
 #include "tools/hfrt/commands.h"
-#include "tools/hfrt/model_field.h"
+#include "tools/hfrt/model_request.h"
 
 namespace hfrt::tools {
 
@@ -65,9 +66,11 @@ int run_slice(const SliceCli& cli) {
   int code = 0;
   auto loaded = load_model(cli.model, /*eager_f32=*/true, &code);
   if (!loaded) return code;
-  ModelField field(*loaded->model, cli.model.file);
-  const double prepare_ms =
-      prepare_render_code(*loaded->model, field.has_interval(), /*gradient=*/false);
+  app::ModelField field(*loaded->model, cli.model.file);
+  const app::PreparedCode prepared =
+      app::prepare_render_code(*loaded->model, field.has_interval(), /*gradient=*/false);
+  for (const std::string& w : prepared.warnings) std::fprintf(stderr, "%s\n", w.c_str());
+  const double prepare_ms = prepared.ms;
 
   render::ProgressBar bar("slicing", isatty(STDERR_FILENO) != 0);
   opt.progress = [&bar](size_t done, size_t total) { bar.update(done, total); };
@@ -93,8 +96,8 @@ int run_slice(const SliceCli& cli) {
     std::fprintf(
         stderr,
         "stats: compile %.1f ms (+ %.1f ms interval code: %s), slice %.3f s on %d threads\n",
-        loaded->compile_ms, prepare_ms, describe_domain_engines(*loaded->model).c_str(), st.seconds,
-        st.threads);
+        loaded->compile_ms, prepare_ms, app::describe_domain_engines(*loaded->model).c_str(),
+        st.seconds, st.threads);
     std::fprintf(stderr,
                  "stats: evaluator calls: point %llu (%llu points), interval %llu; %llu pixels "
                  "settled by intervals\n",

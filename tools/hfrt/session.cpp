@@ -11,10 +11,10 @@
 #include <sstream>
 #include <thread>
 
+#include "app/model_field.h"
 #include "base/check.h"
 #include "base/timer.h"
 #include "lang/objects.h"
-#include "tools/hfrt/model_field.h"
 
 namespace hfrt::tools {
 namespace {
@@ -429,14 +429,14 @@ bool Session::apply_options(const std::vector<std::string>& words, std::string* 
     *err = std::string("hfrt: ") + e.what();
     return false;
   }
-  RenderSetup setup;
+  app::RenderSetup setup;
   if (!translate_render_options(cli, &setup, err)) {
     *err = "hfrt: " + *err;
     return false;
   }
   cli_ = std::move(cli);
   setup_ = std::move(setup);
-  view_.key.clear();  // a changed option frames anew
+  view_key_.clear();  // a changed option frames anew
   settings_.options = setup_.options;
   settings_.camera = setup_.camera;
   return true;
@@ -454,7 +454,7 @@ SessionResult Session::cmd_set(const std::vector<std::string>& args) {
   RenderCli saved = cli_;
   if (args.size() == 2 && args[1] == "default") {
     reset_option(name, &cli_);
-    RenderSetup setup;
+    app::RenderSetup setup;
     if (!translate_render_options(cli_, &setup, &err)) {  // cannot fail: defaults are valid
       cli_ = saved;
       return failure("hfrt: " + err);
@@ -462,7 +462,7 @@ SessionResult Session::cmd_set(const std::vector<std::string>& args) {
     setup_ = std::move(setup);
     settings_.options = setup_.options;
     settings_.camera = setup_.camera;
-    view_.key.clear();
+    view_key_.clear();
     return success("");
   }
   // The spellings of the first REPL: "auto" for a framed camera, "off" for perspective.
@@ -502,7 +502,7 @@ SessionResult Session::cmd_render(const std::vector<std::string>& args) {
   if (current_.empty()) return failure("hfrt: no current object (define one or :load a file)");
   // Options first (all or nothing), then the render; a failed render keeps the old options.
   RenderCli saved_cli = cli_;
-  RenderSetup saved_setup = setup_;
+  app::RenderSetup saved_setup = setup_;
   std::string out = args.empty() ? last_output_ : args[0];
   if (!out.empty() && out[0] == '-')
     return failure("hfrt: :render expects OUT first, then options");
@@ -526,33 +526,6 @@ SessionResult Session::cmd_render(const std::vector<std::string>& args) {
   return r;
 }
 
-namespace {
-
-/// Compiles the three evaluators a render needs (f32 points, intervals, f32 gradients) at once,
-/// on three threads: after an edit this is most of the compile latency, and the three LLVM
-/// compiles are independent (the process-wide LLJIT takes modules from several threads).
-/// Returns the wall time in ms. A JIT failure is not fatal: the interpreters take over.
-double prepare_for_render(const Model& model) {
-  auto t0 = std::chrono::steady_clock::now();
-  std::string errors[3];
-  bool ok[3] = {true, true, true};
-  std::thread interval([&] { ok[1] = model.prepare_interval(&errors[1]); });
-  std::thread gradient([&] { ok[2] = model.prepare_gradient(Precision::kF32, &errors[2]); });
-  ok[0] = model.prepare(Precision::kF32, &errors[0]);
-  interval.join();
-  gradient.join();
-  const char* what[3] = {"point", "interval", "gradient"};
-  for (int i = 0; i < 3; ++i) {
-    if (!ok[i]) {
-      std::fprintf(stderr, "hfrt: warning: %s JIT failed (%s); using the %s interpreter\n", what[i],
-                   errors[i].c_str(), what[i]);
-    }
-  }
-  return ms_since(t0);
-}
-
-}  // namespace
-
 SessionResult Session::render_to(const std::string& out) {
   const std::string object = cli_.model.object.empty() ? current_ : cli_.model.object;
   std::string err;
@@ -569,65 +542,39 @@ SessionResult Session::render_to(const std::string& out) {
     ~RestoreParams() { m.set_params(p); }
   } restore{model, saved_params};
 
-  RenderReport report;
-  report.compile_ms = last_compile_ms_;
-  ModelField model_field(model, "<session>");
-  report.prepare_ms = prepare_for_render(model);
-  WithoutIntervals sampled(model_field);
-  render::RenderOptions opt = setup_.options;
-  const render::Field& field = render_field(model, model_field, sampled, opt.root);
+  app::RenderJob job;
+  job.model = &model;
+  job.file = "<session>";
+  job.setup = setup_;
+  job.setup.options.cancel = &cancel_;
+  job.on_coarse = on_coarse;
   // The view of the last render of this object with these options (see ViewCache).
   std::string key = object + '\x1f' + cli_.size + '\x1f' + cli_.bbox + '\x1f' + cli_.eye + '\x1f' +
                     cli_.look_at + '\x1f' + cli_.up + '\x1f' + std::to_string(cli_.fov) + '\x1f' +
                     std::to_string(cli_.ortho) + '\x1f' + cli_.root + '\x1f' + cli_.model.params +
                     '\x1f' + cli_.model.backend + '\x1f' + std::to_string(cli_.threads);
-  // --root analytic on a model that does not qualify: its located diagnostic, as hfrt render.
-  if (opt.root == render::RootMode::kAnalytic) {
-    std::string diag = analytic_root_diagnostic(model_field.analytic_info(), "<session>");
-    if (!diag.empty()) return failure(diag);
-  }
-  // The decision stays valid only while the evaluators it chose exist (an edit may make the
-  // model non-polynomial, or too large for the interval JIT).
-  const bool reuse = view_.key == key && view_.has_interval == field.has_interval() &&
-                     view_.ray_candidates == field.has_ray_candidates();
-  if (!frame_camera(field, setup_.camera, &opt, &report.framing, &err,
-                    reuse ? &view_.extent : nullptr)) {
-    return failure("hfrt: " + err);
-  }
-  if (reuse) {
-    opt.root = view_.root;
-    opt.tile_culling = view_.tile_culling;
-    report.root.why = view_.why;
-  } else {
-    report.root = settle_root(field, &opt, &model_field.analytic_info(), "<session>");
-    view_ =
-        ViewCache{key,      report.framing.extent, field.has_interval(), field.has_ray_candidates(),
-                  opt.root, opt.tile_culling,      report.root.why};
-  }
-  report.auto_root = cli_.root == "auto";
-  model_field.prepare_render(opt.root);
-  opt.cancel = &cancel_;
-  if (on_coarse && opt.width >= 64 && opt.height >= 8) {
-    render::RenderOptions coarse = opt;
-    coarse.width = std::max(1, opt.width / 8);
-    coarse.height = std::max(1, opt.height / 8);
-    coarse.spp = 1;
-    coarse.shadows = false;
-    render::RenderResult preview = render::render(field, coarse);
-    if (preview.stats.cancelled) return failure("hfrt: render cancelled");
-    on_coarse(preview.image);
-  }
-  auto t_render = std::chrono::steady_clock::now();
+  if (view_key_ == key) job.view = &view_;
   // Into the image buffer of the render before last (the last one is still shown): its pages
   // are already mapped.
   render::RenderResult result;
   result.image = std::move(spare_image_);
-  render::render_into(field, opt, &result);
-  timings_.prepare = report.prepare_ms;
-  timings_.frame = report.framing.ms;
-  timings_.probe = report.root.probe_ms;
-  timings_.render = ms_since(t_render);
-  if (result.stats.cancelled) return failure("hfrt: render cancelled");
+  app::RenderJobResult done = app::run_render_job(job, &result);
+  std::string warnings;
+  for (const std::string& w : done.warnings) warnings += w + "\n";
+  if (!warnings.empty()) std::fputs(warnings.c_str(), stderr);
+  if (done.status == app::RenderJobStatus::kSourceError) return failure(done.error);
+  if (done.status == app::RenderJobStatus::kUsageError) return failure("hfrt: " + done.error);
+  view_key_ = key;
+  view_ = done.view;
+  timings_.prepare = done.report.prepare_ms;
+  timings_.frame = done.report.framing.ms;
+  timings_.probe = done.report.root.probe_ms;
+  timings_.render = done.render_ms;
+  if (done.status == app::RenderJobStatus::kCancelled) {
+    spare_image_ = std::move(result.image);
+    return failure("hfrt: render cancelled");
+  }
+  const render::RenderOptions& opt = done.options;
   auto t_write = std::chrono::steady_clock::now();
   // The REPL writes for the next look, not for keeping: the fast PNG settings.
   auto written = render::write_image(result.image, out, setup_.aovs, render::PngCompression::kFast);
@@ -644,10 +591,9 @@ SessionResult Session::render_to(const std::string& out) {
   std::string text = buf;
   for (size_t i = 1; i < written.value().size(); ++i) text += "\n" + written.value()[i];
   if (cli_.stats) {
-    report.engines = describe_domain_engines(model);
-    report.culled = opt.tile_culling && field.has_interval();
-    report.stats = result.stats;
-    text += "\n" + format_render_stats(report);
+    app::RenderReport report = done.report;
+    report.compile_ms = last_compile_ms_;
+    text += "\n" + app::format_render_stats(report);
   }
   SessionResult r = success(text);
   if (result.stats.evals.nan_samples > 0) {

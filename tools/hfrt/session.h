@@ -17,6 +17,7 @@
 #include <utility>
 #include <vector>
 
+#include "app/render_job.h"
 #include "hfrt/model.h"
 #include "render/framing.h"
 #include "render/image.h"
@@ -147,21 +148,14 @@ class Session {
   int compiles_ = 0;
   int code_shares_ = 0;
   RenderCli cli_;
-  RenderSetup setup_;
+  app::RenderSetup setup_;
   /// The view of the last render, kept while the same object is edited with the same options:
   /// its framed extent and the `--root auto` decision. Edits are then seen from the same
   /// camera (what changed is what moved in the picture), and the framing and auto probe are
   /// not paid again. Any option change (`:set`, options on `:render`) or another object
-  /// frames anew.
-  struct ViewCache {
-    std::string key;  ///< the object and the options it was made for ("" = none)
-    render::Box extent;
-    bool has_interval = false;
-    bool ray_candidates = false;
-    render::RootMode root = render::RootMode::kSign;
-    bool tile_culling = true;
-    std::string why;
-  } view_;
+  /// frames anew. view_key_ is the object and the options it was made for ("" = none).
+  std::string view_key_;
+  app::RenderView view_;
   SessionRenderSettings settings_;
   std::atomic<bool> cancel_{false};
   std::string last_output_;

@@ -1,4 +1,4 @@
-#include "tools/hfrt/model_field.h"
+#include "app/model_field.h"
 
 #include <algorithm>
 #include <bit>
@@ -9,9 +9,10 @@
 #include <limits>
 #include <thread>
 
+#include "base/timer.h"
 #include "render/poly_solve.h"
 
-namespace hfrt::tools {
+namespace hfrt::app {
 
 namespace {
 
@@ -202,32 +203,32 @@ std::string ModelField::explain_nan(render::Vec3 p) const {
   return text + where;
 }
 
-double prepare_render_code(const Model& model, bool interval, bool gradient) {
-  auto t0 = std::chrono::steady_clock::now();
-  std::string interval_error, gradient_error;
-  bool interval_ok = true, gradient_ok = true;
+PreparedCode prepare_render_code(const Model& model, bool interval, bool gradient) {
+  const auto t0 = Clock::now();
+  std::string errors[3];
+  bool ok[3] = {true, true, true};
   {
-    // The process-wide LLJIT accepts modules from several threads (one context each).
-    std::thread worker;
-    if (interval && gradient) {
-      worker = std::thread([&] { interval_ok = model.prepare_interval(&interval_error); });
-    } else if (interval) {
-      interval_ok = model.prepare_interval(&interval_error);
+    std::thread interval_worker, gradient_worker;
+    if (interval)
+      interval_worker = std::thread([&] { ok[1] = model.prepare_interval(&errors[1]); });
+    if (gradient) {
+      gradient_worker =
+          std::thread([&] { ok[2] = model.prepare_gradient(Precision::kF32, &errors[2]); });
     }
-    if (gradient) gradient_ok = model.prepare_gradient(Precision::kF32, &gradient_error);
-    if (worker.joinable()) worker.join();
+    ok[0] = model.prepare(Precision::kF32, &errors[0]);
+    if (interval_worker.joinable()) interval_worker.join();
+    if (gradient_worker.joinable()) gradient_worker.join();
   }
-  if (!interval_ok) {
-    std::fprintf(stderr,
-                 "hfrt: warning: interval JIT failed (%s); using the interval interpreter\n",
-                 interval_error.c_str());
+  PreparedCode out;
+  const char* what[3] = {"point", "interval", "gradient"};
+  for (int i = 0; i < 3; ++i) {
+    if (!ok[i]) {
+      out.warnings.push_back(std::string("hfrt: warning: ") + what[i] + " JIT failed (" +
+                             errors[i] + "); using the " + what[i] + " interpreter");
+    }
   }
-  if (!gradient_ok) {
-    std::fprintf(stderr,
-                 "hfrt: warning: gradient JIT failed (%s); using the gradient interpreter\n",
-                 gradient_error.c_str());
-  }
-  return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+  out.ms = ms_since(t0);
+  return out;
 }
 
 std::string describe_domain_engines(const Model& model) {
@@ -274,64 +275,6 @@ std::string describe_surfaces(const Model& model) {
   return out + buf;
 }
 
-bool parse_doubles(const std::string& text, std::vector<double>* out, size_t count) {
-  out->clear();
-  if (text.empty()) return count == 0;
-  size_t pos = 0;
-  while (true) {
-    size_t comma = text.find(',', pos);
-    std::string item =
-        text.substr(pos, comma == std::string::npos ? std::string::npos : comma - pos);
-    char* end = nullptr;
-    double v = std::strtod(item.c_str(), &end);
-    if (item.empty() || *end != '\0' || !std::isfinite(v)) return false;
-    out->push_back(v);
-    if (comma == std::string::npos) break;
-    pos = comma + 1;
-  }
-  return count == 0 || out->size() == count;
-}
-
-bool parse_floats(const std::string& text, std::vector<float>* out, size_t count) {
-  std::vector<double> d;
-  bool ok = parse_doubles(text, &d, count);
-  out->assign(d.begin(), d.end());
-  return ok;
-}
-
-std::optional<LoadedModel> load_model(const ModelRequest& request, bool eager_f32, int* exit_code) {
-  ModelOptions mo;
-  mo.object = request.object;
-  mo.backend = request.backend == "interp" ? Backend::kInterp : Backend::kJit;
-  mo.eager_f64 = false;
-  mo.eager_f32 = eager_f32;
-  std::vector<double> params;
-  if (!parse_doubles(request.params, &params)) {
-    std::fprintf(stderr, "hfrt: -a expects numbers separated by commas, e.g. -a 1,0.5 (got '%s')\n",
-                 request.params.c_str());
-    *exit_code = 2;
-    return std::nullopt;
-  }
-  auto t0 = std::chrono::steady_clock::now();
-  CompileResult compiled = Model::compile_file(request.file, mo);
-  LoadedModel loaded;
-  loaded.compile_ms =
-      std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
-  if (!compiled.error.empty()) {
-    std::fprintf(stderr, "hfrt: %s\n", compiled.error.c_str());
-    *exit_code = 2;
-    return std::nullopt;
-  }
-  std::fputs(compiled.rendered.c_str(), stderr);
-  if (!compiled.ok()) {
-    *exit_code = 1;
-    return std::nullopt;
-  }
-  loaded.model = std::move(compiled.model);
-  loaded.model->set_params(params);
-  return loaded;
-}
-
 void ModelField::prepare_render(render::RootMode root) {
   if (root != render::RootMode::kAnalytic) return;
   model_.prepare_polynomial();
@@ -343,4 +286,4 @@ void ModelField::prepare_render(render::RootMode root) {
   }
 }
 
-}  // namespace hfrt::tools
+}  // namespace hfrt::app

@@ -1,7 +1,7 @@
-// ModelField's analytic ray candidates (tools/hfrt/model_field.h): the leaf roots that
+// ModelField's analytic ray candidates (app/model_field.h): the leaf roots that
 // Model::ray_polynomials + render::solve_polynomial give must contain every zero crossing of F
 // on the segment, for thin and tilted tori, set operations and boxes, and must stay inside it.
-#include "tools/hfrt/model_field.h"
+#include "app/model_field.h"
 
 #include <gtest/gtest.h>
 
@@ -13,7 +13,7 @@
 
 #include "hfrt/model.h"
 
-namespace hfrt::tools {
+namespace hfrt::app {
 namespace {
 
 struct Seg {
@@ -147,4 +147,4 @@ TEST(ModelFieldAnalytic, SphereRootsAreExact) {
 }
 
 }  // namespace
-}  // namespace hfrt::tools
+}  // namespace hfrt::app

@@ -1,7 +1,7 @@
 #pragma once
 // The adapter from a compiled hfrt::Model (the public API, jit/include/hfrt/model.h) to the
-// renderer's Field interface (render/field.h), plus the model loading and list parsing that
-// `hfrt render` and `hfrt slice` share.
+// renderer's Field interface (render/field.h): app/ is the layer that joins the compiler and
+// the renderer, below the command line and anything else that renders models.
 //
 // Which evaluator serves which Field method:
 //  - eval: the f32 batch evaluator (Model::eval_batch), the renderer's hot loop;
@@ -21,7 +21,7 @@
 #include "render/field.h"
 #include "render/renderer.h"
 
-namespace hfrt::tools {
+namespace hfrt::app {
 
 class ModelField final : public render::Field {
  public:
@@ -106,30 +106,18 @@ class WithoutIntervals final : public render::Field {
   const render::Field& field_;
 };
 
-/// Options common to the commands that compile a model.
-struct ModelRequest {
-  std::string file;
-  std::string object;
-  std::string params;  ///< "v1,v2,..." for a[1..]
-  std::string backend = "jit";
+/// Compiles now, on three threads at once (instead of on first use inside the render threads)
+/// the three evaluators a render needs: f32 points, intervals and f32 gradients. After an
+/// edit this is most of the compile latency, and the three LLVM compiles are independent (the
+/// process-wide LLJIT takes modules from several threads). A JIT failure is not fatal (the
+/// interpreters take over): each becomes a warning line ("hfrt: warning: interval JIT failed
+/// (...); using the interval interpreter").
+struct PreparedCode {
+  double ms = 0;                      ///< wall time
+  std::vector<std::string> warnings;  ///< one line each, without a newline
 };
-
-/// A compiled model ready for rendering, with its compile time.
-struct LoadedModel {
-  std::optional<Model> model;
-  double compile_ms = 0;
-};
-
-/// Compiles the model and applies --object and -a. On failure prints the reason (diagnostics
-/// for source errors) and returns nullopt with `*exit_code` = 1 (compile errors) or 2 (usage
-/// or environment).
-std::optional<LoadedModel> load_model(const ModelRequest& request, bool eager_f32, int* exit_code);
-
-/// Compiles now (instead of on first use inside the render threads) the code a render needs
-/// beyond the scalar f32 evaluator: the interval evaluator when `interval`, the f32 gradient
-/// evaluator when `gradient`. The two JIT compiles run in parallel. Returns the wall time in
-/// ms. A JIT failure is not fatal (the interpreters take over); it is printed as a warning.
-double prepare_render_code(const Model& model, bool interval, bool gradient);
+/// `interval` and `gradient` choose those domains (`hfrt slice` needs no gradients).
+PreparedCode prepare_render_code(const Model& model, bool interval = true, bool gradient = true);
 
 /// One line describing the engines of the interval and gradient domains with their compile
 /// times, e.g. "interval JIT (4 lanes, 85.2 ms), gradient f32 JIT (8 lanes, 40.1 ms)".
@@ -139,8 +127,4 @@ std::string describe_domain_engines(const Model& model);
 /// BVH nodes, build time, memory, leaves sharing it) and a total; "" without surfaces.
 std::string describe_surfaces(const Model& model);
 
-/// Parses "v1,v2,..." (exactly `count` numbers when count > 0). False when malformed.
-bool parse_doubles(const std::string& text, std::vector<double>* out, size_t count = 0);
-bool parse_floats(const std::string& text, std::vector<float>* out, size_t count = 0);
-
-}  // namespace hfrt::tools
+}  // namespace hfrt::app

@@ -1,0 +1,36 @@
+#pragma once
+// The model options every command that compiles a model takes (the file, --object, -a,
+// --backend), and loading it with its diagnostics printed as the command line prints them.
+
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "hfrt/model.h"
+
+namespace hfrt::tools {
+
+/// Options common to the commands that compile a model.
+struct ModelRequest {
+  std::string file;
+  std::string object;
+  std::string params;  ///< "v1,v2,..." for a[1..]
+  std::string backend = "jit";
+};
+
+/// A compiled model ready for rendering, with its compile time.
+struct LoadedModel {
+  std::optional<Model> model;
+  double compile_ms = 0;
+};
+
+/// Compiles the model and applies --object and -a. On failure prints the reason (diagnostics
+/// for source errors) and returns nullopt with `*exit_code` = 1 (compile errors) or 2 (usage
+/// or environment).
+std::optional<LoadedModel> load_model(const ModelRequest& request, bool eager_f32, int* exit_code);
+
+/// Parses "v1,v2,..." (exactly `count` numbers when count > 0). False when malformed.
+bool parse_doubles(const std::string& text, std::vector<double>* out, size_t count = 0);
+bool parse_floats(const std::string& text, std::vector<float>* out, size_t count = 0);
+
+}  // namespace hfrt::tools
