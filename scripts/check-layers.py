@@ -135,8 +135,10 @@ def describe(rule):
 def main():
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--dot", action="store_true", help="print Graphviz dot of the folder graph")
+    ap.add_argument("--root", help="the tree to check (default: this repository)")
     args = ap.parse_args()
-    root = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+    root = os.path.abspath(args.root) if args.root else \
+        os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
     report = sys.stderr if args.dot else sys.stdout
 
     files = source_files(root)

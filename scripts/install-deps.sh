@@ -6,6 +6,7 @@ set -euo pipefail
 
 packages=(
   build-essential cmake ninja-build pkg-config
+  python3  # scripts/check-layers.py (a test of make test)
   llvm-19-dev
   libcli11-dev
   libopenimageio-dev openimageio-tools libopencv-core-dev

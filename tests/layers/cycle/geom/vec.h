@@ -1,0 +1,3 @@
+#pragma once
+// Fixture of the layer check: geom/ includes base/ (allowed on its own).
+#include "base/vec.h"
