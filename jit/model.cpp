@@ -8,6 +8,7 @@
 #include <cmath>
 #include <cstring>
 #include <mutex>
+#include <optional>
 
 #include "base/check.h"
 #include "base/file.h"
@@ -18,6 +19,7 @@
 #include "ir/print.h"
 #include "ir/structure_key.h"
 #include "jit/driver.h"
+#include "jit/engines.h"
 #include "jit/gradient.h"
 #include "jit/interpreter.h"
 #include "jit/interval.h"
@@ -47,49 +49,18 @@ jit::Precision to_jit(Precision p) {
   return p == Precision::kF64 ? jit::Precision::kF64 : jit::Precision::kF32;
 }
 
-/// Instances of a stateful evaluator (the interval and gradient interpreters own their
-/// scratch memory, so one instance serves one thread at a time). A caller leases one and gives
-/// it back; the pool grows to the largest number of concurrent callers seen.
-template <typename T>
-class Pool {
- public:
-  class Lease {
-   public:
-    Lease(Pool* pool, std::unique_ptr<T> item) : pool_(pool), item_(std::move(item)) {}
-    Lease(Lease&&) = default;
-    ~Lease() {
-      if (item_) pool_->give_back(std::move(item_));
-    }
-    T* operator->() const { return item_.get(); }
-
-   private:
-    Pool* pool_;
-    std::unique_ptr<T> item_;
-  };
-
-  explicit Pool(const jit::Function& fn) : fn_(fn) {}
-
-  Lease take() {
-    {
-      std::lock_guard<std::mutex> lock(mutex_);
-      if (!free_.empty()) {
-        std::unique_ptr<T> item = std::move(free_.back());
-        free_.pop_back();
-        return Lease(this, std::move(item));
-      }
-    }
-    return Lease(this, std::make_unique<T>(fn_));
-  }
-
- private:
-  void give_back(std::unique_ptr<T> item) {
-    std::lock_guard<std::mutex> lock(mutex_);
-    free_.push_back(std::move(item));
-  }
-
-  const jit::Function& fn_;
-  std::mutex mutex_;
-  std::vector<std::unique_ptr<T>> free_;
+/// One lowered object with its engines (jit/engines.h), shared read-only by the models
+/// whose code it is (Model::share_code). The engines refer to fn, so it never moves.
+struct Compiled {
+  jit::Function fn;
+  /// The object's own parameters a[]: fn.num_params less the hoisted numbers.
+  int user_params = 0;
+  /// The options that shape the code and fn's structure_key (Model::code_key).
+  std::string key;
+  std::optional<jit::ScalarEngine> scalar;
+  std::optional<jit::IntervalEngine> interval;
+  std::optional<jit::GradientEngine> gradient;
+  std::optional<jit::PolyEngine> poly;
 };
 
 /// The size of the interval and gradient JIT code, in IR instructions, counting a dynamic
@@ -109,118 +80,6 @@ int64_t domain_jit_weight(const jit::Function& fn) {
   }
   return weight;
 }
-
-/// Lazily compiled code: compiled at most once, by the first thread that needs it (the others
-/// wait on the once_flag), then shared read-only. `state` lets readers that must not compile
-/// (stats, engine queries) look without a data race.
-template <typename Code>
-struct LazySlot {
-  std::once_flag once;
-  std::unique_ptr<Code> code;
-  std::string error;
-  double compile_ms = 0;
-  std::atomic<int> state{0};  ///< 0 not compiled yet, 1 compiled, 2 failed
-
-  template <typename Compile>
-  const Code* get(Compile&& compile) {
-    std::call_once(once, [&] {
-      auto t0 = std::chrono::steady_clock::now();
-      auto r = compile();
-      compile_ms = ms_since(t0);
-      if (r.ok()) {
-        code = std::move(r.value());
-        state.store(1, std::memory_order_release);
-      } else {
-        error = r.error().message;
-        state.store(2, std::memory_order_release);
-      }
-    });
-    return code.get();
-  }
-  /// The code if it is compiled already (never compiles).
-  const Code* peek() const {
-    return state.load(std::memory_order_acquire) == 1 ? code.get() : nullptr;
-  }
-};
-
-/// One lowered object with its evaluators. Every JIT code (scalar per precision, interval,
-/// gradient per precision) is compiled at most once, on first use (or eagerly), and then
-/// shared read-only by all threads; the interval and gradient interpreters are pooled.
-struct Compiled {
-  explicit Compiled() : interval_pool(fn), gradient_pool(fn) {}
-
-  jit::Function fn;
-  /// The object's own parameters a[]: fn.num_params less the hoisted numbers.
-  int user_params = 0;
-  /// The options that shape the code and fn's structure_key (Model::code_key).
-  std::string key;
-  std::unique_ptr<jit::Interpreter> interp;
-  int opt_level = 2;
-  int lanes = 0;
-  int interval_lanes = 0;
-  bool interval_jit = false;  ///< the interval domain uses the JIT (else the interpreter)
-  bool gradient_jit = false;
-  mutable LazySlot<jit::JitFunction> jit[2];
-  /// f32 code with JitOptions::surface_sign_only (Model::eval_batch_sign).
-  mutable LazySlot<jit::JitFunction> jit_sign;
-  mutable LazySlot<jit::IntervalJit> interval;
-  mutable LazySlot<jit::GradientJit> gradient[2];
-  mutable Pool<jit::IntervalInterpreter> interval_pool;
-  mutable Pool<jit::GradientInterpreter> gradient_pool;
-  /// The polynomial domain's analysis, computed on first use (analytic_info, ray_polynomials).
-  mutable std::once_flag poly_once;
-  mutable jit::PolyAnalysis poly;
-  mutable std::unique_ptr<jit::PolyInterpreter> poly_interp;
-
-  const jit::PolyAnalysis& get_poly() const {
-    std::call_once(poly_once, [&] {
-      poly = jit::analyze_polynomial(fn);
-      poly_interp = std::make_unique<jit::PolyInterpreter>(fn, poly.program);
-    });
-    return poly;
-  }
-
-  /// The polynomial JIT (one ray per call), or null: the interpreter backend, an object that
-  /// does not qualify, or a failed compile.
-  bool poly_jit_enabled = false;
-  mutable LazySlot<jit::PolyJit> poly_jit;
-  const jit::PolyJit* get_poly_jit() const {
-    if (!poly_jit_enabled || !get_poly().qualifies) return nullptr;
-    return poly_jit.get([&] { return jit::PolyJit::compile(fn, poly.program, 1, opt_level); });
-  }
-
-  const jit::JitFunction* get(Precision p) const {
-    return jit[p == Precision::kF64 ? 0 : 1].get([&] {
-      jit::JitOptions options;
-      options.opt_level = opt_level;
-      options.lanes = lanes;
-      return jit::JitFunction::compile(fn, to_jit(p), options);
-    });
-  }
-
-  /// The interval JIT, or null when the interpreter must be used.
-  const jit::IntervalJit* get_interval() const {
-    if (!interval_jit) return nullptr;
-    return interval.get([&] {
-      // O1: the interval code is large (three values per op, rounding); O2 buys little over
-      // O1 and costs much compile time (see llvm_interval.cpp).
-      jit::IntervalJit::Options options;
-      options.opt_level = std::min(opt_level, 1);
-      options.lanes = interval_lanes;
-      return jit::IntervalJit::compile(fn, options);
-    });
-  }
-
-  const jit::GradientJit* get_gradient(Precision p) const {
-    if (!gradient_jit) return nullptr;
-    return gradient[p == Precision::kF64 ? 0 : 1].get([&] {
-      jit::GradientJit::Options options;
-      options.precision = to_jit(p);
-      options.opt_level = std::min(opt_level, 1);
-      return jit::GradientJit::compile(fn, options);
-    });
-  }
-};
 
 }  // namespace
 
@@ -255,32 +114,36 @@ struct Model::Impl {
   /// code per the eager options); its hoisted numbers go to `*hoisted`.
   std::unique_ptr<Compiled> build(jit::LoweredSource& lowered, std::string* error,
                                   std::vector<double>* hoisted) {
-    auto c = std::make_unique<Compiled>();  // (the pools refer to c->fn: it never moves)
-    c->opt_level = options.opt_level;
-    c->lanes = options.lanes;
-    c->interval_lanes = options.interval_lanes;
+    auto c = std::make_unique<Compiled>();  // (the engines refer to c->fn: it never moves)
     c->fn = std::move(lowered.fn);
     stats.lower_ms = lowered.lower_ms;
     stats.ir_insts = static_cast<int>(c->fn.insts.size());
     c->user_params = c->fn.num_params;
     hoisted->clear();
     if (options.hoist_constants) *hoisted = jit::hoist_constants(&c->fn);
-    c->interp = std::make_unique<jit::Interpreter>(c->fn);
     const int64_t weight = domain_jit_weight(c->fn);
     stats.domain_jit_weight = weight;
     auto within = [&](int max_weight) { return max_weight < 0 || weight <= max_weight; };
-    c->interval_jit = options.backend == Backend::kJit && within(options.interval_jit_max_insts);
-    c->gradient_jit = options.backend == Backend::kJit && within(options.gradient_jit_max_insts);
-    c->poly_jit_enabled = options.backend == Backend::kJit;
+    jit::EngineOptions eo;
+    eo.use_jit = options.backend == Backend::kJit;
+    eo.opt_level = options.opt_level;
+    eo.lanes = options.lanes;
+    eo.interval_lanes = options.interval_lanes;
+    eo.interval_jit = eo.use_jit && within(options.interval_jit_max_insts);
+    eo.gradient_jit = eo.use_jit && within(options.gradient_jit_max_insts);
+    c->scalar.emplace(c->fn, eo);
+    c->interval.emplace(c->fn, eo);
+    c->gradient.emplace(c->fn, eo);
+    c->poly.emplace(c->fn, eo);
     c->key = std::to_string(static_cast<int>(options.backend)) + ' ' +
              std::to_string(options.opt_level) + ' ' + std::to_string(options.lanes) + ' ' +
-             std::to_string(options.interval_lanes) + ' ' + std::to_string(c->interval_jit) +
-             std::to_string(c->gradient_jit) + '\n' + jit::structure_key(c->fn);
-    if (options.backend == Backend::kJit) {
+             std::to_string(options.interval_lanes) + ' ' + std::to_string(eo.interval_jit) +
+             std::to_string(eo.gradient_jit) + '\n' + jit::structure_key(c->fn);
+    if (eo.use_jit) {
       for (Precision p : {Precision::kF64, Precision::kF32}) {
         bool eager = p == Precision::kF64 ? options.eager_f64 : options.eager_f32;
-        if (eager && !c->get(p)) {
-          *error = c->jit[p == Precision::kF64 ? 0 : 1].error;
+        if (eager && !c->scalar->code(to_jit(p))) {
+          *error = c->scalar->error(to_jit(p));
           return nullptr;
         }
       }
@@ -434,10 +297,9 @@ PointValue Model::eval(std::span<const double> x) const {
       out.error_col = static_cast<int>(r.error->loc.col);
     }
   };
-  const jit::JitFunction* code =
-      impl_->options.backend == Backend::kJit ? c.get(Precision::kF64) : nullptr;
+  const jit::JitFunction* code = c.scalar->code(jit::Precision::kF64);
   if (!code) {
-    jit::EvalResult r = c.interp->eval(x, impl_->params_f64);
+    jit::EvalResult r = c.scalar->interpreter().eval(x, impl_->params_f64);
     out.f = r.value;
     out.s = r.s;
     explain(r);
@@ -448,80 +310,27 @@ PointValue Model::eval(std::span<const double> x) const {
   for (int k = 0; k < nx && k < static_cast<int>(x.size()); ++k) xs[k] = x[k];
   out.s.assign(ns, 0.0);
   code->f64()(1, xs.data(), impl_->params_f64.data(), &out.f, ns ? out.s.data() : nullptr);
-  if (std::isnan(out.f)) explain(c.interp->eval(x, impl_->params_f64));
+  if (std::isnan(out.f)) explain(c.scalar->interpreter().eval(x, impl_->params_f64));
   return out;
 }
 
-namespace {
-template <typename T>
-void interp_batch(const Compiled& c, const std::vector<double>& a, int64_t n, const T* xs, T* out_f,
-                  T* out_s) {
-  const int nx = c.fn.num_inputs;
-  std::vector<double> x(static_cast<size_t>(std::max(nx, 0)));
-  for (int64_t i = 0; i < n; ++i) {
-    for (int k = 0; k < nx; ++k) x[k] = static_cast<double>(xs[k * n + i]);
-    jit::EvalResult r = c.interp->eval(x, a);
-    out_f[i] = static_cast<T>(r.value);
-    if (out_s) {
-      for (size_t k = 0; k < c.fn.s_slots.size(); ++k) {
-        double v = r.error ? std::nan("") : (k < r.s.size() ? r.s[k] : std::nan(""));
-        out_s[k * n + i] = static_cast<T>(v);
-      }
-    }
-  }
-}
-}  // namespace
-
 void Model::eval_batch(int64_t n, const double* xs, double* out_f, double* out_s) const {
-  const Compiled& c = *impl_->compiled;
-  const jit::JitFunction* code =
-      impl_->options.backend == Backend::kJit ? c.get(Precision::kF64) : nullptr;
-  if (code) {
-    code->f64()(n, xs, impl_->params_f64.data(), out_f, out_s);
-  } else {
-    interp_batch(c, impl_->params_f64, n, xs, out_f, out_s);
-  }
+  impl_->compiled->scalar->eval_batch(n, xs, impl_->params_f64, out_f, out_s);
 }
 
 void Model::eval_batch(int64_t n, const float* xs, float* out_f, float* out_s) const {
-  const Compiled& c = *impl_->compiled;
-  const jit::JitFunction* code =
-      impl_->options.backend == Backend::kJit ? c.get(Precision::kF32) : nullptr;
-  if (code) {
-    code->f32()(n, xs, impl_->params_f32.data(), out_f, out_s);
-  } else {
-    interp_batch(c, impl_->params_f64, n, xs, out_f, out_s);
-  }
+  impl_->compiled->scalar->eval_batch(n, xs, impl_->params_f32, impl_->params_f64, out_f, out_s);
 }
 
 void Model::eval_batch_sign(int64_t n, const float* xs, float* out_f) const {
-  const Compiled& c = *impl_->compiled;
-  if (c.fn.surfaces.empty() || impl_->options.backend != Backend::kJit) {
-    eval_batch(n, xs, out_f, nullptr);
-    return;
-  }
-  const jit::JitFunction* code = c.jit_sign.get([&] {
-    jit::JitOptions options;
-    options.opt_level = c.opt_level;
-    // One lane: the caller (the analytic root search) passes a few points per call, and a
-    // wide block would evaluate its padding lanes' winding numbers too, which dominate the
-    // cost; the rest of the code is cheap next to them.
-    options.lanes = 1;
-    options.surface_sign_only = true;
-    return jit::JitFunction::compile(c.fn, jit::Precision::kF32, options);
-  });
-  if (!code) {
-    eval_batch(n, xs, out_f, nullptr);
-    return;
-  }
-  code->f32()(n, xs, impl_->params_f32.data(), out_f, nullptr);
+  impl_->compiled->scalar->eval_batch_sign(n, xs, impl_->params_f32, impl_->params_f64, out_f);
 }
 
 bool Model::prepare(Precision precision, std::string* error) const {
   if (impl_->options.backend != Backend::kJit) return true;
-  const Compiled& c = *impl_->compiled;
-  if (c.get(precision)) return true;
-  if (error) *error = c.jit[precision == Precision::kF64 ? 0 : 1].error;
+  const jit::ScalarEngine& e = *impl_->compiled->scalar;
+  if (e.code(to_jit(precision))) return true;
+  if (error) *error = e.error(to_jit(precision));
   return false;
 }
 
@@ -531,77 +340,39 @@ IntervalValue Model::eval_interval(std::span<const double> lo, std::span<const d
                                    std::vector<uint8_t>* choices) const {
   const Compiled& c = *impl_->compiled;
   const int nx = c.fn.num_inputs;
-  auto coord = [&](int k, double* l, double* h) {
-    *l = k < static_cast<int>(lo.size()) ? lo[k] : 0.0;
-    *h = k < static_cast<int>(hi.size()) ? hi[k] : *l;
-    HFRT_CHECK_MSG(*l <= *h, "eval_interval: a box needs lo <= hi on every coordinate");
+  // The box padded to the object's inputs (missing coordinates are the point 0), in
+  // per-thread buffers, so that no call allocates.
+  struct Scratch {
+    std::vector<double> lo, hi;
   };
-  if (const jit::IntervalJit* code = c.get_interval()) {
-    // One box: the JIT pads its SIMD block with copies of it (the per-lane helpers of the
-    // libm-based ops compute a copy once), from per-thread buffers, so no call allocates.
-    struct Scratch {
-      std::vector<double> lo, hi;
-    };
-    thread_local Scratch sc;
-    sc.lo.resize(static_cast<size_t>(std::max(nx, 1)));
-    sc.hi.resize(sc.lo.size());
-    for (int k = 0; k < nx; ++k) coord(k, &sc.lo[k], &sc.hi[k]);
-    double out_lo = 0, out_hi = 0;
-    uint8_t out_nan = 0;
-    uint8_t* trace = nullptr;
-    if (choices) {
-      choices->assign(c.fn.insts.size(), 0);
-      trace = choices->data();
-    }
-    code->eval(1, sc.lo.data(), sc.hi.data(), impl_->params_f64, &out_lo, &out_hi, &out_nan, trace);
-    return {out_lo, out_hi, out_nan != 0};
-  }
-  std::vector<hfrt::Interval> box(static_cast<size_t>(std::max(nx, 0)), hfrt::Interval{});
+  thread_local Scratch sc;
+  sc.lo.resize(static_cast<size_t>(std::max(nx, 1)));
+  sc.hi.resize(sc.lo.size());
   for (int k = 0; k < nx; ++k) {
-    double l, h;
-    coord(k, &l, &h);
-    box[k] = hfrt::Interval::of(l, h);
+    double l = k < static_cast<int>(lo.size()) ? lo[k] : 0.0;
+    double h = k < static_cast<int>(hi.size()) ? hi[k] : l;
+    HFRT_CHECK_MSG(l <= h, "eval_interval: a box needs lo <= hi on every coordinate");
+    sc.lo[k] = l;
+    sc.hi[k] = h;
   }
-  hfrt::Interval r = c.interval_pool.take()->eval(box, impl_->params_f64, choices);
+  const Interval r = c.interval->eval(sc.lo, sc.hi, impl_->params_f64, choices);
   return {r.lo, r.hi, r.maybe_nan};
 }
 
 void Model::eval_interval_batch(int64_t n, const double* lo, const double* hi, double* out_lo,
                                 double* out_hi, uint8_t* out_nan, uint8_t* choices) const {
-  const Compiled& c = *impl_->compiled;
-  const size_t ninsts = c.fn.insts.size();
-  if (choices) std::memset(choices, 0, ninsts);
-  if (n <= 0) return;
-  if (const jit::IntervalJit* code = c.get_interval()) {
-    code->eval(n, lo, hi, impl_->params_f64, out_lo, out_hi, out_nan, choices);
-    return;
-  }
-  const int nx = c.fn.num_inputs;
-  auto ii = c.interval_pool.take();
-  std::vector<hfrt::Interval> box(static_cast<size_t>(std::max(nx, 0)));
-  std::vector<uint8_t> one;
-  for (int64_t i = 0; i < n; ++i) {
-    for (int k = 0; k < nx; ++k) box[k] = hfrt::Interval::of(lo[k * n + i], hi[k * n + i]);
-    hfrt::Interval r = ii->eval(box, impl_->params_f64, choices ? &one : nullptr);
-    out_lo[i] = r.lo;
-    out_hi[i] = r.hi;
-    out_nan[i] = r.maybe_nan ? 1 : 0;
-    if (choices) {
-      for (size_t j = 0; j < ninsts && j < one.size(); ++j) choices[j] |= one[j];
-    }
-  }
+  impl_->compiled->interval->eval_batch(n, lo, hi, impl_->params_f64, out_lo, out_hi, out_nan,
+                                        choices);
 }
 
 DomainEngine Model::interval_engine() const {
-  const Compiled& c = *impl_->compiled;
-  return c.interval_jit && c.interval.state.load() != 2 ? DomainEngine::kJit
-                                                        : DomainEngine::kInterp;
+  return impl_->compiled->interval->uses_jit() ? DomainEngine::kJit : DomainEngine::kInterp;
 }
 
 bool Model::prepare_interval(std::string* error) const {
-  const Compiled& c = *impl_->compiled;
-  if (!c.interval_jit || c.get_interval()) return true;
-  if (error) *error = c.interval.error;
+  const jit::IntervalEngine& e = *impl_->compiled->interval;
+  if (!e.wants_jit() || e.code()) return true;
+  if (error) *error = e.error();
   return false;
 }
 
@@ -612,71 +383,37 @@ GradientValue Model::eval_gradient(std::span<const double> x) const {
   const int nx = c.fn.num_inputs;
   std::vector<double> p(static_cast<size_t>(std::max(nx, 1)), 0.0);
   for (int k = 0; k < nx && k < static_cast<int>(x.size()); ++k) p[k] = x[k];
-  jit::Dual d;
-  if (const jit::GradientJit* code = c.get_gradient(Precision::kF64)) {
-    d = code->eval_one(p, impl_->params_f64);
-  } else {
-    d = c.gradient_pool.take()->eval(p, impl_->params_f64);
-  }
+  const jit::Dual d = c.gradient->eval(p, impl_->params_f64);
   GradientValue out;
   out.f = d.v;
   for (int k = 0; k < 3; ++k) out.d[k] = d.d[k];
   return out;
 }
 
-namespace {
-template <typename T>
-void gradient_interp_batch(const Compiled& c, const std::vector<double>& a, int64_t n, const T* xs,
-                           T* out) {
-  const int nx = c.fn.num_inputs;
-  auto gi = c.gradient_pool.take();
-  std::vector<double> x(static_cast<size_t>(std::max(nx, 1)), 0.0);
-  for (int64_t i = 0; i < n; ++i) {
-    for (int k = 0; k < nx; ++k) x[k] = static_cast<double>(xs[k * n + i]);
-    jit::Dual d = gi->eval(x, a);
-    out[i] = static_cast<T>(d.v);
-    for (int k = 0; k < 3; ++k) out[(k + 1) * n + i] = static_cast<T>(d.d[k]);
-  }
-}
-}  // namespace
-
 void Model::eval_gradient_batch(int64_t n, const double* xs, double* out) const {
-  if (n <= 0) return;
-  const Compiled& c = *impl_->compiled;
-  if (const jit::GradientJit* code = c.get_gradient(Precision::kF64)) {
-    code->eval(n, xs, impl_->params_f64, out);
-  } else {
-    gradient_interp_batch(c, impl_->params_f64, n, xs, out);
-  }
+  impl_->compiled->gradient->eval_batch(n, xs, impl_->params_f64, out);
 }
 
 void Model::eval_gradient_batch(int64_t n, const float* xs, float* out) const {
-  if (n <= 0) return;
-  const Compiled& c = *impl_->compiled;
-  if (const jit::GradientJit* code = c.get_gradient(Precision::kF32)) {
-    code->eval(n, xs, impl_->params_f64, out);
-  } else {
-    gradient_interp_batch(c, impl_->params_f64, n, xs, out);
-  }
+  impl_->compiled->gradient->eval_batch(n, xs, impl_->params_f64, out);
 }
 
 DomainEngine Model::gradient_engine(Precision precision) const {
-  const Compiled& c = *impl_->compiled;
-  int state = c.gradient[precision == Precision::kF64 ? 0 : 1].state.load();
-  return c.gradient_jit && state != 2 ? DomainEngine::kJit : DomainEngine::kInterp;
+  return impl_->compiled->gradient->uses_jit(to_jit(precision)) ? DomainEngine::kJit
+                                                                : DomainEngine::kInterp;
 }
 
 bool Model::prepare_gradient(Precision precision, std::string* error) const {
-  const Compiled& c = *impl_->compiled;
-  if (!c.gradient_jit || c.get_gradient(precision)) return true;
-  if (error) *error = c.gradient[precision == Precision::kF64 ? 0 : 1].error;
+  const jit::GradientEngine& e = *impl_->compiled->gradient;
+  if (!e.wants_jit() || e.code(to_jit(precision))) return true;
+  if (error) *error = e.error(to_jit(precision));
   return false;
 }
 
 // --- Polynomial domain ----------------------------------------------------------------------
 
 AnalyticInfo Model::analytic_info() const {
-  const jit::PolyAnalysis& p = impl_->compiled->get_poly();
+  const jit::PolyAnalysis& p = impl_->compiled->poly->analysis();
   AnalyticInfo info;
   info.qualifies = p.qualifies;
   info.num_leaves = p.program.num_poly_leaves;
@@ -693,28 +430,20 @@ namespace {
 /// points) for one ray, into per-thread scratch.
 const double* all_leaves(const Compiled& c, const std::vector<double>& a, const double o[3],
                          const double d[3]) {
-  const jit::PolyAnalysis& p = c.get_poly();
+  const jit::PolyAnalysis& p = c.poly->analysis();
   thread_local std::vector<double> scratch;
   scratch.resize(p.program.leaves.size() * jit::kPolyCoeffs + 1);
-  if (const jit::PolyJit* code = c.get_poly_jit()) {
-    code->eval_one(o, d, a, scratch.data());
-  } else {
-    c.poly_interp->eval(o, d, a, scratch.data());
-  }
+  c.poly->eval(o, d, a, scratch.data());
   return scratch.data();
 }
 }  // namespace
 
 void Model::ray_polynomials(const double o[3], const double d[3], double* out) const {
   const Compiled& c = *impl_->compiled;
-  const jit::PolyAnalysis& p = c.get_poly();
+  const jit::PolyAnalysis& p = c.poly->analysis();
   HFRT_CHECK_MSG(p.qualifies, "ray_polynomials on an object that does not qualify: " << p.reason);
   if (p.program.surfaces.empty()) {
-    if (const jit::PolyJit* code = c.get_poly_jit()) {
-      code->eval_one(o, d, impl_->params_f64, out);
-      return;
-    }
-    c.poly_interp->eval(o, d, impl_->params_f64, out);
+    c.poly->eval(o, d, impl_->params_f64, out);
     return;
   }
   // The surface leaves' points follow the polynomial leaves: the caller gets the latter only.
@@ -725,7 +454,7 @@ void Model::ray_polynomials(const double o[3], const double d[3], double* out) c
 void Model::ray_surface_crossings(const double o[3], const double d[3], double t0, double t1,
                                   std::vector<double>* out) const {
   const Compiled& c = *impl_->compiled;
-  const jit::PolyAnalysis& p = c.get_poly();
+  const jit::PolyAnalysis& p = c.poly->analysis();
   HFRT_CHECK_MSG(p.qualifies, "ray_surface_crossings on an object that does not qualify");
   if (p.program.surfaces.empty() || !(t0 < t1)) return;
   const double* all = all_leaves(c, impl_->params_f64, o, d);
@@ -767,9 +496,9 @@ std::vector<SurfaceStats> Model::surface_stats() const {
 }
 
 bool Model::prepare_polynomial(std::string* error) const {
-  const Compiled& c = *impl_->compiled;
-  if (!c.poly_jit_enabled || !c.get_poly().qualifies || c.get_poly_jit()) return true;
-  if (error) *error = c.poly_jit.error;
+  const jit::PolyEngine& e = *impl_->compiled->poly;
+  if (!e.wants_jit() || !e.analysis().qualifies || e.code()) return true;
+  if (error) *error = e.error();
   return false;
 }
 
@@ -779,7 +508,7 @@ std::string Model::ir_text() const {
 
 std::string Model::llvm_ir(Precision precision) const {
   if (impl_->options.backend != Backend::kJit) return "";
-  const jit::JitFunction* code = impl_->compiled->get(precision);
+  const jit::JitFunction* code = impl_->compiled->scalar->code(to_jit(precision));
   return code ? code->llvm_ir() : "";
 }
 
@@ -791,8 +520,9 @@ ModelStats Model::stats() const {
   ModelStats s = impl_->stats;
   const Compiled& c = *impl_->compiled;
   for (int k = 0; k < 2; ++k) {
-    // Only report precisions already compiled (reading the slot never compiles).
-    const jit::JitFunction* code = c.jit[k].peek();
+    // Only report precisions already compiled (reading never compiles).
+    const jit::JitFunction* code =
+        c.scalar->peek(k == 0 ? jit::Precision::kF64 : jit::Precision::kF32);
     ModelStats::Jit& j = k == 0 ? s.jit_f64 : s.jit_f32;
     if (!code) continue;
     const jit::JitStats& js = code->stats();
@@ -804,21 +534,22 @@ ModelStats Model::stats() const {
     j.llvm_insts_before = js.llvm_insts_before;
     j.llvm_insts_after = js.llvm_insts_after;
   }
-  auto domain = [](const auto& slot, int lanes, ModelStats::Domain* d) {
+  auto domain = [](double compile_ms, int lanes, ModelStats::Domain* d) {
     d->compiled = true;
     d->lanes = lanes;
-    d->compile_ms = slot.compile_ms;
+    d->compile_ms = compile_ms;
   };
-  if (const jit::IntervalJit* code = c.interval.peek())
-    domain(c.interval, code->lanes(), &s.interval);
-  if (const jit::PolyJit* code = c.poly_jit.peek()) {
-    domain(c.poly_jit, code->lanes(), &s.polynomial);
+  if (const jit::IntervalJit* code = c.interval->peek()) {
+    domain(c.interval->compile_ms(), code->lanes(), &s.interval);
   }
-  if (const jit::GradientJit* code = c.gradient[0].peek()) {
-    domain(c.gradient[0], code->lanes(), &s.gradient_f64);
+  if (const jit::PolyJit* code = c.poly->peek()) {
+    domain(c.poly->compile_ms(), code->lanes(), &s.polynomial);
   }
-  if (const jit::GradientJit* code = c.gradient[1].peek()) {
-    domain(c.gradient[1], code->lanes(), &s.gradient_f32);
+  if (const jit::GradientJit* code = c.gradient->peek(jit::Precision::kF64)) {
+    domain(c.gradient->compile_ms(jit::Precision::kF64), code->lanes(), &s.gradient_f64);
+  }
+  if (const jit::GradientJit* code = c.gradient->peek(jit::Precision::kF32)) {
+    domain(c.gradient->compile_ms(jit::Precision::kF32), code->lanes(), &s.gradient_f32);
   }
   return s;
 }

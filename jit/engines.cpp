@@ -1,0 +1,234 @@
+// The per-domain engines of one lowered object (engines.h).
+#include "jit/engines.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstring>
+
+#include "base/check.h"
+
+namespace hfrt::jit {
+
+// --- Scalar domain ----------------------------------------------------------------------------
+
+ScalarEngine::ScalarEngine(const Function& fn, const EngineOptions& options)
+    : fn_(fn), options_(options), interp_(std::make_unique<Interpreter>(fn)) {}
+
+const JitFunction* ScalarEngine::code(Precision p) const {
+  if (!options_.use_jit) return nullptr;
+  return jit_[index(p)].get([&] {
+    JitOptions options;
+    options.opt_level = options_.opt_level;
+    options.lanes = options_.lanes;
+    return JitFunction::compile(fn_, p, options);
+  });
+}
+
+namespace {
+template <typename T>
+void interp_batch(const Function& fn, const Interpreter& interp, const std::vector<double>& a,
+                  int64_t n, const T* xs, T* out_f, T* out_s) {
+  const int nx = fn.num_inputs;
+  std::vector<double> x(static_cast<size_t>(std::max(nx, 0)));
+  for (int64_t i = 0; i < n; ++i) {
+    for (int k = 0; k < nx; ++k) x[k] = static_cast<double>(xs[k * n + i]);
+    EvalResult r = interp.eval(x, a);
+    out_f[i] = static_cast<T>(r.value);
+    if (out_s) {
+      for (size_t k = 0; k < fn.s_slots.size(); ++k) {
+        double v = r.error ? std::nan("") : (k < r.s.size() ? r.s[k] : std::nan(""));
+        out_s[k * n + i] = static_cast<T>(v);
+      }
+    }
+  }
+}
+}  // namespace
+
+void ScalarEngine::eval_batch(int64_t n, const double* xs, const std::vector<double>& a64,
+                              double* out_f, double* out_s) const {
+  if (const JitFunction* jit = code(Precision::kF64)) {
+    jit->f64()(n, xs, a64.data(), out_f, out_s);
+  } else {
+    interp_batch(fn_, *interp_, a64, n, xs, out_f, out_s);
+  }
+}
+
+void ScalarEngine::eval_batch(int64_t n, const float* xs, const std::vector<float>& a32,
+                              const std::vector<double>& a64, float* out_f, float* out_s) const {
+  if (const JitFunction* jit = code(Precision::kF32)) {
+    jit->f32()(n, xs, a32.data(), out_f, out_s);
+  } else {
+    interp_batch(fn_, *interp_, a64, n, xs, out_f, out_s);
+  }
+}
+
+void ScalarEngine::eval_batch_sign(int64_t n, const float* xs, const std::vector<float>& a32,
+                                   const std::vector<double>& a64, float* out_f) const {
+  if (fn_.surfaces.empty() || !options_.use_jit) {
+    eval_batch(n, xs, a32, a64, out_f, nullptr);
+    return;
+  }
+  const JitFunction* jit = sign_.get([&] {
+    JitOptions options;
+    options.opt_level = options_.opt_level;
+    // One lane: the caller (the analytic root search) passes a few points per call, and a
+    // wide block would evaluate its padding lanes' winding numbers too, which dominate the
+    // cost; the rest of the code is cheap next to them.
+    options.lanes = 1;
+    options.surface_sign_only = true;
+    return JitFunction::compile(fn_, Precision::kF32, options);
+  });
+  if (!jit) {
+    eval_batch(n, xs, a32, a64, out_f, nullptr);
+    return;
+  }
+  jit->f32()(n, xs, a32.data(), out_f, nullptr);
+}
+
+// --- Interval domain --------------------------------------------------------------------------
+
+IntervalEngine::IntervalEngine(const Function& fn, const EngineOptions& options)
+    : fn_(fn), options_(options), pool_(fn) {}
+
+const IntervalJit* IntervalEngine::code() const {
+  if (!options_.interval_jit) return nullptr;
+  return jit_.get([&] {
+    // O1: the interval code is large (three values per op, rounding); O2 buys little over
+    // O1 and costs much compile time (see llvm_interval.cpp).
+    IntervalJit::Options options;
+    options.opt_level = std::min(options_.opt_level, 1);
+    options.lanes = options_.interval_lanes;
+    return IntervalJit::compile(fn_, options);
+  });
+}
+
+Interval IntervalEngine::eval(std::span<const double> lo, std::span<const double> hi,
+                              const std::vector<double>& a, std::vector<uint8_t>* choices) const {
+  const int nx = fn_.num_inputs;
+  if (const IntervalJit* jit = code()) {
+    // One box: the JIT pads its SIMD block with copies of it (the per-lane helpers of the
+    // libm-based ops compute a copy once), from the caller's buffers, so no call allocates.
+    double out_lo = 0, out_hi = 0;
+    uint8_t out_nan = 0;
+    uint8_t* trace = nullptr;
+    if (choices) {
+      choices->assign(fn_.insts.size(), 0);
+      trace = choices->data();
+    }
+    jit->eval(1, lo.data(), hi.data(), a, &out_lo, &out_hi, &out_nan, trace);
+    return {out_lo, out_hi, out_nan != 0};
+  }
+  std::vector<Interval> box(static_cast<size_t>(std::max(nx, 0)), Interval{});
+  for (int k = 0; k < nx; ++k) box[k] = Interval::of(lo[k], hi[k]);
+  return pool_.take()->eval(box, a, choices);
+}
+
+void IntervalEngine::eval_batch(int64_t n, const double* lo, const double* hi,
+                                const std::vector<double>& a, double* out_lo, double* out_hi,
+                                uint8_t* out_nan, uint8_t* choices) const {
+  const size_t ninsts = fn_.insts.size();
+  if (choices) std::memset(choices, 0, ninsts);
+  if (n <= 0) return;
+  if (const IntervalJit* jit = code()) {
+    jit->eval(n, lo, hi, a, out_lo, out_hi, out_nan, choices);
+    return;
+  }
+  const int nx = fn_.num_inputs;
+  auto ii = pool_.take();
+  std::vector<Interval> box(static_cast<size_t>(std::max(nx, 0)));
+  std::vector<uint8_t> one;
+  for (int64_t i = 0; i < n; ++i) {
+    for (int k = 0; k < nx; ++k) box[k] = Interval::of(lo[k * n + i], hi[k * n + i]);
+    Interval r = ii->eval(box, a, choices ? &one : nullptr);
+    out_lo[i] = r.lo;
+    out_hi[i] = r.hi;
+    out_nan[i] = r.maybe_nan ? 1 : 0;
+    if (choices) {
+      for (size_t j = 0; j < ninsts && j < one.size(); ++j) choices[j] |= one[j];
+    }
+  }
+}
+
+// --- Gradient domain --------------------------------------------------------------------------
+
+GradientEngine::GradientEngine(const Function& fn, const EngineOptions& options)
+    : fn_(fn), options_(options), pool_(fn) {}
+
+const GradientJit* GradientEngine::code(Precision p) const {
+  if (!options_.gradient_jit) return nullptr;
+  return jit_[index(p)].get([&] {
+    GradientJit::Options options;
+    options.precision = p;
+    options.opt_level = std::min(options_.opt_level, 1);
+    return GradientJit::compile(fn_, options);
+  });
+}
+
+Dual GradientEngine::eval(std::span<const double> x, const std::vector<double>& a) const {
+  if (const GradientJit* jit = code(Precision::kF64)) return jit->eval_one(x, a);
+  return pool_.take()->eval(x, a);
+}
+
+template <typename T>
+void GradientEngine::interpret_batch(int64_t n, const T* xs, const std::vector<double>& a,
+                                     T* out) const {
+  const int nx = fn_.num_inputs;
+  auto gi = pool_.take();
+  std::vector<double> x(static_cast<size_t>(std::max(nx, 1)), 0.0);
+  for (int64_t i = 0; i < n; ++i) {
+    for (int k = 0; k < nx; ++k) x[k] = static_cast<double>(xs[k * n + i]);
+    Dual d = gi->eval(x, a);
+    out[i] = static_cast<T>(d.v);
+    for (int k = 0; k < 3; ++k) out[(k + 1) * n + i] = static_cast<T>(d.d[k]);
+  }
+}
+
+void GradientEngine::eval_batch(int64_t n, const double* xs, const std::vector<double>& a,
+                                double* out) const {
+  if (n <= 0) return;
+  if (const GradientJit* jit = code(Precision::kF64)) {
+    jit->eval(n, xs, a, out);
+  } else {
+    interpret_batch(n, xs, a, out);
+  }
+}
+
+void GradientEngine::eval_batch(int64_t n, const float* xs, const std::vector<double>& a,
+                                float* out) const {
+  if (n <= 0) return;
+  if (const GradientJit* jit = code(Precision::kF32)) {
+    jit->eval(n, xs, a, out);
+  } else {
+    interpret_batch(n, xs, a, out);
+  }
+}
+
+// --- Polynomial domain ------------------------------------------------------------------------
+
+PolyEngine::PolyEngine(const Function& fn, const EngineOptions& options)
+    : fn_(fn), options_(options) {}
+
+const PolyAnalysis& PolyEngine::analysis() const {
+  std::call_once(once_, [&] {
+    analysis_ = analyze_polynomial(fn_);
+    interp_ = std::make_unique<PolyInterpreter>(fn_, analysis_.program);
+  });
+  return analysis_;
+}
+
+const PolyJit* PolyEngine::code() const {
+  if (!options_.use_jit || !analysis().qualifies) return nullptr;
+  return jit_.get([&] { return PolyJit::compile(fn_, analysis_.program, 1, options_.opt_level); });
+}
+
+void PolyEngine::eval(const double o[3], const double d[3], const std::vector<double>& a,
+                      double* out) const {
+  if (const PolyJit* jit = code()) {
+    jit->eval_one(o, d, a, out);
+  } else {
+    analysis();
+    interp_->eval(o, d, a, out);
+  }
+}
+
+}  // namespace hfrt::jit

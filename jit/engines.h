@@ -1,0 +1,225 @@
+#pragma once
+// The evaluators of one lowered object, one engine per arithmetic domain (Fidget's
+// one-evaluator-per-arithmetic-type shape): each engine owns its choice between LLVM code
+// (compiled at most once, on first use or eagerly, then shared read-only by all threads) and
+// the reference interpreter (the interpreter backend, a large object, or a failed compile),
+// so that hfrt::Model (model.cpp) only forwards. Internal to jit/: embedders see hfrt/model.h.
+
+#include <atomic>
+#include <cstdint>
+#include <memory>
+#include <mutex>
+#include <span>
+#include <string>
+#include <vector>
+
+#include "base/interval.h"
+#include "base/timer.h"
+#include "ir/ir.h"
+#include "jit/gradient.h"
+#include "jit/interpreter.h"
+#include "jit/interval.h"
+#include "jit/llvm_jit.h"
+#include "jit/poly.h"
+
+namespace hfrt::jit {
+
+using namespace ::hfrt::ir;
+
+/// Instances of a stateful evaluator (the interval and gradient interpreters own their
+/// scratch memory, so one instance serves one thread at a time). A caller leases one and gives
+/// it back; the pool grows to the largest number of concurrent callers seen.
+template <typename T>
+class Pool {
+ public:
+  class Lease {
+   public:
+    Lease(Pool* pool, std::unique_ptr<T> item) : pool_(pool), item_(std::move(item)) {}
+    Lease(Lease&&) = default;
+    ~Lease() {
+      if (item_) pool_->give_back(std::move(item_));
+    }
+    T* operator->() const { return item_.get(); }
+
+   private:
+    Pool* pool_;
+    std::unique_ptr<T> item_;
+  };
+
+  explicit Pool(const Function& fn) : fn_(fn) {}
+
+  Lease take() {
+    {
+      std::lock_guard<std::mutex> lock(mutex_);
+      if (!free_.empty()) {
+        std::unique_ptr<T> item = std::move(free_.back());
+        free_.pop_back();
+        return Lease(this, std::move(item));
+      }
+    }
+    return Lease(this, std::make_unique<T>(fn_));
+  }
+
+ private:
+  void give_back(std::unique_ptr<T> item) {
+    std::lock_guard<std::mutex> lock(mutex_);
+    free_.push_back(std::move(item));
+  }
+
+  const Function& fn_;
+  std::mutex mutex_;
+  std::vector<std::unique_ptr<T>> free_;
+};
+
+/// Lazily compiled code: compiled at most once, by the first thread that needs it (the others
+/// wait on the once_flag), then shared read-only. `state` lets readers that must not compile
+/// (stats, engine queries) look without a data race.
+template <typename Code>
+struct LazySlot {
+  std::once_flag once;
+  std::unique_ptr<Code> code;
+  std::string error;
+  double compile_ms = 0;
+  std::atomic<int> state{0};  ///< 0 not compiled yet, 1 compiled, 2 failed
+
+  template <typename Compile>
+  const Code* get(Compile&& compile) {
+    std::call_once(once, [&] {
+      const auto t0 = Clock::now();
+      auto r = compile();
+      compile_ms = ms_since(t0);
+      if (r.ok()) {
+        code = std::move(r.value());
+        state.store(1, std::memory_order_release);
+      } else {
+        error = r.error().message;
+        state.store(2, std::memory_order_release);
+      }
+    });
+    return code.get();
+  }
+  /// The code if it is compiled already (never compiles).
+  const Code* peek() const {
+    return state.load(std::memory_order_acquire) == 1 ? code.get() : nullptr;
+  }
+};
+
+/// How an object's engines are built (from ModelOptions and the object's size).
+struct EngineOptions {
+  bool use_jit = true;  ///< false: the interpreter backend, every domain interpreted
+  int opt_level = 2;
+  int lanes = 0;              ///< scalar JIT lanes (0: host width)
+  int interval_lanes = 0;     ///< interval JIT lanes (0: host width)
+  bool interval_jit = false;  ///< the interval domain uses the JIT (else the interpreter)
+  bool gradient_jit = false;  ///< the gradient domain uses the JIT
+};
+
+/// The scalar domain: F and s[] at points, f64 and f32.
+class ScalarEngine {
+ public:
+  ScalarEngine(const Function& fn, const EngineOptions& options);
+  /// The JIT code of a precision (compiled on first use), or null: interpreter backend or
+  /// failed compile (error() says why).
+  const JitFunction* code(Precision p) const;
+  /// The code if already compiled (never compiles; for statistics).
+  const JitFunction* peek(Precision p) const { return jit_[index(p)].peek(); }
+  const std::string& error(Precision p) const { return jit_[index(p)].error; }
+  /// The reference interpreter (also explains the NaN of a JIT result: the error and where).
+  const Interpreter& interpreter() const { return *interp_; }
+  /// n points, structure of arrays (hfrt::Model::eval_batch). `a64`/`a32`: the parameters.
+  void eval_batch(int64_t n, const double* xs, const std::vector<double>& a64, double* out_f,
+                  double* out_s) const;
+  void eval_batch(int64_t n, const float* xs, const std::vector<float>& a32,
+                  const std::vector<double>& a64, float* out_f, float* out_s) const;
+  /// Like the f32 eval_batch but mesh and patch leaves give +1/-1 (Model::eval_batch_sign).
+  void eval_batch_sign(int64_t n, const float* xs, const std::vector<float>& a32,
+                       const std::vector<double>& a64, float* out_f) const;
+
+ private:
+  static int index(Precision p) { return p == Precision::kF64 ? 0 : 1; }
+  const Function& fn_;
+  EngineOptions options_;
+  std::unique_ptr<Interpreter> interp_;
+  mutable LazySlot<JitFunction> jit_[2];
+  /// f32 code with JitOptions::surface_sign_only.
+  mutable LazySlot<JitFunction> sign_;
+};
+
+/// The interval domain: sound enclosures over boxes (jit/interval.h).
+class IntervalEngine {
+ public:
+  IntervalEngine(const Function& fn, const EngineOptions& options);
+  /// The JIT, or null when the interpreter must be used (compiles on first call).
+  const IntervalJit* code() const;
+  const IntervalJit* peek() const { return jit_.peek(); }
+  bool uses_jit() const { return options_.interval_jit && jit_.state.load() != 2; }
+  bool wants_jit() const { return options_.interval_jit; }
+  const std::string& error() const { return jit_.error; }
+  double compile_ms() const { return jit_.compile_ms; }
+  /// One box (coordinates lo[k] <= hi[k] for every input; the caller pads).
+  Interval eval(std::span<const double> lo, std::span<const double> hi,
+                const std::vector<double>& a, std::vector<uint8_t>* choices) const;
+  /// n boxes, structure of arrays (Model::eval_interval_batch).
+  void eval_batch(int64_t n, const double* lo, const double* hi, const std::vector<double>& a,
+                  double* out_lo, double* out_hi, uint8_t* out_nan, uint8_t* choices) const;
+
+ private:
+  const Function& fn_;
+  EngineOptions options_;
+  mutable LazySlot<IntervalJit> jit_;
+  mutable Pool<IntervalInterpreter> pool_;
+};
+
+/// The gradient domain: F and dF/dx[1..3] by forward-mode AD (jit/gradient.h).
+class GradientEngine {
+ public:
+  GradientEngine(const Function& fn, const EngineOptions& options);
+  const GradientJit* code(Precision p) const;
+  const GradientJit* peek(Precision p) const { return jit_[index(p)].peek(); }
+  bool uses_jit(Precision p) const {
+    return options_.gradient_jit && jit_[index(p)].state.load() != 2;
+  }
+  bool wants_jit() const { return options_.gradient_jit; }
+  const std::string& error(Precision p) const { return jit_[index(p)].error; }
+  double compile_ms(Precision p) const { return jit_[index(p)].compile_ms; }
+  /// One point (padded to the object's inputs by the caller).
+  Dual eval(std::span<const double> x, const std::vector<double>& a) const;
+  void eval_batch(int64_t n, const double* xs, const std::vector<double>& a, double* out) const;
+  void eval_batch(int64_t n, const float* xs, const std::vector<double>& a, float* out) const;
+
+ private:
+  static int index(Precision p) { return p == Precision::kF64 ? 0 : 1; }
+  template <typename T>
+  void interpret_batch(int64_t n, const T* xs, const std::vector<double>& a, T* out) const;
+  const Function& fn_;
+  EngineOptions options_;
+  mutable LazySlot<GradientJit> jit_[2];
+  mutable Pool<GradientInterpreter> pool_;
+};
+
+/// The polynomial domain (analytic ray tracing): the analysis, computed on first use, and the
+/// coefficients of every leaf along a ray (jit/poly.h).
+class PolyEngine {
+ public:
+  PolyEngine(const Function& fn, const EngineOptions& options);
+  const PolyAnalysis& analysis() const;
+  /// The JIT (one ray per call), or null: interpreter backend, an object that does not
+  /// qualify, or a failed compile.
+  const PolyJit* code() const;
+  const PolyJit* peek() const { return jit_.peek(); }
+  bool wants_jit() const { return options_.use_jit; }
+  const std::string& error() const { return jit_.error; }
+  double compile_ms() const { return jit_.compile_ms; }
+  /// Every leaf's coefficients for the ray o + t d (analysis().program.leaves * kPolyCoeffs).
+  void eval(const double o[3], const double d[3], const std::vector<double>& a, double* out) const;
+
+ private:
+  const Function& fn_;
+  EngineOptions options_;
+  mutable std::once_flag once_;
+  mutable PolyAnalysis analysis_;
+  mutable std::unique_ptr<PolyInterpreter> interp_;
+  mutable LazySlot<PolyJit> jit_;
+};
+
+}  // namespace hfrt::jit
