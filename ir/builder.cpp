@@ -1,6 +1,6 @@
 // IrBuilder: the only way IR is made. Three local optimisations happen as instructions are
 // appended, so every producer (the AST lowering, the library in stdlib/) gets them for free:
-//  - constant folding of pure ops through jit/scalar_ops.h, the same code the interpreter
+//  - constant folding of pure ops through ir/scalar_ops.h, the same code the interpreter
 //    runs, so folding never changes a value;
 //  - common-subexpression sharing (hash-consing) of pure ops and of identical checks, scoped
 //    to the regions that enclose the insertion point;

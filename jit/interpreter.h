@@ -1,6 +1,6 @@
 #pragma once
 // The reference interpreter: evaluates a Function in double precision, instruction by
-// instruction, exactly as ir_ops.h defines each op (through jit/scalar_ops.h). It is the
+// instruction, exactly as ir_ops.h defines each op (through ir/scalar_ops.h). It is the
 // oracle every other evaluator (LLVM scalar, interval, gradient, ...) is tested against, and
 // the one evaluator that can say which run-time error happened and where.
 

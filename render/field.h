@@ -1,6 +1,6 @@
 #pragma once
 // Field: how the renderer sees a model. The renderer never talks to the compiler or the JIT
-// directly; tools/hfrt adapts a compiled hfrt::Model to this interface, and tests implement it
+// directly; app/ (app/model_field.h) adapts a compiled hfrt::Model to this interface, and tests implement it
 // analytically (sphere, thin shell, torus). That keeps render/ free of LLVM and of jit/
 // internals, and testable against exact answers.
 //

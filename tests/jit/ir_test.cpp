@@ -1,4 +1,4 @@
-// The op table, the verifier and the printer of jit/ir.h.
+// The op table, the verifier and the printer of ir/ (ir.h, verify.h, print.h).
 #include "ir/ir.h"
 
 #include <gtest/gtest.h>
