@@ -503,7 +503,7 @@ bool Model::prepare_polynomial(std::string* error) const {
 }
 
 std::string Model::ir_text() const {
-  return jit::print(impl_->compiled->fn);
+  return ir::print(impl_->compiled->fn);
 }
 
 std::string Model::llvm_ir(Precision precision) const {

@@ -40,6 +40,7 @@
 #include <memory>
 #include <span>
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include "base/result.h"
@@ -120,6 +121,15 @@ struct PolyAnalysis {
   PolyProgram program;            ///< valid when qualifies
   std::vector<ValueId> skeleton;  ///< IR values of the skeleton's nodes (tests, debugging)
 };
+
+/// The name of a PolyOp as the printer writes it ("mul", "scalar", ...).
+std::string_view poly_op_name(PolyOp op);
+
+/// Text form of a polynomial program (`hfrt ir --poly`, tests), like the IR's printer: one
+/// register per line with its degree bound and the IR value it computes, e.g.
+/// `r4 = mul r2, r3    ; deg 2`, then the leaves (`leaf 0 = r7 ; deg 2, %12`) and the
+/// surface leaves.
+std::string print(const PolyProgram& program);
 
 /// Classifies the function and, when it qualifies, builds the leaves' program. Pure; linear
 /// in the number of instructions.

@@ -12,6 +12,7 @@
 #include <filesystem>
 #include <functional>
 #include <random>
+#include <sstream>
 #include <string>
 #include <unordered_map>
 #include <vector>
@@ -239,6 +240,27 @@ TEST(PolyAnalysis, SkeletonOfAUnionHasTheRFunctionNode) {
 }
 
 // ---- leaf polynomials against the scalar values ------------------------------------------
+
+// The printer lists every register with its op, operands and degree, then the leaves.
+TEST(PolyPrint, ListsEveryRegisterAndLeaf) {
+  PolyAnalysis p =
+      analyze("my_model(x[3], a[1]) { my_model = 1 - (x[1]*x[1] + x[2]*x[2] + x[3]*x[3]); }");
+  ASSERT_TRUE(p.qualifies) << p.reason;
+  const std::string text = print(p.program);
+  size_t regs = 0, leaves = 0;
+  std::istringstream in(text);
+  for (std::string line; std::getline(in, line);) {
+    if (line.rfind("r", 0) == 0) ++regs;
+    if (line.rfind("leaf ", 0) == 0) ++leaves;
+  }
+  EXPECT_EQ(regs, p.program.insts.size()) << text;
+  EXPECT_EQ(leaves, p.program.leaves.size()) << text;
+  EXPECT_NE(text.find("= input x[1]"), std::string::npos) << text;
+  EXPECT_NE(text.find("= mul r"), std::string::npos) << text;
+  EXPECT_NE(text.find("; deg 2"), std::string::npos) << text;
+  EXPECT_NE(text.find("leaf 0 = r"), std::string::npos) << text;
+  EXPECT_EQ(poly_op_name(PolyOp::kSelect), "select");
+}
 
 TEST(PolyInterpreter, LeafPolynomialsMatchLeafValues) {
   int checked_exact = 0, checked_surrogate = 0;

@@ -1,4 +1,4 @@
-// `hfrt ir FILE [--object NAME]`: print the IR of one object (default: the model, i.e.
+// `hfrt ir FILE [--object NAME] [--poly]`: print the IR of one object (default: the model, i.e.
 // `my_model` if present, else the first object) after lowering, folding and sharing.
 //
 // Exit codes: 0 = printed, 1 = the file has errors or no such object, 2 = unreadable file.
@@ -14,6 +14,7 @@
 #include "ir/ir.h"
 #include "ir/print.h"
 #include "jit/driver.h"
+#include "jit/poly.h"
 #include "tools/hfrt/commands.h"
 
 namespace hfrt::tools {
@@ -22,6 +23,7 @@ namespace {
 struct IrOptions {
   std::string file;
   std::string object;
+  bool poly = false;
 };
 
 int run_ir(const IrOptions& opts) {
@@ -40,6 +42,20 @@ int run_ir(const IrOptions& opts) {
   if (!report_no_object(lowered, opts.file) || !lowered.ok()) return 1;
   const ir::Function& fn = lowered.fn;
   std::string out = ir::print(fn);
+  if (opts.poly) {
+    // The polynomial domain's program (analytic ray tracing), or why the object has none.
+    const jit::PolyAnalysis analysis = jit::analyze_polynomial(fn);
+    if (analysis.qualifies) {
+      out += "; polynomial program\n" + jit::print(analysis.program);
+    } else {
+      out += "; not analytic: " + analysis.reason;
+      if (analysis.loc.line > 0) {
+        out += " at " + opts.file + ":" + std::to_string(analysis.loc.line) + ":" +
+               std::to_string(analysis.loc.col);
+      }
+      out += "\n";
+    }
+  }
   std::fwrite(out.data(), 1, out.size(), stdout);
   std::fflush(stdout);
   return 0;
@@ -54,6 +70,9 @@ CommandRunner register_ir(CLI::App& app) {
   cmd->add_option("file", opts->file, "HyperFun source file (.hf)")->required();
   cmd->add_option("--object", opts->object,
                   "Object to print (default: my_model if present, else the first object)");
+  cmd->add_flag("--poly", opts->poly,
+                "Also print the polynomial program of the analytic root search (or why the "
+                "object has none)");
   return [opts] { return run_ir(*opts); };
 }
 
