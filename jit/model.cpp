@@ -178,8 +178,7 @@ CompileResult Model::compile(std::string_view source, const ModelOptions& option
     d.message = lowered.no_object;
     d.hint = lowered.no_object_hint;
     result.diagnostics.push_back(d);
-    result.rendered += impl->file->name() + ": error: " + d.message +
-                       (d.hint.empty() ? "" : "\n  hint: " + d.hint) + "\n";
+    result.rendered += lang::render_brief(d.file, lang::Severity::kError, d.message, d.hint);
     return result;
   }
   if (!lowered.ok()) return result;

@@ -74,6 +74,23 @@ std::string DiagnosticSink::render(bool color) const {
   return out;
 }
 
+std::string render_brief(std::string_view where, Severity severity, std::string_view message,
+                         std::string_view hint) {
+  std::string out;
+  out += where;
+  out += ": ";
+  out += severity_name(severity);
+  out += ": ";
+  out += message;
+  out += '\n';
+  if (!hint.empty()) {
+    out += "  hint: ";
+    out += hint;
+    out += '\n';
+  }
+  return out;
+}
+
 std::string render_diagnostic(const SourceFile& file, const Diagnostic& diag, bool color) {
   const char* bold = color ? "\033[1m" : "";
   const char* reset = color ? "\033[0m" : "";

@@ -4,6 +4,7 @@
 
 #include <memory>
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include "lang/source.h"
@@ -58,6 +59,13 @@ class DiagnosticSink {
   int warning_count_ = 0;
   bool truncated_ = false;
 };
+
+/// The brief form of a diagnostic, without the source excerpt: `where: severity: message` and,
+/// when there is a hint, `  hint: hint` on the next line (each line ends with a newline).
+/// `where` is `file`, `file:line:col` or any other location text. For diagnostics whose
+/// source is not at hand (the REPL's re-located ones, a missing object).
+std::string render_brief(std::string_view where, Severity severity, std::string_view message,
+                         std::string_view hint = {});
 
 /// Renders one diagnostic against `file` (shared by the sink and by run-time error reports).
 std::string render_diagnostic(const SourceFile& file, const Diagnostic& diag, bool color);

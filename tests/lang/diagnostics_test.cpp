@@ -356,3 +356,21 @@ INSTANTIATE_TEST_SUITE_P(AllMessages, Message, ::testing::ValuesIn(kMessages),
 
 }  // namespace
 }  // namespace hfrt::lang
+
+namespace hfrt::lang {
+namespace {
+
+// The brief form (no source excerpt) used by the REPL, `hfrt ir` and Model::compile for a
+// missing object: one located line, then the hint indented.
+TEST(RenderBrief, LocationSeverityMessageAndHint) {
+  EXPECT_EQ(render_brief("m.hf:3:7", Severity::kWarning, "unused variable 'k'"),
+            "m.hf:3:7: warning: unused variable 'k'\n");
+  EXPECT_EQ(render_brief("m.hf", Severity::kError, "no object named 'x' in the file",
+                         "the objects are: a, b"),
+            "m.hf: error: no object named 'x' in the file\n  hint: the objects are: a, b\n");
+  EXPECT_EQ(render_brief("<session>:2:1", Severity::kNote, "declared here"),
+            "<session>:2:1: note: declared here\n");
+}
+
+}  // namespace
+}  // namespace hfrt::lang

@@ -8,6 +8,7 @@
 #include <vector>
 
 #include "jit/driver.h"
+#include "lang/diagnostics.h"
 #include "tools/hfrt/commands.h"
 
 namespace hfrt::tools {
@@ -21,8 +22,8 @@ bool use_color(int fd) {
 
 bool report_no_object(const jit::LoweredSource& lowered, const std::string& file) {
   if (!lowered.program || lowered.object >= 0) return true;
-  std::string text = file + ": error: " + lowered.no_object + "\n";
-  if (!lowered.no_object_hint.empty()) text += "  hint: " + lowered.no_object_hint + "\n";
+  const std::string text =
+      lang::render_brief(file, lang::Severity::kError, lowered.no_object, lowered.no_object_hint);
   std::fputs(text.c_str(), stderr);
   return false;
 }

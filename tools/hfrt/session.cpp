@@ -14,6 +14,7 @@
 #include "app/model_field.h"
 #include "base/check.h"
 #include "base/timer.h"
+#include "lang/diagnostics.h"
 #include "lang/objects.h"
 
 namespace hfrt::tools {
@@ -64,11 +65,11 @@ std::string format_diagnostics(const CompileResult& r, int line_offset, std::str
     std::string where =
         line > 0 ? std::string(file) + ":" + std::to_string(line) + ":" + std::to_string(d.col)
                  : "<session>:" + std::to_string(d.line) + ":" + std::to_string(d.col);
-    const char* sev = d.severity == SourceDiagnostic::Severity::kError     ? "error"
-                      : d.severity == SourceDiagnostic::Severity::kWarning ? "warning"
-                                                                           : "note";
-    out += where + ": " + sev + ": " + d.message + "\n";
-    if (!d.hint.empty()) out += "  hint: " + d.hint + "\n";
+    const lang::Severity sev =
+        d.severity == SourceDiagnostic::Severity::kError     ? lang::Severity::kError
+        : d.severity == SourceDiagnostic::Severity::kWarning ? lang::Severity::kWarning
+                                                             : lang::Severity::kNote;
+    out += lang::render_brief(where, sev, d.message, d.hint);
   }
   if (out.empty()) out = r.rendered;
   return out;
