@@ -7,6 +7,7 @@ set -euo pipefail
 packages=(
   build-essential cmake ninja-build pkg-config
   python3  # scripts/check-layers.py (a test of make test)
+  povray   # the independent reference of the `hfrt emit --pov` tests
   llvm-19-dev
   libcli11-dev
   libopenimageio-dev openimageio-tools libopencv-core-dev
@@ -19,7 +20,6 @@ packages=(
   zlib1g-dev libzstd-dev
 )
 if [[ "${1:-}" == "--bench" ]]; then
-  packages+=(povray python3)  # bench/peers/povray is a Python 3 script
   packages+=(libembree-dev)   # optional: hfrt_bench_mesh compares against Embree when found
 fi
 

@@ -132,9 +132,10 @@ TEST_F(EmitCliTest, KeywordObjectNamesArePrefixed) {
 }
 
 TEST_F(EmitCliTest, PovRayRendersTheScene) {
-  if (std::system("command -v povray > /dev/null 2>&1") != 0) {
-    GTEST_SKIP() << "povray is not installed (scripts/install-deps.sh --bench)";
-  }
+  // POV-Ray is an independent reference: the set-up installs it (scripts/install-deps.sh), and
+  // a missing one fails the test rather than skipping it.
+  ASSERT_EQ(std::system("command -v povray > /dev/null 2>&1"), 0)
+      << "povray is not installed: run scripts/install-deps.sh";
   CliRun r = emit("--pov torus.hf --eye 0,2,4 --look-at 0,0,0 --bbox 1.5 --size 32x32 -o t.pov");
   ASSERT_EQ(r.exit_code, 0) << r.err;
   CliRun p = run("povray +It.pov +Ot.png +W32 +H32 -D -P +WT1");
@@ -164,9 +165,10 @@ double coverage_difference(const fs::path& a, const fs::path& b) {
 TEST_F(EmitCliTest, PovRayAndHfrtSeeTheSameSilhouette) {
   // An asymmetric model (a mirrored camera would move the bump to the other side) with a
   // non-square image and an off-axis camera: the two renders classify the same pixels.
-  if (std::system("command -v povray > /dev/null 2>&1") != 0) {
-    GTEST_SKIP() << "povray is not installed (scripts/install-deps.sh --bench)";
-  }
+  // POV-Ray is an independent reference: the set-up installs it (scripts/install-deps.sh), and
+  // a missing one fails the test rather than skipping it.
+  ASSERT_EQ(std::system("command -v povray > /dev/null 2>&1"), 0)
+      << "povray is not installed: run scripts/install-deps.sh";
   write("bump.hf",
         "my_model(x[3], a[1]) { array c[3]; c = [0.6, 0.3, 0]; b = hfSphere(x, c, 0.5);"
         " my_model = (0.8 - sqrt(x[1]*x[1] + x[2]*x[2] + x[3]*x[3])) | b; }\n");
