@@ -146,35 +146,16 @@ ValueId IrBuilder::param(int index0) {
 }
 
 ValueId IrBuilder::unary(Op op, ValueId a) {
-  HFRT_CHECK_MSG(op_num_args(op) == 1 && op_is_pure(op), "unary() with " << op_name(op));
+  HFRT_CHECK_MSG(op_num_args(op) == 1 && op_is_arith(op), "unary() with " << op_name(op));
   double ca;
   if (is_const(fn_, a, &ca)) return constant(apply_op(op, ca, 0, 0));
-  // Truth/Not/And/Or results are already 0/1: their truth value is themselves.
-  if (op == Op::kTruth) {
-    switch (fn_.insts[a].op) {
-      case Op::kLt:
-      case Op::kLe:
-      case Op::kGt:
-      case Op::kGe:
-      case Op::kEqTol:
-      case Op::kNeTol:
-      case Op::kEq:
-      case Op::kNe:
-      case Op::kTruth:
-      case Op::kAnd:
-      case Op::kOr:
-      case Op::kNot:
-        return a;
-      default:
-        break;
-    }
-  }
+  // Comparison and logic results are already 0/1: their truth value is themselves.
+  if (op == Op::kTruth && op_is_boolean(fn_.insts[a].op)) return a;
   return emit_pure(fn_, *impl_, loc_, op, a, kNoValue, kNoValue, 0, 0);
 }
 
 ValueId IrBuilder::binary(Op op, ValueId a, ValueId b) {
-  HFRT_CHECK_MSG(op_num_args(op) == 2 && op_is_pure(op) && op != Op::kTableLoad,
-                 "binary() with " << op_name(op));
+  HFRT_CHECK_MSG(op_num_args(op) == 2 && op_is_arith(op), "binary() with " << op_name(op));
   double ca, cb;
   if (is_const(fn_, a, &ca) && is_const(fn_, b, &cb)) return constant(apply_op(op, ca, cb, 0));
   return emit_pure(fn_, *impl_, loc_, op, a, b, kNoValue, 0, 0);

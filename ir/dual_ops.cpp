@@ -95,12 +95,6 @@ Dual apply_dual(Op op, const Dual& a, const Dual& b, const Dual& c) {
       return chain(v, a, std::sinh(a.v));
     case Op::kTanh:
       return chain(v, a, 1 - v * v);
-    case Op::kFloor:
-    case Op::kCeil:
-    case Op::kTrunc:
-    case Op::kRound:
-    case Op::kSign:
-      return flat(v);
     case Op::kFmod: {  // fmod(a, b) = a - q b with q = trunc(a / b) integral
       double q = std::round((a.v - v) / b.v);
       return chain2(v, a, 1, b, -q);
@@ -121,40 +115,16 @@ Dual apply_dual(Op op, const Dual& a, const Dual& b, const Dual& c) {
       }
       return chain2(v, a, v * b.v / a.v, b, v * std::log(a.v));
     }
-    case Op::kLt:
-    case Op::kLe:
-    case Op::kGt:
-    case Op::kGe:
-    case Op::kEqTol:
-    case Op::kNeTol:
-    case Op::kEq:
-    case Op::kNe:
-    case Op::kTruth:
-    case Op::kAnd:
-    case Op::kOr:
-    case Op::kNot:
+      // Floor, ceil, trunc, round, sign, comparisons and logic: zero derivative.
+      HFRT_OP_CASES_PIECEWISE_CONSTANT
       return flat(v);
     case Op::kSelect: {
       Dual r = a.v != 0 ? b : c;
       r.v = v;
       return r;
     }
-    case Op::kConst:
-    case Op::kInput:
-    case Op::kParam:
-    case Op::kLoadSlot:
-    case Op::kStoreSlot:
-    case Op::kLoadIdx:
-    case Op::kStoreIdx:
-    case Op::kTableLoad:
-    case Op::kCheck:
-    case Op::kIf:
-    case Op::kElse:
-    case Op::kEndIf:
-    case Op::kLoop:
-    case Op::kLoopTest:
-    case Op::kEndLoop:
-    case Op::kSurface:  // needs Function::surfaces: surface_dual (surface_ops.h)
+      // Not computed from arguments (kSurface: surface_dual in jit/surface_ops.h).
+      HFRT_OP_CASES_NON_ARITH
       break;
   }
   HFRT_CHECK_MSG(false, "apply_dual: op without arguments " << op_name(op));

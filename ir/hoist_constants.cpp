@@ -22,21 +22,7 @@ std::vector<double> hoist_constants(Function* fn) {
     ok[i] = fn->insts[i].op == Op::kConst && std::isfinite(fn->insts[i].imm);
   }
   for (const Inst& in : fn->insts) {
-    bool arithmetic = false;
-    switch (in.op) {
-      case Op::kAdd:
-      case Op::kSub:
-      case Op::kMul:
-      case Op::kDiv:
-      case Op::kMin:
-      case Op::kMax:
-      case Op::kNeg:
-      case Op::kStoreSlot:
-        arithmetic = true;
-        break;
-      default:
-        break;
-    }
+    const bool arithmetic = op_flags_of(in.op) & kHoistUse;
     for (ValueId a : in.args) {
       if (a == kNoValue) continue;
       used[size_t(a)] = 1;

@@ -531,22 +531,8 @@ Interval apply_interval(Op op, Interval a, Interval b, Interval c, bool same_arg
       if (!t.can_true) return c;
       return hull(b, c);
     }
-    case Op::kConst:
-    case Op::kInput:
-    case Op::kParam:
-    case Op::kLoadSlot:
-    case Op::kStoreSlot:
-    case Op::kLoadIdx:
-    case Op::kStoreIdx:
-    case Op::kTableLoad:
-    case Op::kCheck:
-    case Op::kIf:
-    case Op::kElse:
-    case Op::kEndIf:
-    case Op::kLoop:
-    case Op::kLoopTest:
-    case Op::kEndLoop:
-    case Op::kSurface:  // needs Function::surfaces: surface_interval (surface_ops.h)
+      // Not computed from arguments (kSurface: surface_interval in jit/surface_ops.h).
+      HFRT_OP_CASES_NON_ARITH
       break;
   }
   HFRT_CHECK_MSG(false, "apply_interval: op without arguments " << op_name(op));

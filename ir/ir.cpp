@@ -13,19 +13,25 @@ namespace hfrt::ir {
 
 namespace {
 
-using namespace op_flags;
-
-struct OpInfo {
-  std::string_view camel;  // as written in the X-macro, e.g. "LoadSlot"
-  int num_args;
-  unsigned flags;
-};
-
-constexpr std::array<OpInfo, kOpCount> kOpInfo = {{
-#define HFRT_X(name, n, f) {#name, n, f},
-    HFRT_IR_OPS(HFRT_X)
+// The columns of ir_ops.h agree with each other, for every op (a new op's row is checked
+// when it is added): the kinds computed from arguments are exactly the ops with a vector lane
+// and a polynomial rule, are pure values with arguments, and only they are traced; the C
+// function names are given exactly for the lanes that call one; kCtl is the kind Ctl.
+constexpr bool columns_agree(Op op) {
+  const bool arith = op_is_arith(op);
+  const OpLane lane = op_lane(op);
+  const bool calls = lane == OpLane::kIntrinsic || lane == OpLane::kLibm || lane == OpLane::kHelper;
+  const unsigned f = op_flags_of(op);
+  return arith == (lane != OpLane::kNone) && arith == (op_poly_rule(op) != OpPolyRule::kNA) &&
+         (!arith || (op_is_pure(op) && op_has_value(op) && op_num_args(op) > 0)) &&
+         calls == (op_libm_name(op, false) != nullptr) &&
+         calls == (op_libm_name(op, true) != nullptr) && (!(f & op_flags::kTraced) || arith) &&
+         ((f & op_flags::kCtl) != 0) == (op_kind(op) == OpKind::kCtl);
+}
+#define HFRT_X(name, ...) \
+  static_assert(columns_agree(Op::k##name), "ir_ops.h: the columns of " #name " disagree");
+HFRT_IR_OPS(HFRT_X)
 #undef HFRT_X
-}};
 
 constexpr std::array<std::string_view, 0
 #define HFRT_X(name, msg) +1
@@ -50,7 +56,7 @@ const std::array<std::string, kOpCount>& snake_names() {
   static const std::array<std::string, kOpCount> names = [] {
     std::array<std::string, kOpCount> out;
     for (int i = 0; i < kOpCount; ++i) {
-      std::string_view camel = kOpInfo[i].camel;
+      std::string_view camel = detail::kOpInfo[i].camel;
       std::string s;
       for (size_t j = 0; j < camel.size(); ++j) {
         char c = camel[j];
@@ -75,12 +81,6 @@ std::string format_double(double v) {
 
 std::string_view op_name(Op op) {
   return snake_names()[static_cast<int>(op)];
-}
-int op_num_args(Op op) {
-  return kOpInfo[static_cast<int>(op)].num_args;
-}
-unsigned op_flags_of(Op op) {
-  return kOpInfo[static_cast<int>(op)].flags;
 }
 
 std::string_view error_message(ErrorKind kind) {

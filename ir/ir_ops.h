@@ -1,12 +1,29 @@
 #pragma once
 // The one op list of hfrt's IR. Every evaluator (interpreter, scalar JIT, interval, gradient,
-// polynomial) is a switch over this list; adding an op here makes every switch that lacks it
-// fail to compile (-Wswitch), so no evaluator can silently miss an op.
+// polynomial, POV-Ray text) is a switch over this list without a `default:` (ir/ and jit/
+// build with -Werror=switch), so adding an op fails to compile until every domain handles it.
+// What several domains treat alike is a column here, not a hand-written case list: the
+// accessors and the generated case labels are in ir.h.
 //
-// X(Name, num_args, flags)
-//   flags: kPure   - no side effects, result depends only on args/imm (CSE and folding allowed)
-//          kValue  - produces a value (ValueId = instruction index)
-//          kCtl    - structured control flow marker
+// X(Name, num_args, flags, kind, lane, libm, poly)
+//   flags: kPure      - no side effects, result depends only on args/imm (CSE, folding allowed)
+//          kValue     - produces a value (ValueId = instruction index)
+//          kCtl       - structured control flow marker
+//          kHoistUse  - an argument may be a constant turned into a parameter (hoist_constants)
+//          kTraced    - records which operand can be chosen (the interval min/max/select trace)
+//   kind:  Leaf (kConst kInput kParam), Slot (slot loads and stores), Table, Surface, Check,
+//          Ctl (control markers), or one of the three kinds computed from the arguments by
+//          apply_op (scalar_ops.h): Arith; Step (piecewise constant: zero derivative, not 0/1);
+//          Bool (the result is always 0 or 1, hence also piecewise constant)
+//   lane:  how the vector emitters compute the value: None (not computed from arguments),
+//          Inline (vector code), Intrinsic (an IEEE-exact LLVM intrinsic), Libm (a per-lane call
+//          of the libm function `libm` / `libm`f, the very function the interpreter calls),
+//          Helper (a per-lane call of hfrt's C helper `libm`_f64 / `libm`_f32)
+//   libm:  the C function's name for the Intrinsic (its libm fallback), Libm and Helper lanes;
+//          `_` for none
+//   poly:  the rule of the polynomial analysis (jit/poly_analysis.cpp): NA (not computed from
+//          arguments; handled per op), None (not a polynomial unless independent of x), AddSub,
+//          Neg, Mul, Div, Sqrt, Pow, Select, MinMax (a set operation), Compare (0/1 values)
 //
 // Semantics (all values are f64 in the reference interpreter):
 //  kConst            imm
@@ -50,66 +67,66 @@
 // defined inside a region is used only inside it (values cross regions through slots); each
 // kLoop has exactly one kLoopTest at its own nesting level.
 
-#define HFRT_IR_OPS(X)            \
-  X(Const, 0, kPure | kValue)     \
-  X(Input, 0, kPure | kValue)     \
-  X(Param, 0, kPure | kValue)     \
-  X(LoadSlot, 0, kValue)          \
-  X(StoreSlot, 1, 0)              \
-  X(LoadIdx, 1, kValue)           \
-  X(StoreIdx, 2, 0)               \
-  X(TableLoad, 1, kPure | kValue) \
-  X(Add, 2, kPure | kValue)       \
-  X(Sub, 2, kPure | kValue)       \
-  X(Mul, 2, kPure | kValue)       \
-  X(Div, 2, kPure | kValue)       \
-  X(Neg, 1, kPure | kValue)       \
-  X(Abs, 1, kPure | kValue)       \
-  X(Min, 2, kPure | kValue)       \
-  X(Max, 2, kPure | kValue)       \
-  X(Sqrt, 1, kPure | kValue)      \
-  X(Exp, 1, kPure | kValue)       \
-  X(Log, 1, kPure | kValue)       \
-  X(Log10, 1, kPure | kValue)     \
-  X(Sin, 1, kPure | kValue)       \
-  X(Cos, 1, kPure | kValue)       \
-  X(Tan, 1, kPure | kValue)       \
-  X(Asin, 1, kPure | kValue)      \
-  X(Acos, 1, kPure | kValue)      \
-  X(Atan, 1, kPure | kValue)      \
-  X(Atan2, 2, kPure | kValue)     \
-  X(Sinh, 1, kPure | kValue)      \
-  X(Cosh, 1, kPure | kValue)      \
-  X(Tanh, 1, kPure | kValue)      \
-  X(Floor, 1, kPure | kValue)     \
-  X(Ceil, 1, kPure | kValue)      \
-  X(Trunc, 1, kPure | kValue)     \
-  X(Round, 1, kPure | kValue)     \
-  X(Fmod, 2, kPure | kValue)      \
-  X(Pow, 2, kPure | kValue)       \
-  X(PowHF, 2, kPure | kValue)     \
-  X(Sign, 1, kPure | kValue)      \
-  X(Lt, 2, kPure | kValue)        \
-  X(Le, 2, kPure | kValue)        \
-  X(Gt, 2, kPure | kValue)        \
-  X(Ge, 2, kPure | kValue)        \
-  X(EqTol, 2, kPure | kValue)     \
-  X(NeTol, 2, kPure | kValue)     \
-  X(Eq, 2, kPure | kValue)        \
-  X(Ne, 2, kPure | kValue)        \
-  X(Truth, 1, kPure | kValue)     \
-  X(And, 2, kPure | kValue)       \
-  X(Or, 2, kPure | kValue)        \
-  X(Not, 1, kPure | kValue)       \
-  X(Select, 3, kPure | kValue)    \
-  X(Surface, 3, kPure | kValue)   \
-  X(Check, 1, 0)                  \
-  X(If, 1, kCtl)                  \
-  X(Else, 0, kCtl)                \
-  X(EndIf, 0, kCtl)               \
-  X(Loop, 0, kCtl)                \
-  X(LoopTest, 1, kCtl)            \
-  X(EndLoop, 0, kCtl)
+#define HFRT_IR_OPS(X)                                                      \
+  X(Const, 0, kPure | kValue, Leaf, None, _, NA)                            \
+  X(Input, 0, kPure | kValue, Leaf, None, _, NA)                            \
+  X(Param, 0, kPure | kValue, Leaf, None, _, NA)                            \
+  X(LoadSlot, 0, kValue, Slot, None, _, NA)                                 \
+  X(StoreSlot, 1, kHoistUse, Slot, None, _, NA)                             \
+  X(LoadIdx, 1, kValue, Slot, None, _, NA)                                  \
+  X(StoreIdx, 2, 0, Slot, None, _, NA)                                      \
+  X(TableLoad, 1, kPure | kValue, Table, None, _, NA)                       \
+  X(Add, 2, kPure | kValue | kHoistUse, Arith, Inline, _, AddSub)           \
+  X(Sub, 2, kPure | kValue | kHoistUse, Arith, Inline, _, AddSub)           \
+  X(Mul, 2, kPure | kValue | kHoistUse, Arith, Inline, _, Mul)              \
+  X(Div, 2, kPure | kValue | kHoistUse, Arith, Inline, _, Div)              \
+  X(Neg, 1, kPure | kValue | kHoistUse, Arith, Inline, _, Neg)              \
+  X(Abs, 1, kPure | kValue, Arith, Inline, _, None)                         \
+  X(Min, 2, kPure | kValue | kHoistUse | kTraced, Arith, Inline, _, MinMax) \
+  X(Max, 2, kPure | kValue | kHoistUse | kTraced, Arith, Inline, _, MinMax) \
+  X(Sqrt, 1, kPure | kValue, Arith, Intrinsic, sqrt, Sqrt)                  \
+  X(Exp, 1, kPure | kValue, Arith, Libm, exp, None)                         \
+  X(Log, 1, kPure | kValue, Arith, Libm, log, None)                         \
+  X(Log10, 1, kPure | kValue, Arith, Libm, log10, None)                     \
+  X(Sin, 1, kPure | kValue, Arith, Libm, sin, None)                         \
+  X(Cos, 1, kPure | kValue, Arith, Libm, cos, None)                         \
+  X(Tan, 1, kPure | kValue, Arith, Libm, tan, None)                         \
+  X(Asin, 1, kPure | kValue, Arith, Libm, asin, None)                       \
+  X(Acos, 1, kPure | kValue, Arith, Libm, acos, None)                       \
+  X(Atan, 1, kPure | kValue, Arith, Libm, atan, None)                       \
+  X(Atan2, 2, kPure | kValue, Arith, Libm, atan2, None)                     \
+  X(Sinh, 1, kPure | kValue, Arith, Libm, sinh, None)                       \
+  X(Cosh, 1, kPure | kValue, Arith, Libm, cosh, None)                       \
+  X(Tanh, 1, kPure | kValue, Arith, Libm, tanh, None)                       \
+  X(Floor, 1, kPure | kValue, Step, Intrinsic, floor, None)                 \
+  X(Ceil, 1, kPure | kValue, Step, Intrinsic, ceil, None)                   \
+  X(Trunc, 1, kPure | kValue, Step, Intrinsic, trunc, None)                 \
+  X(Round, 1, kPure | kValue, Step, Intrinsic, round, None)                 \
+  X(Fmod, 2, kPure | kValue, Arith, Libm, fmod, None)                       \
+  X(Pow, 2, kPure | kValue, Arith, Libm, pow, Pow)                          \
+  X(PowHF, 2, kPure | kValue, Arith, Helper, hfrt_jit_powhf, Pow)           \
+  X(Sign, 1, kPure | kValue, Step, Inline, _, None)                         \
+  X(Lt, 2, kPure | kValue, Bool, Inline, _, Compare)                        \
+  X(Le, 2, kPure | kValue, Bool, Inline, _, Compare)                        \
+  X(Gt, 2, kPure | kValue, Bool, Inline, _, Compare)                        \
+  X(Ge, 2, kPure | kValue, Bool, Inline, _, Compare)                        \
+  X(EqTol, 2, kPure | kValue, Bool, Inline, _, Compare)                     \
+  X(NeTol, 2, kPure | kValue, Bool, Inline, _, Compare)                     \
+  X(Eq, 2, kPure | kValue, Bool, Inline, _, Compare)                        \
+  X(Ne, 2, kPure | kValue, Bool, Inline, _, Compare)                        \
+  X(Truth, 1, kPure | kValue, Bool, Inline, _, Compare)                     \
+  X(And, 2, kPure | kValue, Bool, Inline, _, Compare)                       \
+  X(Or, 2, kPure | kValue, Bool, Inline, _, Compare)                        \
+  X(Not, 1, kPure | kValue, Bool, Inline, _, Compare)                       \
+  X(Select, 3, kPure | kValue | kTraced, Arith, Inline, _, Select)          \
+  X(Surface, 3, kPure | kValue, Surface, None, _, NA)                       \
+  X(Check, 1, 0, Check, None, _, NA)                                        \
+  X(If, 1, kCtl, Ctl, None, _, NA)                                          \
+  X(Else, 0, kCtl, Ctl, None, _, NA)                                        \
+  X(EndIf, 0, kCtl, Ctl, None, _, NA)                                       \
+  X(Loop, 0, kCtl, Ctl, None, _, NA)                                        \
+  X(LoopTest, 1, kCtl, Ctl, None, _, NA)                                    \
+  X(EndLoop, 0, kCtl, Ctl, None, _, NA)
 
 // X(Name, message) — the run-time errors of the spec, with the original's messages.
 #define HFRT_IR_ERRORS(X)                                     \

@@ -79,7 +79,13 @@ std::string print(const Function& fn) {
       case Op::kCheck:
         line += " " + arg(0) + ", " + std::string(error_kind_name(static_cast<ErrorKind>(in.aux)));
         break;
-      default:
+      case Op::kIf:
+      case Op::kElse:
+      case Op::kEndIf:
+      case Op::kLoop:
+      case Op::kLoopTest:
+      case Op::kEndLoop:
+        HFRT_OP_CASES_ARITH
         for (int k = 0; k < op_num_args(in.op); ++k) line += (k ? ", " : " ") + arg(k);
         break;
     }

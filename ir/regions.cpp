@@ -44,7 +44,17 @@ std::vector<int32_t> match_regions(const Function& fn) {
         stack.pop_back();
         loops.pop_back();
         break;
-      default:
+      case Op::kConst:
+      case Op::kInput:
+      case Op::kParam:
+      case Op::kLoadSlot:
+      case Op::kStoreSlot:
+      case Op::kLoadIdx:
+      case Op::kStoreIdx:
+      case Op::kTableLoad:
+      case Op::kSurface:
+      case Op::kCheck:
+        HFRT_OP_CASES_ARITH
         break;
     }
   }

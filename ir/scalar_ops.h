@@ -46,9 +46,8 @@ inline double hf_truth(double v) {
   return std::fabs(v) >= kHfEps ? 1.0 : 0.0;
 }
 
-/// Applies a pure op with arguments (every kPure op except kConst, kInput, kParam and
-/// kTableLoad, whose values do not come from arguments). Unused arguments are ignored.
-/// Returns NaN for ops that are not of that kind (callers never pass them).
+/// Applies an op computed from its arguments (op_is_arith: the kinds Arith, Step and Bool of
+/// ir_ops.h). Unused arguments are ignored. Returns NaN for other ops (callers never pass them).
 inline double apply_op(Op op, double a, double b, double c) {
   switch (op) {
     case Op::kAdd:
@@ -137,23 +136,8 @@ inline double apply_op(Op op, double a, double b, double c) {
       return hf_truth(a) != 0 ? 0.0 : 1.0;
     case Op::kSelect:
       return a != 0 ? b : c;
-    // Not computed from arguments.
-    case Op::kConst:
-    case Op::kInput:
-    case Op::kParam:
-    case Op::kLoadSlot:
-    case Op::kStoreSlot:
-    case Op::kLoadIdx:
-    case Op::kStoreIdx:
-    case Op::kTableLoad:
-    case Op::kCheck:
-    case Op::kIf:
-    case Op::kElse:
-    case Op::kEndIf:
-    case Op::kLoop:
-    case Op::kLoopTest:
-    case Op::kEndLoop:
-    case Op::kSurface:  // needs Function::surfaces (jit/surface_ops.h)
+      // Not computed from arguments (kSurface needs Function::surfaces: jit/surface_ops.h).
+      HFRT_OP_CASES_NON_ARITH
       break;
   }
   return std::nan("");

@@ -88,8 +88,13 @@ std::vector<uint8_t> uniform_values(const Function& fn) {
         case Op::kEndLoop:
           region.pop_back();
           break;
-        default:
-          value[i] = op_has_value(in.op) && args_uniform;
+        case Op::kTableLoad:
+          HFRT_OP_CASES_ARITH
+          value[i] = args_uniform;
+          break;
+        case Op::kCheck:
+        case Op::kElse:
+          value[i] = 0;  // no value
           break;
       }
     }

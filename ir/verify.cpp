@@ -148,7 +148,8 @@ std::string verify(const Function& fn) {
         region_open[stack.back().region] = false;
         stack.pop_back();
         break;
-      default:
+      case Op::kConst:
+        HFRT_OP_CASES_ARITH
         break;
     }
     // The markers that close a region belong to the enclosing one.

@@ -114,13 +114,14 @@ Dual GradientInterpreter::eval(std::span<const double> x, std::span<const double
       case Op::kEndLoop:
         i = static_cast<size_t>(match_[i]) + 1;
         continue;
-      default: {
-        const Dual zero{};
-        const Dual& b = in.args[1] != kNoValue ? values_[in.args[1]] : zero;
-        const Dual& c = in.args[2] != kNoValue ? values_[in.args[2]] : zero;
-        values_[i] = apply_dual(in.op, values_[in.args[0]], b, c);
-        break;
-      }
+        // Every op computed from its arguments (case labels generated from ir_ops.h).
+        HFRT_OP_CASES_ARITH {
+          const Dual zero{};
+          const Dual& b = in.args[1] != kNoValue ? values_[in.args[1]] : zero;
+          const Dual& c = in.args[2] != kNoValue ? values_[in.args[2]] : zero;
+          values_[i] = apply_dual(in.op, values_[in.args[0]], b, c);
+          break;
+        }
     }
     if (error_) return Dual{kNaN, {kNaN, kNaN, kNaN}};
     ++i;

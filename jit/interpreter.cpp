@@ -53,7 +53,17 @@ Interpreter::Interpreter(const Function& fn, uint64_t max_iterations)
         target_[loop] = i + 1;  // where the guard exits to
         break;
       }
-      default:
+      case Op::kConst:
+      case Op::kInput:
+      case Op::kParam:
+      case Op::kLoadSlot:
+      case Op::kStoreSlot:
+      case Op::kLoadIdx:
+      case Op::kStoreIdx:
+      case Op::kTableLoad:
+      case Op::kSurface:
+      case Op::kCheck:
+        HFRT_OP_CASES_ARITH
         break;
     }
   }
@@ -146,50 +156,8 @@ EvalResult Interpreter::eval(std::span<const double> x, std::span<const double> 
       case Op::kEndLoop:
         next = target_[pc];
         break;
-      // Every pure op computed from its arguments: one definition shared with the folder.
-      case Op::kAdd:
-      case Op::kSub:
-      case Op::kMul:
-      case Op::kDiv:
-      case Op::kNeg:
-      case Op::kAbs:
-      case Op::kMin:
-      case Op::kMax:
-      case Op::kSqrt:
-      case Op::kExp:
-      case Op::kLog:
-      case Op::kLog10:
-      case Op::kSin:
-      case Op::kCos:
-      case Op::kTan:
-      case Op::kAsin:
-      case Op::kAcos:
-      case Op::kAtan:
-      case Op::kAtan2:
-      case Op::kSinh:
-      case Op::kCosh:
-      case Op::kTanh:
-      case Op::kFloor:
-      case Op::kCeil:
-      case Op::kTrunc:
-      case Op::kRound:
-      case Op::kFmod:
-      case Op::kPow:
-      case Op::kPowHF:
-      case Op::kSign:
-      case Op::kLt:
-      case Op::kLe:
-      case Op::kGt:
-      case Op::kGe:
-      case Op::kEqTol:
-      case Op::kNeTol:
-      case Op::kEq:
-      case Op::kNe:
-      case Op::kTruth:
-      case Op::kAnd:
-      case Op::kOr:
-      case Op::kNot:
-      case Op::kSelect:
+        // Every op computed from its arguments: one definition shared with the folder.
+        HFRT_OP_CASES_ARITH
         val[pc] = apply_op(in.op, a0, a1, a2);
         break;
     }

@@ -152,19 +152,20 @@ void IntervalInterpreter::run(size_t begin, size_t end) {
       case Op::kEndLoop:
         HFRT_CHECK_MSG(false, "unbalanced control marker at " << i);
         break;
-      default: {
-        bool same = in.args[0] == in.args[1] && in.args[0] != kNoValue;
-        Interval b = in.args[1] != kNoValue ? values_[in.args[1]] : Interval{};
-        Interval c = in.args[2] != kNoValue ? values_[in.args[2]] : Interval{};
-        uint8_t* ch = choices_ ? &(*choices_)[i] : nullptr;
-        values_[i] = apply_interval(in.op, values_[in.args[0]], b, c, same, ch);
-        if (r_nodes_.kind[i]) {
-          values_[i] =
-              r_function_interval(values_[i], values_[r_nodes_.args[2 * i]],
-                                  values_[r_nodes_.args[2 * i + 1]], r_nodes_.kind[i] == 1);
+        // Every op computed from its arguments (case labels generated from ir_ops.h).
+        HFRT_OP_CASES_ARITH {
+          bool same = in.args[0] == in.args[1] && in.args[0] != kNoValue;
+          Interval b = in.args[1] != kNoValue ? values_[in.args[1]] : Interval{};
+          Interval c = in.args[2] != kNoValue ? values_[in.args[2]] : Interval{};
+          uint8_t* ch = choices_ ? &(*choices_)[i] : nullptr;
+          values_[i] = apply_interval(in.op, values_[in.args[0]], b, c, same, ch);
+          if (r_nodes_.kind[i]) {
+            values_[i] =
+                r_function_interval(values_[i], values_[r_nodes_.args[2 * i]],
+                                    values_[r_nodes_.args[2 * i + 1]], r_nodes_.kind[i] == 1);
+          }
+          break;
         }
-        break;
-      }
     }
     ++i;
   }

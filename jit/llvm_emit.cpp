@@ -208,12 +208,6 @@ llvm::Value* VectorEmitter::surface_lanes(int index, llvm::Value* x, llvm::Value
 
 llvm::Value* VectorEmitter::scalar_op(Op op, llvm::Value* a, llvm::Value* b, llvm::Value* c) {
   auto unary = [&](llvm::Intrinsic::ID id) { return b_.CreateUnaryIntrinsic(id, a); };
-  auto libm1 = [&](const char* f64, const char* f32) {
-    return call_lanes(pure_function(pick_name(f64, f32), 1), a);
-  };
-  auto libm2 = [&](const char* f64, const char* f32) {
-    return call_lanes(pure_function(pick_name(f64, f32), 2), a, b);
-  };
   switch (op) {
     case Op::kAdd:
       return b_.CreateFAdd(a, b);
@@ -234,32 +228,14 @@ llvm::Value* VectorEmitter::scalar_op(Op op, llvm::Value* a, llvm::Value* b, llv
       return b_.CreateSelect(b_.CreateFCmpOGT(a, b), a, b);
     case Op::kSqrt:
       return unary(llvm::Intrinsic::sqrt);
-    case Op::kExp:
-      return libm1("exp", "expf");
-    case Op::kLog:
-      return libm1("log", "logf");
-    case Op::kLog10:
-      return libm1("log10", "log10f");
-    case Op::kSin:
-      return libm1("sin", "sinf");
-    case Op::kCos:
-      return libm1("cos", "cosf");
-    case Op::kTan:
-      return libm1("tan", "tanf");
-    case Op::kAsin:
-      return libm1("asin", "asinf");
-    case Op::kAcos:
-      return libm1("acos", "acosf");
-    case Op::kAtan:
-      return libm1("atan", "atanf");
-    case Op::kAtan2:
-      return libm2("atan2", "atan2f");
-    case Op::kSinh:
-      return libm1("sinh", "sinhf");
-    case Op::kCosh:
-      return libm1("cosh", "coshf");
-    case Op::kTanh:
-      return libm1("tanh", "tanhf");
+      // A per-lane call of the libm function or hfrt helper named by ir_ops.h (the very
+      // function the interpreter calls).
+      HFRT_OP_CASES_LANE_CALL {
+        const int n = op_num_args(op);
+        return call_lanes(
+            pure_function(pick_name(op_libm_name(op, false), op_libm_name(op, true)), n), a,
+            n == 2 ? b : nullptr);
+      }
     case Op::kFloor:
       return unary(llvm::Intrinsic::floor);
     case Op::kCeil:
@@ -268,12 +244,6 @@ llvm::Value* VectorEmitter::scalar_op(Op op, llvm::Value* a, llvm::Value* b, llv
       return unary(llvm::Intrinsic::trunc);
     case Op::kRound:
       return unary(llvm::Intrinsic::round);
-    case Op::kFmod:
-      return libm2("fmod", "fmodf");
-    case Op::kPow:
-      return libm2("pow", "powf");
-    case Op::kPowHF:
-      return libm2("hfrt_jit_powhf_f64", "hfrt_jit_powhf_f32");
     case Op::kSign: {
       // hf_sign: -1, 0 or 1; NaN stays NaN.
       llvm::Value* zero_or_nan = b_.CreateSelect(b_.CreateFCmpOEQ(a, splat(0.0)), splat(0.0), a);
@@ -310,22 +280,7 @@ llvm::Value* VectorEmitter::scalar_op(Op op, llvm::Value* a, llvm::Value* b, llv
       return to_real(b_.CreateNot(truth(a)));
     case Op::kSelect:
       return b_.CreateSelect(nonzero(a), b, c);
-    case Op::kConst:
-    case Op::kInput:
-    case Op::kParam:
-    case Op::kLoadSlot:
-    case Op::kStoreSlot:
-    case Op::kLoadIdx:
-    case Op::kStoreIdx:
-    case Op::kTableLoad:
-    case Op::kCheck:
-    case Op::kIf:
-    case Op::kElse:
-    case Op::kEndIf:
-    case Op::kLoop:
-    case Op::kLoopTest:
-    case Op::kEndLoop:
-    case Op::kSurface:
+      HFRT_OP_CASES_NON_ARITH
       break;
   }
   HFRT_CHECK_MSG(false, "scalar_op: not a pure op with arguments: " << op_name(op));

@@ -2,7 +2,7 @@
 //
 // Design
 // - Each IR value is a dual number of four <W x T> vectors (value, d/dx[1], d/dx[2],
-//   d/dx[3]); T is double or float. The formulas are apply_dual's (gradient_interpreter.cpp):
+//   d/dx[3]); T is double or float. The formulas are apply_dual's (ir/dual_ops.cpp):
 //   the value is the scalar op (IEEE intrinsics for sqrt/fabs/floor/ceil/trunc/round, a
 //   per-lane call of the very libm function the interpreter calls for the others, the
 //   interpreter's hf_pow for kPowHF), the derivatives the chain rule, where a component whose
@@ -277,7 +277,8 @@ class GradientEmitter : public VectorEmitter {
         end_loop();
         trips_.pop_back();
         return;
-      default:
+        // Every op computed from its arguments (case labels generated from ir_ops.h): below.
+        HFRT_OP_CASES_ARITH
         break;
     }
     const DV zero = flat(splat(0));
@@ -391,9 +392,13 @@ class GradientEmitter : public VectorEmitter {
       case Op::kSelect:
         r = pick(nonzero(av), b, arg(2));
         break;
-      // Piecewise constant: floor, ceil, trunc, round, sign, comparisons and logic.
-      default:
+        // Piecewise constant: floor, ceil, trunc, round, sign, comparisons and logic.
+        HFRT_OP_CASES_PIECEWISE_CONSTANT
         r = flat(v);
+        break;
+        // Not computed from arguments: handled above (scalar_op would have failed first).
+        HFRT_OP_CASES_NON_ARITH
+        HFRT_CHECK_MSG(false, "gradient of an op without arguments: " << op_name(in.op));
         break;
     }
     values_[i] = r;

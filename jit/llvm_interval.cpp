@@ -8,8 +8,8 @@
 //   trunc/round, comparisons, logic, select) are emitted as vector code with the same
 //   formulas, outward rounding included (v +- max(|v| 2^-52, denorm_min): a few FP ops per
 //   endpoint, no rounding-mode changes, no fast-math); the
-//   libm-based ops (exp, log, trig, pow, fmod, ...) call apply_interval per lane through
-//   a C-ABI helper.
+//   libm-based ops (exp, log, trig, pow, fmod, ...: the lanes Libm and Helper of
+//   ir/ir_ops.h) and sign call apply_interval per lane through a C-ABI helper.
 // - Code shape (compile time): every computed value lives in a home of a scratch buffer
 //   (ValueHomes, llvm_emit.h): stored where it is defined, loaded where it is used, so each
 //   op is a small independent piece of code, cut into basic blocks of a few ops
@@ -741,7 +741,8 @@ class IntervalEmitter : public VectorEmitter {
       case Op::kEndLoop:
         end_loop();
         return;
-      default:
+        // Every op computed from its arguments (case labels generated from ir_ops.h): below.
+        HFRT_OP_CASES_ARITH
         break;
     }
     const bool same = in.args[0] == in.args[1] && in.args[0] != kNoValue;
@@ -866,9 +867,16 @@ class IntervalEmitter : public VectorEmitter {
         r = select_iv(NOT(t.can_false), b, select_iv(NOT(t.can_true), c, hull(b, c)));
         break;
       }
-      default:
+      // Sign, and the libm-based ops, pow, fmod and the hfrt helpers (the lanes Libm and
+      // Helper of ir_ops.h): apply_interval per lane.
+      case Op::kSign:
+        HFRT_OP_CASES_LANE_CALL
         r = lane_call(op, a, b);
-        break;  // libm-based ops, pow, fmod, sign
+        break;
+        // Not computed from arguments: emit_inst handles them (and helper() never sees them).
+        HFRT_OP_CASES_NON_ARITH
+        HFRT_CHECK_MSG(false, "interval of an op without arguments: " << op_name(op));
+        break;
     }
     return r;
   }
@@ -915,7 +923,7 @@ class IntervalEmitter : public VectorEmitter {
                           llvm::Align(8));
   }
 
-  static bool traced(Op op) { return op == Op::kMin || op == Op::kMax || op == Op::kSelect; }
+  static bool traced(Op op) { return op_flags_of(op) & op_flags::kTraced; }
 
   /// The helper of `op`: void(ptr a[, ptr b[, ptr c]], ptr out[, <W x i1> region]
   /// [, ptr choice]), with one operand when `same` (x*x), the region only inside control

@@ -12,7 +12,8 @@
 //
 // Exactness: no fast-math flags; sqrt/floor/ceil/trunc/round/fabs are IEEE-exact intrinsics;
 // every other math function is a per-lane call to the very libm function the interpreter
-// calls (registered as an absolute symbol), so f64 results are bit-identical in practice.
+// calls (the `lane` and `libm` columns of ir/ir_ops.h; registered as an absolute symbol), so
+// f64 results are bit-identical in practice.
 
 #include "jit/llvm_jit.h"
 
@@ -303,7 +304,8 @@ class Emitter : public VectorEmitter {
         case Op::kEndLoop:
           end_loop();
           break;
-        default:
+          // Every op computed from its arguments (case labels generated from ir_ops.h).
+          HFRT_OP_CASES_ARITH
           uniform_op_ = uniform_[i] != 0;
           v = scalar_op(inst.op, arg(0), inst.args[1] != kNoValue ? arg(1) : nullptr,
                         inst.args[2] != kNoValue ? arg(2) : nullptr);

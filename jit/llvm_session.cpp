@@ -32,58 +32,33 @@ void* fn_addr(F* f) {
 }
 
 /// libm (the very functions the interpreters call, so f64 results are bit-identical) and the
-/// C library functions the optimiser may introduce.
+/// C library functions the optimiser may introduce. The libm functions are those of the
+/// Libm and Intrinsic lanes of ir_ops.h (an intrinsic may be lowered to its libm function).
 std::vector<HostSymbol> libc_symbols() {
   using D1 = double (*)(double);
   using D2 = double (*)(double, double);
   using F1 = float (*)(float);
   using F2 = float (*)(float, float);
+#define HFRT_LIBC_SYMBOLS_None(n, t)
+#define HFRT_LIBC_SYMBOLS_Inline(n, t)
+#define HFRT_LIBC_SYMBOLS_Libm(n, t) \
+  {#t, fn_addr(static_cast<D##n>(&::t))}, {#t "f", fn_addr(static_cast<F##n>(&::t##f))},
+#define HFRT_LIBC_SYMBOLS_Intrinsic(n, t) HFRT_LIBC_SYMBOLS_Libm(n, t)
+#define HFRT_LIBC_SYMBOLS_Helper(n, t)  // hfrt's own helpers: scalar_jit_symbols()
+#define HFRT_X(name, n, f, kind, lane, libm, poly) HFRT_LIBC_SYMBOLS_##lane(n, libm)
   return {
-      {"exp", fn_addr(static_cast<D1>(&::exp))},
-      {"log", fn_addr(static_cast<D1>(&::log))},
-      {"log10", fn_addr(static_cast<D1>(&::log10))},
-      {"sin", fn_addr(static_cast<D1>(&::sin))},
-      {"cos", fn_addr(static_cast<D1>(&::cos))},
-      {"tan", fn_addr(static_cast<D1>(&::tan))},
-      {"asin", fn_addr(static_cast<D1>(&::asin))},
-      {"acos", fn_addr(static_cast<D1>(&::acos))},
-      {"atan", fn_addr(static_cast<D1>(&::atan))},
-      {"sinh", fn_addr(static_cast<D1>(&::sinh))},
-      {"cosh", fn_addr(static_cast<D1>(&::cosh))},
-      {"tanh", fn_addr(static_cast<D1>(&::tanh))},
-      {"atan2", fn_addr(static_cast<D2>(&::atan2))},
-      {"fmod", fn_addr(static_cast<D2>(&::fmod))},
-      {"pow", fn_addr(static_cast<D2>(&::pow))},
-      {"floor", fn_addr(static_cast<D1>(&::floor))},
-      {"ceil", fn_addr(static_cast<D1>(&::ceil))},
-      {"trunc", fn_addr(static_cast<D1>(&::trunc))},
-      {"round", fn_addr(static_cast<D1>(&::round))},
-      {"sqrt", fn_addr(static_cast<D1>(&::sqrt))},
-      {"expf", fn_addr(static_cast<F1>(&::expf))},
-      {"logf", fn_addr(static_cast<F1>(&::logf))},
-      {"log10f", fn_addr(static_cast<F1>(&::log10f))},
-      {"sinf", fn_addr(static_cast<F1>(&::sinf))},
-      {"cosf", fn_addr(static_cast<F1>(&::cosf))},
-      {"tanf", fn_addr(static_cast<F1>(&::tanf))},
-      {"asinf", fn_addr(static_cast<F1>(&::asinf))},
-      {"acosf", fn_addr(static_cast<F1>(&::acosf))},
-      {"atanf", fn_addr(static_cast<F1>(&::atanf))},
-      {"sinhf", fn_addr(static_cast<F1>(&::sinhf))},
-      {"coshf", fn_addr(static_cast<F1>(&::coshf))},
-      {"tanhf", fn_addr(static_cast<F1>(&::tanhf))},
-      {"atan2f", fn_addr(static_cast<F2>(&::atan2f))},
-      {"fmodf", fn_addr(static_cast<F2>(&::fmodf))},
-      {"powf", fn_addr(static_cast<F2>(&::powf))},
-      {"floorf", fn_addr(static_cast<F1>(&::floorf))},
-      {"ceilf", fn_addr(static_cast<F1>(&::ceilf))},
-      {"truncf", fn_addr(static_cast<F1>(&::truncf))},
-      {"roundf", fn_addr(static_cast<F1>(&::roundf))},
-      {"sqrtf", fn_addr(static_cast<F1>(&::sqrtf))},
+      HFRT_IR_OPS(HFRT_X)
       // The optimiser may turn aggregate initialisation and copies into these.
       {"memset", fn_addr(&::memset)},
       {"memcpy", fn_addr(&::memcpy)},
       {"memmove", fn_addr(&::memmove)},
   };
+#undef HFRT_X
+#undef HFRT_LIBC_SYMBOLS_None
+#undef HFRT_LIBC_SYMBOLS_Inline
+#undef HFRT_LIBC_SYMBOLS_Libm
+#undef HFRT_LIBC_SYMBOLS_Intrinsic
+#undef HFRT_LIBC_SYMBOLS_Helper
 }
 
 /// Sets a process-wide LLVM boolean option if this LLVM build has it.

@@ -230,10 +230,22 @@ class Analyzer {
           return set_poly(v, 0, emit(PolyOp::kTable, 0, info_[in.args[0]].reg, -1, -1, 0, in.aux));
         }
         return set_not(v, v, "'" + construct(v) + "' (a table lookup) is not a polynomial");
-      default:
+      // Stores, checks and control flow have no value (run() classifies values only).
+      case Op::kStoreSlot:
+      case Op::kStoreIdx:
+      case Op::kCheck:
+      case Op::kIf:
+      case Op::kElse:
+      case Op::kEndIf:
+      case Op::kLoop:
+      case Op::kLoopTest:
+      case Op::kEndLoop:
+        return;
+        // Every op computed from its arguments: the rules below.
+        HFRT_OP_CASES_ARITH
         break;
     }
-    if (!op_is_pure(in.op) || !op_has_value(in.op)) return;  // stores, checks, control flow
+    const OpPolyRule rule = op_poly_rule(in.op);
 
     // The power pattern of jit/lower.cpp: select(|b| < 1e-6, 0, b*...*b) read as b*...*b.
     if (in.op == Op::kSelect && is_power_guard(in)) {
@@ -243,8 +255,8 @@ class Analyzer {
 
     if (classify_set(v)) return;
 
-    const bool forms_ok = in.op == Op::kAdd || in.op == Op::kSub || in.op == Op::kNeg ||
-                          in.op == Op::kMul || in.op == Op::kDiv;
+    const bool forms_ok = rule == OpPolyRule::kAddSub || rule == OpPolyRule::kNeg ||
+                          rule == OpPolyRule::kMul || rule == OpPolyRule::kDiv;
     if (inherit_not(v, nargs, forms_ok)) return;
 
     // Everything of degree 0 (independent of x) is a constant per ray, whatever the op.
@@ -259,9 +271,8 @@ class Analyzer {
     const ValueId a = in.args[0], b = nargs > 1 ? in.args[1] : kNoValue;
     const VInfo* ia = &info_[a];
     const VInfo* ib = b != kNoValue ? &info_[b] : nullptr;
-    switch (in.op) {
-      case Op::kAdd:
-      case Op::kSub: {
+    switch (rule) {
+      case OpPolyRule::kAddSub: {
         const bool sub = in.op == Op::kSub;
         if (ia->kind == Kind::kPoly && ib->kind == Kind::kPoly) {
           return poly_result(v, std::max(ia->deg, ib->deg), sub ? PolyOp::kSub : PolyOp::kAdd,
@@ -295,14 +306,14 @@ class Analyzer {
         }
         return set_form(v, ra, da, rb, f.db, f.rc, f.dc, f.origin);
       }
-      case Op::kNeg:
+      case OpPolyRule::kNeg:
         if (ia->kind == Kind::kPoly) return poly_result(v, ia->deg, PolyOp::kNeg, ia->reg);
         {
           const VInfo f = *ia;
           int32_t ra = f.ra >= 0 ? emit(PolyOp::kNeg, f.da, f.ra) : -1;
           return set_form(v, ra, f.da, emit(PolyOp::kNeg, f.db, f.rb), f.db, f.rc, f.dc, f.origin);
         }
-      case Op::kMul: {
+      case OpPolyRule::kMul: {
         if (ia->kind == Kind::kPoly && ib->kind == Kind::kPoly) {
           return poly_result(v, ia->deg + ib->deg, PolyOp::kMul, ia->reg, ib->reg);
         }
@@ -320,7 +331,7 @@ class Analyzer {
         int32_t rb = emit(PolyOp::kMul, f.db + p.deg, f.rb, p.reg);
         return set_form(v, ra, f.da + p.deg, rb, f.db + p.deg, f.rc, f.dc, f.origin);
       }
-      case Op::kDiv: {
+      case OpPolyRule::kDiv: {
         if (!is_scalar(b)) return set_not(v, v, "division by a variable");
         if (ia->kind == Kind::kPoly) {
           if (ia->reg < 0) return set_poly(v, ia->deg, -1);
@@ -331,14 +342,14 @@ class Analyzer {
         return set_form(v, ra, f.da, emit(PolyOp::kDiv, f.db, f.rb, ib->reg), f.db, f.rc, f.dc,
                         f.origin);
       }
-      case Op::kSqrt:
+      case OpPolyRule::kSqrt:
         if (ia->reg < 0) {
           return set_not(v, v,
                          "'" + construct(v) + "' of a polynomial of degree " +
                              std::to_string(ia->deg) + " > 4");
         }
         return set_form(v, -1, 0, konst(1.0), 0, ia->reg, ia->deg, v);
-      case Op::kSelect:
+      case OpPolyRule::kSelect:
         if (is_scalar(a) && ib->kind == Kind::kPoly && info_[in.args[2]].kind == Kind::kPoly) {
           const VInfo& ic = info_[in.args[2]];
           const int deg = std::max(ib->deg, ic.deg);
@@ -348,8 +359,7 @@ class Analyzer {
         if (!is_scalar(a))
           return set_not(v, v, "a condition that depends on x is not a polynomial");
         return set_not(v, v, "a choice between square roots is not analysed");
-      case Op::kPow:
-      case Op::kPowHF: {
+      case OpPolyRule::kPow: {
         double e = 0;
         if (is_const(b, &e) && e >= 0 && e <= kPolyMaxDegree && e == std::floor(e) &&
             ia->kind == Kind::kPoly) {
@@ -363,27 +373,17 @@ class Analyzer {
         return set_not(v, v,
                        "a power with a variable or non-integral exponent is not a polynomial");
       }
-      case Op::kMin:
-      case Op::kMax:
+      case OpPolyRule::kMinMax:
         return set_not(
             v, v,
             "'" + construct(v) + "' inside arithmetic is not a set operation of the skeleton");
-      case Op::kLt:
-      case Op::kLe:
-      case Op::kGt:
-      case Op::kGe:
-      case Op::kEqTol:
-      case Op::kNeTol:
-      case Op::kEq:
-      case Op::kNe:
-      case Op::kTruth:
-      case Op::kAnd:
-      case Op::kOr:
-      case Op::kNot:
+      case OpPolyRule::kCompare:
         return set_not(v, v, "a comparison that depends on x is not a polynomial");
-      default:
+      case OpPolyRule::kNone:
+      case OpPolyRule::kNA:  // not reached: the first switch returned
         return set_not(v, v, "'" + construct(v) + "' is not a polynomial");
     }
+    HFRT_CHECK_MSG(false, "poly rule " << static_cast<int>(rule));
   }
 
   /// Set operations whose operands are valid (polynomials, square-root forms or set
@@ -399,27 +399,31 @@ class Analyzer {
     if (match_r_function(v, &f1, &f2)) {
       set = valid(f1) && valid(f2) && !(is_scalar(f1) && is_scalar(f2));
     } else {
-      switch (in.op) {
-        case Op::kMin:
-        case Op::kMax:
+      switch (op_poly_rule(in.op)) {
+        case OpPolyRule::kMinMax:
           set = valid(in.args[0]) && valid(in.args[1]) &&
                 !(is_scalar(in.args[0]) && is_scalar(in.args[1]));
           break;
-        case Op::kNeg:
+        case OpPolyRule::kNeg:
           set = is_set(in.args[0]);
           break;
-        case Op::kMul:
+        case OpPolyRule::kMul:
           set = (is_set(in.args[0]) && is_scalar(in.args[1])) ||
                 (is_scalar(in.args[0]) && is_set(in.args[1]));
           break;
-        case Op::kDiv:
+        case OpPolyRule::kDiv:
           set = is_set(in.args[0]) && is_scalar(in.args[1]);
           break;
-        case Op::kSelect:
+        case OpPolyRule::kSelect:
           set = is_scalar(in.args[0]) && valid(in.args[1]) && valid(in.args[2]) &&
                 (is_set(in.args[1]) || is_set(in.args[2]));
           break;
-        default:
+        case OpPolyRule::kNA:
+        case OpPolyRule::kNone:
+        case OpPolyRule::kAddSub:
+        case OpPolyRule::kSqrt:
+        case OpPolyRule::kPow:
+        case OpPolyRule::kCompare:
           break;
       }
     }
@@ -488,22 +492,23 @@ class Analyzer {
       return true;
     }
     const Inst& in = fn_.insts[v];
+    const OpPolyRule rule = op_poly_rule(in.op);
     ValueId f1, f2;
     bool node = true;
     bool ok = true;
     if (match_r_function(v, &f1, &f2)) {
       ok = visit(f1, out) && visit(f2, out);
-    } else if (in.op == Op::kMin || in.op == Op::kMax) {
+    } else if (rule == OpPolyRule::kMinMax) {
       ok = visit(in.args[0], out) && visit(in.args[1], out);
-    } else if (in.op == Op::kNeg) {
+    } else if (rule == OpPolyRule::kNeg) {
       ok = visit(in.args[0], out);
-    } else if (in.op == Op::kMul && is_scalar(in.args[0])) {
+    } else if (rule == OpPolyRule::kMul && is_scalar(in.args[0])) {
       ok = visit(in.args[1], out);
-    } else if ((in.op == Op::kMul || in.op == Op::kDiv) && is_scalar(in.args[1])) {
+    } else if ((rule == OpPolyRule::kMul || rule == OpPolyRule::kDiv) && is_scalar(in.args[1])) {
       ok = visit(in.args[0], out);
-    } else if (in.op == Op::kSelect && is_scalar(in.args[0])) {
+    } else if (rule == OpPolyRule::kSelect && is_scalar(in.args[0])) {
       ok = visit(in.args[1], out) && visit(in.args[2], out);
-    } else if (in.op == Op::kSelect && is_power_guard(in)) {
+    } else if (rule == OpPolyRule::kSelect && is_power_guard(in)) {
       ok = visit(in.args[2], out);
     } else {
       node = false;

@@ -334,8 +334,20 @@ class SymbolicRun {
         }
         return table_tree(t, idx, 0, int(t.size()) - 1);
       }
-      default:
+      // run_range handles these itself.
+      case Op::kStoreSlot:
+      case Op::kLoadIdx:
+      case Op::kStoreIdx:
+      case Op::kSurface:
+      case Op::kCheck:
+      case Op::kIf:
+      case Op::kElse:
+      case Op::kEndIf:
+      case Op::kLoop:
+      case Op::kLoopTest:
+      case Op::kEndLoop:
         HFRT_CHECK_MSG(false, "value_op on a non-value op");
+        break;
     }
     return kNone;
   }
@@ -410,8 +422,12 @@ class SymbolicRun {
         case Op::kEndLoop:
           HFRT_CHECK_MSG(false, "unbalanced control marker");
           break;
-        default:
-          if (op_has_value(in.op)) val_[i] = value_op(in);
+        case Op::kConst:
+        case Op::kInput:
+        case Op::kParam:
+        case Op::kLoadSlot:
+          HFRT_OP_CASES_ARITH
+          val_[i] = value_op(in);
           break;
       }
     }

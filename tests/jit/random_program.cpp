@@ -20,10 +20,8 @@ struct OpInfo {
 /// mesh (tests/jit/surface_test.cpp compares its evaluators).
 std::vector<OpInfo> expression_ops(bool tame) {
   std::vector<OpInfo> ops;
-#define HFRT_X(name, n, f)                                                                        \
-  if ((op_flags_of(Op::k##name) & op_flags::kPure) && (n) > 0 && Op::k##name != Op::kTableLoad && \
-      Op::k##name != Op::kSurface)                                                                \
-    ops.push_back({Op::k##name, n});
+#define HFRT_X(name, n, ...) \
+  if (op_is_arith(Op::k##name)) ops.push_back({Op::k##name, n});
   HFRT_IR_OPS(HFRT_X)
 #undef HFRT_X
   if (!tame) return ops;
