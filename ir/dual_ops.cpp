@@ -123,6 +123,8 @@ Dual apply_dual(Op op, const Dual& a, const Dual& b, const Dual& c) {
       r.v = v;
       return r;
     }
+    case Op::kCbrt:  // d cbrt(a) = da / (3 cbrt(a)^2): infinite at 0, as sqrt's
+      return chain(v, a, 1 / (3 * (v * v)));
       // Not computed from arguments (kSurface: surface_dual in jit/surface_ops.h).
       HFRT_OP_CASES_NON_ARITH
       break;

@@ -531,6 +531,12 @@ Interval apply_interval(Op op, Interval a, Interval b, Interval c, bool same_arg
       if (!t.can_true) return c;
       return hull(b, c);
     }
+    case Op::kCbrt:
+      // Increasing on the whole line, but glibc's cbrt is not correctly rounded nor monotone
+      // (over 2e7 random doubles: errors up to 3.4 ulps, cbrt(27) = 3 + 1 ulp, and a larger
+      // neighbour's value up to 4 ulps smaller): 8 ulps outward covers errors up to 4 ulps.
+      return monotone(
+          a, [](double v) { return std::cbrt(v); }, -kInf, kInf, 8);
       // Not computed from arguments (kSurface: surface_interval in jit/surface_ops.h).
       HFRT_OP_CASES_NON_ARITH
       break;

@@ -49,6 +49,9 @@
 //  kTruth            |a| >= 1e-6 -> 1/0 (HyperFun truth value)
 //  kAnd kOr kNot     on truth values (|v| >= 1e-6) -> 1/0
 //  kSelect           arg0 != 0 ? arg1 : arg2 (arg0 is 0/1)
+//  kCbrt             real cube root, C cbrt (cbrt(-8) = -2, odd, increasing, NaN stays NaN;
+//                    glibc's is not correctly rounded: cbrt(27) = 3 + 1 ulp). Not a
+//                    HyperFun built-in: code that builds IR (IrBuilder) may use it
 //  kSurface          signed distance (positive inside) of the mesh or patch surface
 //                    Function::surfaces[aux] at the point (arg0, arg1, arg2), evaluated in
 //                    single precision by geom/ (hfMesh, hfTriangles, hfBezierSurface,
@@ -119,6 +122,7 @@
   X(Or, 2, kPure | kValue, Bool, Inline, _, Compare)                        \
   X(Not, 1, kPure | kValue, Bool, Inline, _, Compare)                       \
   X(Select, 3, kPure | kValue | kTraced, Arith, Inline, _, Select)          \
+  X(Cbrt, 1, kPure | kValue, Arith, Libm, cbrt, None)                       \
   X(Surface, 3, kPure | kValue, Surface, None, _, NA)                       \
   X(Check, 1, 0, Check, None, _, NA)                                        \
   X(If, 1, kCtl, Ctl, None, _, NA)                                          \

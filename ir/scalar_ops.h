@@ -136,6 +136,8 @@ inline double apply_op(Op op, double a, double b, double c) {
       return hf_truth(a) != 0 ? 0.0 : 1.0;
     case Op::kSelect:
       return a != 0 ? b : c;
+    case Op::kCbrt:
+      return std::cbrt(a);
       // Not computed from arguments (kSurface needs Function::surfaces: jit/surface_ops.h).
       HFRT_OP_CASES_NON_ARITH
       break;

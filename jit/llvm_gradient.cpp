@@ -392,6 +392,9 @@ class GradientEmitter : public VectorEmitter {
       case Op::kSelect:
         r = pick(nonzero(av), b, arg(2));
         break;
+      case Op::kCbrt:  // 1 / (3 cbrt(a)^2), as apply_dual
+        r = chain(v, a, div(splat(1), mul(splat(3), mul(v, v))));
+        break;
         // Piecewise constant: floor, ceil, trunc, round, sign, comparisons and logic.
         HFRT_OP_CASES_PIECEWISE_CONSTANT
         r = flat(v);

@@ -322,6 +322,12 @@ class SymbolicRun {
         return d.sub(d.constant(1), d.truth(a(0)));
       case Op::kSelect:
         return d.select01(a(0), a(1), a(2));
+      case Op::kCbrt: {
+        // POV-Ray has no cbrt, and its pow of a negative base and 1/3 is not real:
+        // select(v, -pow(-v, 1/3), pow(v, 1/3)) (select(s, a, b) is a where s < 0).
+        NodeId v = a(0), third = d.constant(1.0 / 3.0);
+        return d.select_sign(v, d.neg(d.call("pow", {d.neg(v), third})), d.call("pow", {v, third}));
+      }
       case Op::kLoadSlot:
         return slot(in.aux);
       case Op::kTableLoad: {

@@ -6,6 +6,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <limits>
 #include <random>
 #include <sstream>
 
@@ -82,7 +83,7 @@ const OpCase kOps[] = {
     {Op::kRound, 1}, {Op::kFmod, 2},  {Op::kPow, 2},    {Op::kPowHF, 2}, {Op::kSign, 1},
     {Op::kLt, 2},    {Op::kLe, 2},    {Op::kGt, 2},     {Op::kGe, 2},    {Op::kEqTol, 2},
     {Op::kNeTol, 2}, {Op::kEq, 2},    {Op::kNe, 2},     {Op::kTruth, 1}, {Op::kAnd, 2},
-    {Op::kOr, 2},    {Op::kNot, 1},   {Op::kSelect, 3},
+    {Op::kOr, 2},    {Op::kNot, 1},   {Op::kSelect, 3}, {Op::kCbrt, 1},
 };
 
 class GradientOpTest : public ::testing::TestWithParam<OpCase> {};
@@ -133,6 +134,30 @@ INSTANTIATE_TEST_SUITE_P(AllOps, GradientOpTest, ::testing::ValuesIn(kOps),
                          [](const ::testing::TestParamInfo<OpCase>& info) {
                            return std::string(op_name(info.param.op));
                          });
+
+TEST(GradientInterpreterTest, CbrtDerivativeIsTheClosedForm) {
+  // d cbrt(g) = dg / (3 cbrt(g)^2) with g = 2x - y: components whose dg is exactly 0 (z)
+  // stay 0, also at g = 0 where the others are infinite.
+  Function fn;
+  IrBuilder b(fn);
+  ValueId g = b.sub(b.mul(b.constant(2), b.input(0)), b.input(1));
+  b.finish(b.unary(Op::kCbrt, g));
+  GradientInterpreter grad(fn);
+  for (double x : {-4.0, -0.3, 0.3, 1.0, 13.5}) {
+    const std::vector<double> p = {x, 0.5, 7};
+    const double c = std::cbrt(2 * x - 0.5);
+    const Dual d = grad.eval(p, {});
+    EXPECT_EQ(d.v, c);
+    EXPECT_DOUBLE_EQ(d.d[0], 2 / (3 * c * c)) << x;
+    EXPECT_DOUBLE_EQ(d.d[1], -1 / (3 * c * c)) << x;
+    EXPECT_EQ(d.d[2], 0) << x;
+  }
+  const Dual at0 = grad.eval(std::vector<double>{0.25, 0.5, 7}, {});
+  EXPECT_EQ(at0.v, 0);
+  EXPECT_EQ(at0.d[0], std::numeric_limits<double>::infinity());
+  EXPECT_EQ(at0.d[1], -std::numeric_limits<double>::infinity());
+  EXPECT_EQ(at0.d[2], 0);
+}
 
 TEST(GradientInterpreterTest, SphereGradient) {
   Function fn;

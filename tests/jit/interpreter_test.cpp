@@ -9,6 +9,7 @@
 #include <vector>
 
 #include "ir/builder.h"
+#include "ir/print.h"
 
 namespace hfrt::jit {
 
@@ -107,6 +108,36 @@ TEST(Interpreter, SignIsMinusZeroPlus) {
   EXPECT_EQ(run_op(Op::kSign, -5), -1);
   EXPECT_EQ(run_op(Op::kSign, 0), 0);
   EXPECT_EQ(run_op(Op::kSign, 5), 1);
+}
+
+TEST(Interpreter, CbrtIsTheRealCubeRoot) {
+  const double kInf = std::numeric_limits<double>::infinity();
+  EXPECT_EQ(run_op(Op::kCbrt, -8), -2);        // real, odd: not pow(x, 1/3)
+  EXPECT_DOUBLE_EQ(run_op(Op::kCbrt, 27), 3);  // glibc: 3 + 1 ulp (cbrt is not correctly rounded)
+  EXPECT_EQ(run_op(Op::kCbrt, 0), 0);
+  EXPECT_TRUE(std::signbit(run_op(Op::kCbrt, -0.0)));
+  EXPECT_EQ(run_op(Op::kCbrt, kInf), kInf);
+  EXPECT_EQ(run_op(Op::kCbrt, -kInf), -kInf);
+  EXPECT_TRUE(std::isnan(run_op(Op::kCbrt, kNaN)));
+  // The closed form: r = cbrt(x) has r^3 = x (to rounding) and the sign of x, and grows with x.
+  double last = -kInf;
+  for (double x = -30; x <= 30; x += 0.37) {
+    const double r = run_op(Op::kCbrt, x);
+    EXPECT_NEAR(r * r * r, x, 1e-14 * std::fabs(x)) << x;
+    EXPECT_EQ(std::signbit(r), std::signbit(x)) << x;
+    EXPECT_GT(r, last) << x;
+    last = r;
+  }
+  for (double x : {1e-300, 5e-324, 1e300, -2.0, 0.001})
+    EXPECT_EQ(run_op(Op::kCbrt, x), std::cbrt(x));
+  // Folded by the builder to the interpreter's bits; printed as `cbrt`.
+  Function fn;
+  IrBuilder b(fn);
+  ValueId folded = b.unary(Op::kCbrt, b.constant(-3.5));
+  EXPECT_EQ(fn.insts[folded].op, Op::kConst);
+  EXPECT_EQ(fn.insts[folded].imm, run_op(Op::kCbrt, -3.5));
+  b.finish(b.add(b.unary(Op::kCbrt, b.input(0)), folded));
+  EXPECT_NE(print(fn).find(" = cbrt %"), std::string::npos) << print(fn);
 }
 
 TEST(Interpreter, Comparisons) {

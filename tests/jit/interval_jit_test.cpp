@@ -57,7 +57,7 @@ const OpCase kOps[] = {
     {Op::kRound, 1}, {Op::kFmod, 2},  {Op::kPow, 2},    {Op::kPowHF, 2}, {Op::kSign, 1},
     {Op::kLt, 2},    {Op::kLe, 2},    {Op::kGt, 2},     {Op::kGe, 2},    {Op::kEqTol, 2},
     {Op::kNeTol, 2}, {Op::kEq, 2},    {Op::kNe, 2},     {Op::kTruth, 1}, {Op::kAnd, 2},
-    {Op::kOr, 2},    {Op::kNot, 1},   {Op::kSelect, 3},
+    {Op::kOr, 2},    {Op::kNot, 1},   {Op::kSelect, 3}, {Op::kCbrt, 1},
 };
 
 /// Compares JIT and interpreter on `boxes` (SoA over fn.num_inputs); returns failures.

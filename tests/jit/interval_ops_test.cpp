@@ -159,7 +159,7 @@ const OpCase kOps[] = {
     {Op::kRound, 1}, {Op::kFmod, 2},  {Op::kPow, 2},    {Op::kPowHF, 2}, {Op::kSign, 1},
     {Op::kLt, 2},    {Op::kLe, 2},    {Op::kGt, 2},     {Op::kGe, 2},    {Op::kEqTol, 2},
     {Op::kNeTol, 2}, {Op::kEq, 2},    {Op::kNe, 2},     {Op::kTruth, 1}, {Op::kAnd, 2},
-    {Op::kOr, 2},    {Op::kNot, 1},   {Op::kSelect, 3},
+    {Op::kOr, 2},    {Op::kNot, 1},   {Op::kSelect, 3}, {Op::kCbrt, 1},
 };
 
 class IntervalOpTest : public ::testing::TestWithParam<OpCase> {};
@@ -254,6 +254,29 @@ void expect_match(Op op, const Interval& ours, const BoostI& ref, int slack, Mat
     ADD_FAILURE() << op_name(op) << ": ours " << str(ours) << " boost [" << lo << ", " << hi
                   << "] for " << str(a) << " " << str(b);
   }
+}
+
+TEST(IntervalOps, CbrtIsIncreasingAndOutwardRounded) {
+  // cbrt is increasing on the whole line (negative arguments included): the ends map to
+  // the ends, widened outward by a few ulps; NaN is passed on.
+  Interval r = apply_interval(Op::kCbrt, {-8, 27, false}, {}, {});
+  EXPECT_LE(r.lo, -2);
+  EXPECT_GE(r.lo, -2 - 1e-14);
+  EXPECT_GE(r.hi, 3);
+  EXPECT_LE(r.hi, 3 + 1e-14);
+  EXPECT_FALSE(r.maybe_nan);
+  r = apply_interval(Op::kCbrt, {-kInf, kInf, true}, {}, {});
+  EXPECT_EQ(r.lo, -kInf);
+  EXPECT_EQ(r.hi, kInf);
+  EXPECT_TRUE(r.maybe_nan);
+  // Across 0, where the slope is infinite.
+  const Interval box{-1e-3, 2e-3, false};
+  r = apply_interval(Op::kCbrt, box, {}, {});
+  for (int i = 0; i <= 1000; ++i) {
+    const double x = box.lo + (box.hi - box.lo) * i / 1000;
+    EXPECT_TRUE(r.contains(apply_op(Op::kCbrt, x, 0, 0))) << x << " " << str(r);
+  }
+  EXPECT_LT(r.hi - r.lo, 0.23);  // cbrt(2e-3) - cbrt(-1e-3) = 0.226
 }
 
 TEST(IntervalBoostTest, AgreesWithBoostOnFiniteIntervals) {

@@ -4,6 +4,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <limits>
 #include <map>
 #include <set>
 #include <sstream>
@@ -135,6 +136,52 @@ TEST(JitRandomTest, OtherLaneCountsAndLevels) {
     options.opt_level = seed % 3 == 0 ? 1 : 3;
     std::string err = compare_f64(fn, seed, options);
     ASSERT_EQ(err, "") << "seed " << seed << " lanes " << options.lanes;
+  }
+}
+
+TEST(JitOps, CbrtMatchesTheInterpreter) {
+  // cbrt(x[1]) * x[2] + cbrt(a[1]): a per-lane libm call (cbrt / cbrtf) and, for the
+  // parameter, a uniform one (computed once and broadcast).
+  Function fn;
+  fn.num_params = 1;
+  IrBuilder b(fn);
+  b.finish(
+      b.add(b.mul(b.unary(Op::kCbrt, b.input(0)), b.input(1)), b.unary(Op::kCbrt, b.param(0))));
+  auto pts = random_points(5, kPoints, fn.num_inputs);
+  for (double x :
+       {-8.0, 27.0, -0.0, 1e-300, -1e300, std::numeric_limits<double>::infinity(), std::nan("")})
+    pts.push_back({x, 1.5, 0});
+  const size_t n = pts.size();
+  const std::vector<double> a = {-8};
+  Interpreter interp(fn);
+
+  auto f64 = JitFunction::compile(fn, Precision::kF64);
+  ASSERT_TRUE(f64.ok()) << f64.error().message;
+  auto xs = soa<double>(pts, fn.num_inputs);
+  std::vector<double> f(n);
+  f64.value()->f64()(static_cast<int64_t>(n), xs.data(), a.data(), f.data(), nullptr);
+  for (size_t i = 0; i < n; ++i) {
+    const double ref = interp.eval(pts[i], a).value;
+    EXPECT_TRUE(std::isnan(ref) ? std::isnan(f[i]) : f[i] == ref)
+        << "f64 at x = " << pts[i][0] << ": JIT " << f[i] << " interpreter " << ref;
+  }
+
+  auto f32 = JitFunction::compile(fn, Precision::kF32);
+  ASSERT_TRUE(f32.ok()) << f32.error().message;
+  auto xf = soa<float>(pts, fn.num_inputs);
+  const std::vector<float> af(a.begin(), a.end());
+  std::vector<float> g(n);
+  f32.value()->f32()(static_cast<int64_t>(n), xf.data(), af.data(), g.data(), nullptr);
+  for (size_t i = 0; i < n; ++i) {
+    std::vector<double> p(pts[i].size());
+    for (size_t k = 0; k < p.size(); ++k) p[k] = static_cast<float>(pts[i][k]);
+    const double ref = interp.eval(p, a).value;
+    if (!std::isfinite(ref)) {
+      EXPECT_TRUE(std::isnan(ref) ? std::isnan(g[i]) : g[i] == ref)
+          << "f32 at x = " << p[0] << ": JIT " << g[i] << " interpreter " << ref;
+      continue;
+    }
+    EXPECT_NEAR(g[i], ref, 1e-6 * (1 + std::fabs(ref))) << "f32 at x = " << p[0];
   }
 }
 

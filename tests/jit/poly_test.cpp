@@ -18,6 +18,7 @@
 #include <vector>
 
 #include "hfrt/model.h"
+#include "ir/builder.h"
 #include "ir/scalar_ops.h"
 #include "tests/jit/compile_util.h"
 
@@ -231,6 +232,23 @@ TEST_P(Classification, QualifiesOrNamesTheConstruct) {
 
 INSTANTIATE_TEST_SUITE_P(Models, Classification, ::testing::ValuesIn(kCases),
                          [](const auto& info) { return std::string(info.param.name); });
+
+TEST(PolyAnalysis, CbrtIsNotAPolynomialUnlessIndependentOfX) {
+  auto model = [](bool of_x) {
+    Function fn;
+    IrBuilder b(fn);
+    ValueId x = b.input(0), y = b.input(1), z = b.input(2);
+    ValueId r2 = b.add(b.add(b.sqr(x), b.sqr(y)), b.sqr(z));
+    b.finish(b.sub(b.constant(1), b.unary(Op::kCbrt, of_x ? r2 : b.param(0))));
+    return fn;
+  };
+  PolyAnalysis p = analyze_polynomial(model(true));
+  EXPECT_FALSE(p.qualifies);
+  EXPECT_NE(p.reason.find("'cbrt' is not a polynomial"), std::string::npos) << p.reason;
+  // Of a parameter it is a constant per ray (a degree-0 polynomial).
+  p = analyze_polynomial(model(false));
+  EXPECT_TRUE(p.qualifies) << p.reason;
+}
 
 TEST(PolyAnalysis, SkeletonOfAUnionHasTheRFunctionNode) {
   PolyAnalysis p = analyze("my_model(x[3], a[1]) { my_model = (1 - x[1]^2) | (1 - x[2]^2); }");

@@ -18,6 +18,7 @@
 #include <string>
 #include <vector>
 
+#include "ir/builder.h"
 #include "tests/jit/compile_util.h"
 
 namespace hfrt::jit {
@@ -316,6 +317,28 @@ TEST(PovEmit, EmulatedOpsMatchTheInterpreter) {
   testutil::Compiled c = compile(text);
   ASSERT_TRUE(c.ok) << c.diagnostics;
   EXPECT_GT(expect_same_values(text, "emulated"), 50);
+}
+
+TEST(PovEmit, CbrtIsASelectOfPowers) {
+  // POV-Ray has no cbrt and its pow of a negative base is not real: cbrt(v) is written
+  // select(v, -pow(-v, 1/3), pow(v, 1/3)) (select(s, a, b) is a where s < 0).
+  Function fn;
+  IrBuilder b(fn);
+  b.finish(b.add(b.unary(Op::kCbrt, b.input(0)), b.input(1)));
+  PovEmitOptions o;
+  o.name = "F";
+  PovFunction pov;
+  ASSERT_TRUE(emit_pov_function(fn, o, &pov, nullptr));
+  EXPECT_EQ(pov.text,
+            "#declare F = function(x, y, z) { (select(x, (-pow((-x), 0.3333333333333333)), "
+            "pow(x, 0.3333333333333333)) + y) }\n");
+  PovEval pe(pov.text);
+  Interpreter interp(fn);
+  for (double x : {-27.0, -8.0, -1.5, -1e-9, 0.0, 1e-9, 0.7, 8.0, 1000.0}) {
+    const double p[3] = {x, 0.25, 0};
+    const double ref = interp.eval(p, {}).value;
+    EXPECT_NEAR(pe.call("F", {x, 0.25, 0}), ref, 1e-12 * (1 + std::fabs(ref))) << x;
+  }
 }
 
 TEST(PovEmit, LoopIsRejectedWithItsLocation) {
