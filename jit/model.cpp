@@ -24,9 +24,7 @@
 #include "jit/interpreter.h"
 #include "jit/interval.h"
 #include "jit/llvm_jit.h"
-#include "jit/lower.h"
 #include "jit/poly.h"
-#include "lang/frontend.h"
 
 namespace hfrt {
 namespace {

@@ -84,7 +84,6 @@ int run_render(const RenderCli& cli) {
   if (cli.stats) {
     app::RenderReport report = done.report;
     report.compile_ms = loaded->compile_ms;
-    report.auto_root = cli.root == "auto";
     std::fputs(app::format_render_stats(report).c_str(), stderr);
     std::fputs(app::describe_surfaces(*job.model).c_str(), stderr);
   }
