@@ -18,6 +18,9 @@ packages=(
   libbenchmark-dev
   libassimp-dev
   zlib1g-dev libzstd-dev
+  libtomlplusplus-dev                                   # scene files (render/scene)
+  pybind11-dev python3-dev python3-numpy python3-pytest  # the Python module and its tests
+  python3-skimage                                       # the marching-cubes peer of the mesher tests/bench
 )
 if [[ "${1:-}" == "--bench" ]]; then
   packages+=(libembree-dev)   # optional: hfrt_bench_mesh compares against Embree when found
