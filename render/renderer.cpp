@@ -381,7 +381,7 @@ class TileRenderer {
 
   /// The unit direction from surface point p towards `light`.
   static Vec3 light_direction(const Light& light, Vec3 p) {
-    return light.kind == Light::Kind::kPoint ? normalize(light.v - p) : normalize(light.v);
+    return light.kind != Light::Kind::kDirectional ? normalize(light.v - p) : normalize(light.v);
   }
 
   /// The shadow ray from surface point p (normal n) towards `light`, and the range [*te, *tx]
@@ -390,7 +390,7 @@ class TileRenderer {
     Vec3 o = p + n * shadow_bias_;
     Vec3 l;
     float dist = std::numeric_limits<float>::infinity();
-    if (light.kind == Light::Kind::kPoint) {
+    if (light.kind != Light::Kind::kDirectional) {
       l = light.v - o;
       dist = length(l);
       l = l / dist;
@@ -557,7 +557,8 @@ class TileRenderer {
         }
         Vec3 h = normalize(l + view);
         float spec = kSpecular * std::pow(std::max(0.0f, dot(nrm, h)), kShininess);
-        color += mul(albedo, light.color) * ndotl + light.color * spec;
+        Vec3 radiance = light.color * light.intensity;
+        color += mul(albedo, radiance) * ndotl + radiance * spec;
       }
       float* acc = &ts.accum[size_t(s.pixel) * 8];
       acc[0] += color.x, acc[1] += color.y, acc[2] += color.z;

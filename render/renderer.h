@@ -14,6 +14,7 @@
 #include "render/camera.h"
 #include "render/field.h"
 #include "render/image.h"
+#include "render/material.h"
 #include "render/root_search.h"
 
 namespace hfrt::render {
@@ -25,14 +26,6 @@ enum class RootMode { kSign, kInterval, kAuto, kAnalytic };
 
 /// "sign", "interval", "auto" or "analytic".
 const char* root_mode_name(RootMode mode);
-
-/// A light. `v` is the position of a point light, or the direction *towards* a directional one.
-struct Light {
-  enum class Kind { kPoint, kDirectional };
-  Kind kind = Kind::kDirectional;
-  Vec3 v{0, 1, 0};
-  Vec3 color{1, 1, 1};
-};
 
 /// Called after each finished tile with (tiles done, tiles in all). Called from worker
 /// threads, concurrently: it must be thread-safe (ProgressBar is).

@@ -1,0 +1,92 @@
+#pragma once
+// Scene files: a TOML description of a camera, render settings, lights, materials and one or
+// more placed HyperFun objects (docs/scenes.md documents every key). This layer only reads and
+// validates the file into a SceneDesc (pure data, no models compiled): app/ compiles the
+// objects and render/ traces them. Errors are user-input diagnostics located at the file, line
+// and column of the offending key or value (toml++ keeps source positions).
+
+#include <array>
+#include <map>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "render/camera.h"
+#include "render/framing.h"
+#include "render/material.h"
+
+namespace hfrt::scene {
+
+/// A position in a scene file (1-based line and column; 0 when unknown).
+struct SourcePos {
+  std::string file;
+  int line = 0, column = 0;
+};
+
+/// `[camera]`. Unset optionals are filled the way `hfrt render` fills them (framing the
+/// solids when eye or look_at is missing).
+struct CameraDesc {
+  render::CameraRequest request;  ///< eye, look_at, up, fov (vertical degrees), ortho (width)
+  float aperture = 0;             ///< thin-lens radius; 0: pinhole
+  std::optional<float> focus_distance;  ///< along the view direction; default |look_at - eye|
+};
+
+/// `[render]`. Unset optionals keep the command line's (or its defaults') value.
+struct RenderDesc {
+  std::optional<std::array<int, 2>> size;  ///< width, height
+  std::optional<int> spp;
+  std::optional<bool> adaptive;
+  std::optional<int> max_depth;
+  std::optional<render::Vec3> background;
+  std::optional<std::string> root;  ///< "sign" | "interval" | "analytic" | "auto"
+};
+
+/// One `[[object]]`: a model (from a file, or inline source) placed in the scene.
+struct ObjectDesc {
+  std::string file;    ///< absolute or relative to the current directory (resolved against the
+                       ///< scene file's folder by the reader); "" when `source` is given
+  std::string source;  ///< inline HyperFun text (`source = """..."""`), "" when `file` is given
+  std::optional<std::string> name;      ///< which object of the file
+  std::vector<double> params;           ///< a[1], a[2], ...
+  std::optional<render::Box> bbox;      ///< [x0, y0, z0, x1, y1, z1]
+  std::string material;                 ///< "" : the default material
+  render::Vec3 translate{0, 0, 0};
+  render::Vec3 rotate_deg{0, 0, 0};     ///< about x, then y, then z
+  float scale = 1;
+  SourcePos pos;                        ///< where the [[object]] table starts (for messages)
+};
+
+/// A whole scene file.
+struct SceneDesc {
+  std::string path;  ///< the scene file as given
+  CameraDesc camera;
+  bool has_camera = false;
+  RenderDesc render;
+  std::vector<render::Light> lights;  ///< empty: the default lights
+  /// `[material.NAME]`, by name. Texture paths are resolved against the scene file's folder.
+  std::map<std::string, render::Material> materials;
+  std::vector<ObjectDesc> objects;
+};
+
+/// One located error: `file:line:col: error: message` (+ an optional hint line).
+struct SceneError {
+  SourcePos pos;
+  std::string message;
+  std::string hint;
+  /// The message in the format of hfrt's compile errors (file:line:col: error: ..., then the
+  /// source line with a caret and the hint when there is one).
+  std::string render() const;
+};
+
+/// Reads and validates a scene file into `*out`. Every problem the file can have (TOML syntax,
+/// an unknown key, a wrong type, a value out of range, a material that is not defined, an
+/// object with neither or both of file and source, a model or texture file that does not
+/// exist, a file that cannot be read) is a SceneError located at the key or value: false with
+/// `*err` set (the first error). The reader does not compile models.
+bool read_scene_file(const std::string& path, SceneDesc* out, SceneError* err);
+/// The same from text in memory (`path` names it in messages; relative file names are resolved
+/// against its folder).
+bool parse_scene(const std::string& text, const std::string& path, SceneDesc* out,
+                 SceneError* err);
+
+}  // namespace hfrt::scene
