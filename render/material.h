@@ -20,13 +20,13 @@ struct Material {
   float diffuse = 1.0f;            ///< Lambert, times color
   float specular = 0.25f;          ///< Blinn-Phong highlight, times the light colour
   float shininess = 48.0f;
-  float reflect = 0.0f;             ///< mirror reflection weight
-  float transmit = 0.0f;            ///< refraction weight
-  float ior = 1.5f;                 ///< index of refraction of the solid's inside
-  bool fresnel = false;             ///< weigh reflect/transmit by the dielectric Fresnel terms
-  Vec3 absorb{0, 0, 0};             ///< Beer-Lambert coefficients per unit length inside
-  float roughness = 0.0f;           ///< > 0: glossy reflection and refraction, sampled
-  std::string texture;              ///< image file (absolute path), "" for none
+  float reflect = 0.0f;    ///< mirror reflection weight
+  float transmit = 0.0f;   ///< refraction weight
+  float ior = 1.5f;        ///< index of refraction of the solid's inside
+  bool fresnel = false;    ///< weigh reflect/transmit by the dielectric Fresnel terms
+  Vec3 absorb{0, 0, 0};    ///< Beer-Lambert coefficients per unit length inside
+  float roughness = 0.0f;  ///< > 0: glossy reflection and refraction, sampled
+  std::string texture;     ///< image file (absolute path), "" for none
   TextureMapping mapping = TextureMapping::kPlanar;
 };
 

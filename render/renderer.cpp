@@ -15,6 +15,7 @@
 #include <mutex>
 
 #include "base/check.h"
+#include "render/sampling.h"
 
 namespace hfrt::render {
 
@@ -29,18 +30,6 @@ double seconds_since(Clock::time_point t) {
 constexpr float kAmbient = 0.12f;
 constexpr float kSpecular = 0.25f;
 constexpr float kShininess = 48.0f;
-
-/// splitmix64: a well-mixed 64-bit hash, so neighbouring pixels get unrelated jitter.
-uint64_t mix64(uint64_t z) {
-  z += 0x9e3779b97f4a7c15ull;
-  z = (z ^ (z >> 30)) * 0xbf58476d1ce4e5b9ull;
-  z = (z ^ (z >> 27)) * 0x94d049bb133111ebull;
-  return z ^ (z >> 31);
-}
-
-float unit_float(uint64_t bits) {
-  return float(bits >> 40) * (1.0f / 16777216.0f);
-}
 
 /// A range of camera depths that per-tile culling could not prove empty.
 struct Span {
@@ -626,6 +615,16 @@ const char* root_mode_name(RootMode mode) {
       return "analytic";
   }
   return "?";
+}
+
+bool parse_root_mode(std::string_view text, RootMode* mode) {
+  for (RootMode m : {RootMode::kSign, RootMode::kInterval, RootMode::kAuto, RootMode::kAnalytic}) {
+    if (text == root_mode_name(m)) {
+      *mode = m;
+      return true;
+    }
+  }
+  return false;
 }
 
 float effective_step(const RenderOptions& options) {

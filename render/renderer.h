@@ -9,6 +9,7 @@
 #include <cstdint>
 #include <functional>
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include "render/camera.h"
@@ -26,6 +27,8 @@ enum class RootMode { kSign, kInterval, kAuto, kAnalytic };
 
 /// "sign", "interval", "auto" or "analytic".
 const char* root_mode_name(RootMode mode);
+/// The inverse of root_mode_name(); false for any other word.
+bool parse_root_mode(std::string_view text, RootMode* mode);
 
 /// Called after each finished tile with (tiles done, tiles in all). Called from worker
 /// threads, concurrently: it must be thread-safe (ProgressBar is).

@@ -4,6 +4,10 @@
 //      [--light KIND:x,y,z[,intensity]]... [--step S] [--epsilon E] [--aov depth,normal]
 //      [--background r,g,b] [--no-shadows] [--backend jit|interp] [--stats]`
 //
+// `hfrt render SCENE.toml -o OUT.png [the same options]`: a scene file (docs/scenes.md) of
+// several objects with materials and lights, traced recursively (render/tracer.h); the options
+// given on the command line replace the scene's values.
+//
 // Ray traces the model (tile-parallel, render/renderer.h) and writes the image; the format
 // follows the extension (PNG, EXR, TIFF, JPEG). Without --eye/--look-at the solid's extent
 // inside the bounding box is found first and framed from a three-quarter view.
@@ -20,10 +24,12 @@
 #include <string>
 
 #include "app/render_job.h"
+#include "app/scene_job.h"
 #include "render/framing.h"
 #include "render/image.h"
 #include "render/progress.h"
 #include "render/renderer.h"
+#include "scene/scene_file.h"
 #include "tools/hfrt/commands.h"
 #include "tools/hfrt/render_options.h"
 
@@ -36,6 +42,82 @@ namespace {
 int usage_error(const std::string& message) {
   std::fprintf(stderr, "hfrt render: %s\n", message.c_str());
   return 2;
+}
+
+bool is_scene_file(const std::string& path) {
+  return path.size() > 5 && path.compare(path.size() - 5, 5, ".toml") == 0;
+}
+
+/// `hfrt render scene.toml`: the scene file's values, with every option given on the command
+/// line taking their place (`given` tells which were).
+int run_scene(const RenderCli& cli, const CLI::App& given) {
+  app::RenderSetup setup;
+  std::string err;
+  if (!translate_render_options(cli, &setup, &err)) return usage_error(err);
+  for (const char* model_only : {"--bbox", "-a", "--object", "--step", "--epsilon"}) {
+    if (given.count(model_only) > 0) {
+      return usage_error(std::string(model_only) +
+                         " applies to a .hf model; in a scene file set it on the [[object]] "
+                         "(bbox, params, name)");
+    }
+  }
+  scene::SceneDesc desc;
+  scene::SceneError serr;
+  if (!scene::read_scene_file(cli.model.file, &desc, &serr)) {
+    std::fputs(serr.render().c_str(), stderr);
+    return 1;
+  }
+  app::SceneOverrides ov;
+  const render::RenderOptions& o = setup.options;
+  if (given.count("--size") > 0) ov.size = std::array<int, 2>{o.width, o.height};
+  if (given.count("--spp") > 0) ov.spp = o.spp;
+  if (given.count("--root") > 0) ov.root = o.root;
+  if (given.count("--background") > 0) ov.background = o.background;
+  if (cli.max_depth >= 0) ov.max_depth = cli.max_depth;
+  ov.camera = setup.camera;
+  ov.lights = o.lights;
+  ov.no_shadows = cli.no_shadows;
+  ov.threads = o.threads;
+  ov.interp_backend = cli.model.backend == "interp";
+
+  render::ProgressBar bar("rendering", isatty(STDERR_FILENO) != 0);
+  render::TraceResult result;
+  app::SceneJobResult done = app::run_scene_job(
+      desc, ov, [&bar](size_t d, size_t total) { bar.update(d, total); }, nullptr, &result);
+  for (const std::string& w : done.warnings) std::fprintf(stderr, "%s\n", w.c_str());
+  switch (done.status) {
+    case app::SceneJobStatus::kOk:
+    case app::SceneJobStatus::kCancelled:
+      break;
+    case app::SceneJobStatus::kSourceError:
+      std::fputs(done.error.c_str(), stderr);
+      return 1;
+    case app::SceneJobStatus::kEnvironment:
+      std::fprintf(stderr, "hfrt: %s\n", done.error.c_str());
+      return 2;
+    case app::SceneJobStatus::kUsageError:
+      std::fprintf(stderr, "%s: error: %s\n", cli.model.file.c_str(), done.error.c_str());
+      return 1;
+  }
+  bar.finish();
+  auto written = render::write_image(result.image, cli.output, setup.aovs);
+  if (!written.ok()) {
+    std::fprintf(stderr, "hfrt: %s\n", written.error().message.c_str());
+    return 2;
+  }
+  const render::TraceOptions& opt = done.options;
+  std::fprintf(stderr, "hfrt: wrote %s (%dx%d, %d spp, %zu objects, max depth %d)\n",
+               cli.output.c_str(), opt.width, opt.height, opt.spp, done.objects.size(),
+               opt.max_depth);
+  for (size_t i = 1; i < written.value().size(); ++i) {
+    std::fprintf(stderr, "hfrt: wrote %s\n", written.value()[i].c_str());
+  }
+  if (result.stats.evals.nan_samples > 0) {
+    std::fprintf(stderr, "hfrt: warning: F has no value at %llu samples (counted as outside)\n",
+                 (unsigned long long)result.stats.evals.nan_samples);
+  }
+  if (cli.stats) std::fputs(app::format_scene_stats(done, result.stats).c_str(), stderr);
+  return 0;
 }
 
 int run_render(const RenderCli& cli) {
@@ -96,11 +178,14 @@ CommandRunner register_render(CLI::App& app) {
   auto cli = std::make_shared<RenderCli>();
   CLI::App* sub =
       app.add_subcommand("render", "ray trace a model to an image (PNG, EXR, TIFF, JPEG)");
-  sub->add_option("model", cli->model.file, "HyperFun model file")->required();
+  sub->add_option("model", cli->model.file, "HyperFun model file, or a scene file (.toml)")
+      ->required();
   sub->add_option("-o,--output", cli->output, "output image; the format follows the extension")
       ->required();
   add_render_options(*sub, cli.get());
-  return [cli] { return run_render(*cli); };
+  return [cli, sub] {
+    return is_scene_file(cli->model.file) ? run_scene(*cli, *sub) : run_render(*cli);
+  };
 }
 
 }  // namespace hfrt::tools

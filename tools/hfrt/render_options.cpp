@@ -92,13 +92,15 @@ void add_render_options(CLI::App& app, RenderCli* cli) {
   app.add_option("--backend", cli->model.backend, "evaluator: jit (default) or interp")
       ->check(CLI::IsMember({"jit", "interp"}));
   app.add_flag("--stats", cli->stats, "print time, Mrays/s and evaluator calls on stderr");
+  app.add_option("--max-depth", cli->max_depth,
+                 "scene files: reflection/refraction bounces (default: the scene's, or 5)");
 }
 
 const std::vector<std::string>& render_option_names() {
   static const std::vector<std::string> names = {
       "size",    "bbox", "eye",        "look-at",    "up",      "fov",   "ortho",
       "root",    "spp",  "threads",    "a",          "object",  "light", "step",
-      "epsilon", "aov",  "background", "no-shadows", "backend", "stats"};
+      "epsilon", "aov",  "background", "no-shadows", "backend", "stats", "max-depth"};
   return names;
 }
 
@@ -107,18 +109,7 @@ bool render_option_is_flag(const std::string& name) {
 }
 
 bool parse_root_mode(const std::string& text, render::RootMode* mode) {
-  if (text == "sign") {
-    *mode = render::RootMode::kSign;
-  } else if (text == "interval") {
-    *mode = render::RootMode::kInterval;
-  } else if (text == "auto") {
-    *mode = render::RootMode::kAuto;
-  } else if (text == "analytic") {
-    *mode = render::RootMode::kAnalytic;
-  } else {
-    return false;
-  }
-  return true;
+  return render::parse_root_mode(text, mode);
 }
 
 const char* root_mode_choices() {
@@ -218,6 +209,7 @@ bool translate_render_options(const RenderCli& cli, app::RenderSetup* out, std::
     opt.background = v;
   }
   opt.shadows = !cli.no_shadows;
+  if (cli.max_depth < -1 || cli.max_depth > 64) return fail("--max-depth expects 0..64");
   if (!parse_doubles(cli.model.params, &s.params)) {
     return fail("-a expects numbers separated by commas, e.g. -a 1,0.5 (got '" + cli.model.params +
                 "')");

@@ -54,6 +54,7 @@ struct RenderCli {
   std::string background;
   bool no_shadows = false;
   bool stats = false;
+  int max_depth = -1;  ///< scene files only; -1: the scene's value
 };
 
 /// Registers every render option (all but the model file and -o) on `app`, storing into `cli`

@@ -1,0 +1,906 @@
+#include "render/tracer.h"
+
+#include <tbb/blocked_range.h>
+#include <tbb/enumerable_thread_specific.h>
+#include <tbb/global_control.h>
+#include <tbb/info.h>
+#include <tbb/parallel_for.h>
+#include <tbb/task_arena.h>
+
+#include <algorithm>
+#include <atomic>
+#include <chrono>
+#include <cmath>
+#include <limits>
+#include <memory>
+#include <numeric>
+
+#include "base/check.h"
+#include "render/sampling.h"
+
+namespace hfrt::render {
+
+// ---------------------------------------------------------------------------------------------
+// Transform
+
+Transform Transform::from_srt(float scale, Vec3 rotate_deg, Vec3 translate) {
+  HFRT_CHECK(scale > 0);
+  Transform t;
+  t.scale_ = scale;
+  t.t_ = translate;
+  const double k = M_PI / 180.0;
+  double cx = std::cos(rotate_deg.x * k), sx = std::sin(rotate_deg.x * k);
+  double cy = std::cos(rotate_deg.y * k), sy = std::sin(rotate_deg.y * k);
+  double cz = std::cos(rotate_deg.z * k), sz = std::sin(rotate_deg.z * k);
+  // R = Rz Ry Rx: x first.
+  double rx[9] = {1, 0, 0, 0, cx, -sx, 0, sx, cx};
+  double ry[9] = {cy, 0, sy, 0, 1, 0, -sy, 0, cy};
+  double rz[9] = {cz, -sz, 0, sz, cz, 0, 0, 0, 1};
+  double ryx[9], r[9];
+  auto mul = [](const double* a, const double* b, double* c) {
+    for (int i = 0; i < 3; ++i)
+      for (int j = 0; j < 3; ++j)
+        c[3 * i + j] = a[3 * i] * b[j] + a[3 * i + 1] * b[3 + j] + a[3 * i + 2] * b[6 + j];
+  };
+  mul(ry, rx, ryx);
+  mul(rz, ryx, r);
+  for (int i = 0; i < 9; ++i) t.r_[i] = float(r[i]);
+  return t;
+}
+
+Vec3 Transform::point_to_world(Vec3 p) const {
+  p = p * scale_;
+  return Vec3{r_[0] * p.x + r_[1] * p.y + r_[2] * p.z, r_[3] * p.x + r_[4] * p.y + r_[5] * p.z,
+              r_[6] * p.x + r_[7] * p.y + r_[8] * p.z} +
+         t_;
+}
+
+Vec3 Transform::direction_to_object(Vec3 d) const {
+  Vec3 q{r_[0] * d.x + r_[3] * d.y + r_[6] * d.z, r_[1] * d.x + r_[4] * d.y + r_[7] * d.z,
+         r_[2] * d.x + r_[5] * d.y + r_[8] * d.z};
+  return q / scale_;
+}
+
+Vec3 Transform::point_to_object(Vec3 p) const {
+  return direction_to_object(p - t_);
+}
+
+Vec3 Transform::normal_to_world(Vec3 n) const {
+  return Vec3{r_[0] * n.x + r_[1] * n.y + r_[2] * n.z, r_[3] * n.x + r_[4] * n.y + r_[5] * n.z,
+              r_[6] * n.x + r_[7] * n.y + r_[8] * n.z};
+}
+
+Box Transform::box_to_world(const Box& box) const {
+  Box out;
+  for (int c = 0; c < 8; ++c) {
+    Vec3 p{(c & 1) ? box.hi.x : box.lo.x, (c & 2) ? box.hi.y : box.lo.y,
+           (c & 4) ? box.hi.z : box.lo.z};
+    out.extend(point_to_world(p));
+  }
+  return out;
+}
+
+float fresnel_dielectric(float cos_i, float n1, float n2) {
+  cos_i = std::clamp(cos_i, 0.0f, 1.0f);
+  float eta = n1 / n2;
+  float sin2_t = eta * eta * (1 - cos_i * cos_i);
+  if (sin2_t >= 1) return 1;
+  float cos_t = std::sqrt(1 - sin2_t);
+  float rs = (n1 * cos_i - n2 * cos_t) / (n1 * cos_i + n2 * cos_t);
+  float rp = (n2 * cos_i - n1 * cos_t) / (n2 * cos_i + n1 * cos_t);
+  return 0.5f * (rs * rs + rp * rp);
+}
+
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+double seconds_since(Clock::time_point t) {
+  return std::chrono::duration<double>(Clock::now() - t).count();
+}
+
+/// -F: the solid's complement (F <= 0), for rays that start inside a solid and look for where
+/// they leave it. Its intervals are the negated intervals and its ray candidates are F's.
+class NegatedField final : public Field {
+ public:
+  explicit NegatedField(const Field& f) : f_(f) {}
+  void eval(size_t n, const float* x, const float* y, const float* z, float* out) const override {
+    f_.eval(n, x, y, z, out);
+    for (size_t i = 0; i < n; ++i) out[i] = -out[i];
+  }
+  bool has_interval() const override { return f_.has_interval(); }
+  Interval eval_interval(const Box& box, bool* maybe_nan) const override {
+    Interval iv = f_.eval_interval(box, maybe_nan);
+    return {-iv.hi, -iv.lo};
+  }
+  void eval_intervals(size_t n, const Box* boxes, Interval* out, bool* maybe_nan) const override {
+    f_.eval_intervals(n, boxes, out, maybe_nan);
+    for (size_t i = 0; i < n; ++i) out[i] = {-out[i].hi, -out[i].lo};
+  }
+  void eval_gradient(size_t n, const float* x, const float* y, const float* z, float* f, float* dx,
+                     float* dy, float* dz) const override {
+    f_.eval_gradient(n, x, y, z, f, dx, dy, dz);
+    for (size_t i = 0; i < n; ++i) f[i] = -f[i], dx[i] = -dx[i], dy[i] = -dy[i], dz[i] = -dz[i];
+  }
+  bool has_ray_candidates() const override { return f_.has_ray_candidates(); }
+  void ray_candidates(Vec3 o, Vec3 d, float t0, float t1, std::vector<double>* out) const override {
+    f_.ray_candidates(o, d, t0, t1, out);
+  }
+
+ private:
+  const Field& f_;
+};
+
+/// What the tracer knows of one object for the whole trace.
+struct ObjectInfo {
+  const SceneObject* object;
+  std::unique_ptr<NegatedField> negated;
+  const Material* material;
+  RootMode mode;      // kSign, kInterval or kAnalytic
+  float step, eps;    // object units
+  float bias;         // world units: how far secondary rays start off the surface
+  bool transmits;     // shadow rays pass through (attenuated)
+  bool colour_attrs;  // the field computes s[1..3]
+};
+
+/// A ray of the wavefront, in world space with a unit direction.
+struct PathRay {
+  Vec3 o, d;
+  Vec3 weight;    // what its radiance counts in its sample
+  int sample;     // index into the batch's samples
+  int depth;      // 0: camera ray
+  int medium;     // the object whose solid it travels in, -1: none
+  uint64_t seed;  // for glossy and light sampling
+  /// Distance from the surface point it leaves to its origin (it starts a little off the
+  /// surface, along its own direction): counted in the absorption of its medium.
+  float pre = 0;
+};
+
+/// The origin of a ray leaving surface point p in direction d (nf: the normal on d's side):
+/// `bias` away from the tangent plane, moved along d itself so that the ray stays on the exact
+/// line of reflection or refraction; *pre gets the distance moved.
+Vec3 leave_surface(Vec3 p, Vec3 d, Vec3 nf, float bias, float* pre) {
+  *pre = bias / std::max(std::abs(dot(d, nf)), 0.05f);
+  return p + d * *pre;
+}
+
+/// A ray's nearest hit.
+struct Hit {
+  int object = -1;
+  float t = std::numeric_limits<float>::infinity();
+  int cap_axis = -1;  // >= 0: the box face (object space) is the surface
+  bool cap_exit = false;
+  Vec3 p_object;  // hit point in object space
+};
+
+/// One search request against one object (object-space ray).
+struct Query {
+  Ray ray;
+  float a = 0, b = 0;  // range to search
+  float te = 0;        // where the ray enters the box (at_start at a == te is a cap)
+  int enter_axis = -1, exit_axis = -1;
+  float box_exit = 0;
+  int ray_index = 0;
+};
+
+/// The range of a ray in a box with the axes of the faces it enters and leaves by.
+bool box_span(const Ray& ray, const Box& box, float* te, float* tx, int* enter, int* exit_axis) {
+  float t0 = -std::numeric_limits<float>::infinity(), t1 = std::numeric_limits<float>::infinity();
+  int a0 = -1, a1 = -1;
+  for (int i = 0; i < 3; ++i) {
+    float o = ray.o[i], d = ray.d[i];
+    if (d == 0) {
+      if (o < box.lo[i] || o > box.hi[i]) return false;
+      continue;
+    }
+    float inv = 1.0f / d;
+    float a = (box.lo[i] - o) * inv, b = (box.hi[i] - o) * inv;
+    if (a > b) std::swap(a, b);
+    if (a > t0) t0 = a, a0 = i;
+    if (b < t1) t1 = b, a1 = i;
+  }
+  if (!(t0 <= t1)) return false;
+  *te = t0, *tx = t1, *enter = a0, *exit_axis = a1;
+  return true;
+}
+
+struct ThreadState {
+  std::vector<std::unique_ptr<RootSearcher>> searchers, negated;
+  std::vector<Query> queries;
+  std::vector<RootHit> found;
+  std::vector<int> batch_index;
+  std::vector<float> px, py, pz, f, gx, gy, gz, attrs;
+  double search_seconds = 0, shade_seconds = 0;
+  uint64_t camera_rays = 0, secondary_rays = 0, shadow_rays = 0, hits = 0, refined = 0;
+};
+
+class SceneTracer {
+ public:
+  SceneTracer(const std::vector<SceneObject>& objects, const std::vector<Material>& materials,
+              const TraceOptions& options, Image* image)
+      : opt_(options), frame_(options.camera, options.width, options.height), image_(image) {
+    for (const SceneObject& o : objects) {
+      HFRT_CHECK(o.field != nullptr);
+      HFRT_CHECK(!o.bbox.empty());
+      HFRT_CHECK(o.material >= 0 && size_t(o.material) < materials.size());
+      ObjectInfo info;
+      info.object = &o;
+      info.negated = std::make_unique<NegatedField>(*o.field);
+      info.material = &materials[size_t(o.material)];
+      RootMode m = o.root;
+      if (m == RootMode::kAuto) {
+        m = o.field->has_ray_candidates()
+                ? RootMode::kAnalytic
+                : (o.field->has_interval() ? RootMode::kInterval : RootMode::kSign);
+      }
+      HFRT_CHECK(m != RootMode::kInterval || o.field->has_interval());
+      HFRT_CHECK(m != RootMode::kAnalytic || o.field->has_ray_candidates());
+      info.mode = m;
+      float ext = o.bbox.max_extent();
+      info.step = o.step > 0 ? o.step : ext / 512.0f;
+      info.eps = o.epsilon > 0 ? o.epsilon : ext * 1e-5f;
+      info.bias = 1e-3f * ext * o.transform.scale();
+      info.transmits = info.material->transmit > 0;
+      info.colour_attrs = o.field->num_attributes() >= 3;
+      objects_.push_back(std::move(info));
+    }
+    lights_ = options.lights.empty() ? default_lights(frame_) : options.lights;
+    Vec3 view = options.camera.look_at - options.camera.eye;
+    focus_ = options.focus_distance > 0 ? options.focus_distance : length(view);
+  }
+
+  RootMode root_used(size_t k) const { return objects_[k].mode; }
+
+  ThreadState make_state() const {
+    ThreadState ts;
+    for (const ObjectInfo& o : objects_) {
+      ts.searchers.push_back(std::make_unique<RootSearcher>(*o.object->field));
+      ts.negated.push_back(std::make_unique<RootSearcher>(*o.negated));
+    }
+    return ts;
+  }
+
+  void trace_tile(int tx0, int ty0, int tx1, int ty1, ThreadState& ts) {
+    const int tw = tx1 - tx0, th = ty1 - ty0;
+    const size_t npix = size_t(tw) * th;
+    pix_.assign(npix, PixelAccum{});
+    const int first = opt_.adaptive ? std::min(opt_.spp, TraceOptions::kAdaptiveFirst) : opt_.spp;
+    std::vector<std::pair<int, int>> list;  // (pixel, sample index)
+    list.reserve(npix * size_t(first));
+    for (size_t p = 0; p < npix; ++p)
+      for (int s = 0; s < first; ++s) list.push_back({int(p), s});
+    trace_samples(list, tx0, ty0, tw, ts);
+    if (first < opt_.spp) {
+      list.clear();
+      for (size_t p = 0; p < npix; ++p) {
+        const PixelAccum& a = pix_[p];
+        float spread = std::max({a.hi.x - a.lo.x, a.hi.y - a.lo.y, a.hi.z - a.lo.z});
+        if (spread <= opt_.adaptive_threshold) continue;
+        ts.refined++;
+        for (int s = first; s < opt_.spp; ++s) list.push_back({int(p), s});
+      }
+      if (!list.empty()) trace_samples(list, tx0, ty0, tw, ts);
+    }
+    for (int y = ty0; y < ty1; ++y) {
+      for (int x = tx0; x < tx1; ++x) {
+        const PixelAccum& a = pix_[size_t((y - ty0) * tw + (x - tx0))];
+        size_t i = size_t(y) * opt_.width + x;
+        float inv = 1.0f / float(a.samples);
+        image_->rgb[3 * i] = a.rgb.x * inv;
+        image_->rgb[3 * i + 1] = a.rgb.y * inv;
+        image_->rgb[3 * i + 2] = a.rgb.z * inv;
+        image_->alpha[i] = a.hits * inv;
+        if (a.hits > 0) {
+          image_->depth[i] = a.depth / a.hits;
+          Vec3 n = normalize(a.normal);
+          image_->normal[3 * i] = n.x;
+          image_->normal[3 * i + 1] = n.y;
+          image_->normal[3 * i + 2] = n.z;
+        }
+      }
+    }
+  }
+
+ private:
+  struct PixelAccum {
+    Vec3 rgb{0, 0, 0};
+    Vec3 lo{std::numeric_limits<float>::infinity(), std::numeric_limits<float>::infinity(),
+            std::numeric_limits<float>::infinity()};
+    Vec3 hi{-std::numeric_limits<float>::infinity(), -std::numeric_limits<float>::infinity(),
+            -std::numeric_limits<float>::infinity()};
+    int samples = 0;
+    float hits = 0, depth = 0;
+    Vec3 normal{0, 0, 0};
+  };
+
+  /// The stratum of sample s of spp: a fixed permutation, so that the first samples of an
+  /// adaptive pixel are spread over the pixel rather than filling its first rows.
+  static int stratum(int s, int spp) {
+    if (spp <= 2) return s;
+    int k = std::max(1, int(float(spp) * 0.618034f));
+    while (std::gcd(k, spp) != 1) ++k;
+    return int((int64_t(s) * k) % spp);
+  }
+
+  PathRay camera_ray(int x, int y, int s, int sample_index) const {
+    const int spp = opt_.spp;
+    const int nx = std::max(1, int(std::floor(std::sqrt(float(spp)))));
+    const int ny = (spp + nx - 1) / nx;
+    float fx = 0.5f, fy = 0.5f;
+    uint64_t seed = ((uint64_t(y) * uint64_t(opt_.width) + uint64_t(x)) << 16) ^ uint64_t(s);
+    uint64_t h = mix64(seed ^ 0x68667274ull);
+    if (spp > 1) {
+      int st = stratum(s, spp);
+      float jx = unit_float(h), jy = unit_float(mix64(h));
+      fx = (float(st % nx) + jx) / float(nx);
+      fy = (float(st / nx) + jy) / float(ny);
+    }
+    Ray r = frame_.ray(float(x) + fx, float(y) + fy);
+    PathRay pr;
+    pr.o = r.o;
+    if (opt_.aperture > 0) {
+      // Thin lens: the point of the pinhole ray at depth focus_ stays sharp; the origin moves
+      // over the lens disk (stratified like the pixel, decorrelated from it).
+      Vec3 focus = r.o + r.d * focus_;  // r.d has unit depth along the view (camera.h)
+      uint64_t hl = mix64(h ^ 0x6c656e73ull);
+      float lu = unit_float(hl), lv = unit_float(mix64(hl));
+      if (spp > 1) {
+        int st = stratum((s * 7 + 3) % spp, spp);
+        lu = (float(st % nx) + lu) / float(nx);
+        lv = (float(st / nx) + lv) / float(ny);
+      }
+      float dx, dy;
+      concentric_disk(lu, lv, &dx, &dy);
+      pr.o = r.o + (frame_.right() * dx + frame_.up() * dy) * opt_.aperture;
+      pr.d = normalize(focus - pr.o);
+    } else {
+      pr.d = normalize(r.d);
+    }
+    pr.weight = {1, 1, 1};
+    pr.sample = sample_index;
+    pr.depth = 0;
+    pr.medium = -1;
+    pr.seed = mix64(h ^ 0x74726163ull);
+    return pr;
+  }
+
+  /// Searches object k for the rays of ts.queries (negated: for where they leave its solid);
+  /// answers into ts.found, one per query.
+  void search(size_t k, bool negated, bool any_hit, ThreadState& ts) {
+    const ObjectInfo& obj = objects_[k];
+    RootSearcher& rs = negated ? *ts.negated[k] : *ts.searchers[k];
+    const float s = obj.object->transform.scale();
+    const float eps = obj.eps * s, step = obj.step * s;  // in units of t (|d_object| = 1 / s)
+    ts.found.assign(ts.queries.size(), RootHit{});
+    switch (obj.mode) {
+      case RootMode::kAnalytic:
+        for (size_t i = 0; i < ts.queries.size(); ++i) {
+          const Query& q = ts.queries[i];
+          ts.found[i] = rs.analytic_search(q.ray, q.a, q.b);
+        }
+        return;
+      case RootMode::kSign:
+      case RootMode::kAuto:
+        for (size_t i = 0; i < ts.queries.size(); ++i) {
+          const Query& q = ts.queries[i];
+          ts.found[i] = obj.object->field->has_interval()
+                            ? rs.pruned_sign_search(q.ray, q.a, q.b, step, eps, any_hit)
+                            : rs.sign_search(q.ray, q.a, q.b, step, eps, any_hit);
+        }
+        return;
+      case RootMode::kInterval:
+        break;
+    }
+    // The batched interval search, as the renderer's camera rays: march to the first sample
+    // inside, then prove what lies before it in one batch; shadow rays bisect pieces growing
+    // away from their origin.
+    rs.batch_clear();
+    ts.batch_index.assign(ts.queries.size(), -1);
+    for (size_t i = 0; i < ts.queries.size(); ++i) {
+      const Query& q = ts.queries[i];
+      RootSearcher::BatchRay br;
+      br.ray = q.ray;
+      br.t_start = q.a;
+      br.eps = eps;
+      br.step = step;
+      br.any_hit = any_hit;
+      if (any_hit) {
+        int ray = rs.batch_add_ray(br);
+        rs.batch_add_growing(ray, q.a, q.b, step, 2, false);
+        ts.batch_index[i] = ray;
+        continue;
+      }
+      RootHit m = rs.sign_search(q.ray, q.a, q.b, step, eps * 0.25f, false);
+      float b = q.b;
+      if (m.hit) {
+        br.otherwise = m;
+        if (m.at_start || m.t == q.a) {
+          ts.found[i] = m;
+          continue;
+        }
+        b = m.t - RootSearcher::kVerifyGap * eps;
+        if (!(b > q.a)) {
+          ts.found[i] = m;
+          continue;
+        }
+      }
+      int ray = rs.batch_add_ray(br);
+      if (m.hit) {
+        rs.batch_add_growing(ray, q.a, b, RootSearcher::kVerifyGap * eps,
+                             RootSearcher::kVerifyGrowth, true);
+      } else {
+        rs.batch_add_piece(ray, q.a, b);
+      }
+      ts.batch_index[i] = ray;
+    }
+    rs.batch_run();
+    for (size_t i = 0; i < ts.queries.size(); ++i) {
+      if (ts.batch_index[i] >= 0) ts.found[i] = rs.batch_result(ts.batch_index[i]);
+    }
+  }
+
+  /// Object-space query of a world ray against object k over world parameters [0, t_max];
+  /// false when the ray misses the box there.
+  bool make_query(size_t k, Vec3 o, Vec3 d, float t_max, Query* q) const {
+    const SceneObject& obj = *objects_[k].object;
+    q->ray = Ray{obj.transform.point_to_object(o), obj.transform.direction_to_object(d)};
+    float te, tx;
+    if (!box_span(q->ray, obj.bbox, &te, &tx, &q->enter_axis, &q->exit_axis)) return false;
+    q->te = te;
+    q->box_exit = tx;
+    q->a = std::max(te, 0.0f);
+    q->b = std::min(tx, t_max);
+    return q->a <= q->b;
+  }
+
+  /// The nearest hit of every ray.
+  void find_hits(const std::vector<PathRay>& rays, std::vector<Hit>* hits, ThreadState& ts) {
+    hits->assign(rays.size(), Hit{});
+    for (size_t k = 0; k < objects_.size(); ++k) {
+      for (int pass = 0; pass < 2; ++pass) {
+        const bool inside = pass == 1;  // rays travelling in this object's solid
+        ts.queries.clear();
+        for (size_t i = 0; i < rays.size(); ++i) {
+          if ((rays[i].medium == int(k)) != inside) continue;
+          Query q;
+          if (!make_query(k, rays[i].o, rays[i].d, (*hits)[i].t, &q)) continue;
+          q.ray_index = int(i);
+          ts.queries.push_back(q);
+        }
+        if (ts.queries.empty()) continue;
+        search(k, inside, false, ts);
+        for (size_t j = 0; j < ts.queries.size(); ++j) {
+          const Query& q = ts.queries[j];
+          const RootHit& h = ts.found[j];
+          Hit& best = (*hits)[size_t(q.ray_index)];
+          Hit cand;
+          cand.object = int(k);
+          if (h.hit) {
+            cand.t = h.t;
+            if (!inside && h.at_start && q.a == q.te) cand.cap_axis = q.enter_axis;
+          } else if (inside && q.box_exit <= q.b) {
+            // Inside the solid up to the box: it leaves through the cap.
+            cand.t = q.box_exit;
+            cand.cap_axis = q.exit_axis;
+            cand.cap_exit = true;
+          } else {
+            continue;
+          }
+          if (!(cand.t < best.t)) continue;
+          cand.p_object = q.ray.o + q.ray.d * cand.t;
+          best = cand;
+        }
+      }
+    }
+  }
+
+  /// The fraction of light (per channel) that reaches along each shadow ray: 0 behind an opaque
+  /// object, attenuated by colour, transmit weight and Beer-Lambert absorption through
+  /// transmitting ones.
+  void shadow_transmittance(const std::vector<Ray>& rays, const std::vector<float>& dist,
+                            std::vector<Vec3>* trans, ThreadState& ts) {
+    trans->assign(rays.size(), Vec3{1, 1, 1});
+    ts.shadow_rays += rays.size();
+    // Opaque objects first, all shadow rays of the batch together (any hit).
+    for (size_t k = 0; k < objects_.size(); ++k) {
+      if (objects_[k].transmits) continue;
+      ts.queries.clear();
+      for (size_t i = 0; i < rays.size(); ++i) {
+        if ((*trans)[i].x == 0 && (*trans)[i].y == 0 && (*trans)[i].z == 0) continue;
+        Query q;
+        if (!make_query(k, rays[i].o, rays[i].d, dist[i], &q)) continue;
+        q.ray_index = int(i);
+        ts.queries.push_back(q);
+      }
+      if (ts.queries.empty()) continue;
+      search(k, false, true, ts);
+      for (size_t j = 0; j < ts.queries.size(); ++j) {
+        if (ts.found[j].hit) (*trans)[size_t(ts.queries[j].ray_index)] = Vec3{0, 0, 0};
+      }
+    }
+    // Transmitting objects: every crossing of the solid (entry, then exit by -F), a few per ray.
+    for (size_t k = 0; k < objects_.size(); ++k) {
+      const ObjectInfo& obj = objects_[k];
+      if (!obj.transmits) continue;
+      const Material& m = *obj.material;
+      for (size_t i = 0; i < rays.size(); ++i) {
+        Vec3& tr = (*trans)[i];
+        float t = 0;
+        for (int crossing = 0; crossing < 8; ++crossing) {
+          if (tr.x == 0 && tr.y == 0 && tr.z == 0) break;
+          Query q;
+          if (!make_query(k, rays[i].o + rays[i].d * t, rays[i].d, dist[i] - t, &q)) break;
+          ts.queries.assign(1, q);
+          search(k, false, false, ts);
+          if (!ts.found[0].hit) break;
+          float t_in = ts.found[0].t;
+          Query qo;
+          const float gap = obj.bias;
+          if (!make_query(k, rays[i].o + rays[i].d * (t + t_in + gap), rays[i].d,
+                          std::numeric_limits<float>::infinity(), &qo)) {
+            break;
+          }
+          ts.queries.assign(1, qo);
+          search(k, true, false, ts);
+          float t_out = ts.found[0].hit ? ts.found[0].t : qo.box_exit;
+          float chord = gap + t_out;
+          tr = mul(tr, m.color) * m.transmit;
+          for (int c = 0; c < 3; ++c) tr[c] *= std::exp(-m.absorb[c] * chord);
+          t += t_in + chord + gap;
+          if (t >= dist[i]) break;
+        }
+      }
+    }
+  }
+
+  /// A direction near `ideal` for a glossy surface of `roughness` (0: `ideal` itself), on the
+  /// side of the surface that `side` points to.
+  static Vec3 glossy(Vec3 ideal, float roughness, Vec3 side, uint64_t seed) {
+    if (roughness <= 0) return ideal;
+    for (int attempt = 0; attempt < 4; ++attempt) {
+      uint64_t h = mix64(seed + uint64_t(attempt) * 0x9e37ull);
+      float u = unit_float(h), v = unit_float(mix64(h)), w = unit_float(mix64(h ^ 0x55ull));
+      // A uniform point of the unit ball.
+      float z = 2 * u - 1, phi = 2 * float(M_PI) * v, r = std::cbrt(w);
+      float s = std::sqrt(std::max(0.0f, 1 - z * z));
+      Vec3 jitter{r * s * std::cos(phi), r * s * std::sin(phi), r * z};
+      Vec3 d = normalize(ideal + jitter * roughness);
+      if (dot(d, side) > 0) return d;
+    }
+    return ideal;
+  }
+
+  void trace_samples(const std::vector<std::pair<int, int>>& list, int tx0, int ty0, int tw,
+                     ThreadState& ts) {
+    std::vector<Vec3> radiance(list.size(), Vec3{0, 0, 0});
+    std::vector<PathRay> cur, next;
+    cur.reserve(list.size());
+    for (size_t i = 0; i < list.size(); ++i) {
+      int p = list[i].first;
+      cur.push_back(camera_ray(tx0 + p % tw, ty0 + p / tw, list[i].second, int(i)));
+    }
+    ts.camera_rays += cur.size();
+    std::vector<Hit> hits;
+    std::vector<Vec3> normal, colour;
+    std::vector<Ray> shadow;
+    std::vector<float> shadow_dist;
+    std::vector<Vec3> shadow_trans;
+    struct ShadowUse {
+      int hit;
+      Vec3 contribution;  // the light's unshadowed contribution through this shadow ray
+    };
+    std::vector<ShadowUse> uses;
+    for (int depth = 0; !cur.empty(); ++depth) {
+      auto t0 = Clock::now();
+      find_hits(cur, &hits, ts);
+      auto t1 = Clock::now();
+      ts.search_seconds += std::chrono::duration<double>(t1 - t0).count();
+      // Normals (world, outward) and colours of the hits, one batch per object.
+      normal.assign(cur.size(), Vec3{0, 0, 0});
+      colour.assign(cur.size(), Vec3{0, 0, 0});
+      for (size_t k = 0; k < objects_.size(); ++k) {
+        const ObjectInfo& obj = objects_[k];
+        std::vector<int> idx;
+        for (size_t i = 0; i < cur.size(); ++i)
+          if (hits[i].object == int(k)) idx.push_back(int(i));
+        if (idx.empty()) continue;
+        size_t n = idx.size();
+        for (auto* v : {&ts.px, &ts.py, &ts.pz, &ts.f, &ts.gx, &ts.gy, &ts.gz}) v->resize(n);
+        for (size_t j = 0; j < n; ++j) {
+          Vec3 p = hits[size_t(idx[j])].p_object;
+          ts.px[j] = p.x, ts.py[j] = p.y, ts.pz[j] = p.z;
+        }
+        obj.object->field->eval_gradient(n, ts.px.data(), ts.py.data(), ts.pz.data(), ts.f.data(),
+                                         ts.gx.data(), ts.gy.data(), ts.gz.data());
+        if (obj.colour_attrs) {
+          int na = obj.object->field->num_attributes();
+          ts.attrs.resize(size_t(na) * n);
+          obj.object->field->eval_attributes(n, ts.px.data(), ts.py.data(), ts.pz.data(),
+                                             ts.attrs.data());
+        }
+        for (size_t j = 0; j < n; ++j) {
+          const size_t i = size_t(idx[j]);
+          const Hit& h = hits[i];
+          Vec3 d_obj = obj.object->transform.direction_to_object(cur[i].d);
+          Vec3 nrm;
+          if (h.cap_axis >= 0) {
+            nrm = Vec3{0, 0, 0};
+            bool positive = h.cap_exit ? d_obj[h.cap_axis] > 0 : d_obj[h.cap_axis] < 0;
+            nrm[h.cap_axis] = positive ? 1.0f : -1.0f;
+          } else {
+            nrm = -Vec3{ts.gx[j], ts.gy[j], ts.gz[j]};
+            float l = length(nrm);
+            nrm = (l > 0 && std::isfinite(l)) ? nrm / l : -normalize(d_obj);
+          }
+          normal[i] = normalize(obj.object->transform.normal_to_world(nrm));
+          Vec3 c = obj.material->color;
+          if (obj.colour_attrs) {
+            Vec3 a{ts.attrs[j], ts.attrs[n + j], ts.attrs[2 * n + j]};
+            if (is_finite(a)) c = vmin(vmax(a, Vec3{0, 0, 0}), Vec3{1, 1, 1});
+          }
+          colour[i] = c;
+        }
+      }
+      // Misses see the background; hits lose what their medium absorbed on the way.
+      for (size_t i = 0; i < cur.size(); ++i) {
+        PathRay& r = cur[i];
+        if (hits[i].object < 0) {
+          radiance[size_t(r.sample)] += mul(r.weight, opt_.background);
+          continue;
+        }
+        ts.hits++;
+        if (r.medium >= 0) {
+          const Vec3& a = objects_[size_t(r.medium)].material->absorb;
+          for (int c = 0; c < 3; ++c) r.weight[c] *= std::exp(-a[c] * (hits[i].t + r.pre));
+        }
+        if (depth == 0) {
+          PixelAccum& acc = pix_[size_t(list[size_t(r.sample)].first)];
+          Vec3 nf = dot(normal[i], r.d) > 0 ? -normal[i] : normal[i];
+          acc.hits += 1;
+          acc.depth += hits[i].t;
+          acc.normal += nf;
+        }
+      }
+      // Local lighting at hits from outside a solid: ambient, and per light its shadow rays.
+      shadow.clear();
+      shadow_dist.clear();
+      uses.clear();
+      for (size_t i = 0; i < cur.size(); ++i) {
+        const Hit& h = hits[i];
+        if (h.object < 0) continue;
+        const PathRay& r = cur[i];
+        if (r.medium == h.object) continue;  // leaving a solid: lights are outside
+        const ObjectInfo& obj = objects_[size_t(h.object)];
+        const Material& m = *obj.material;
+        Vec3 nf = dot(normal[i], r.d) > 0 ? -normal[i] : normal[i];
+        Vec3 p = r.o + r.d * h.t;
+        radiance[size_t(r.sample)] += mul(r.weight, colour[i] * m.ambient);
+        if (m.diffuse <= 0 && m.specular <= 0) continue;
+        Vec3 view = -r.d;
+        for (size_t li = 0; li < lights_.size(); ++li) {
+          const Light& light = lights_[li];
+          Vec3 radiance_l = light.color * light.intensity;
+          const int ns = light.kind == Light::Kind::kSphere ? std::max(1, light.samples) : 1;
+          Vec3 to_c = light.kind == Light::Kind::kDirectional ? normalize(light.v) : light.v - p;
+          Vec3 w = normalize(to_c);
+          Vec3 u =
+              normalize(std::abs(w.x) > 0.5f ? cross(w, Vec3{0, 1, 0}) : cross(w, Vec3{1, 0, 0}));
+          Vec3 v = cross(w, u);
+          const int nx = std::max(1, int(std::floor(std::sqrt(float(ns)))));
+          const int ny = (ns + nx - 1) / nx;
+          for (int s = 0; s < ns; ++s) {
+            Vec3 target = light.v;
+            if (light.kind == Light::Kind::kSphere) {
+              // A stratified point of the light's disk as seen from p (its silhouette).
+              uint64_t hs = mix64(r.seed ^ (uint64_t(li) << 40) ^ (uint64_t(s) << 20) ^ 0x6c74ull);
+              float a = (float(s % nx) + unit_float(hs)) / float(nx);
+              float b = (float(s / nx) + unit_float(mix64(hs))) / float(ny);
+              float dx, dy;
+              concentric_disk(a, std::min(b, 0.99999994f), &dx, &dy);
+              target = light.v + (u * dx + v * dy) * light.radius;
+            }
+            Vec3 l;
+            float dist = std::numeric_limits<float>::infinity();
+            if (light.kind == Light::Kind::kDirectional) {
+              l = w;
+            } else {
+              l = target - p;
+              dist = length(l);
+              l = l / dist;
+            }
+            float ndotl = dot(nf, l);
+            if (ndotl <= 0) continue;
+            Vec3 hv = normalize(l + view);
+            float spec = m.specular * std::pow(std::max(0.0f, dot(nf, hv)), m.shininess);
+            Vec3 contrib = (mul(colour[i], radiance_l) * (m.diffuse * ndotl) + radiance_l * spec) *
+                           (1.0f / float(ns));
+            contrib = mul(contrib, r.weight);
+            if (!opt_.shadows) {
+              radiance[size_t(r.sample)] += contrib;
+              continue;
+            }
+            Vec3 o = p + nf * obj.bias;
+            shadow.push_back(Ray{o, l});
+            shadow_dist.push_back(dist);
+            uses.push_back({int(i), contrib});
+          }
+        }
+      }
+      if (!shadow.empty()) {
+        auto ts0 = Clock::now();
+        shadow_transmittance(shadow, shadow_dist, &shadow_trans, ts);
+        ts.search_seconds += seconds_since(ts0);
+        for (size_t j = 0; j < shadow.size(); ++j) {
+          const PathRay& r = cur[size_t(uses[j].hit)];
+          radiance[size_t(r.sample)] += mul(uses[j].contribution, shadow_trans[j]);
+        }
+      }
+      // The next generation: mirror reflection and refraction.
+      next.clear();
+      if (depth < opt_.max_depth) {
+        for (size_t i = 0; i < cur.size(); ++i) {
+          const Hit& h = hits[i];
+          if (h.object < 0) continue;
+          const PathRay& r = cur[i];
+          const ObjectInfo& obj = objects_[size_t(h.object)];
+          const Material& m = *obj.material;
+          if (m.reflect <= 0 && m.transmit <= 0) continue;
+          const bool entering = r.medium != h.object;
+          Vec3 nf = entering ? normal[i] : -normal[i];  // against the incoming ray
+          float cos_i = -dot(r.d, nf);
+          if (cos_i < 0) {  // a noisy normal: face the ray
+            nf = -nf;
+            cos_i = -cos_i;
+          }
+          const float n1 = entering ? 1.0f : m.ior, n2 = entering ? m.ior : 1.0f;
+          const float eta = n1 / n2;
+          const float sin2_t = eta * eta * std::max(0.0f, 1 - cos_i * cos_i);
+          const bool tir = sin2_t >= 1;
+          float wr = m.reflect, wt = m.transmit;
+          if (tir) {
+            wr += wt;
+            wt = 0;
+          } else if (m.fresnel) {
+            float fr = fresnel_dielectric(cos_i, n1, n2);
+            wr += wt * fr;
+            wt *= 1 - fr;
+          }
+          Vec3 p = r.o + r.d * h.t;
+          if (wr > 0) {
+            Vec3 w = r.weight * wr;
+            if (std::max({w.x, w.y, w.z}) > 1e-4f) {
+              Vec3 ideal = normalize(r.d + nf * (2 * cos_i));
+              PathRay c;
+              c.d = glossy(ideal, m.roughness, nf, mix64(r.seed ^ 0x7265666cull));
+              c.o = leave_surface(p, c.d, nf, obj.bias, &c.pre);
+              c.weight = w;
+              c.sample = r.sample;
+              c.depth = depth + 1;
+              c.medium = r.medium;
+              c.seed = mix64(r.seed ^ 0x52ull);
+              next.push_back(c);
+            }
+          }
+          if (wt > 0) {
+            Vec3 w = r.weight * wt;
+            if (entering) w = mul(w, colour[i]);  // filtered once, where light enters
+            if (std::max({w.x, w.y, w.z}) > 1e-4f) {
+              float cos_t = std::sqrt(1 - sin2_t);
+              Vec3 ideal = normalize(r.d * eta + nf * (eta * cos_i - cos_t));
+              PathRay c;
+              c.d = glossy(ideal, m.roughness, -nf, mix64(r.seed ^ 0x74726e73ull));
+              c.o = leave_surface(p, c.d, -nf, obj.bias, &c.pre);
+              c.weight = w;
+              c.sample = r.sample;
+              c.depth = depth + 1;
+              c.medium = entering ? h.object : -1;
+              c.seed = mix64(r.seed ^ 0x54ull);
+              next.push_back(c);
+            }
+          }
+        }
+      }
+      ts.secondary_rays += next.size();
+      ts.shade_seconds += seconds_since(t1);
+      std::swap(cur, next);
+    }
+    for (size_t i = 0; i < list.size(); ++i) {
+      PixelAccum& a = pix_[size_t(list[i].first)];
+      const Vec3& c = radiance[i];
+      a.rgb += c;
+      a.lo = vmin(a.lo, c);
+      a.hi = vmax(a.hi, c);
+      a.samples++;
+    }
+  }
+
+  const TraceOptions& opt_;
+  CameraFrame frame_;
+  Image* image_;
+  std::vector<ObjectInfo> objects_;
+  std::vector<Light> lights_;
+  float focus_ = 1;
+  /// Per pixel of the tile being traced. thread_local through ThreadState would also do; one
+  /// tracer per tile task is simpler: see trace_into().
+  std::vector<PixelAccum> pix_;
+};
+
+}  // namespace
+
+void trace_into(const std::vector<SceneObject>& objects, const std::vector<Material>& materials,
+                const TraceOptions& options, TraceResult* out) {
+  HFRT_CHECK(options.width > 0 && options.height > 0);
+  HFRT_CHECK(options.spp >= 1 && options.spp <= 65536);
+  HFRT_CHECK(options.tile_size >= 1);
+  HFRT_CHECK(options.max_depth >= 0);
+  auto start = Clock::now();
+  out->stats = TraceStats{};
+  out->image.resize(options.width, options.height);
+  Image* image = &out->image;
+
+  const int ts = options.tile_size;
+  const int ntx = (options.width + ts - 1) / ts, nty = (options.height + ts - 1) / ts;
+  const size_t ntiles = size_t(ntx) * nty;
+  std::atomic<size_t> done{0};
+  std::atomic<bool> cancelled{false};
+  struct Worker {
+    std::unique_ptr<SceneTracer> tracer;
+    ThreadState state;
+  };
+  tbb::enumerable_thread_specific<Worker> workers([&] {
+    Worker w;
+    w.tracer = std::make_unique<SceneTracer>(objects, materials, options, image);
+    w.state = w.tracer->make_state();
+    return w;
+  });
+  int threads = options.threads > 0 ? options.threads : tbb::info::default_concurrency();
+  tbb::global_control allow(tbb::global_control::max_allowed_parallelism,
+                            std::max<size_t>(threads, tbb::info::default_concurrency()));
+  tbb::task_arena arena(threads);
+  arena.execute([&] {
+    tbb::parallel_for(
+        tbb::blocked_range<size_t>(0, ntiles, 1), [&](const tbb::blocked_range<size_t>& r) {
+          Worker& w = workers.local();
+          for (size_t ti = r.begin(); ti != r.end(); ++ti) {
+            if (options.cancel && options.cancel->load(std::memory_order_relaxed)) {
+              cancelled.store(true, std::memory_order_relaxed);
+              return;
+            }
+            int tx = int(ti % ntx), ty = int(ti / ntx);
+            int x0 = tx * ts, y0 = ty * ts;
+            int x1 = std::min(options.width, x0 + ts), y1 = std::min(options.height, y0 + ts);
+            w.tracer->trace_tile(x0, y0, x1, y1, w.state);
+            size_t d = ++done;
+            if (options.progress) options.progress(d, ntiles);
+          }
+        });
+  });
+
+  TraceStats& s = out->stats;
+  s.tiles = ntiles;
+  s.threads = threads;
+  s.cancelled = cancelled.load();
+  SceneTracer probe(objects, materials, options, image);
+  for (size_t k = 0; k < objects.size(); ++k) s.root_used.push_back(probe.root_used(k));
+  for (Worker& w : workers) {
+    for (auto& rs : w.state.searchers) s.evals += rs->counters();
+    for (auto& rs : w.state.negated) s.evals += rs->counters();
+    s.camera_rays += w.state.camera_rays;
+    s.secondary_rays += w.state.secondary_rays;
+    s.shadow_rays += w.state.shadow_rays;
+    s.hits += w.state.hits;
+    s.refined_pixels += w.state.refined;
+    s.search_seconds += w.state.search_seconds;
+    s.shade_seconds += w.state.shade_seconds;
+  }
+  s.seconds = seconds_since(start);
+}
+
+TraceResult trace(const std::vector<SceneObject>& objects, const std::vector<Material>& materials,
+                  const TraceOptions& options) {
+  TraceResult r;
+  trace_into(objects, materials, options, &r);
+  return r;
+}
+
+}  // namespace hfrt::render
