@@ -73,6 +73,11 @@ struct SceneError {
   SourcePos pos;
   std::string message;
   std::string hint;
+  /// The text of line `pos.line` (without its newline), shown under the message with a caret;
+  /// "" when unknown.
+  std::string line_text;
+  /// How many columns the caret line underlines (at least 1).
+  int length = 1;
   /// The message in the format of hfrt's compile errors (file:line:col: error: ..., then the
   /// source line with a caret and the hint when there is one).
   std::string render() const;
@@ -88,5 +93,13 @@ bool read_scene_file(const std::string& path, SceneDesc* out, SceneError* err);
 /// against its folder).
 bool parse_scene(const std::string& text, const std::string& path, SceneDesc* out,
                  SceneError* err);
+
+/// A one-line description of a scene that read without errors, for `hfrt check`, e.g.
+/// `scene.toml: 3 objects, 2 lights, 2 materials; perspective camera; 512x512, 4 spp, depth 5`
+/// (settings the file leaves to the command line are not mentioned).
+std::string summary(const SceneDesc& scene);
+
+/// The name of a texture mapping as the scene file spells it ("planar", ..., "uv").
+const char* mapping_name(render::TextureMapping mapping);
 
 }  // namespace hfrt::scene
