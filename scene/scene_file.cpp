@@ -2,13 +2,14 @@
 // and locates it at the key or value toml++ recorded (docs/scenes.md lists the keys).
 #include "scene/scene_file.h"
 
+#include <toml++/toml.h>
+
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
 #include <initializer_list>
 #include <string_view>
-#include <toml++/toml.h>
 
 #include "base/file.h"
 
@@ -51,7 +52,8 @@ std::string nearest(std::string_view word, const std::vector<std::string>& choic
     size_t d = edit_distance(word, c);
     // A key with a suffix added or dropped ("reflection" for "reflect") is a near miss too.
     const size_t shorter = std::min(word.size(), c.size());
-    if (shorter >= 3 && (c.rfind(word, 0) == 0 || word.rfind(c, 0) == 0)) d = std::min<size_t>(d, 1);
+    if (shorter >= 3 && (c.rfind(word, 0) == 0 || word.rfind(c, 0) == 0))
+      d = std::min<size_t>(d, 1);
     if (d < best_d) {
       best_d = d;
       best = c;
@@ -178,6 +180,29 @@ class Reader {
     return false;
   }
 
+  /// Where the text of the string value starting at `where` begins: after its opening quote
+  /// (or three), and on the next line when a newline follows triple quotes (TOML drops it).
+  SourcePos text_start(const toml::source_region& where) const {
+    SourcePos p;
+    p.file = path_;
+    p.line = static_cast<int>(where.begin.line);
+    p.column = static_cast<int>(where.begin.column);
+    const std::string line = line_text(p.line);
+    size_t byte = 0;  // byte offset of the value's column (columns count code points)
+    for (int c = 1; c < p.column && byte < line.size(); ++c) {
+      ++byte;
+      while (byte < line.size() && (static_cast<unsigned char>(line[byte]) & 0xC0) == 0x80) ++byte;
+    }
+    const bool triple = line.compare(byte, 3, "\"\"\"") == 0 || line.compare(byte, 3, "'''") == 0;
+    if (triple && line.size() == byte + 3) {
+      p.line += 1;
+      p.column = 1;
+    } else {
+      p.column += triple ? 3 : 1;
+    }
+    return p;
+  }
+
   std::string line_text(int line) const {
     if (line <= 0) return {};
     size_t start = 0;
@@ -221,9 +246,9 @@ class Reader {
   const toml::array* array_of_tables(const toml::node& n, const std::string& key) {
     const toml::array* a = n.as_array();
     if (!a || !a->is_array_of_tables()) {
-      fail(n.source(), "'" + key + "' must be an array of tables ([[" + key + "]]), not " +
-                           (n.is_table() ? "a single table ([" + key + "])"
-                                         : std::string(type_name(n))));
+      fail(n.source(),
+           "'" + key + "' must be an array of tables ([[" + key + "]]), not " +
+               (n.is_table() ? "a single table ([" + key + "])" : std::string(type_name(n))));
       return nullptr;
     }
     return a;
@@ -433,9 +458,10 @@ class Reader {
     if (const toml::node* n = t.get("size")) {
       const toml::array* a = n->as_array();
       if (!a || a->size() != 2) {
-        return fail(n->source(), "[render] size must be an array of 2 integers (width, height), "
-                                 "not " +
-                                     (a ? std::to_string(a->size()) : std::string(type_name(*n))));
+        return fail(n->source(),
+                    "[render] size must be an array of 2 integers (width, height), "
+                    "not " +
+                        (a ? std::to_string(a->size()) : std::string(type_name(*n))));
       }
       std::array<int, 2> wh{};
       for (size_t i = 0; i < 2; ++i) {
@@ -472,9 +498,8 @@ class Reader {
   }
 
   bool read_light(const toml::table& t) {
-    if (!check_keys(
-            t, "[[light]]", "in [[light]]",
-            {"kind", "position", "direction", "radius", "color", "intensity", "samples"}))
+    if (!check_keys(t, "[[light]]", "in [[light]]",
+                    {"kind", "position", "direction", "radius", "color", "intensity", "samples"}))
       return false;
     render::Light l;
     std::string kind = "point";
@@ -549,8 +574,9 @@ class Reader {
     // Document order, so that the first error in the file is the one reported.
     std::vector<std::pair<const toml::key*, const toml::node*>> items;
     for (auto&& [k, v] : *all) items.emplace_back(&k, &v);
-    std::sort(items.begin(), items.end(),
-              [](const auto& a, const auto& b) { return before(a.first->source(), b.first->source()); });
+    std::sort(items.begin(), items.end(), [](const auto& a, const auto& b) {
+      return before(a.first->source(), b.first->source());
+    });
     for (const auto& [k, v] : items) {
       const std::string name(k->str());
       const toml::table* t = v->as_table();
@@ -583,10 +609,14 @@ class Reader {
       double hi;
     };
     const Scalar scalars[] = {
-        {"ambient", &m.ambient, 0, false, NAN},   {"diffuse", &m.diffuse, 0, false, NAN},
-        {"specular", &m.specular, 0, false, NAN}, {"shininess", &m.shininess, 0, true, NAN},
-        {"reflect", &m.reflect, 0, false, 1},     {"transmit", &m.transmit, 0, false, 1},
-        {"ior", &m.ior, 0, true, NAN},            {"roughness", &m.roughness, 0, false, 1},
+        {"ambient", &m.ambient, 0, false, NAN},
+        {"diffuse", &m.diffuse, 0, false, NAN},
+        {"specular", &m.specular, 0, false, NAN},
+        {"shininess", &m.shininess, 0, true, NAN},
+        {"reflect", &m.reflect, 0, false, 1},
+        {"transmit", &m.transmit, 0, false, 1},
+        {"ior", &m.ior, 0, true, NAN},
+        {"roughness", &m.roughness, 0, false, 1},
     };
     for (const Scalar& s : scalars) {
       if (const toml::node* n = t.get(s.key)) {
@@ -642,6 +672,7 @@ class Reader {
     if (file && !existing_file(*file, "[[object]] file", "model file", &o.file)) return false;
     if (source) {
       if (!string(*source, "[[object]] source", &o.source)) return false;
+      o.source_pos = text_start(source->source());
       if (o.source.find_first_not_of(" \t\r\n") == std::string::npos)
         return fail(source->source(), "[[object]] source is empty");
     }
@@ -685,7 +716,8 @@ class Reader {
         return fail(n->source(), "unknown material \"" + o.material + "\"", hint);
       }
     }
-    if (const toml::node* n = t.get("translate"); n && !vec3(*n, "[[object]] translate", &o.translate))
+    if (const toml::node* n = t.get("translate");
+        n && !vec3(*n, "[[object]] translate", &o.translate))
       return false;
     if (const toml::node* n = t.get("rotate"); n && !vec3(*n, "[[object]] rotate", &o.rotate_deg))
       return false;
@@ -760,6 +792,32 @@ bool read_scene_file(const std::string& path, SceneDesc* out, SceneError* err) {
     return false;
   }
   return parse_scene(*text, path, out, err);
+}
+
+render::Vec3 object_to_world(const ObjectDesc& o, render::Vec3 p) {
+  p = p * o.scale;
+  const double kDeg = M_PI / 180;
+  const double ax = o.rotate_deg.x * kDeg, ay = o.rotate_deg.y * kDeg, az = o.rotate_deg.z * kDeg;
+  double x = p.x, y = p.y, z = p.z;
+  double t = std::cos(ax) * y - std::sin(ax) * z;  // about x
+  z = std::sin(ax) * y + std::cos(ax) * z;
+  y = t;
+  t = std::cos(ay) * x + std::sin(ay) * z;  // about y
+  z = -std::sin(ay) * x + std::cos(ay) * z;
+  x = t;
+  t = std::cos(az) * x - std::sin(az) * y;  // about z
+  y = std::sin(az) * x + std::cos(az) * y;
+  x = t;
+  return render::Vec3{float(x), float(y), float(z)} + o.translate;
+}
+
+render::Box world_box(const ObjectDesc& o, const render::Box& b) {
+  render::Box out;
+  for (int i = 0; i < 8; ++i) {
+    out.extend(object_to_world(o, render::Vec3{(i & 1) ? b.hi.x : b.lo.x, (i & 2) ? b.hi.y : b.lo.y,
+                                               (i & 4) ? b.hi.z : b.lo.z}));
+  }
+  return out;
 }
 
 const char* mapping_name(render::TextureMapping mapping) {

@@ -266,6 +266,9 @@ file = "blob.hf"
   EXPECT_EQ(s.objects[1].source,
             "ball(x[3], a[1]) { ball = 1 - x[1]*x[1] - x[2]*x[2] - x[3]*x[3]; }\n");
   EXPECT_EQ(s.objects[1].pos.line, 34);
+  // The text starts on the line after `source = """`.
+  EXPECT_EQ(s.objects[1].source_pos.line, 36);
+  EXPECT_EQ(s.objects[1].source_pos.column, 1);
   EXPECT_EQ(s.objects[2].material, "");
   EXPECT_EQ(s.objects[2].scale, 1);
 
@@ -274,15 +277,51 @@ file = "blob.hf"
                             "field");
 }
 
+TEST_F(SceneFileTest, SingleLineSourceStartsAfterItsQuote) {
+  SceneDesc s = parse_ok("[[object]]\nsource   = 'b(x[3], a[1]) { b = 1; }'\n");
+  EXPECT_EQ(s.objects[0].source, "b(x[3], a[1]) { b = 1; }");
+  EXPECT_EQ(s.objects[0].source_pos.line, 2);
+  EXPECT_EQ(s.objects[0].source_pos.column, 13);
+}
+
+TEST(ObjectPlacement, ScaleThenRotateXYZThenTranslate) {
+  ObjectDesc o;
+  o.rotate_deg = {0, 0, 90};
+  render::Vec3 p = object_to_world(o, {1, 0, 0});  // x turns towards y about z
+  EXPECT_NEAR(p.x, 0, 1e-6);
+  EXPECT_NEAR(p.y, 1, 1e-6);
+  o.rotate_deg = {90, 0, 0};
+  p = object_to_world(o, {0, 1, 0});  // y towards z about x
+  EXPECT_NEAR(p.y, 0, 1e-6);
+  EXPECT_NEAR(p.z, 1, 1e-6);
+  o.rotate_deg = {0, 90, 0};
+  p = object_to_world(o, {0, 0, 1});  // z towards x about y
+  EXPECT_NEAR(p.x, 1, 1e-6);
+  EXPECT_NEAR(p.z, 0, 1e-6);
+  // x first, then y: (0, 1, 0) -> (0, 0, 1) -> (1, 0, 0); then scale 2 and translate.
+  o.rotate_deg = {90, 90, 0};
+  o.scale = 2;
+  o.translate = {10, 20, 30};
+  p = object_to_world(o, {0, 1, 0});
+  EXPECT_NEAR(p.x, 12, 1e-5);
+  EXPECT_NEAR(p.y, 20, 1e-5);
+  EXPECT_NEAR(p.z, 30, 1e-5);
+  render::Box b = world_box(o, render::Box({-1, -1, -1}, {1, 1, 1}));
+  expect_vec(b.lo, 8, 18, 28);
+  expect_vec(b.hi, 12, 22, 32);
+}
+
 TEST_F(SceneFileTest, ReadsFromDiskAndResolvesAgainstTheScenesFolder) {
-  write("scene.toml", "[render]\nsize = [64, 32]\nspp = 4\nmax_depth = 3\n\n[[object]]\n"
-                      "file = \"models/floor.hf\"\n");
+  write("scene.toml",
+        "[render]\nsize = [64, 32]\nspp = 4\nmax_depth = 3\n\n[[object]]\n"
+        "file = \"models/floor.hf\"\n");
   SceneDesc s;
   SceneError err;
   ASSERT_TRUE(read_scene_file(path(), &s, &err)) << err.render();
   EXPECT_EQ(s.objects[0].file, (dir_ / "models/floor.hf").string());
-  EXPECT_EQ(summary(s), path() + ": 1 object, the default lights, 0 materials; 64x32, 4 spp, "
-                                 "depth 3");
+  EXPECT_EQ(summary(s), path() +
+                            ": 1 object, the default lights, 0 materials; 64x32, 4 spp, "
+                            "depth 3");
 }
 
 TEST_F(SceneFileTest, MissingSceneFile) {
@@ -383,8 +422,9 @@ TEST_F(SceneFileTest, WrongTypes) {
   EXPECT_EQ(e.pos.column, 10);
 
   e = error_of("[object]\nfile = \"blob.hf\"\n");
-  EXPECT_EQ(e.message, "'object' must be an array of tables ([[object]]), not a single table "
-                       "([object])");
+  EXPECT_EQ(e.message,
+            "'object' must be an array of tables ([[object]]), not a single table "
+            "([object])");
   EXPECT_EQ(e.pos.line, 1);
 
   e = error_of(std::string("[material]\nior = 1.5\n") + kObject);
@@ -398,8 +438,8 @@ TEST_F(SceneFileTest, WrongTypes) {
 }
 
 TEST_F(SceneFileTest, IntegersAreAcceptedForFloats) {
-  SceneDesc s = parse_ok(std::string("[camera]\nfov = 40\neye = [1, 2, 3]\n") + kObject +
-                         "scale = 2\n");
+  SceneDesc s =
+      parse_ok(std::string("[camera]\nfov = 40\neye = [1, 2, 3]\n") + kObject + "scale = 2\n");
   EXPECT_FLOAT_EQ(*s.camera.request.fov_deg, 40);
   EXPECT_FLOAT_EQ(s.objects[0].scale, 2);
 }
@@ -432,14 +472,13 @@ TEST_F(SceneFileTest, OutOfRange) {
        2, 16},
       {"[material.glass]\nabsorb = [-0.5, 0, 0]\n",
        "[material.glass] absorb[0] must be >= 0, not -0.5", 2, 11},
-      {"[material.glass]\nshininess = 0\n", "[material.glass] shininess must be > 0, not 0", 2,
-       13},
+      {"[material.glass]\nshininess = 0\n", "[material.glass] shininess must be > 0, not 0", 2, 13},
       {"[material.glass]\nroughness = 2\n", "[material.glass] roughness must be in [0, 1], not 2",
        2, 13},
       {"[[light]]\nkind = \"sphere\"\nposition = [0, 5, 0]\nradius = 0\n",
        "[[light]] radius must be > 0 for a sphere light, not 0", 4, 10},
-      {"[[light]]\nposition = [0, 5, 0]\nradius = -1\n", "[[light]] radius must be >= 0, not -1",
-       3, 10},
+      {"[[light]]\nposition = [0, 5, 0]\nradius = -1\n", "[[light]] radius must be >= 0, not -1", 3,
+       10},
       {"[[light]]\nkind = \"sphere\"\nposition = [0, 5, 0]\nradius = 1\nsamples = 0\n",
        "[[light]] samples must be at least 1, not 0", 5, 11},
       {"[[light]]\nposition = [0, 5, 0]\nintensity = -1\n",
@@ -535,8 +574,9 @@ TEST_F(SceneFileTest, LightsNeedTheirKeys) {
   EXPECT_EQ(e.message, "a sphere light needs a radius");
 
   e = error_of(std::string("[[light]]\nkind = \"point\"\ndirection = [1, 1, 1]\n") + kObject);
-  EXPECT_EQ(e.message, "[[light]] direction is for directional lights only (this light is "
-                       "\"point\")");
+  EXPECT_EQ(e.message,
+            "[[light]] direction is for directional lights only (this light is "
+            "\"point\")");
   EXPECT_EQ(e.pos.line, 3);
   EXPECT_EQ(e.pos.column, 1);
 
@@ -555,8 +595,7 @@ TEST_F(SceneFileTest, LightsNeedTheirKeys) {
 TEST_F(SceneFileTest, UnknownChoices) {
   SceneError e = error_of(std::string("[render]\nroot = \"bisect\"\n") + kObject);
   EXPECT_EQ(e.message, "unknown [render] root \"bisect\"");
-  EXPECT_EQ(e.hint,
-            "[render] root is one of \"auto\", \"sign\", \"interval\" or \"analytic\"");
+  EXPECT_EQ(e.hint, "[render] root is one of \"auto\", \"sign\", \"interval\" or \"analytic\"");
   EXPECT_EQ(e.pos.line, 2);
   EXPECT_EQ(e.pos.column, 8);
 
