@@ -16,6 +16,9 @@ if(NOT TARGET CLI11::CLI11)
 endif()
 
 find_package(TBB REQUIRED CONFIG)
+# Scene files (scene/): toml++ 3 from libtomlplusplus-dev, whose CMake package imports the
+# shared libtomlplusplus (TOML_HEADER_ONLY=0).
+find_package(tomlplusplus 3 REQUIRED CONFIG)
 find_package(Threads REQUIRED)
 
 find_package(PkgConfig REQUIRED)

@@ -26,8 +26,8 @@ struct SourcePos {
 /// `[camera]`. Unset optionals are filled the way `hfrt render` fills them (framing the
 /// solids when eye or look_at is missing).
 struct CameraDesc {
-  render::CameraRequest request;  ///< eye, look_at, up, fov (vertical degrees), ortho (width)
-  float aperture = 0;             ///< thin-lens radius; 0: pinhole
+  render::CameraRequest request;        ///< eye, look_at, up, fov (vertical degrees), ortho (width)
+  float aperture = 0;                   ///< thin-lens radius; 0: pinhole
   std::optional<float> focus_distance;  ///< along the view direction; default |look_at - eye|
 };
 
@@ -46,15 +46,26 @@ struct ObjectDesc {
   std::string file;    ///< absolute or relative to the current directory (resolved against the
                        ///< scene file's folder by the reader); "" when `source` is given
   std::string source;  ///< inline HyperFun text (`source = """..."""`), "" when `file` is given
-  std::optional<std::string> name;      ///< which object of the file
-  std::vector<double> params;           ///< a[1], a[2], ...
-  std::optional<render::Box> bbox;      ///< [x0, y0, z0, x1, y1, z1]
-  std::string material;                 ///< "" : the default material
+  std::optional<std::string> name;  ///< which object of the file
+  std::vector<double> params;       ///< a[1], a[2], ...
+  std::optional<render::Box> bbox;  ///< [x0, y0, z0, x1, y1, z1]
+  std::string material;             ///< "" : the default material
   render::Vec3 translate{0, 0, 0};
-  render::Vec3 rotate_deg{0, 0, 0};     ///< about x, then y, then z
+  render::Vec3 rotate_deg{0, 0, 0};  ///< about x, then y, then z
   float scale = 1;
-  SourcePos pos;                        ///< where the [[object]] table starts (for messages)
+  SourcePos pos;  ///< where the [[object]] table starts (for messages)
+  /// Where the text of `source` starts in the scene file (the line after `source = """`
+  /// when a newline follows the quotes), so that the model's diagnostics can be located in
+  /// the scene file: compile the source preceded by line - 1 newlines and column - 1 spaces
+  /// (exact for literal strings and for basic strings without escapes).
+  SourcePos source_pos;
 };
+
+/// A point of the object's model space in the world: scaled, rotated about x, then y, then z
+/// (degrees, right-handed: rotating y towards z, z towards x, x towards y), then translated.
+render::Vec3 object_to_world(const ObjectDesc& object, render::Vec3 p);
+/// A box enclosing `box` (model space) placed in the world by object_to_world.
+render::Box world_box(const ObjectDesc& object, const render::Box& box);
 
 /// A whole scene file.
 struct SceneDesc {
@@ -73,6 +84,11 @@ struct SceneError {
   SourcePos pos;
   std::string message;
   std::string hint;
+  /// The text of line `pos.line` (without its newline), shown under the message with a caret;
+  /// "" when unknown.
+  std::string line_text;
+  /// How many columns the caret line underlines (at least 1).
+  int length = 1;
   /// The message in the format of hfrt's compile errors (file:line:col: error: ..., then the
   /// source line with a caret and the hint when there is one).
   std::string render() const;
@@ -86,7 +102,14 @@ struct SceneError {
 bool read_scene_file(const std::string& path, SceneDesc* out, SceneError* err);
 /// The same from text in memory (`path` names it in messages; relative file names are resolved
 /// against its folder).
-bool parse_scene(const std::string& text, const std::string& path, SceneDesc* out,
-                 SceneError* err);
+bool parse_scene(const std::string& text, const std::string& path, SceneDesc* out, SceneError* err);
+
+/// A one-line description of a scene that read without errors, for `hfrt check`, e.g.
+/// `scene.toml: 3 objects, 2 lights, 2 materials; perspective camera; 512x512, 4 spp, depth 5`
+/// (settings the file leaves to the command line are not mentioned).
+std::string summary(const SceneDesc& scene);
+
+/// The name of a texture mapping as the scene file spells it ("planar", ..., "uv").
+const char* mapping_name(render::TextureMapping mapping);
 
 }  // namespace hfrt::scene

@@ -1,4 +1,6 @@
 // `hfrt check FILE... [--dump-ast]`: parse and check HyperFun files, print diagnostics.
+// A FILE ending in .toml is a scene file (scene/scene_file.h): its first error is printed,
+// located, or a one-line summary of the scene on standard output.
 //
 // Exit codes: 0 = every file is fine (warnings allowed), 1 = some file has errors,
 // 2 = some file could not be read.
@@ -13,6 +15,7 @@
 #include "base/file.h"
 #include "base/result.h"
 #include "lang/frontend.h"
+#include "scene/scene_file.h"
 #include "tools/hfrt/commands.h"
 
 namespace hfrt::tools {
@@ -30,6 +33,23 @@ int run_check(const CheckOptions& opts) {
   const bool color = use_color(STDERR_FILENO);
   int status = 0;
   for (const std::string& path : opts.files) {
+    if (path.size() > 5 && path.compare(path.size() - 5, 5, ".toml") == 0) {
+      Result<std::string> text = read_file(path);
+      if (!text) {
+        std::fprintf(stderr, "hfrt: %s\n", text.error().message.c_str());
+        status = 2;
+        continue;
+      }
+      scene::SceneDesc scene;
+      scene::SceneError err;
+      if (scene::parse_scene(*text, path, &scene, &err)) {
+        std::printf("%s\n", scene::summary(scene).c_str());
+      } else {
+        std::fputs(err.render().c_str(), stderr);
+        if (status == 0) status = 1;
+      }
+      continue;
+    }
     Result<std::string> text = read_file(path);
     if (!text) {
       std::fprintf(stderr, "hfrt: %s\n", text.error().message.c_str());
@@ -65,8 +85,11 @@ int run_check(const CheckOptions& opts) {
 CommandRunner register_check(CLI::App& app) {
   auto opts = std::make_shared<CheckOptions>();
   CLI::App* cmd = app.add_subcommand(
-      "check", "Parse and check HyperFun files; print errors and warnings with their location");
-  cmd->add_option("files", opts->files, "HyperFun source files (.hf)")->required();
+      "check",
+      "Parse and check HyperFun files (.hf) or scene files (.toml); print errors and warnings "
+      "with their location");
+  cmd->add_option("files", opts->files, "HyperFun source files (.hf) or scene files (.toml)")
+      ->required();
   cmd->add_flag("--dump-ast", opts->dump_ast, "Print the checked syntax tree to stdout");
   return [opts] { return run_check(*opts); };
 }
