@@ -48,7 +48,8 @@ SceneJobResult run_scene_job(const scene::SceneDesc& sc, const SceneOverrides& o
   render::TraceOptions& opt = res.options;
 
   // Render settings: command line over scene over defaults.
-  std::array<int, 2> size = ov.size ? *ov.size : sc.render.size.value_or(std::array<int, 2>{512, 512});
+  std::array<int, 2> size =
+      ov.size ? *ov.size : sc.render.size.value_or(std::array<int, 2>{512, 512});
   opt.width = size[0];
   opt.height = size[1];
   opt.spp = ov.spp ? *ov.spp : sc.render.spp.value_or(1);

@@ -612,7 +612,12 @@ class SceneTracer {
         }
         obj.object->field->eval_gradient(n, ts.px.data(), ts.py.data(), ts.pz.data(), ts.f.data(),
                                          ts.gx.data(), ts.gy.data(), ts.gz.data());
+        EvalCounters& c = ts.searchers[k]->counters();
+        c.gradient_calls++;
+        c.gradient_points += n;
         if (obj.colour_attrs) {
+          c.attribute_calls++;
+          c.attribute_points += n;
           int na = obj.object->field->num_attributes();
           ts.attrs.resize(size_t(na) * n);
           obj.object->field->eval_attributes(n, ts.px.data(), ts.py.data(), ts.pz.data(),

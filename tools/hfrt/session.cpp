@@ -101,6 +101,10 @@ const char* kHelp =
     "epsilon,\n"
     "                             aov, background, no-shadows, backend, stats; flags take on|off;\n"
     "                             VALUE 'default' restores the default; light takes several)\n"
+    "  :scene FILE.toml [OUT]     load a scene file (docs/scenes.md); with OUT, render it\n"
+    "  :scene -o OUT              render the loaded scene (with its edits) to OUT\n"
+    "  :set material.NAME.KEY V   edit the loaded scene (also camera.KEY, render.KEY,\n"
+    "                             light.N.KEY, object.N.KEY); re-renders a rendered scene\n"
     "  :show  :objects  :stats    session state\n"
     "  :watch FILE                reload and re-render whenever FILE changes (Ctrl-C stops)\n"
     "  :preview off|ansi|sixel|kitty|auto   inline preview in a terminal (auto: detected)\n"
@@ -116,9 +120,9 @@ Session::Session() {
 }
 
 const std::vector<std::string>& Session::command_names() {
-  static const std::vector<std::string> names = {":load",    ":eval",    ":render", ":set",
-                                                 ":show",    ":objects", ":stats",  ":watch",
-                                                 ":preview", ":help",    ":quit"};
+  static const std::vector<std::string> names = {":load",  ":eval",    ":render", ":set",
+                                                 ":show",  ":objects", ":stats",  ":watch",
+                                                 ":scene", ":preview", ":help",   ":quit"};
   return names;
 }
 
@@ -171,7 +175,12 @@ SessionResult Session::dispatch(std::string_view input) {
   if (cmd == ":load") return cmd_load(args);
   if (cmd == ":eval") return cmd_eval(args);
   if (cmd == ":render") return cmd_render(args);
-  if (cmd == ":set") return cmd_set(args);
+  if (cmd == ":set") {
+    // Dotted keys (material.glass.ior) edit the loaded scene (session_scene.cpp).
+    if (!args.empty() && args[0].find('.') != std::string::npos) return cmd_scene_set(args);
+    return cmd_set(args);
+  }
+  if (cmd == ":scene") return cmd_scene(args);
   if (cmd == ":show") return cmd_show();
   if (cmd == ":objects") return cmd_objects();
   if (cmd == ":stats") return cmd_stats();
@@ -388,6 +397,8 @@ bool reset_option(const std::string& name, RenderCli* cli) {
     cli->epsilon = d.epsilon;
   else if (name == "aov")
     cli->aov = d.aov;
+  else if (name == "max-depth")
+    cli->max_depth = d.max_depth;
   else if (name == "background")
     cli->background = d.background;
   else if (name == "no-shadows")

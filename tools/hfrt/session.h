@@ -22,6 +22,7 @@
 #include "render/framing.h"
 #include "render/image.h"
 #include "render/renderer.h"
+#include "scene/scene_file.h"
 #include "tools/hfrt/preview.h"  // ansi_preview() and the other inline previews
 #include "tools/hfrt/render_options.h"
 
@@ -127,6 +128,10 @@ class Session {
   SessionResult cmd_show() const;
   SessionResult cmd_objects() const;
   SessionResult cmd_stats() const;
+  /// `:scene FILE [OUT]`, `:scene -o OUT` and `:set KEY.PATH VALUE` (session_scene.cpp).
+  SessionResult cmd_scene(const std::vector<std::string>& args);
+  SessionResult cmd_scene_set(const std::vector<std::string>& args);
+  SessionResult render_scene(const std::string& out);
 
   /// The compiled current object, compiling (or taking from the cache) as needed. On a
   /// compile error fills `err` with the diagnostics.
@@ -165,6 +170,10 @@ class Session {
   double last_compile_ms_ = 0, last_render_ms_ = 0;
   SessionTimings timings_;
   int evals_ = 0, renders_ = 0;
+  /// The loaded scene (`:scene`): its path, its text with the `:set` edits, and what it reads
+  /// as; the output of its last render ("" before one).
+  std::string scene_path_, scene_text_, scene_output_;
+  std::optional<scene::SceneDesc> scene_;
 };
 
 }  // namespace hfrt::tools
