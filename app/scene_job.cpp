@@ -8,6 +8,7 @@
 #include "app/render_job.h"
 #include "base/timer.h"
 #include "hfrt/model.h"
+#include "render/texture.h"
 
 namespace hfrt::app {
 namespace {
@@ -82,6 +83,21 @@ SceneJobResult run_scene_job(const scene::SceneDesc& sc, const SceneOverrides& o
   for (const auto& [name, m] : sc.materials) {
     material_index[name] = int(materials.size());
     materials.push_back(m);
+    if (m.texture.empty()) continue;
+    if (m.mapping == render::TextureMapping::kUv) {
+      res.status = SceneJobStatus::kSourceError;
+      res.error = sc.path + ": error: material '" + name +
+                  "': mapping = \"uv\" needs texture coordinates, which HyperFun models do not "
+                  "have\nhint: use planar, spherical, cylindrical or triplanar\n";
+      return res;
+    }
+    auto image = render::load_texture(m.texture);
+    if (!image.ok()) {
+      res.status = SceneJobStatus::kEnvironment;
+      res.error = "material '" + name + "': " + image.error().message;
+      return res;
+    }
+    materials.back().texture_image = image.value();
   }
 
   // Compile: one model per (file or source, object name, parameters); models that differ only

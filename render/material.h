@@ -3,11 +3,14 @@
 // them). Pure data; the scene file (scene/scene_file.h) fills them from TOML and the command
 // line's single-model render uses the defaults, which reproduce hfrt's first-hit look.
 
+#include <memory>
 #include <string>
 
 #include "render/vec.h"
 
 namespace hfrt::render {
+
+struct TextureImage;
 
 /// How a material's image texture is laid onto a surface point (object space).
 enum class TextureMapping { kPlanar, kSpherical, kCylindrical, kTriplanar, kUv };
@@ -28,6 +31,9 @@ struct Material {
   float roughness = 0.0f;  ///< > 0: glossy reflection and refraction, sampled
   std::string texture;     ///< image file (absolute path), "" for none
   TextureMapping mapping = TextureMapping::kPlanar;
+  /// The loaded `texture` (render/texture.h), null for none: whoever reads the scene loads it
+  /// (app::run_scene_job), the tracer only looks it up.
+  std::shared_ptr<const TextureImage> texture_image;
 };
 
 /// A light. Its radiance is color * intensity.

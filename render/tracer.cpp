@@ -17,6 +17,7 @@
 
 #include "base/check.h"
 #include "render/sampling.h"
+#include "render/texture.h"
 
 namespace hfrt::render {
 
@@ -639,6 +640,10 @@ class SceneTracer {
           }
           normal[i] = normalize(obj.object->transform.normal_to_world(nrm));
           Vec3 c = obj.material->color;
+          if (obj.material->texture_image) {
+            c = texture_colour(*obj.material->texture_image, obj.material->mapping, h.p_object,
+                               nrm);
+          }
           if (obj.colour_attrs) {
             Vec3 a{ts.attrs[j], ts.attrs[n + j], ts.attrs[2 * n + j]};
             if (is_finite(a)) c = vmin(vmax(a, Vec3{0, 0, 0}), Vec3{1, 1, 1});

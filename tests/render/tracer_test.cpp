@@ -7,11 +7,14 @@
 #include "render/tracer.h"
 
 #include <gtest/gtest.h>
+#include <unistd.h>
 
 #include <cmath>
+#include <filesystem>
 #include <memory>
 #include <vector>
 
+#include "render/texture.h"
 #include "testsupport/analytic_fields.h"
 
 namespace hfrt::render {
@@ -341,6 +344,42 @@ TEST_P(TracerTest, ThinLensBlurCircleFollowsSimilarTriangles) {
     EXPECT_NEAR(cx, w / 2.0, 0.1);
     EXPECT_NEAR(cy, w / 2.0, 0.1);
   }
+}
+
+// A planar image texture on an emitting face: with one pixel per texel, each pixel centre is a
+// texel centre and shows exactly that texel (the image's top row at the top, v = 0 at the
+// bottom, as POV-Ray's image_map).
+TEST_P(TracerTest, PlanarTextureShowsItsTexels) {
+  const int n = 4;
+  std::vector<float> texels;
+  for (int j = 0; j < n; ++j)
+    for (int i = 0; i < n; ++i) {
+      texels.push_back(float(i) / n);
+      texels.push_back(float(j) / n);
+      texels.push_back(0.5f);
+    }
+  std::string path = (std::filesystem::temp_directory_path() /
+                      ("hfrt_tracer_texture_" + std::to_string(::getpid()) + ".exr"))
+                         .string();
+  ASSERT_TRUE(write_pixels(path, n, n, 3, texels, false).ok());
+  auto image = load_texture(path);
+  std::filesystem::remove(path);
+  ASSERT_TRUE(image.ok());
+  auto face = box_field({0, 0, -1}, {1, 1, 0});
+  Material m = emitter({1, 1, 1});
+  m.texture_image = image.value();
+  m.mapping = TextureMapping::kPlanar;
+  std::vector<Material> mats{m};
+  std::vector<SceneObject> objs{object(*face, grown({0, 0, -1}, {1, 1, 0}, 0.25f), 0, GetParam())};
+  TraceOptions opt = ortho({0.5f, 0.5f, 5}, {0.5f, 0.5f, 0}, {0, 1, 0}, 1, n, n);
+  TraceResult r = trace(objs, mats, opt);
+  for (int y = 0; y < n; ++y)
+    for (int x = 0; x < n; ++x) {
+      Vec3 c = pixel(r.image, x, y);
+      EXPECT_NEAR(c.x, float(x) / n, 1e-5) << x << "," << y;
+      EXPECT_NEAR(c.y, float(y) / n, 1e-5) << x << "," << y;
+      EXPECT_NEAR(c.z, 0.5f, 1e-5);
+    }
 }
 
 INSTANTIATE_TEST_SUITE_P(Roots, TracerTest,
