@@ -248,6 +248,12 @@ class SceneTracer {
     lights_ = options.lights.empty() ? default_lights(frame_) : options.lights;
     Vec3 view = options.camera.look_at - options.camera.eye;
     focus_ = options.focus_distance > 0 ? options.focus_distance : length(view);
+    Ray r0 = frame_.ray(0, 0), r1 = frame_.ray(1, 0);
+    if (frame_.orthographic()) {
+      footprint_a_ = length(r1.o - r0.o);
+    } else {
+      footprint_b_ = length(r1.d - r0.d);
+    }
   }
 
   RootMode root_used(size_t k) const { return objects_[k].mode; }
@@ -265,6 +271,7 @@ class SceneTracer {
     const int tw = tx1 - tx0, th = ty1 - ty0;
     const size_t npix = size_t(tw) * th;
     pix_.assign(npix, PixelAccum{});
+    cull_tile(tx0, ty0, tx1, ty1, ts);
     const int first = opt_.adaptive ? std::min(opt_.spp, TraceOptions::kAdaptiveFirst) : opt_.spp;
     std::vector<std::pair<int, int>> list;  // (pixel, sample index)
     list.reserve(npix * size_t(first));
@@ -440,6 +447,78 @@ class SceneTracer {
     }
   }
 
+  /// t along a unit camera ray per unit of camera depth (render/camera.h: depth is measured
+  /// along the view direction from the eye, or from the eye plane for orthographic cameras).
+  float camera_depth_to_t(Vec3 d) const {
+    return frame_.orthographic() ? 1.0f : 1.0f / std::max(dot(d, frame_.forward()), 1e-6f);
+  }
+
+  /// Per object, the range of camera depths [first, second] where the tile's rays may meet its
+  /// solid (first > second: none), by interval bisection of the tile's frustum as the first-hit
+  /// renderer culls (renderer.cpp, cull_tile), each slab's world box taken into object space.
+  /// Pinhole cameras only: a lens moves the rays' origins (culled_ is false; ranges are all).
+  void cull_tile(int tx0, int ty0, int tx1, int ty1, ThreadState& ts) {
+    tile_span_.assign(objects_.size(), {0.0f, std::numeric_limits<float>::infinity()});
+    culled_ = opt_.aperture <= 0;
+    if (!culled_) return;
+    const float tile_px = float(std::max(tx1 - tx0, ty1 - ty0));
+    for (size_t k = 0; k < objects_.size(); ++k) {
+      const SceneObject& obj = *objects_[k].object;
+      const Field& field = *obj.field;
+      const Box world = obj.transform.box_to_world(obj.bbox);
+      float t_min, t_max;
+      frame_.depth_range(world, &t_min, &t_max);
+      float lo = std::numeric_limits<float>::infinity(), hi = -lo;
+      if (!field.has_interval()) {
+        if (t_min <= t_max) lo = t_min, hi = t_max;
+        tile_span_[k] = {lo, hi};
+        continue;
+      }
+      struct Piece {
+        float a, b;
+        int level;
+      };
+      std::vector<Piece> stack;
+      if (t_min <= t_max) stack.push_back({t_min, t_max, 0});
+      EvalCounters& c = ts.searchers[k]->counters();
+      while (!stack.empty()) {
+        Piece p = stack.back();
+        stack.pop_back();
+        Box wb = intersect(
+            frame_.slab_box(float(tx0), float(ty0), float(tx1), float(ty1), p.a, p.b), world);
+        if (wb.empty()) continue;
+        Box ob;
+        for (int corner = 0; corner < 8; ++corner) {
+          ob.extend(obj.transform.point_to_object({(corner & 1) ? wb.hi.x : wb.lo.x,
+                                                   (corner & 2) ? wb.hi.y : wb.lo.y,
+                                                   (corner & 4) ? wb.hi.z : wb.lo.z}));
+        }
+        // Rounding of the transform: pad by a few ulps of the box.
+        const float pad = 1e-6f * obj.bbox.max_extent();
+        ob = intersect(Box{ob.lo - Vec3{pad, pad, pad}, ob.hi + Vec3{pad, pad, pad}}, obj.bbox);
+        if (ob.empty()) continue;
+        bool maybe_nan = false;
+        Interval iv = field.eval_interval(ob, &maybe_nan);
+        c.interval_calls++;
+        if (iv.hi < 0) continue;
+        bool inside = !std::isnan(iv.lo) && iv.lo >= 0 && !maybe_nan;
+        float width = tile_px * (footprint_a_ + footprint_b_ * p.b);
+        if (!inside && p.level < 20 && (p.b - p.a) > width) {
+          float mid = p.a + (p.b - p.a) * 0.5f;
+          if (mid > p.a && mid < p.b) {
+            stack.push_back({mid, p.b, p.level + 1});
+            stack.push_back({p.a, mid, p.level + 1});
+            continue;
+          }
+        }
+        lo = std::min(lo, p.a);
+        hi = std::max(hi, p.b);
+        if (inside) break;  // every ray of the tile is inside by the end of this slab
+      }
+      tile_span_[k] = {lo, hi};
+    }
+  }
+
   /// Object-space query of a world ray against object k over world parameters [0, t_max];
   /// false when the ray misses the box there.
   bool make_query(size_t k, Vec3 o, Vec3 d, float t_max, Query* q) const {
@@ -455,9 +534,12 @@ class SceneTracer {
   }
 
   /// The nearest hit of every ray.
-  void find_hits(const std::vector<PathRay>& rays, std::vector<Hit>* hits, ThreadState& ts) {
+  void find_hits(const std::vector<PathRay>& rays, bool camera, std::vector<Hit>* hits,
+                 ThreadState& ts) {
     hits->assign(rays.size(), Hit{});
     for (size_t k = 0; k < objects_.size(); ++k) {
+      // Camera rays of a tile that culling proved empty of this object skip it.
+      if (camera && tile_span_[k].first > tile_span_[k].second) continue;
       for (int pass = 0; pass < 2; ++pass) {
         const bool inside = pass == 1;  // rays travelling in this object's solid
         ts.queries.clear();
@@ -465,6 +547,14 @@ class SceneTracer {
           if ((rays[i].medium == int(k)) != inside) continue;
           Query q;
           if (!make_query(k, rays[i].o, rays[i].d, (*hits)[i].t, &q)) continue;
+          if (camera && culled_) {
+            // The tile's span of camera depths, as distances along this ray.
+            const float to_t = camera_depth_to_t(rays[i].d);
+            const float a = tile_span_[k].first * to_t, b = tile_span_[k].second * to_t;
+            if (a > q.a) q.a = a;  // not at the box entry any more: no cap at q.a
+            q.b = std::min(q.b, b);
+            if (!(q.a <= q.b)) continue;
+          }
           q.ray_index = int(i);
           ts.queries.push_back(q);
         }
@@ -593,8 +683,9 @@ class SceneTracer {
     std::vector<ShadowUse> uses;
     for (int depth = 0; !cur.empty(); ++depth) {
       auto t0 = Clock::now();
-      find_hits(cur, &hits, ts);
+      find_hits(cur, depth == 0, &hits, ts);
       auto t1 = Clock::now();
+      double shadow_s = 0;
       ts.search_seconds += std::chrono::duration<double>(t1 - t0).count();
       // Normals (world, outward) and colours of the hits, one batch per object.
       normal.assign(cur.size(), Vec3{0, 0, 0});
@@ -739,7 +830,8 @@ class SceneTracer {
       if (!shadow.empty()) {
         auto ts0 = Clock::now();
         shadow_transmittance(shadow, shadow_dist, &shadow_trans, ts);
-        ts.search_seconds += seconds_since(ts0);
+        shadow_s = seconds_since(ts0);
+        ts.search_seconds += shadow_s;
         for (size_t j = 0; j < shadow.size(); ++j) {
           const PathRay& r = cur[size_t(uses[j].hit)];
           radiance[size_t(r.sample)] += mul(uses[j].contribution, shadow_trans[j]);
@@ -811,7 +903,7 @@ class SceneTracer {
         }
       }
       ts.secondary_rays += next.size();
-      ts.shade_seconds += seconds_since(t1);
+      ts.shade_seconds += seconds_since(t1) - shadow_s;
       std::swap(cur, next);
     }
     for (size_t i = 0; i < list.size(); ++i) {
@@ -833,6 +925,10 @@ class SceneTracer {
   /// Per pixel of the tile being traced. thread_local through ThreadState would also do; one
   /// tracer per tile task is simpler: see trace_into().
   std::vector<PixelAccum> pix_;
+  /// cull_tile()'s answer for the current tile (camera depths, per object).
+  std::vector<std::pair<float, float>> tile_span_;
+  bool culled_ = false;
+  float footprint_a_ = 0, footprint_b_ = 0;  // pixel width in the world at camera depth t
 };
 
 }  // namespace
