@@ -15,9 +15,9 @@ namespace {
 
 using testing::CliRun;
 
-class SceneCli : public testing::CliFixture {
+class SceneRenderCli : public testing::CliFixture {
  protected:
-  SceneCli() : CliFixture("hfrt_scene_cli") {}
+  SceneRenderCli() : CliFixture("hfrt_scene_render_cli") {}
 
   /// RGB of pixel (x, y) of an image the test wrote.
   std::vector<float> read(const std::string& name, int* w, int* h) {
@@ -60,7 +60,7 @@ const char* kEmitterScene =
     "bbox = [-2, -2, -2, 2, 2, 2]\n"
     "material = \"lamp\"\n";
 
-TEST_F(SceneCli, EmittingSphereHasItsColourAndArea) {
+TEST_F(SceneRenderCli, EmittingSphereHasItsColourAndArea) {
   write("sphere.hf", kSphere);
   write("s.toml", kEmitterScene);
   for (const char* root : {"sign", "interval", "analytic"}) {
@@ -90,7 +90,7 @@ TEST_F(SceneCli, EmittingSphereHasItsColourAndArea) {
   }
 }
 
-TEST_F(SceneCli, ObjectsSharingAFileShareOneCompilation) {
+TEST_F(SceneRenderCli, ObjectsSharingAFileShareOneCompilation) {
   write("sphere.hf", kSphere);
   std::string scene = kEmitterScene;
   scene +=
@@ -118,7 +118,7 @@ TEST_F(SceneCli, ObjectsSharingAFileShareOneCompilation) {
   EXPECT_EQ(at(-1.2, 0.6), 0.0f);
 }
 
-TEST_F(SceneCli, CommandLineOptionsReplaceTheScenes) {
+TEST_F(SceneRenderCli, CommandLineOptionsReplaceTheScenes) {
   write("sphere.hf", kSphere);
   write("s.toml", kEmitterScene);
   CliRun r = hfrt("render s.toml -o small.exr --size 16x8 --background 1,0,0");
@@ -133,7 +133,7 @@ TEST_F(SceneCli, CommandLineOptionsReplaceTheScenes) {
   EXPECT_NE(r.err.find("--bbox applies to a .hf model"), std::string::npos) << r.err;
 }
 
-TEST_F(SceneCli, SyntaxErrorIsLocated) {
+TEST_F(SceneRenderCli, SyntaxErrorIsLocated) {
   write("bad.toml", "[camera]\neye = [0, 0,\n");
   CliRun r = hfrt("render bad.toml -o x.png");
   EXPECT_EQ(r.exit_code, 1);
@@ -141,7 +141,7 @@ TEST_F(SceneCli, SyntaxErrorIsLocated) {
   EXPECT_NE(r.err.find(": error: "), std::string::npos) << r.err;
 }
 
-TEST_F(SceneCli, UnknownMaterialIsLocatedAtTheValue) {
+TEST_F(SceneRenderCli, UnknownMaterialIsLocatedAtTheValue) {
   write("sphere.hf", kSphere);
   write("m.toml", "[[object]]\nfile = \"sphere.hf\"\nmaterial = \"glas\"\n");
   CliRun r = hfrt("render m.toml -o x.png");
@@ -149,7 +149,7 @@ TEST_F(SceneCli, UnknownMaterialIsLocatedAtTheValue) {
   EXPECT_EQ(r.err.rfind("m.toml:3:12: error: unknown material \"glas\"", 0), 0u) << r.err;
 }
 
-TEST_F(SceneCli, MissingModelFileIsLocated) {
+TEST_F(SceneRenderCli, MissingModelFileIsLocated) {
   write("f.toml", "[[object]]\nfile = \"nope.hf\"\n");
   CliRun r = hfrt("render f.toml -o x.png");
   EXPECT_EQ(r.exit_code, 1);
@@ -157,7 +157,7 @@ TEST_F(SceneCli, MissingModelFileIsLocated) {
   EXPECT_NE(r.err.find("does not exist"), std::string::npos) << r.err;
 }
 
-TEST_F(SceneCli, ModelThatDoesNotCompileIsLocatedInTheModelAndTheScene) {
+TEST_F(SceneRenderCli, ModelThatDoesNotCompileIsLocatedInTheModelAndTheScene) {
   write("broken.hf", "my_model(x[3], a[1]) {\n  my_model = 1 + ;\n}\n");
   write("c.toml", "[render]\nsize = [8, 8]\n\n[[object]]\nfile = \"broken.hf\"\n");
   CliRun r = hfrt("render c.toml -o x.png");
@@ -167,7 +167,7 @@ TEST_F(SceneCli, ModelThatDoesNotCompileIsLocatedInTheModelAndTheScene) {
       << r.err;
 }
 
-TEST_F(SceneCli, ReplLoadsEditsAndRendersAScene) {
+TEST_F(SceneRenderCli, ReplLoadsEditsAndRendersAScene) {
   write("sphere.hf", kSphere);
   write("s.toml", kEmitterScene);
   CliRun r = hfrt("repl",
