@@ -10,7 +10,7 @@ namespace {
 
 std::string num(double v) {
   char buf[40];
-  std::snprintf(buf, sizeof buf, "%.9g", v);
+  std::snprintf(buf, sizeof buf, "%.8g", v);
   return buf;
 }
 

@@ -1,11 +1,15 @@
 // `hfrt emit --pov MODEL.hf [-o OUT.pov] [--function-only] [--name IDENT]
 //      [--max-gradient G] [--accuracy A] [every `hfrt render` option]`
 //
+// `hfrt emit --pov SCENE.toml [-o OUT.pov] [--max-gradient G] [--accuracy A]`
+//
 // Writes the model as POV-Ray 3.7 SDL (jit/pov_emit.h): by default a complete scene that
 // renders what `hfrt render` renders with the same options — the same camera (framed the
 // same way when --eye/--look-at are not given), the same lights, box, image size and
 // background — as an `isosurface` of the emitted function; with --function-only just the
-// `#declare` of the function. See docs/pov.md.
+// `#declare` of the function. See docs/pov.md. A scene file (scene/scene_file.h) is written
+// whole: every object its isosurface with its box, placement and material, and the scene's
+// camera, lights, background and depth (scene/pov_scene.h; docs/emit.md).
 //
 // Exit codes: 0 = written, 1 = the model has compile errors or a construct POV-Ray functions
 // cannot express (located diagnostics on stderr), 2 = usage or environment error.
@@ -16,7 +20,9 @@
 #include <cmath>
 #include <cstdio>
 #include <fstream>
+#include <map>
 #include <memory>
+#include <set>
 #include <string>
 #include <vector>
 
@@ -27,6 +33,8 @@
 #include "jit/driver.h"
 #include "jit/pov_emit.h"
 #include "render/camera.h"
+#include "scene/pov_scene.h"
+#include "scene/scene_file.h"
 #include "tools/hfrt/commands.h"
 #include "tools/hfrt/render_options.h"
 
@@ -144,9 +152,202 @@ std::string scene_text(const render::RenderOptions& opt, const std::string& name
   return s;
 }
 
-int run_emit(EmitCli& cli) {
+bool is_scene_file(const std::string& path) {
+  return path.size() > 5 && path.compare(path.size() - 5, 5, ".toml") == 0;
+}
+
+/// Writes `out` to -o (or standard output); the exit code.
+int write_output(const std::string& output, const std::string& out, const char* what) {
+  if (output.empty() || output == "-") {
+    std::fwrite(out.data(), 1, out.size(), stdout);
+    std::fflush(stdout);
+    return 0;
+  }
+  std::ofstream f(output, std::ios::binary);
+  f << out;
+  f.close();
+  if (!f) {
+    std::fprintf(stderr, "hfrt: cannot write %s\n", output.c_str());
+    return 2;
+  }
+  std::fprintf(stderr, "hfrt: wrote %s (%s)\n", output.c_str(), what);
+  return 0;
+}
+
+/// One compiled model of a scene (objects with the same file or source, name and parameters
+/// share it).
+struct SceneModel {
+  std::string function;  // POV identifier of the declared function
+  std::optional<Model> model;
+};
+
+/// `hfrt emit --pov SCENE.toml`: every object of the scene as an isosurface, with its
+/// material, and the scene's camera, lights and settings.
+int run_emit_scene(EmitCli& cli, const CLI::App& sub) {
+  const bool color = use_color(STDERR_FILENO);
+  // The scene file sets the camera, size, lights and the rest: render options would be
+  // ignored, which must not happen silently.
+  static const std::set<std::string> kSceneOptions = {
+      "pov",           "output", "max-gradient", "accuracy", "transparent-background",
+      "function-only", "help"};
+  for (const CLI::Option* o : sub.get_options()) {
+    if (o->count() == 0 || o->get_positional()) continue;
+    const std::vector<std::string>& longs = o->get_lnames();
+    if (!longs.empty() && kSceneOptions.count(longs[0])) continue;
+    const std::string shown = longs.empty() ? o->get_name() : "--" + longs[0];
+    return usage_error(shown + " does not apply to a scene file: set it in the scene (see " +
+                       "docs/scenes.md)");
+  }
+  if (cli.max_gradient < 0) return usage_error("--max-gradient must be positive");
+  if (cli.accuracy < 0) return usage_error("--accuracy must be positive");
+  const std::string& path = cli.render.model.file;
+  scene::SceneDesc desc;
+  scene::SceneError serr;
+  if (!scene::read_scene_file(path, &desc, &serr)) {
+    std::fputs(serr.render().c_str(), stderr);
+    return 1;
+  }
+
+  const render::RenderOptions defaults;
+  std::string decls;
+  std::map<std::string, SceneModel> models;  // by file or source, object name and params
+  std::set<std::string> identifiers;
+  std::vector<scene::PovObject> objects;
+  std::vector<const SceneModel*> object_models;
+  for (const scene::ObjectDesc& o : desc.objects) {
+    std::string key = (o.file.empty() ? "source\n" + o.source : "file\n" + o.file) + "\n" +
+                      o.name.value_or("") + "\n";
+    for (double a : o.params) key += num(a) + ",";
+    auto [it, fresh] = models.try_emplace(key);
+    SceneModel& sm = it->second;
+    if (fresh) {
+      // The text as the compiler sees it; inline sources are placed where they stand in the
+      // scene file, so that their diagnostics name its lines and columns.
+      std::string name = o.file, text;
+      if (o.file.empty()) {
+        name = path;
+        text = std::string(std::max(0, o.source_pos.line - 1), '\n') +
+               std::string(std::max(0, o.source_pos.column - 1), ' ') + o.source;
+      } else {
+        Result<std::string> read = read_file(o.file);
+        if (!read) {
+          std::fprintf(stderr, "hfrt: %s\n", read.error().message.c_str());
+          return 2;
+        }
+        text = std::move(read).value();
+      }
+      auto file = std::make_shared<const lang::SourceFile>(name, text);
+      lang::DiagnosticSink diags(file);
+      jit::LoweredSource lowered = jit::compile_source(diags, o.name.value_or(""));
+      if (!lowered.program || !report_no_object(lowered, name)) {
+        std::fputs(diags.render(color).c_str(), stderr);
+        return 1;
+      }
+      jit::PovEmitOptions po;
+      const std::string base =
+          jit::pov_identifier("hf_" + lowered.program->objects[lowered.object].name);
+      po.name = base;
+      for (int n = 2; identifiers.count(po.name); ++n) po.name = base + "_" + std::to_string(n);
+      identifiers.insert(po.name);
+      po.params = o.params;
+      jit::PovFunction pov;
+      const bool ok = lowered.ok() && jit::emit_pov_function(lowered.fn, po, &pov, &diags);
+      std::fputs(diags.render(color).c_str(), stderr);
+      if (!ok || diags.has_errors()) return 1;
+      decls += "\n// " + po.name + ": " + (o.file.empty() ? "inline source" : o.file) +
+               ", object " + lowered.program->objects[lowered.object].name + " (" +
+               std::to_string(pov.expression_nodes) + " POV operations)\n" + pov.text;
+      sm.function = po.name;
+      if (!cli.function_only) {
+        ModelOptions mo;
+        mo.object = o.name.value_or("");
+        mo.eager_f64 = false;
+        mo.eager_f32 = true;
+        CompileResult compiled = Model::compile(text, mo, name);
+        std::fputs(compiled.rendered.c_str(), stderr);
+        if (!compiled.error.empty() || !compiled.ok()) {
+          if (!compiled.error.empty()) std::fprintf(stderr, "hfrt: %s\n", compiled.error.c_str());
+          return 1;
+        }
+        sm.model = std::move(compiled.model);
+        sm.model->set_params(o.params);
+      }
+    }
+    scene::PovObject po;
+    po.function = sm.function;
+    po.bbox = o.bbox.value_or(defaults.bbox);
+    po.material = o.material.empty() ? render::Material{} : desc.materials.at(o.material);
+    po.translate = o.translate;
+    po.rotate_deg = o.rotate_deg;
+    po.scale = o.scale;
+    po.comment = "[[object]] at " + path + ":" + std::to_string(o.pos.line) +
+                 (o.material.empty() ? "" : ", material \"" + o.material + "\"");
+    objects.push_back(po);
+    object_models.push_back(&sm);
+  }
+
+  std::string out = "#version 3.7;\n// Written by `hfrt emit --pov` from " + path + ": " +
+                    std::to_string(desc.objects.size()) + " objects, " +
+                    std::to_string(models.size()) + " functions.\n";
+  out += "// Each function is F (F >= 0 is the solid; the isosurfaces use -F).\n";
+  out += decls;
+  if (cli.function_only) return write_output(cli.render.output, out, "functions");
+
+  // Boxes (for parallel lights) and, when the camera is not fully given, the solids' extent.
+  scene::PovSceneSettings ps;
+  ps.width = desc.render.size ? (*desc.render.size)[0] : defaults.width;
+  ps.height = desc.render.size ? (*desc.render.size)[1] : defaults.height;
+  const render::CameraRequest& request = desc.camera.request;
+  const bool framed = !request.eye || !request.look_at;
+  render::Box extent;
+  for (size_t i = 0; i < objects.size(); ++i) {
+    const Model& model = *object_models[i]->model;
+    app::ModelField model_field(model, path);
+    app::WithoutIntervals sampled(model_field);
+    const render::Field& field =
+        app::render_field(model, model_field, sampled, render::RootMode::kAuto);
+    const render::Box box = objects[i].bbox;
+    extent.extend(
+        scene::world_box(desc.objects[i], framed ? render::find_extent(field, box) : box));
+    objects[i].max_gradient = cli.max_gradient > 0
+                                  ? cli.max_gradient
+                                  : std::max(1e-3f, 1.2f * estimate_max_gradient(field, box));
+    objects[i].accuracy = cli.accuracy > 0 ? cli.accuracy : box.max_extent() * 1e-5f;
+  }
+  ps.extent = extent;
+  ps.camera = render::resolve_camera(request, extent, float(ps.width) / float(ps.height));
+  const render::Camera& c = ps.camera;
+  if (length(c.look_at - c.eye) <= 0 || length(cross(normalize(c.look_at - c.eye), c.up)) < 1e-6f) {
+    return usage_error(
+        "the scene's camera is degenerate (eye = look-at, or up parallel to the "
+        "view)");
+  }
+  ps.aperture = desc.camera.aperture;
+  ps.focus_distance = desc.camera.focus_distance.value_or(length(c.look_at - c.eye));
+  ps.spp = desc.render.spp.value_or(1);
+  ps.max_depth = desc.render.max_depth.value_or(5);
+  ps.background = desc.render.background.value_or(defaults.background);
+  ps.transparent_background = cli.transparent;
+  ps.lights = desc.lights;
+  if (ps.lights.empty())
+    ps.lights = render::default_lights(render::CameraFrame(c, ps.width, ps.height));
+
+  out += "\n// The scene: " + std::to_string(ps.width) + "x" + std::to_string(ps.height) +
+         ", render with  povray +W" + std::to_string(ps.width) + " +H" + std::to_string(ps.height);
+  if (ps.spp > 1 && ps.aperture <= 0) {
+    // hfrt's spp samples per pixel as POV-Ray's supersampling of method 1 (n x n rays).
+    const int n = std::max(2, int(std::lround(std::sqrt(double(ps.spp)))));
+    out += " +A0.0 +AM1 +R" + std::to_string(n);
+  }
+  out += "\n";
+  out += scene::pov_scene_text(ps, objects);
+  return write_output(cli.render.output, out, "scene");
+}
+
+int run_emit(EmitCli& cli, const CLI::App& sub) {
   const bool color = use_color(STDERR_FILENO);
   if (!cli.pov) return usage_error("choose the output language: --pov (the only one so far)");
+  if (is_scene_file(cli.render.model.file)) return run_emit_scene(cli, sub);
   app::RenderSetup setup;
   std::string err;
   if (!translate_render_options(cli.render, &setup, &err)) return usage_error(err);
@@ -257,7 +458,8 @@ CommandRunner register_emit(CLI::App& app) {
   auto cli = std::make_shared<EmitCli>();
   CLI::App* sub = app.add_subcommand(
       "emit", "write a model in another renderer's language (--pov: a POV-Ray isosurface scene)");
-  sub->add_option("model", cli->render.model.file, "HyperFun model file")->required();
+  sub->add_option("model", cli->render.model.file, "HyperFun model file, or a scene file (.toml)")
+      ->required();
   sub->add_flag("--pov", cli->pov, "POV-Ray 3.7 SDL");
   sub->add_option("-o,--output", cli->render.output, "output file (default: standard output)");
   sub->add_flag("--function-only", cli->function_only,
@@ -269,7 +471,7 @@ CommandRunner register_emit(CLI::App& app) {
   sub->add_flag("--transparent-background", cli->transparent,
                 "background with transmit 1: with POV-Ray's +UA, alpha is the coverage");
   add_render_options(*sub, &cli->render);
-  return [cli] { return run_emit(*cli); };
+  return [cli, sub] { return run_emit(*cli, *sub); };
 }
 
 }  // namespace hfrt::tools
