@@ -90,6 +90,38 @@ TEST_F(SceneRenderCli, EmittingSphereHasItsColourAndArea) {
   }
 }
 
+// Rays that start inside a solid find where they leave it also for mesh leaves: a slab given
+// as a triangle mesh, with ior 1 and an absorbing inside, in front of a white background,
+// transmits exp(-sigma d) of it per pixel, for every root search.
+TEST_F(SceneRenderCli, MeshSlabTransmitsBeerLambert) {
+  const double d = 0.8;
+  // The box [-2, 2] x [-2, 2] x [-0.4, 0.4], 12 outward triangles.
+  write("slab.off",
+        "OFF\n8 12 0\n"
+        "-2 -2 -0.4\n2 -2 -0.4\n2 2 -0.4\n-2 2 -0.4\n"
+        "-2 -2 0.4\n2 -2 0.4\n2 2 0.4\n-2 2 0.4\n"
+        "3 0 2 1\n3 0 3 2\n3 4 5 6\n3 4 6 7\n3 0 1 5\n3 0 5 4\n"
+        "3 2 3 7\n3 2 7 6\n3 1 2 6\n3 1 6 5\n3 0 4 7\n3 0 7 3\n");
+  write("slab.hf", "my_model(x[3], a[1]) {\n  my_model = hfMesh(x, \"slab.off\");\n}\n");
+  write("m.toml",
+        "[camera]\neye = [0, 0, 5]\nlook_at = [0, 0, 0]\northo = 2\n"
+        "[render]\nsize = [8, 8]\nbackground = [1, 1, 1]\n"
+        "[material.fog]\ncolor = [1, 1, 1]\nambient = 0\ndiffuse = 0\nspecular = 0\n"
+        "transmit = 1\nior = 1\nabsorb = [0.5, 1, 2]\n"
+        "[[object]]\nfile = \"slab.hf\"\nbbox = [-3, -3, -1, 3, 3, 1]\nmaterial = \"fog\"\n");
+  for (const char* root : {"sign", "interval", "analytic"}) {
+    CliRun r = hfrt(std::string("render m.toml -o m.exr --root ") + root);
+    ASSERT_EQ(r.exit_code, 0) << r.err;
+    int w = 0, h = 0;
+    std::vector<float> rgb = read("m.exr", &w, &h);
+    ASSERT_EQ(w, 8);
+    const float sigma[3] = {0.5f, 1, 2};
+    for (int i = 0; i < w * h; ++i)
+      for (int k = 0; k < 3; ++k)
+        EXPECT_NEAR(rgb[size_t(i) * 3 + k], std::exp(-sigma[k] * d), 1e-3) << root << " " << i;
+  }
+}
+
 TEST_F(SceneRenderCli, ObjectsSharingAFileShareOneCompilation) {
   write("sphere.hf", kSphere);
   std::string scene = kEmitterScene;
