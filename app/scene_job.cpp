@@ -184,7 +184,7 @@ SceneJobResult run_scene_job(const scene::SceneDesc& sc, const SceneOverrides& o
     render::SceneObject so;
     so.field = cm.used;
     so.bbox = o.bbox.value_or(render::RenderOptions{}.bbox);
-    so.transform = render::Transform::from_srt(o.scale, o.rotate_deg, o.translate);
+    so.transform = scene::placement(o);
     so.material = o.material.empty() ? 0 : material_index.at(o.material);
     // --root interval on a field whose intervals are the interpreter's: the model's own.
     so.root = root;

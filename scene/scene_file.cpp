@@ -794,30 +794,16 @@ bool read_scene_file(const std::string& path, SceneDesc* out, SceneError* err) {
   return parse_scene(*text, path, out, err);
 }
 
+render::Transform placement(const ObjectDesc& o) {
+  return render::Transform::from_srt(o.scale, o.rotate_deg, o.translate);
+}
+
 render::Vec3 object_to_world(const ObjectDesc& o, render::Vec3 p) {
-  p = p * o.scale;
-  const double kDeg = M_PI / 180;
-  const double ax = o.rotate_deg.x * kDeg, ay = o.rotate_deg.y * kDeg, az = o.rotate_deg.z * kDeg;
-  double x = p.x, y = p.y, z = p.z;
-  double t = std::cos(ax) * y - std::sin(ax) * z;  // about x
-  z = std::sin(ax) * y + std::cos(ax) * z;
-  y = t;
-  t = std::cos(ay) * x + std::sin(ay) * z;  // about y
-  z = -std::sin(ay) * x + std::cos(ay) * z;
-  x = t;
-  t = std::cos(az) * x - std::sin(az) * y;  // about z
-  y = std::sin(az) * x + std::cos(az) * y;
-  x = t;
-  return render::Vec3{float(x), float(y), float(z)} + o.translate;
+  return placement(o).point_to_world(p);
 }
 
 render::Box world_box(const ObjectDesc& o, const render::Box& b) {
-  render::Box out;
-  for (int i = 0; i < 8; ++i) {
-    out.extend(object_to_world(o, render::Vec3{(i & 1) ? b.hi.x : b.lo.x, (i & 2) ? b.hi.y : b.lo.y,
-                                               (i & 4) ? b.hi.z : b.lo.z}));
-  }
-  return out;
+  return placement(o).box_to_world(b);
 }
 
 const char* mapping_name(render::TextureMapping mapping) {

@@ -14,6 +14,7 @@
 #include "render/camera.h"
 #include "render/framing.h"
 #include "render/material.h"
+#include "render/tracer.h"
 
 namespace hfrt::scene {
 
@@ -64,6 +65,8 @@ struct ObjectDesc {
 /// A point of the object's model space in the world: scaled, rotated about x, then y, then z
 /// (degrees, right-handed: rotating y towards z, z towards x, x towards y), then translated.
 render::Vec3 object_to_world(const ObjectDesc& object, render::Vec3 p);
+/// The object's placement as the tracer takes it (render::Transform, the one implementation).
+render::Transform placement(const ObjectDesc& object);
 /// A box enclosing `box` (model space) placed in the world by object_to_world.
 render::Box world_box(const ObjectDesc& object, const render::Box& box);
 
