@@ -227,6 +227,34 @@ SceneJobResult run_scene_job(const scene::SceneDesc& sc, const SceneOverrides& o
     return res;
   }
 
+  // `--root auto`, per object: analytic when the model qualifies, else the decision of the
+  // single-model render (render::choose_root's probe, which tells whether the model's
+  // enclosures are tight enough for intervals to pay) for the same camera, seen in the object's
+  // own space.
+  if (root == render::RootMode::kAuto) {
+    const auto t_probe = Clock::now();
+    for (size_t i = 0; i < objects.size(); ++i) {
+      render::SceneObject& so = objects[i];
+      const CompiledModel& cm = models[model_of[i]];
+      render::RenderOptions probe;
+      probe.width = opt.width;
+      probe.height = opt.height;
+      probe.bbox = so.bbox;
+      probe.threads = opt.threads;
+      probe.root = render::RootMode::kAuto;
+      probe.camera = opt.camera;
+      probe.camera.eye = so.transform.point_to_object(opt.camera.eye);
+      probe.camera.look_at = so.transform.point_to_object(opt.camera.look_at);
+      probe.camera.up = normalize(so.transform.direction_to_object(opt.camera.up));
+      probe.camera.ortho_width = opt.camera.ortho_width / so.transform.scale();
+      const AnalyticInfo& info = cm.field->analytic_info();
+      render::RootDecision d = settle_root(*so.field, &probe, &info, cm.file);
+      so.root = probe.root;
+      res.objects[i].why = d.why;
+    }
+    res.probe_ms = ms_since(t_probe);
+  }
+
   const auto t_render = Clock::now();
   render::trace_into(objects, materials, opt, out);
   res.render_ms = ms_since(t_render);
@@ -239,16 +267,18 @@ std::string format_scene_stats(const SceneJobResult& job, const render::TraceSta
   std::ostringstream os;
   char buf[512];
   std::snprintf(buf, sizeof buf,
-                "stats: scene: %zu objects, %zu compilations, compile %.1f ms, code %.1f ms\n",
-                job.objects.size(), job.compilations, job.compile_ms, job.prepare_ms);
+                "stats: scene: %zu objects, %zu compilations, compile %.1f ms, code %.1f ms, "
+                "auto probes %.1f ms\n",
+                job.objects.size(), job.compilations, job.compile_ms, job.prepare_ms, job.probe_ms);
   os << buf;
   for (size_t i = 0; i < job.objects.size(); ++i) {
     const SceneObjectReport& o = job.objects[i];
     std::snprintf(buf, sizeof buf,
-                  "stats: object %zu: %s, root search %s, world box [%g %g %g]..[%g %g %g]\n",
-                  i + 1, o.name.c_str(), render::root_mode_name(o.root), o.world_box.lo.x,
-                  o.world_box.lo.y, o.world_box.lo.z, o.world_box.hi.x, o.world_box.hi.y,
-                  o.world_box.hi.z);
+                  "stats: object %zu: %s, root search %s%s%s%s, world box [%g %g %g]..[%g %g %g]\n",
+                  i + 1, o.name.c_str(), render::root_mode_name(o.root),
+                  o.why.empty() ? "" : " (auto: ", o.why.c_str(), o.why.empty() ? "" : ")",
+                  o.world_box.lo.x, o.world_box.lo.y, o.world_box.lo.z, o.world_box.hi.x,
+                  o.world_box.hi.y, o.world_box.hi.z);
     os << buf;
   }
   const render::TraceOptions& opt = job.options;

@@ -50,6 +50,7 @@ struct SceneObjectReport {
   std::string name;  ///< file (and object name) or "object N (inline)"
   render::RootMode root = render::RootMode::kSign;
   bool shared = false;  ///< uses the compilation of an earlier object
+  std::string why;      ///< `--root auto`: why this search (render::RootDecision::why)
   render::Box world_box;
 };
 
@@ -60,7 +61,7 @@ struct SceneJobResult {
   render::TraceOptions options;       ///< as traced: camera resolved
   std::vector<SceneObjectReport> objects;
   size_t compilations = 0;  ///< distinct models compiled
-  double compile_ms = 0, prepare_ms = 0, render_ms = 0;
+  double compile_ms = 0, prepare_ms = 0, probe_ms = 0, render_ms = 0;
 };
 
 /// Compiles and traces `scene` into `*out`. Never throws; every failure is a status.

@@ -147,11 +147,12 @@ struct ObjectInfo {
 /// A ray of the wavefront, in world space with a unit direction.
 struct PathRay {
   Vec3 o, d;
-  Vec3 weight;    // what its radiance counts in its sample
-  int sample;     // index into the batch's samples
-  int depth;      // 0: camera ray
-  int medium;     // the object whose solid it travels in, -1: none
-  uint64_t seed;  // for glossy and light sampling
+  Vec3 weight;           // what its radiance counts in its sample
+  int sample;            // index into the batch's samples
+  int pixel_sample = 0;  // which of the pixel's spp samples it serves (light strata share them)
+  int depth;             // 0: camera ray
+  int medium;            // the object whose solid it travels in, -1: none
+  uint64_t seed;         // for glossy and light sampling
   /// Distance from the surface point it leaves to its origin (it starts a little off the
   /// surface, along its own direction): counted in the absorption of its medium.
   float pre = 0;
@@ -369,6 +370,7 @@ class SceneTracer {
     pr.depth = 0;
     pr.medium = -1;
     pr.seed = mix64(h ^ 0x74726163ull);
+    pr.pixel_sample = s;
     return pr;
   }
 
@@ -781,21 +783,34 @@ class SceneTracer {
         for (size_t li = 0; li < lights_.size(); ++li) {
           const Light& light = lights_[li];
           Vec3 radiance_l = light.color * light.intensity;
-          const int ns = light.kind == Light::Kind::kSphere ? std::max(1, light.samples) : 1;
+          // A sphere light's `samples` strata are shared by the pixel's spp samples: each
+          // camera sample takes ceil(samples / spp) of them (its own, interleaved), so that a
+          // pixel gets `samples` shadow rays per light in all, however many samples it has.
+          const int strata = light.kind == Light::Kind::kSphere ? std::max(1, light.samples) : 1;
+          const int ns = light.kind == Light::Kind::kSphere
+                             ? std::max(1, (strata + opt_.spp - 1) / opt_.spp)
+                             : 1;
           Vec3 to_c = light.kind == Light::Kind::kDirectional ? normalize(light.v) : light.v - p;
           Vec3 w = normalize(to_c);
           Vec3 u =
               normalize(std::abs(w.x) > 0.5f ? cross(w, Vec3{0, 1, 0}) : cross(w, Vec3{1, 0, 0}));
           Vec3 v = cross(w, u);
-          const int nx = std::max(1, int(std::floor(std::sqrt(float(ns)))));
-          const int ny = (ns + nx - 1) / nx;
+          // nx * ny <= strata cells; strata past them (when strata is not a product) are
+          // sampled without stratification, so that no part of the disk is favoured.
+          const int nx = std::max(1, int(std::floor(std::sqrt(float(strata)))));
+          const int ny = strata / nx;
           for (int s = 0; s < ns; ++s) {
             Vec3 target = light.v;
             if (light.kind == Light::Kind::kSphere) {
               // A stratified point of the light's disk as seen from p (its silhouette).
-              uint64_t hs = mix64(r.seed ^ (uint64_t(li) << 40) ^ (uint64_t(s) << 20) ^ 0x6c74ull);
-              float a = (float(s % nx) + unit_float(hs)) / float(nx);
-              float b = (float(s / nx) + unit_float(mix64(hs))) / float(ny);
+              // Permuted, so that the first samples of an adaptive pixel spread over the disk.
+              const int st = stratum((r.pixel_sample + s * opt_.spp) % strata, strata);
+              uint64_t hs = mix64(r.seed ^ (uint64_t(li) << 40) ^ (uint64_t(st) << 20) ^ 0x6c74ull);
+              float a = unit_float(hs), b = unit_float(mix64(hs));
+              if (st < nx * ny) {
+                a = (float(st % nx) + a) / float(nx);
+                b = (float(st / nx) + b) / float(ny);
+              }
               float dx, dy;
               concentric_disk(a, std::min(b, 0.99999994f), &dx, &dy);
               target = light.v + (u * dx + v * dy) * light.radius;
@@ -880,6 +895,7 @@ class SceneTracer {
               c.depth = depth + 1;
               c.medium = r.medium;
               c.seed = mix64(r.seed ^ 0x52ull);
+              c.pixel_sample = r.pixel_sample;
               next.push_back(c);
             }
           }
@@ -897,6 +913,7 @@ class SceneTracer {
               c.depth = depth + 1;
               c.medium = entering ? h.object : -1;
               c.seed = mix64(r.seed ^ 0x54ull);
+              c.pixel_sample = r.pixel_sample;
               next.push_back(c);
             }
           }
