@@ -126,6 +126,22 @@ TEST_F(SceneCliTest, CheckPrintsTheLocatedError) {
             "material out for the default look\n");
 }
 
+TEST_F(SceneCliTest, CheckRunsTheFrontEndOnEveryModel) {
+  write("bad.toml",
+        "[[object]]\nfile = \"ball.hf\"\nname = \"blub\"\n\n[[object]]\nsource = \"\"\"\n"
+        "b(x[3], a[1]) {\n  b = 1 - nosuch;\n}\n\"\"\"\n");
+  CliRun r = hfrt_run("check bad.toml");
+  EXPECT_EQ(r.exit_code, 1);
+  EXPECT_EQ(r.out, "");
+  EXPECT_EQ(r.err,
+            "bad.toml:3:8: error: no object named 'blub' in ball.hf\n"
+            "hint: the objects are: ball\n"
+            "bad.toml:8:11: error: 'nosuch' is used but never assigned\n"
+            "   b = 1 - nosuch;\n"
+            "           ^~~~~~\n"
+            "hint: assign it before this point (nosuch = ...;) or check the spelling\n");
+}
+
 TEST_F(SceneCliTest, CheckOfAMissingSceneIsAnEnvironmentError) {
   CliRun r = hfrt_run("check nothere.toml");
   EXPECT_EQ(r.exit_code, 2);
