@@ -122,9 +122,16 @@ SceneJobResult run_scene_job(const scene::SceneDesc& sc, const SceneOverrides& o
     }
     ModelOptions mo_i = mo;
     mo_i.object = o.name.value_or("");
-    std::string name = o.file.empty() ? sc.path + ": object " + std::to_string(i + 1) : o.file;
+    // An inline source is compiled as the scene file's text at its place (object_source pads
+    // it), so that its diagnostics point into the scene file.
+    std::string name = o.file, text, env_error;
+    if (o.file.empty() && !scene::object_source(o, sc.path, &text, &name, &env_error)) {
+      res.status = SceneJobStatus::kEnvironment;
+      res.error = env_error;
+      return res;
+    }
     CompileResult compiled =
-        o.file.empty() ? Model::compile(o.source, mo_i, name) : Model::compile_file(o.file, mo_i);
+        o.file.empty() ? Model::compile(text, mo_i, name) : Model::compile_file(o.file, mo_i);
     if (!compiled.error.empty()) {
       res.status = SceneJobStatus::kEnvironment;
       res.error = compiled.error;

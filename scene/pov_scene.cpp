@@ -10,7 +10,7 @@ namespace {
 
 std::string num(double v) {
   char buf[40];
-  std::snprintf(buf, sizeof buf, "%.8g", v);
+  std::snprintf(buf, sizeof buf, "%.7g", v);
   return buf;
 }
 
@@ -97,7 +97,8 @@ float pov_aperture(float lens_radius) {
 }
 
 int pov_area_light_side(int samples) {
-  return std::max(1, static_cast<int>(std::lround(std::sqrt(double(std::max(1, samples))))));
+  // POV-Ray refuses circular area lights of fewer than 2 x 2 (parse error).
+  return std::max(2, static_cast<int>(std::lround(std::sqrt(double(std::max(1, samples))))));
 }
 
 std::string pov_material(const render::Material& m, const std::string& in) {

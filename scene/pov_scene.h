@@ -59,8 +59,8 @@ PovFade pov_fade(render::Vec3 absorb);
 /// aperture / 2), so aperture = 4 * radius.
 float pov_aperture(float lens_radius);
 
-/// The side n of POV-Ray's n x n area light for `samples` shadow rays per point (n*n is the
-/// square nearest to `samples`, at least 1).
+/// The side n of POV-Ray's n x n area light for `samples` shadow rays per point: n*n is the
+/// square nearest to `samples`, but at least 2 x 2 (POV-Ray rejects smaller circular lights).
 int pov_area_light_side(int samples);
 
 /// The material as a POV-Ray `texture { pigment finish }` and `interior { }` (both blocks,

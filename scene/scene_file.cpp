@@ -680,6 +680,8 @@ class Reader {
       std::string s;
       if (!string(*n, "[[object]] name", &s)) return false;
       o.name = s;
+      o.name_pos = SourcePos{path_, static_cast<int>(n->source().begin.line),
+                             static_cast<int>(n->source().begin.column)};
     }
     if (const toml::node* n = t.get("params")) {
       if (!numbers(*n, "[[object]] params", 0, &o.params)) return false;
@@ -796,6 +798,24 @@ bool read_scene_file(const std::string& path, SceneDesc* out, SceneError* err) {
 
 render::Transform placement(const ObjectDesc& o) {
   return render::Transform::from_srt(o.scale, o.rotate_deg, o.translate);
+}
+
+bool object_source(const ObjectDesc& o, const std::string& scene_path, std::string* text,
+                   std::string* name, std::string* error) {
+  if (o.file.empty()) {
+    *name = scene_path;
+    *text = std::string(std::max(0, o.source_pos.line - 1), '\n') +
+            std::string(std::max(0, o.source_pos.column - 1), ' ') + o.source;
+    return true;
+  }
+  *name = o.file;
+  Result<std::string> read = read_file(o.file);
+  if (!read) {
+    *error = read.error().message;
+    return false;
+  }
+  *text = std::move(read).value();
+  return true;
 }
 
 render::Vec3 object_to_world(const ObjectDesc& o, render::Vec3 p) {

@@ -60,7 +60,16 @@ struct ObjectDesc {
   /// the scene file: compile the source preceded by line - 1 newlines and column - 1 spaces
   /// (exact for literal strings and for basic strings without escapes).
   SourcePos source_pos;
+  SourcePos name_pos;  ///< where the `name` value is (line 0 when there is none)
 };
+
+/// The HyperFun text of an object as the compiler should see it, and the file name its
+/// diagnostics should carry: the model file's contents (`*name` = the file), or the inline
+/// `source` preceded by source_pos.line - 1 newlines and source_pos.column - 1 spaces
+/// (`*name` = the scene file), so that diagnostics point into the scene file. False with
+/// `*error` when the model file cannot be read.
+bool object_source(const ObjectDesc& object, const std::string& scene_path, std::string* text,
+                   std::string* name, std::string* error);
 
 /// A point of the object's model space in the world: scaled, rotated about x, then y, then z
 /// (degrees, right-handed: rotating y towards z, z towards x, x towards y), then translated.

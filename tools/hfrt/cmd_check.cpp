@@ -1,6 +1,7 @@
 // `hfrt check FILE... [--dump-ast]`: parse and check HyperFun files, print diagnostics.
 // A FILE ending in .toml is a scene file (scene/scene_file.h): its first error is printed,
-// located, or a one-line summary of the scene on standard output.
+// located, or (when every model it uses passes the front end's checks too) a one-line summary
+// of the scene on standard output.
 //
 // Exit codes: 0 = every file is fine (warnings allowed), 1 = some file has errors,
 // 2 = some file could not be read.
@@ -9,6 +10,7 @@
 #include <CLI/CLI.hpp>
 #include <cstdio>
 #include <memory>
+#include <set>
 #include <string>
 #include <vector>
 
@@ -29,6 +31,45 @@ struct CheckOptions {
   bool dump_ast = false;
 };
 
+/// Runs the front end (parse and semantic checks, no compilation) on every distinct model of
+/// a scene and checks that the object each one names exists; prints the diagnostics. The
+/// exit code: 0, 1 (errors), 2 (a model file that cannot be read).
+int check_scene_models(const scene::SceneDesc& scene, bool color) {
+  std::set<std::string> seen;
+  int status = 0;
+  for (const scene::ObjectDesc& o : scene.objects) {
+    std::string text, name, error;
+    if (!scene::object_source(o, scene.path, &text, &name, &error)) {
+      std::fprintf(stderr, "hfrt: %s\n", error.c_str());
+      status = 2;
+      continue;
+    }
+    if (!seen.insert(name + '\n' + text + '\n' + o.name.value_or("")).second) continue;
+    auto file = std::make_shared<const lang::SourceFile>(name, std::move(text));
+    lang::DiagnosticSink diags(file);
+    std::unique_ptr<lang::Program> prog = lang::parse_program(file, diags);
+    lang::check_program(*prog, diags);
+    std::fputs(diags.render(color).c_str(), stderr);
+    if (diags.has_errors()) {
+      if (status == 0) status = 1;
+      continue;
+    }
+    scene::SceneError err;
+    if (prog->select_object(o.name.value_or(""), &err.message, &err.hint) < 0) {
+      err.pos = o.name ? o.name_pos : o.pos;
+      const std::string kInTheFile = " in the file";  // say which file
+      if (err.message.size() > kInTheFile.size() &&
+          err.message.compare(err.message.size() - kInTheFile.size(), kInTheFile.size(),
+                              kInTheFile) == 0)
+        err.message.replace(err.message.size() - kInTheFile.size(), kInTheFile.size(),
+                            " in " + name);
+      std::fputs(err.render().c_str(), stderr);
+      if (status == 0) status = 1;
+    }
+  }
+  return status;
+}
+
 int run_check(const CheckOptions& opts) {
   const bool color = use_color(STDERR_FILENO);
   int status = 0;
@@ -42,12 +83,14 @@ int run_check(const CheckOptions& opts) {
       }
       scene::SceneDesc scene;
       scene::SceneError err;
-      if (scene::parse_scene(*text, path, &scene, &err)) {
-        std::printf("%s\n", scene::summary(scene).c_str());
-      } else {
+      if (!scene::parse_scene(*text, path, &scene, &err)) {
         std::fputs(err.render().c_str(), stderr);
         if (status == 0) status = 1;
+        continue;
       }
+      const int code = check_scene_models(scene, color);
+      if (code == 0) std::printf("%s\n", scene::summary(scene).c_str());
+      if (status == 0) status = code;
       continue;
     }
     Result<std::string> text = read_file(path);

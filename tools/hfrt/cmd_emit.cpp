@@ -223,18 +223,10 @@ int run_emit_scene(EmitCli& cli, const CLI::App& sub) {
     if (fresh) {
       // The text as the compiler sees it; inline sources are placed where they stand in the
       // scene file, so that their diagnostics name its lines and columns.
-      std::string name = o.file, text;
-      if (o.file.empty()) {
-        name = path;
-        text = std::string(std::max(0, o.source_pos.line - 1), '\n') +
-               std::string(std::max(0, o.source_pos.column - 1), ' ') + o.source;
-      } else {
-        Result<std::string> read = read_file(o.file);
-        if (!read) {
-          std::fprintf(stderr, "hfrt: %s\n", read.error().message.c_str());
-          return 2;
-        }
-        text = std::move(read).value();
+      std::string name, text, error;
+      if (!scene::object_source(o, path, &text, &name, &error)) {
+        std::fprintf(stderr, "hfrt: %s\n", error.c_str());
+        return 2;
       }
       auto file = std::make_shared<const lang::SourceFile>(name, text);
       lang::DiagnosticSink diags(file);
