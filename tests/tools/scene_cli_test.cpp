@@ -231,12 +231,22 @@ TEST_F(SceneCliTest, EmitWritesEveryObjectMaterialLightAndCameraSetting) {
 
 TEST_F(SceneCliTest, EmitRejectsRenderOptionsForScenes) {
   write("s.toml", kScene);
-  CliRun r = hfrt_run("emit --pov s.toml --size 32x32 -o s.pov");
+  CliRun r = hfrt_run("emit --pov s.toml --eye 1,2,3 -o s.pov");
   EXPECT_EQ(r.exit_code, 2);
   EXPECT_EQ(r.err,
-            "hfrt emit: --size does not apply to a scene file: set it in the scene (see "
+            "hfrt emit: --eye does not apply to a scene file: set it in the scene (see "
             "docs/scenes.md)\n");
   EXPECT_FALSE(fs::exists(dir_ / "s.pov"));
+}
+
+// --size, --spp and --max-depth replace the scene's values, as for `hfrt render scene.toml`.
+TEST_F(SceneCliTest, EmitTakesSizeSppAndDepthOverTheScenes) {
+  write("s.toml", kScene);
+  CliRun r = hfrt_run("emit --pov s.toml --size 32x24 --spp 4 --max-depth 2 -o s.pov");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  std::string pov = slurp(dir_ / "s.pov");
+  EXPECT_NE(pov.find("render with  povray +W32 +H24 +A0.0 +AM1 +R2"), std::string::npos) << pov;
+  EXPECT_NE(pov.find("max_trace_level 3"), std::string::npos) << pov;
 }
 
 TEST_F(SceneCliTest, EmitOfABadSceneIsOneLocatedError) {

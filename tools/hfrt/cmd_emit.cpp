@@ -187,9 +187,10 @@ int run_emit_scene(EmitCli& cli, const CLI::App& sub) {
   const bool color = use_color(STDERR_FILENO);
   // The scene file sets the camera, size, lights and the rest: render options would be
   // ignored, which must not happen silently.
+  // --size, --spp and --max-depth replace the scene's values, as for `hfrt render scene.toml`.
   static const std::set<std::string> kSceneOptions = {
-      "pov",           "output", "max-gradient", "accuracy", "transparent-background",
-      "function-only", "help"};
+      "pov",   "output", "max-gradient", "accuracy",  "transparent-background",
+      "function-only", "help", "size", "spp", "max-depth"};
   for (const CLI::Option* o : sub.get_options()) {
     if (o->count() == 0 || o->get_positional()) continue;
     const std::vector<std::string>& longs = o->get_lnames();
@@ -289,6 +290,16 @@ int run_emit_scene(EmitCli& cli, const CLI::App& sub) {
   scene::PovSceneSettings ps;
   ps.width = desc.render.size ? (*desc.render.size)[0] : defaults.width;
   ps.height = desc.render.size ? (*desc.render.size)[1] : defaults.height;
+  if (sub.count("--size") > 0 && !parse_size(cli.render.size, &ps.width, &ps.height)) {
+    return usage_error("--size expects WxH with positive integers, e.g. --size 512x512 (got '" +
+                       cli.render.size + "')");
+  }
+  if (sub.count("--spp") > 0 && (cli.render.spp < 1 || cli.render.spp > 4096)) {
+    return usage_error("--spp expects 1..4096");
+  }
+  if (cli.render.max_depth < -1 || cli.render.max_depth > 64) {
+    return usage_error("--max-depth expects 0..64");
+  }
   const render::CameraRequest& request = desc.camera.request;
   const bool framed = !request.eye || !request.look_at;
   render::Box extent;
@@ -316,8 +327,8 @@ int run_emit_scene(EmitCli& cli, const CLI::App& sub) {
   }
   ps.aperture = desc.camera.aperture;
   ps.focus_distance = desc.camera.focus_distance.value_or(length(c.look_at - c.eye));
-  ps.spp = desc.render.spp.value_or(1);
-  ps.max_depth = desc.render.max_depth.value_or(5);
+  ps.spp = sub.count("--spp") > 0 ? cli.render.spp : desc.render.spp.value_or(1);
+  ps.max_depth = cli.render.max_depth >= 0 ? cli.render.max_depth : desc.render.max_depth.value_or(5);
   ps.background = desc.render.background.value_or(defaults.background);
   ps.transparent_background = cli.transparent;
   ps.lights = desc.lights;
