@@ -21,7 +21,7 @@ from collections import defaultdict
 
 # Allowed dependencies, lowest layer first.  A folder may always include itself.
 # "*" allows any folder; "!name" then forbids one folder again.
-LIBS = ["base", "lang", "ir", "stdlib", "geom", "jit", "render", "app"]
+LIBS = ["base", "lang", "ir", "stdlib", "geom", "jit", "render", "mesher", "app"]
 LAYERS = {
     "base": set(),                                      # checks, Result, files, Vec3/Box/Interval, timers
     "lang": {"base"},                                   # HyperFun lexer, parser, sema
@@ -30,7 +30,8 @@ LAYERS = {
     "geom": {"base"},                                   # meshes, BVH, patches
     "jit": {"stdlib", "ir", "lang", "base", "geom"},    # lowering, interpreters, LLVM; owns hfrt/*.h
     "render": {"base"},                                 # ray tracer, knows fields not models
-    "app": {"jit", "render", "geom", "stdlib", "ir", "lang", "base"},  # joins models and renderer
+    "mesher": {"render", "base"},                       # dual contouring of a render::Field; mesh files
+    "app": {"jit", "render", "mesher", "geom", "stdlib", "ir", "lang", "base"},  # joins models and renderer
     "testsupport": set(LIBS),                           # test helpers shared by tests/ and bench/
     "tools": set(LIBS),                                 # the hfrt command-line tool
     "tests": {"*"},                                     # top: anything

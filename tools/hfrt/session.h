@@ -127,6 +127,8 @@ class Session {
   SessionResult cmd_show() const;
   SessionResult cmd_objects() const;
   SessionResult cmd_stats() const;
+  /// `:mesh OUT [RESOLUTION]`: app::run_mesh_job on the current object, written to OUT.
+  SessionResult cmd_mesh(const std::vector<std::string>& args);
 
   /// The compiled current object, compiling (or taking from the cache) as needed. On a
   /// compile error fills `err` with the diagnostics.

@@ -1,0 +1,128 @@
+// `hfrt mesh`: the files it writes (read back by geom's Assimp importer and checked against
+// the closed-form sphere), colours in PLY and OBJ, glTF binary, the same file on 1 and 2
+// threads, and the text of every user error (no surface, --resolution 0, unwritable output,
+// unknown format, --time, a 2-D object). Runs the real binary.
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <numbers>
+#include <string>
+
+#include "geom/mesh.h"
+#include "tests/mesher/mesh_check.h"
+#include "tests/tools/cli_fixture.h"
+
+namespace hfrt::tools {
+namespace {
+
+using testing::CliFixture;
+using testing::CliRun;
+using testing::slurp;
+
+class MeshCliTest : public CliFixture {
+ protected:
+  MeshCliTest() : CliFixture("hfrt_mesh_cli") {}
+  void SetUp() override {
+    CliFixture::SetUp();
+    write("sphere.hf",
+          "my_model(x[3], a[1]) { my_model = 1 - sqrt(x[1]*x[1] + x[2]*x[2] + x[3]*x[3]); }\n");
+    write("colour.hf",
+          "my_model(x[3], a[1], s[3]) {\n  s[1] = 1; s[2] = 0.5; s[3] = 0;\n"
+          "  my_model = 1 - sqrt(x[1]*x[1] + x[2]*x[2] + x[3]*x[3]);\n}\n");
+    write("empty.hf", "my_model(x[3], a[1]) { my_model = -1 - x[1]*x[1]; }\n");
+    write("flat.hf", "my_model(x[2], a[1]) { my_model = 1 - x[1]*x[1] - x[2]*x[2]; }\n");
+  }
+};
+
+TEST_F(MeshCliTest, WritesAClosedSphereAsStl) {
+  CliRun r = hfrt("mesh sphere.hf -o ball.stl --resolution 48 --stats");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_NE(r.err.find("hfrt: wrote ball.stl"), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("stats: octree"), std::string::npos) << r.err;
+  auto mesh = geom::load_mesh((dir_ / "ball.stl").string());
+  ASSERT_TRUE(mesh.ok()) << mesh.error().message;
+  std::vector<std::array<uint32_t, 3>> tris(mesh->triangles.begin(), mesh->triangles.end());
+  EXPECT_EQ(mesher::testing::check_closed_manifold(mesh->vertices, tris), "");
+  EXPECT_NEAR(mesher::testing::mesh_volume(mesh->vertices, tris) / (4.0 / 3.0 * std::numbers::pi),
+              1.0, 0.005);
+}
+
+TEST_F(MeshCliTest, ColoursInPlyAndObj) {
+  ASSERT_EQ(hfrt("mesh colour.hf -o c.ply --resolution 16").exit_code, 0);
+  const std::string ply = slurp(dir_ / "c.ply");
+  EXPECT_NE(ply.find("property uchar red"), std::string::npos) << ply.substr(0, 400);
+  ASSERT_EQ(hfrt("mesh colour.hf -o c.obj --resolution 16").exit_code, 0);
+  const std::string obj = slurp(dir_ / "c.obj");
+  // `v x y z r g b` with s = (1, 0.5, 0).
+  EXPECT_NE(obj.find(" 1 0.5 0\n"), std::string::npos) << obj.substr(0, 400);
+  ASSERT_EQ(hfrt("mesh colour.hf -o plain.ply --resolution 16 --no-color").exit_code, 0);
+  EXPECT_EQ(slurp(dir_ / "plain.ply").find("red"), std::string::npos);
+}
+
+TEST_F(MeshCliTest, WritesGltfBinary) {
+  CliRun r = hfrt("mesh sphere.hf -o ball.glb --resolution 16");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_EQ(slurp(dir_ / "ball.glb").substr(0, 4), "glTF");
+}
+
+TEST_F(MeshCliTest, SameFileOnOneAndTwoThreads) {
+  ASSERT_EQ(hfrt("mesh sphere.hf -o one.ply --resolution 40 --threads 1").exit_code, 0);
+  ASSERT_EQ(hfrt("mesh sphere.hf -o two.ply --resolution 40 --threads 2").exit_code, 0);
+  const std::string one = slurp(dir_ / "one.ply"), two = slurp(dir_ / "two.ply");
+  EXPECT_GT(one.size(), 1000u);
+  EXPECT_TRUE(one == two);
+}
+
+TEST_F(MeshCliTest, NoSurfaceIsALocatedError) {
+  CliRun r = hfrt("mesh empty.hf -o e.stl --bbox 2");
+  EXPECT_EQ(r.exit_code, 1);
+  EXPECT_NE(r.err.find("empty.hf: error: object 'my_model' has no surface in the box "
+                       "-2,-2,-2,2,2,2\n  hint: the solid is where F >= 0"),
+            std::string::npos)
+      << r.err;
+  EXPECT_FALSE(std::filesystem::exists(dir_ / "e.stl"));
+}
+
+TEST_F(MeshCliTest, ResolutionZeroIsRefused) {
+  CliRun r = hfrt("mesh sphere.hf -o s.stl --resolution 0");
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_EQ(r.err, "hfrt mesh: --resolution expects a cell count from 1 to 8192 (got 0)\n");
+}
+
+TEST_F(MeshCliTest, UnwritableOutputIsRefusedBeforeMeshing) {
+  CliRun r = hfrt("mesh sphere.hf -o no/such/dir/s.stl");
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_EQ(r.err, "hfrt: no/such/dir/s.stl: cannot write: no such directory\n");
+}
+
+TEST_F(MeshCliTest, UnknownFormatIsRefused) {
+  CliRun r = hfrt("mesh sphere.hf -o s.xyz");
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_EQ(r.err,
+            "hfrt mesh: s.xyz: unknown mesh format '.xyz' (expected .stl, .obj, .ply or .glb)\n");
+}
+
+TEST_F(MeshCliTest, TimeIsNotSupportedYet) {
+  CliRun r = hfrt("mesh sphere.hf -o s.stl --time 1");
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_NE(r.err.find("hfrt mesh: --time: hfrt has no time input yet"), std::string::npos) << r.err;
+}
+
+TEST_F(MeshCliTest, TwoDimensionalObjectIsRefused) {
+  CliRun r = hfrt("mesh flat.hf -o f.stl");
+  EXPECT_EQ(r.exit_code, 1);
+  EXPECT_NE(r.err.find("flat.hf: error: object 'my_model' has 2 coordinates; hfrt mesh needs a "
+                       "3-D object (x[3])\n  hint: a 2-D object can be drawn with hfrt slice"),
+            std::string::npos)
+      << r.err;
+}
+
+TEST_F(MeshCliTest, BadBboxIsRefused) {
+  CliRun r = hfrt("mesh sphere.hf -o s.stl --bbox 1,1,1,0,2,2");
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_EQ(r.err, "hfrt mesh: --bbox: each min must be below its max (got '1,1,1,0,2,2')\n");
+}
+
+}  // namespace
+}  // namespace hfrt::tools
