@@ -6,6 +6,7 @@
 #include <gtest/gtest.h>
 
 #include <string>
+#include <vector>
 
 #include "app/mesh_job.h"
 #include "hfrt/model.h"
@@ -17,6 +18,7 @@ namespace {
 struct Case {
   const char* path;  // relative to the corpus (or "examples/..." relative to the source)
   int resolution;
+  std::vector<double> params = {};  // -a
 };
 
 std::string full_path(const std::string& p) {
@@ -30,6 +32,7 @@ TEST_P(CorpusMesh, ClosedOrientedManifold) {
   const std::string path = full_path(GetParam().path);
   CompileResult compiled = Model::compile_file(path);
   ASSERT_TRUE(compiled.model) << compiled.rendered;
+  if (!GetParam().params.empty()) compiled.model->set_params(GetParam().params);
   app::MeshJob job;
   job.model = &*compiled.model;
   job.file = path;
@@ -54,16 +57,33 @@ const Case kCases[] = {
     {"github/adda-team__adda/example.hf", 40},
     {"github/pmur002__hyperfun-report/csg.hf", 40},
     {"github/pmur002__hyperfun-report/sphere.hf", 24},
-    {"web/frep_org__hf_objects__ColorSphere.hf", 32},
+    {"web/frep_org__hf_objects__ColorSphere.hf", 32, {0.2, 0, 0, 1}},
     {"web/hfw_docs__torus_isosurface.hf", 40},
     {"web/hyperfun_org__gallery__infinity_yoshida.hf", 48},
     {"web/hyperfun_org__sample_model__superell_torus_soft.hf", 40},
     {"web/java_hyperfun_applet__HFMain_default_model.hf", 40},
-    {"web/stat_auckland__NZSA2022__HF_27_1_block_minus_sphere.hf", 40},
     {"web/stat_auckland__NZSA2022__dice_assembled.hf", 48},
     {"examples/armadillo.hf", 40},
     {"examples/teapot.hf", 40},
 };
+
+// The corpus's block minus sphere is empty (the unit block fits inside the unit ball): a
+// located error, not a mesh.
+TEST(CorpusMeshErrors, EmptyModelHasNoSurface) {
+  const std::string path = full_path("web/stat_auckland__NZSA2022__HF_27_1_block_minus_sphere.hf");
+  CompileResult compiled = Model::compile_file(path);
+  ASSERT_TRUE(compiled.model) << compiled.rendered;
+  app::MeshJob job;
+  job.model = &*compiled.model;
+  job.file = "block_minus_sphere.hf";
+  job.resolution = 32;
+  app::MeshJobResult r = app::run_mesh_job(job);
+  EXPECT_EQ(r.status, app::MeshJobStatus::kNoSurface);
+  EXPECT_EQ(r.error.rfind("block_minus_sphere.hf: error: object 'my_model' has no surface in the box ", 0),
+            0u)
+      << r.error;
+  EXPECT_TRUE(r.mesh.triangles.empty());
+}
 
 INSTANTIATE_TEST_SUITE_P(Models, CorpusMesh, ::testing::ValuesIn(kCases),
                          [](const ::testing::TestParamInfo<Case>& info) {
