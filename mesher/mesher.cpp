@@ -124,47 +124,6 @@ const CubeTable& cube_table() {
 }
 
 // ---------------------------------------------------------------------------------------------
-// An open-addressing map from cell keys to indices (the sorted surface cells).
-
-class CellMap {
- public:
-  explicit CellMap(const std::vector<uint64_t>& keys) {
-    size_t cap = 16;
-    while (cap < keys.size() * 2) cap <<= 1;
-    mask_ = cap - 1;
-    keys_.assign(cap, kEmpty);
-    vals_.assign(cap, 0);
-    for (size_t i = 0; i < keys.size(); ++i) {
-      size_t h = hash(keys[i]);
-      while (keys_[h] != kEmpty) h = (h + 1) & mask_;
-      keys_[h] = keys[i];
-      vals_[h] = uint32_t(i);
-    }
-  }
-  /// The index of `key`, or -1.
-  int64_t find(uint64_t key) const {
-    size_t h = hash(key);
-    while (true) {
-      if (keys_[h] == key) return vals_[h];
-      if (keys_[h] == kEmpty) return -1;
-      h = (h + 1) & mask_;
-    }
-  }
-
- private:
-  static constexpr uint64_t kEmpty = ~uint64_t(0);
-  size_t hash(uint64_t k) const {
-    k ^= k >> 33;
-    k *= 0xff51afd7ed558ccdULL;
-    k ^= k >> 33;
-    return size_t(k) & mask_;
-  }
-  size_t mask_ = 0;
-  std::vector<uint64_t> keys_;
-  std::vector<uint32_t> vals_;
-};
-
-// ---------------------------------------------------------------------------------------------
 // The grid and the capped field.
 
 struct Grid {
@@ -293,12 +252,13 @@ bool inside(float f) { return f >= 0; }
 void eigen_sym3(double a[3][3], double w[3], double v[3][3]) {
   for (int i = 0; i < 3; ++i)
     for (int j = 0; j < 3; ++j) v[i][j] = i == j ? 1 : 0;
-  for (int sweep = 0; sweep < 32; ++sweep) {
+  const double scale = std::abs(a[0][0]) + std::abs(a[1][1]) + std::abs(a[2][2]);
+  for (int sweep = 0; sweep < 16; ++sweep) {
     double off = std::abs(a[0][1]) + std::abs(a[0][2]) + std::abs(a[1][2]);
-    if (off < 1e-30) break;
+    if (!(off > 1e-12 * scale)) break;
     for (int p = 0; p < 2; ++p) {
       for (int q = p + 1; q < 3; ++q) {
-        if (std::abs(a[p][q]) < 1e-300) continue;
+        if (!(std::abs(a[p][q]) > 1e-14 * scale)) continue;
         double theta = (a[q][q] - a[p][p]) / (2 * a[p][q]);
         double t = (theta >= 0 ? 1 : -1) / (std::abs(theta) + std::sqrt(theta * theta + 1));
         double c = 1 / std::sqrt(t * t + 1), s = t * c;
@@ -370,6 +330,7 @@ void parallel_chunks(size_t n, size_t grain, F&& body) {
 
 struct CellRec {
   uint64_t key;
+  float f[4];  // Fc at corners 0, 1, 2 and 4: the ends of the three edges the cell owns
   uint8_t mask;
   bool operator<(const CellRec& o) const { return key < o.key; }
 };
@@ -399,9 +360,56 @@ void sample_cells(const Capped& capped, const Grid& grid, const int c0[3], const
         int mask = 0;
         for (int c = 0; c < 8; ++c) mask |= at(l + (c & 1), j + ((c >> 1) & 1), k + (c >> 2)) << c;
         if (mask != 0 && mask != 255) {
-          out->push_back({cell_key(c0[0] + l, c0[1] + j, c0[2] + k), uint8_t(mask)});
+          auto val = [&](int dl, int dj, int dk) {
+            return f[(size_t(k + dk) * ny + j + dj) * nx + l + dl];
+          };
+          out->push_back({cell_key(c0[0] + l, c0[1] + j, c0[2] + k),
+                          {val(0, 0, 0), val(1, 0, 0), val(0, 1, 0), val(0, 0, 1)},
+                          uint8_t(mask)});
         }
       }
+}
+
+// The neighbours of each surface cell at 12 offsets (+x, +y, +z, +x+y, +x+z, +y+z, then the
+// same negated), by merge joins of the sorted keys with themselves shifted: linear, cache
+// friendly, no hashing. ~0u where the neighbour is not a surface cell.
+constexpr int kOffsets[12][3] = {{1, 0, 0},   {0, 1, 0},   {0, 0, 1},  {1, 1, 0},
+                                 {1, 0, 1},   {0, 1, 1},   {-1, 0, 0}, {0, -1, 0},
+                                 {0, 0, -1},  {-1, -1, 0}, {-1, 0, -1}, {0, -1, -1}};
+constexpr uint32_t kNone = ~uint32_t(0);
+
+/// The offset index of u * e_b + v * e_c (b < c, u or v set), negated when `negative`.
+int offset_index(int b, int c, int u, int v, bool negative) {
+  int i = (u && v) ? (b == 0 ? (c == 1 ? 3 : 4) : 5) : (u ? b : c);
+  return negative ? i + 6 : i;
+}
+
+struct Neighbours {
+  std::vector<uint32_t> at[12];
+};
+
+Neighbours find_neighbours(const std::vector<CellRec>& cells) {
+  Neighbours nb;
+  tbb::parallel_for(0, 12, [&](int o) {
+    std::vector<uint32_t>& out = nb.at[o];
+    out.assign(cells.size(), kNone);
+    size_t j = 0;
+    for (size_t i = 0; i < cells.size(); ++i) {
+      int c[3];
+      key_cell(cells[i].key, c);
+      int q[3];
+      bool valid = true;
+      for (int a = 0; a < 3; ++a) {
+        q[a] = c[a] + kOffsets[o][a];
+        valid = valid && q[a] >= 0;
+      }
+      if (!valid) continue;
+      const uint64_t t = cell_key(q[0], q[1], q[2]);
+      while (j < cells.size() && cells[j].key < t) ++j;
+      if (j < cells.size() && cells[j].key == t) out[i] = uint32_t(j);
+    }
+  });
+  return nb;
 }
 
 }  // namespace
@@ -529,12 +537,12 @@ TriMesh mesh_field(const render::Field& field, const MeshOptions& options, MeshS
 
     // Closure: every crossing edge needs its four cells. A cell can be missing only where the
     // interval and point evaluators disagree about a node on a pruned block's face.
+    Neighbours nbr;
     while (true) {
-      std::vector<uint64_t> keys(cells.size());
-      for (size_t i = 0; i < cells.size(); ++i) keys[i] = cells[i].key;
-      CellMap map(keys);
+      nbr = find_neighbours(cells);
       std::vector<uint64_t> missing;
-      for (const CellRec& cr : cells) {
+      for (size_t ci = 0; ci < cells.size(); ++ci) {
+        const CellRec& cr = cells[ci];
         int c[3];
         key_cell(cr.key, c);
         for (int a = 0; a < 3; ++a) {
@@ -542,11 +550,11 @@ TriMesh mesh_field(const render::Field& field, const MeshOptions& options, MeshS
           int b, d;
           other_axes(a, &b, &d);
           for (int uv = 1; uv < 4; ++uv) {
+            if (nbr.at[offset_index(b, d, uv & 1, uv >> 1, true)][ci] != kNone) continue;
             int q[3] = {c[0], c[1], c[2]};
             q[b] -= uv & 1;
             q[d] -= uv >> 1;
-            uint64_t k = cell_key(q[0], q[1], q[2]);
-            if (map.find(k) < 0) missing.push_back(k);
+            missing.push_back(cell_key(q[0], q[1], q[2]));
           }
         }
       }
@@ -562,7 +570,7 @@ TriMesh mesh_field(const render::Field& field, const MeshOptions& options, MeshS
         size_t nan_dummy = 0;
         sample_cells(capped, grid, c0, c1, &added, &nan_dummy);
       }
-      if (added.empty()) break;  // cannot happen with consistent node values
+      HFRT_CHECK(!added.empty());  // a missing cell has a crossing edge: it is a surface cell
       cells.insert(cells.end(), added.begin(), added.end());
       std::sort(cells.begin(), cells.end());
       cells.erase(std::unique(cells.begin(), cells.end(),
@@ -572,15 +580,6 @@ TriMesh mesh_field(const render::Field& field, const MeshOptions& options, MeshS
     stats.surface_cells = cells.size();
     stats.seconds_sample = timer.seconds();
     if (cells.empty()) return;
-
-    std::vector<uint64_t> keys(cells.size());
-    for (size_t i = 0; i < cells.size(); ++i) keys[i] = cells[i].key;
-    const CellMap map(keys);
-    auto cell_index = [&](int i, int j, int k) {
-      int64_t r = map.find(cell_key(i, j, k));
-      HFRT_CHECK(r >= 0);
-      return size_t(r);
-    };
 
     // --- 3. Crossing edges: zero and normal. --------------------------------------------------
     timer = Timer();
@@ -604,7 +603,10 @@ TriMesh mesh_field(const render::Field& field, const MeshOptions& options, MeshS
       const size_t e0 = edge_base[cb], e1 = edge_base[ce], n = e1 - e0;
       if (n == 0) return;
       std::vector<Vec3> pa(n), pb(n);
-      std::vector<uint8_t> sa(n);
+      std::vector<uint8_t> sa(n), side(n, 2);
+      // Parameter t along the edge and the values at the bracket's ends.
+      std::vector<float> tlo(n, 0), thi(n, 1), flo(n), fhi(n), xs(n), ys(n), zs(n), fs(n), tm(n);
+      std::vector<float> vlo(n), vhi(n);  // the true values at the ends (flo, fhi get halved)
       for (size_t ci = cb; ci < ce; ++ci) {
         int c[3];
         key_cell(cells[ci].key, c);
@@ -617,40 +619,44 @@ TriMesh mesh_field(const render::Field& field, const MeshOptions& options, MeshS
           pa[idx] = grid.node_point(c[0], c[1], c[2]);
           pb[idx] = grid.node_point(q[0], q[1], q[2]);
           sa[idx] = uint8_t(m & 1);
+          flo[idx] = cells[ci].f[0];
+          fhi[idx] = cells[ci].f[a + 1];
+          vlo[idx] = flo[idx], vhi[idx] = fhi[idx];
           ++idx;
         }
       }
-      std::vector<float> tlo(n, 0), thi(n, 1), xs(n), ys(n), zs(n), fs(n), flo(n), fhi(n);
-      auto eval_at = [&](const std::vector<float>& t, std::vector<float>* out) {
+      // Illinois false position (bisection where a value is not finite): superlinear on
+      // smooth edges, exact in one step where F is affine along the edge (planes of CSG).
+      for (int it = 0; it < 6; ++it) {
         for (size_t i = 0; i < n; ++i) {
-          Vec3 p = pa[i] + (pb[i] - pa[i]) * t[i];
+          const float d = flo[i] - fhi[i];
+          float t = 0.5f * (tlo[i] + thi[i]);
+          if (std::isfinite(flo[i]) && std::isfinite(fhi[i]) && d != 0 && it < 5) {
+            t = tlo[i] + (thi[i] - tlo[i]) * (flo[i] / d);
+            const float lo = std::min(tlo[i], thi[i]), hi = std::max(tlo[i], thi[i]);
+            if (!(t > lo && t < hi)) t = 0.5f * (tlo[i] + thi[i]);
+          }
+          tm[i] = t;
+          const Vec3 p = pa[i] + (pb[i] - pa[i]) * t;
           xs[i] = p.x, ys[i] = p.y, zs[i] = p.z;
         }
-        capped.eval(n, xs.data(), ys.data(), zs.data(), out->data());
-      };
-      eval_at(tlo, &flo);
-      eval_at(thi, &fhi);
-      std::vector<float> tm(n);
-      for (int it = 0; it < 8; ++it) {
-        for (size_t i = 0; i < n; ++i) tm[i] = 0.5f * (tlo[i] + thi[i]);
-        eval_at(tm, &fs);
+        capped.eval(n, xs.data(), ys.data(), zs.data(), fs.data());
         for (size_t i = 0; i < n; ++i) {
           if (inside(fs[i]) == bool(sa[i])) {
-            tlo[i] = tm[i], flo[i] = fs[i];
+            tlo[i] = tm[i], flo[i] = vlo[i] = fs[i];
+            if (side[i] == 0) fhi[i] *= 0.5f;
+            side[i] = 0;
           } else {
-            thi[i] = tm[i], fhi[i] = fs[i];
+            thi[i] = tm[i], fhi[i] = vhi[i] = fs[i];
+            if (side[i] == 1) flo[i] *= 0.5f;
+            side[i] = 1;
           }
         }
       }
       for (size_t i = 0; i < n; ++i) {
-        float t = 0.5f * (tlo[i] + thi[i]);
-        const float d = flo[i] - fhi[i];
-        if (std::isfinite(flo[i]) && std::isfinite(fhi[i]) && d != 0) {
-          t = std::clamp(tlo[i] + (thi[i] - tlo[i]) * (flo[i] / d), std::min(tlo[i], thi[i]),
-                         std::max(tlo[i], thi[i]));
-        }
-        tm[i] = t;
-        Vec3 p = pa[i] + (pb[i] - pa[i]) * t;
+        // The end of the bracket with the smaller |F| (both are within the bracket).
+        const float t = std::abs(vlo[i]) <= std::abs(vhi[i]) ? tlo[i] : thi[i];
+        const Vec3 p = pa[i] + (pb[i] - pa[i]) * t;
         edge_point[e0 + i] = p;
         xs[i] = p.x, ys[i] = p.y, zs[i] = p.z;
       }
@@ -665,13 +671,13 @@ TriMesh mesh_field(const render::Field& field, const MeshOptions& options, MeshS
 
     // The crossing edge (global index) of local edge `e` of cell `ci`.
     auto local_edge_index = [&](size_t ci, int e) {
-      int c[3];
-      key_cell(cells[ci].key, c);
-      int a = e / 4, b, d;
+      const int a = e / 4;
+      if ((e & 3) == 0) return owned_edge_index(ci, a);
+      int b, d;
       other_axes(a, &b, &d);
-      c[b] += e & 1;
-      c[d] += (e >> 1) & 1;
-      return owned_edge_index(cell_index(c[0], c[1], c[2]), a);
+      const uint32_t owner = nbr.at[offset_index(b, d, e & 1, (e >> 1) & 1, false)][ci];
+      HFRT_CHECK(owner != kNone);
+      return owned_edge_index(owner, a);
     };
 
     // --- 4. Vertices: one per patch; then split faces; then placement. ------------------------
@@ -713,10 +719,8 @@ TriMesh mesh_field(const render::Field& field, const MeshOptions& options, MeshS
         const int k1 = ins[0] ? 0 : 1, k2 = k1 + 2;  // the inside corners
         const int s1[2] = {edges[(k1 + 3) & 3], edges[k1]}, s2[2] = {edges[(k2 + 3) & 3], edges[k2]};
         if (table.comp[m][s1[0]] != table.comp[m][s2[0]]) continue;
-        int c[3];
-        key_cell(cells[ci].key, c);
-        c[a] += 1;
-        const size_t di = cell_index(c[0], c[1], c[2]);
+        const uint32_t di = nbr.at[a][ci];
+        HFRT_CHECK(di != kNone);
         const int md = cells[di].mask;
         // The same edges in the neighbour: the face is its -a face (bit a cleared).
         auto in_d = [a](int e) {
@@ -747,6 +751,9 @@ TriMesh mesh_field(const render::Field& field, const MeshOptions& options, MeshS
     std::vector<uint8_t> project(nverts, 0);
     std::vector<Box> vcell(nverts);
     std::atomic<size_t> sharp{0};
+    // The four patch vertices around each crossing edge, in the cycle order of kUV, written
+    // by the cell at that position (each slot by exactly one cell).
+    std::vector<uint32_t> quad(4 * nedges, ~uint32_t(0));
     parallel_chunks(cells.size(), 1024, [&](size_t cb, size_t ce) {
       size_t local_sharp = 0;
       Vec3 pts[12], nrm[12];
@@ -763,6 +770,9 @@ TriMesh mesh_field(const render::Field& field, const MeshOptions& options, MeshS
             const uint32_t gi = local_edge_index(ci, e);
             pts[k] = edge_point[gi];
             nrm[k] = edge_normal[gi];
+            // This cell is at (u, v) = (e & 1, e >> 1 & 1) behind the edge's owner.
+            static constexpr int kSlot[4] = {0, 1, 3, 2};  // (u | v << 1) -> position in kUV
+            quad[4 * size_t(gi) + kSlot[e & 3]] = vbase[ci] + uint32_t(comp);
             ++k;
           }
           int rank = 0;
@@ -792,13 +802,15 @@ TriMesh mesh_field(const render::Field& field, const MeshOptions& options, MeshS
     if (options.progress) options.progress(blocks.size() + blocks.size() / 2, blocks.size() * 2);
 
     const float hmin = float(std::min({grid.h[0], grid.h[1], grid.h[2]}));
-    const float on_surface = 1e-4f * hmin;  // a sharp QEF vertex this close stays where it is
+    const float on_surface = 1e-4f * hmin;  // a vertex this close to F = 0 stays where it is
     std::atomic<size_t> projected{0};
     parallel_chunks(nverts, 1024, [&](size_t vb, size_t ve) {
       const size_t n = ve - vb;
       std::vector<float> xs(n), ys(n), zs(n), fs(n);
       std::vector<Vec3> g(n), start(n);
       std::vector<uint8_t> active(n);
+      std::vector<float> last_f(n, std::numeric_limits<float>::infinity());
+      std::vector<Vec3> prev(n);
       for (size_t i = 0; i < n; ++i) {
         start[i] = mesh.vertices[vb + i];
         active[i] = project[vb + i] != 0;
@@ -825,19 +837,24 @@ TriMesh mesh_field(const render::Field& field, const MeshOptions& options, MeshS
             active[i] = 0;
             continue;
           }
-          const float dist = std::abs(fs[j]) / std::sqrt(g2);
-          if (dist <= on_surface * 0.05f || (it == 0 && project[vi] == 1 && dist <= on_surface)) {
+          const float af = std::abs(fs[j]);
+          if (!(af < last_f[i])) {
+            mesh.vertices[vi] = prev[i];  // the last step did not help (rounding): undo it
+            active[i] = 0;
+            if (it > 1) ++moved;
+            continue;
+          }
+          if (af / std::sqrt(g2) <= on_surface || it == 5) {
             active[i] = 0;
             if (it > 0) ++moved;
             continue;
           }
+          last_f[i] = af;
+          prev[i] = mesh.vertices[vi];
           Vec3 step = g[j] * (-fs[j] / g2);
           const float sl = length(step);
           if (sl > hmin) step = step * (hmin / sl);
           mesh.vertices[vi] = mesh.vertices[vi] + step;
-          if (it == 5) {
-            active[i] = 0;
-          }
         }
       }
       // Keep a projection only when it stayed near its cell; otherwise the QEF point.
@@ -872,17 +889,10 @@ TriMesh mesh_field(const render::Field& field, const MeshOptions& options, MeshS
           int b, d;
           other_axes(a, &b, &d);
           uint32_t poly[8];
-          int np = 0;
-          static constexpr int kUV[4][2] = {{0, 0}, {1, 0}, {1, 1}, {0, 1}};
-          for (int s = 0; s < 4; ++s) {
-            int q[3] = {c[0], c[1], c[2]};
-            q[b] -= kUV[s][0];
-            q[d] -= kUV[s][1];
-            const size_t qi = (s == 0) ? ci : cell_index(q[0], q[1], q[2]);
-            const int e = a * 4 + (kUV[s][0] | (kUV[s][1] << 1));
-            const int comp = table.comp[cells[qi].mask][e];
-            HFRT_CHECK(comp >= 0);
-            poly[np++] = vbase[qi] + uint32_t(comp);
+          int np = 4;
+          for (int p = 0; p < 4; ++p) {
+            poly[p] = quad[4 * size_t(gi) + p];
+            HFRT_CHECK(poly[p] != ~uint32_t(0));
           }
           // Outward: +a when the edge's low end is inside; the cycle's normal is +a for the x
           // and z axes and -a for y.
