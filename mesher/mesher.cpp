@@ -6,6 +6,8 @@
 #include <tbb/parallel_for.h>
 #include <tbb/task_arena.h>
 
+#include <tbb/parallel_sort.h>
+
 #include <algorithm>
 #include <atomic>
 #include <bit>
@@ -25,12 +27,13 @@ struct Timer {
   double seconds() const { return ms_since(t0) / 1000.0; }
 };
 
-constexpr int kBlock = 8;                 // cells per block side
+constexpr int kBlock = 4;                 // cells per block side
 constexpr int kKeyBits = 21;              // bits per axis of a cell key
 constexpr uint64_t kKeyMask = (uint64_t(1) << kKeyBits) - 1;
 constexpr int kMaxCells = (1 << kKeyBits) - 4;
 constexpr size_t kPad = 16;               // batches are padded to this many points
 constexpr float kRankCutoff = 0.02f;      // eigenvalues of A^T A below this * max are dropped
+constexpr int kRootSteps = 3;             // Illinois steps per crossing edge
 
 uint64_t cell_key(int i, int j, int k) {
   return uint64_t(i) | (uint64_t(j) << kKeyBits) | (uint64_t(k) << (2 * kKeyBits));
@@ -290,6 +293,22 @@ Vec3 solve_qef(const Vec3* p, const Vec3* nrm, int k, int* rank) {
   for (int i = 0; i < k; ++i)
     for (int a = 0; a < 3; ++a) mass[a] += p[i][a];
   for (int a = 0; a < 3; ++a) mass[a] /= k;
+  // Fast path: normals within ~6 degrees of their mean span one direction (rank 1), and the
+  // least-squares point nearest the mass point is the mass point itself.
+  {
+    Vec3 mean{0, 0, 0};
+    int valid = 0;
+    for (int i = 0; i < k; ++i) {
+      if (length2(nrm[i]) > 0.5f) mean += nrm[i], ++valid;
+    }
+    const Vec3 u = normalize(mean);
+    bool flat = valid == k && length2(mean) > 0;
+    for (int i = 0; i < k && flat; ++i) flat = dot(nrm[i], u) > 0.995f;
+    if (flat) {
+      *rank = 1;
+      return {float(mass[0]), float(mass[1]), float(mass[2])};
+    }
+  }
   double ata[3][3] = {{0, 0, 0}, {0, 0, 0}, {0, 0, 0}}, atb[3] = {0, 0, 0};
   for (int i = 0; i < k; ++i) {
     double n[3] = {nrm[i].x, nrm[i].y, nrm[i].z};
@@ -533,7 +552,7 @@ TriMesh mesh_field(const render::Field& field, const MeshOptions& options, MeshS
       }
       for (size_t n : block_nans) stats.nan_samples += n;
     }
-    std::sort(cells.begin(), cells.end());
+    tbb::parallel_sort(cells.begin(), cells.end());
 
     // Closure: every crossing edge needs its four cells. A cell can be missing only where the
     // interval and point evaluators disagree about a node on a pruned block's face.
@@ -627,11 +646,11 @@ TriMesh mesh_field(const render::Field& field, const MeshOptions& options, MeshS
       }
       // Illinois false position (bisection where a value is not finite): superlinear on
       // smooth edges, exact in one step where F is affine along the edge (planes of CSG).
-      for (int it = 0; it < 6; ++it) {
+      for (int it = 0; it < kRootSteps; ++it) {
         for (size_t i = 0; i < n; ++i) {
           const float d = flo[i] - fhi[i];
           float t = 0.5f * (tlo[i] + thi[i]);
-          if (std::isfinite(flo[i]) && std::isfinite(fhi[i]) && d != 0 && it < 5) {
+          if (std::isfinite(flo[i]) && std::isfinite(fhi[i]) && d != 0) {
             t = tlo[i] + (thi[i] - tlo[i]) * (flo[i] / d);
             const float lo = std::min(tlo[i], thi[i]), hi = std::max(tlo[i], thi[i]);
             if (!(t > lo && t < hi)) t = 0.5f * (tlo[i] + thi[i]);
