@@ -41,8 +41,8 @@ MeshJobResult run_mesh_job(const MeshJob& job) {
     render::Box extent = render::find_extent(field, job.bbox, 6);
     out.extent_ms = ms_since(t0);
     if (!extent.empty()) {
-      const render::Vec3 pad = extent.size() * 0.02f +
-                               render::Vec3{1e-4f, 1e-4f, 1e-4f} * job.bbox.max_extent();
+      const render::Vec3 pad =
+          extent.size() * 0.02f + render::Vec3{1e-4f, 1e-4f, 1e-4f} * job.bbox.max_extent();
       extent.lo = extent.lo - pad;
       extent.hi = extent.hi + pad;
       region = intersect(extent, job.bbox);
@@ -64,6 +64,9 @@ MeshJobResult run_mesh_job(const MeshJob& job) {
                            std::to_string(out.stats.nan_samples) +
                            " grid nodes (meshed as outside)");
   }
+  if (job.simplify > 0 && !out.mesh.triangles.empty()) {
+    mesher::simplify_mesh(&out.mesh, job.simplify, &out.simplified);
+  }
   if (out.mesh.triangles.empty()) {
     out.status = MeshJobStatus::kNoSurface;
     out.error = job.file + ": error: object '" + model.object_name() +
@@ -81,17 +84,26 @@ std::string format_mesh_stats(const MeshJobResult& r, double compile_ms, double 
       buf, sizeof buf,
       "stats: compile %.1f ms (+ %.1f ms interval and gradient code), extent %.1f ms\n"
       "stats: region %s, grid %dx%dx%d cells, %d threads\n"
-      "stats: octree %zu interval nodes, %zu of %zu blocks (8^3 cells) sampled, %zu surface "
+      "stats: octree %zu interval nodes, %zu of %zu blocks (%d^3 cells) sampled, %zu surface "
       "cells, %zu crossing edges\n"
       "stats: %zu vertices (%zu sharp, %zu moved onto F = 0, %zu face splits), %zu triangles\n"
       "stats: mesh %.3f s (octree %.3f, sample %.3f, edges %.3f, vertices %.3f, faces %.3f), "
       "write %.1f ms\n",
       compile_ms, r.prepare_ms, r.extent_ms, box_text(r.region).c_str(), s.grid[0], s.grid[1],
-      s.grid[2], s.threads, s.octree_nodes, s.blocks_sampled, s.blocks_total, s.surface_cells,
-      s.crossing_edges, r.mesh.vertices.size(), s.sharp_vertices, s.projected_vertices,
-      s.split_faces, r.mesh.triangles.size(), s.seconds_total, s.seconds_octree,
-      s.seconds_sample, s.seconds_edges, s.seconds_vertices, s.seconds_faces, write_ms);
-  return buf;
+      s.grid[2], s.threads, s.octree_nodes, s.blocks_sampled, s.blocks_total, s.block_size,
+      s.surface_cells, s.crossing_edges, r.mesh.vertices.size(), s.sharp_vertices,
+      s.projected_vertices, s.split_faces, r.mesh.triangles.size(), s.seconds_total,
+      s.seconds_octree, s.seconds_sample, s.seconds_edges, s.seconds_vertices, s.seconds_faces,
+      write_ms);
+  std::string text = buf;
+  if (r.simplified.triangles_before > 0) {
+    std::snprintf(buf, sizeof buf,
+                  "stats: simplify %zu -> %zu triangles (%zu collapses) in %.3f s\n",
+                  r.simplified.triangles_before, r.simplified.triangles_after,
+                  r.simplified.collapses, r.simplified.seconds);
+    text += buf;
+  }
+  return text;
 }
 
 }  // namespace hfrt::app

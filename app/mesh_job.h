@@ -10,6 +10,7 @@
 
 #include "hfrt/model.h"
 #include "mesher/mesher.h"
+#include "mesher/simplify.h"
 #include "render/vec.h"
 
 namespace hfrt::app {
@@ -29,6 +30,8 @@ struct MeshJob {
   float cell = 0;        ///< cell size; 0 = by resolution
   int threads = 0;       ///< 0 = all cores
   bool colors = true;    ///< per-vertex colour from s[1..3] when the model has them
+  /// > 0: simplify the mesh with this error bound (mesher/simplify.h), in model units.
+  double simplify = 0;
   std::function<void(size_t done, size_t total)> progress;
 };
 
@@ -44,6 +47,7 @@ struct MeshJobResult {
   std::string error;
   mesher::TriMesh mesh;
   mesher::MeshStats stats;
+  mesher::SimplifyStats simplified;   ///< when MeshJob::simplify > 0
   render::Box region;                 ///< the box meshed
   double prepare_ms = 0;              ///< compiling the point, interval and gradient code
   double extent_ms = 0;               ///< finding the solid's extent (when bbox not given)

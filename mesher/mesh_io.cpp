@@ -16,7 +16,8 @@ namespace {
 
 std::string lower_extension(const std::string& path) {
   std::string ext = std::filesystem::path(path).extension().string();
-  std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return std::tolower(c); });
+  std::transform(ext.begin(), ext.end(), ext.begin(),
+                 [](unsigned char c) { return std::tolower(c); });
   return ext;
 }
 
@@ -73,7 +74,9 @@ std::optional<std::string> mesh_format_for(const std::string& path) {
   return std::nullopt;
 }
 
-const char* mesh_formats_list() { return ".stl, .obj, .ply or .glb"; }
+const char* mesh_formats_list() {
+  return ".stl, .obj, .ply or .glb";
+}
 
 Result<size_t> write_mesh(const std::string& path, const TriMesh& mesh) {
   const std::optional<std::string> format = mesh_format_for(path);

@@ -4,9 +4,8 @@
 #include <tbb/global_control.h>
 #include <tbb/info.h>
 #include <tbb/parallel_for.h>
-#include <tbb/task_arena.h>
-
 #include <tbb/parallel_sort.h>
+#include <tbb/task_arena.h>
 
 #include <algorithm>
 #include <atomic>
@@ -27,13 +26,13 @@ struct Timer {
   double seconds() const { return ms_since(t0) / 1000.0; }
 };
 
-constexpr int kBlock = 4;                 // cells per block side
-constexpr int kKeyBits = 21;              // bits per axis of a cell key
+constexpr int kBlock = 4;     // cells per block side
+constexpr int kKeyBits = 21;  // bits per axis of a cell key
 constexpr uint64_t kKeyMask = (uint64_t(1) << kKeyBits) - 1;
 constexpr int kMaxCells = (1 << kKeyBits) - 4;
-constexpr size_t kPad = 16;               // batches are padded to this many points
-constexpr float kRankCutoff = 0.02f;      // eigenvalues of A^T A below this * max are dropped
-constexpr int kRootSteps = 3;             // Illinois steps per crossing edge
+constexpr size_t kPad = 16;           // batches are padded to this many points
+constexpr float kRankCutoff = 0.02f;  // eigenvalues of A^T A below this * max are dropped
+constexpr int kRootSteps = 3;         // Illinois steps per crossing edge
 
 uint64_t cell_key(int i, int j, int k) {
   return uint64_t(i) | (uint64_t(j) << kKeyBits) | (uint64_t(k) << (2 * kKeyBits));
@@ -130,9 +129,9 @@ const CubeTable& cube_table() {
 // The grid and the capped field.
 
 struct Grid {
-  int n[3];       // cells per axis inside the box; the padded grid has n + 2 cells
-  double lo[3];   // the box's low corner
-  double h[3];    // cell size per axis
+  int n[3];      // cells per axis inside the box; the padded grid has n + 2 cells
+  double lo[3];  // the box's low corner
+  double h[3];   // cell size per axis
   Box box;
 
   float node(int axis, int i) const { return float(lo[axis] + double(i - 1) * h[axis]); }
@@ -183,8 +182,8 @@ class Capped {
     thread_local std::vector<float> buf;
     const size_t m = (n + kPad - 1) / kPad * kPad;
     buf.resize(7 * m);
-    float *px = buf.data(), *py = px + m, *pz = py + m, *pf = pz + m, *gx = pf + m,
-          *gy = gx + m, *gz = gy + m;
+    float *px = buf.data(), *py = px + m, *pz = py + m, *pf = pz + m, *gx = pf + m, *gy = gx + m,
+          *gz = gy + m;
     std::copy(x, x + n, px);
     std::copy(y, y + n, py);
     std::copy(z, z + n, pz);
@@ -247,7 +246,9 @@ class Capped {
   Box box_;
 };
 
-bool inside(float f) { return f >= 0; }
+bool inside(float f) {
+  return f >= 0;
+}
 
 // ---------------------------------------------------------------------------------------------
 // Small linear algebra: eigen decomposition of a symmetric 3x3 matrix (Jacobi rotations).
@@ -392,9 +393,9 @@ void sample_cells(const Capped& capped, const Grid& grid, const int c0[3], const
 // The neighbours of each surface cell at 12 offsets (+x, +y, +z, +x+y, +x+z, +y+z, then the
 // same negated), by merge joins of the sorted keys with themselves shifted: linear, cache
 // friendly, no hashing. ~0u where the neighbour is not a surface cell.
-constexpr int kOffsets[12][3] = {{1, 0, 0},   {0, 1, 0},   {0, 0, 1},  {1, 1, 0},
-                                 {1, 0, 1},   {0, 1, 1},   {-1, 0, 0}, {0, -1, 0},
-                                 {0, 0, -1},  {-1, -1, 0}, {-1, 0, -1}, {0, -1, -1}};
+constexpr int kOffsets[12][3] = {{1, 0, 0},  {0, 1, 0},   {0, 0, 1},   {1, 1, 0},
+                                 {1, 0, 1},  {0, 1, 1},   {-1, 0, 0},  {0, -1, 0},
+                                 {0, 0, -1}, {-1, -1, 0}, {-1, 0, -1}, {0, -1, -1}};
 constexpr uint32_t kNone = ~uint32_t(0);
 
 /// The offset index of u * e_b + v * e_c (b < c, u or v set), negated when `negative`.
@@ -437,7 +438,7 @@ void grid_for(const MeshOptions& options, int cells[3], double size[3]) {
   const Box& b = options.box;
   HFRT_CHECK(!b.empty() && b.max_extent() > 0);
   const double target = options.cell > 0 ? double(options.cell)
-                                          : double(b.max_extent()) / std::max(1, options.resolution);
+                                         : double(b.max_extent()) / std::max(1, options.resolution);
   for (int a = 0; a < 3; ++a) {
     double s = double(b.hi[a]) - double(b.lo[a]);
     int n = int(std::ceil(s / target - 1e-6));
@@ -473,6 +474,7 @@ TriMesh mesh_field(const render::Field& field, const MeshOptions& options, MeshS
     int nb[3];
     for (int a = 0; a < 3; ++a) nb[a] = (grid.cells(a) + kBlock - 1) / kBlock;
     stats.blocks_total = size_t(nb[0]) * nb[1] * nb[2];
+    stats.block_size = kBlock;
     int root = 1;
     while (root < std::max({nb[0], nb[1], nb[2]})) root <<= 1;
     struct Node {
@@ -708,10 +710,12 @@ TriMesh mesh_field(const render::Field& field, const MeshOptions& options, MeshS
     // Faces where the same two patches would be joined by both segments: the segment around
     // the face's second inside corner gets a vertex of its own (between the two patches).
     struct Split {
-      uint32_t edge;       // crossing edge whose quad gets the face vertex
-      uint32_t pc, pd;     // the two patch vertices it goes between
-      uint32_t m;          // the face vertex
-      bool operator<(const Split& o) const { return edge < o.edge || (edge == o.edge && pc < o.pc); }
+      uint32_t edge;    // crossing edge whose quad gets the face vertex
+      uint32_t pc, pd;  // the two patch vertices it goes between
+      uint32_t m;       // the face vertex
+      bool operator<(const Split& o) const {
+        return edge < o.edge || (edge == o.edge && pc < o.pc);
+      }
     };
     std::vector<Split> splits;
     std::vector<std::array<uint32_t, 2>> split_edges;  // per face vertex: its two crossing edges
@@ -736,7 +740,8 @@ TriMesh mesh_field(const render::Field& field, const MeshOptions& options, MeshS
           edges[i] = axis * 4 + (((lo >> o1) & 1) | (((lo >> o2) & 1) << 1));
         }
         const int k1 = ins[0] ? 0 : 1, k2 = k1 + 2;  // the inside corners
-        const int s1[2] = {edges[(k1 + 3) & 3], edges[k1]}, s2[2] = {edges[(k2 + 3) & 3], edges[k2]};
+        const int s1[2] = {edges[(k1 + 3) & 3], edges[k1]},
+                  s2[2] = {edges[(k2 + 3) & 3], edges[k2]};
         if (table.comp[m][s1[0]] != table.comp[m][s2[0]]) continue;
         const uint32_t di = nbr.at[a][ci];
         HFRT_CHECK(di != kNone);
@@ -936,8 +941,10 @@ TriMesh mesh_field(const render::Field& field, const MeshOptions& options, MeshS
                        v2 = mesh.vertices[poly[2]], v3 = mesh.vertices[poly[3]];
             // The diagonal whose two triangles agree best (a flat quad either way; on a
             // sharp edge the one along the edge).
-            const Vec3 na = normalize(cross(v1 - v0, v2 - v0)), nb = normalize(cross(v2 - v0, v3 - v0));
-            const Vec3 nc = normalize(cross(v2 - v1, v3 - v1)), nd = normalize(cross(v3 - v1, v0 - v1));
+            const Vec3 na = normalize(cross(v1 - v0, v2 - v0)),
+                       nb = normalize(cross(v2 - v0, v3 - v0));
+            const Vec3 nc = normalize(cross(v2 - v1, v3 - v1)),
+                       nd = normalize(cross(v3 - v1, v0 - v1));
             if (dot(nc, nd) > dot(na, nb) + 1e-6f) {
               tris.push_back({poly[1], poly[2], poly[3]});
               tris.push_back({poly[1], poly[3], poly[0]});

@@ -8,7 +8,7 @@
 //     padded by one cell on every side so that the grid's outer nodes are outside the solid.
 //     The solid is capped at the box: the mesher contours Fc = min(F, d), d the signed distance
 //     to the box's faces (positive inside), as the renderer caps the solid at its box.
-//  2. An octree over blocks of 8^3 cells, subdivided level by level where the interval of Fc
+//  2. An octree over blocks of 4^3 cells, subdivided level by level where the interval of Fc
 //     over the node contains 0 (batched Field::eval_intervals); blocks proven empty or full
 //     are dropped, so the work grows with the area of the surface, not the volume of the box.
 //  3. In the blocks left, F is sampled at every grid node; a cell whose corners disagree
@@ -73,18 +73,19 @@ struct MeshOptions {
 
 /// Figures for `--stats`.
 struct MeshStats {
-  int grid[3] = {0, 0, 0};       ///< cells per axis (without the padding)
-  size_t octree_nodes = 0;       ///< interval evaluations
-  size_t blocks_sampled = 0;     ///< blocks of 8^3 cells whose nodes were sampled
-  size_t blocks_total = 0;       ///< blocks of the padded grid
-  size_t surface_cells = 0;      ///< cells with a sign change
-  size_t crossing_edges = 0;     ///< grid edges with a sign change (= quads)
-  size_t sharp_vertices = 0;     ///< vertices left on an edge or corner (QEF rank >= 2)
-  size_t projected_vertices = 0; ///< vertices moved onto F = 0 by Newton steps
-  size_t split_faces = 0;        ///< face vertices added to keep the mesh manifold
-  size_t closure_cells = 0;      ///< surface cells outside the sampled blocks (interval and
-                                 ///< point evaluators disagreeing at a node; normally 0)
-  size_t nan_samples = 0;        ///< grid nodes where F has no value
+  int grid[3] = {0, 0, 0};        ///< cells per axis (without the padding)
+  size_t octree_nodes = 0;        ///< interval evaluations
+  int block_size = 0;             ///< cells per side of a block (the octree leaves)
+  size_t blocks_sampled = 0;      ///< blocks whose nodes were sampled
+  size_t blocks_total = 0;        ///< blocks of the padded grid
+  size_t surface_cells = 0;       ///< cells with a sign change
+  size_t crossing_edges = 0;      ///< grid edges with a sign change (= quads)
+  size_t sharp_vertices = 0;      ///< vertices left on an edge or corner (QEF rank >= 2)
+  size_t projected_vertices = 0;  ///< vertices moved onto F = 0 by Newton steps
+  size_t split_faces = 0;         ///< face vertices added to keep the mesh manifold
+  size_t closure_cells = 0;       ///< surface cells outside the sampled blocks (interval and
+                                  ///< point evaluators disagreeing at a node; normally 0)
+  size_t nan_samples = 0;         ///< grid nodes where F has no value
   double seconds_octree = 0, seconds_sample = 0, seconds_edges = 0, seconds_vertices = 0,
          seconds_faces = 0, seconds_total = 0;
   int threads = 0;

@@ -81,29 +81,31 @@ int dist(const hfrt::Model& model, const std::string& path) {
   const size_t n = v.size() / 3;
   std::vector<double> d(n, 0);
   std::vector<char> bad(n, 0);
-  tbb::parallel_for(tbb::blocked_range<size_t>(0, n, 4096), [&](const tbb::blocked_range<size_t>& r) {
-    const size_t m = r.size();
-    std::vector<double> xs(3 * m), x0(3 * m), out(4 * m);
-    for (size_t i = 0; i < m; ++i)
-      for (int a = 0; a < 3; ++a) xs[a * m + i] = x0[a * m + i] = v[3 * (r.begin() + i) + a];
-    std::vector<double> best(m, 1e300);
-    for (int it = 0; it < 30; ++it) {
-      model.eval_gradient_batch(int64_t(m), xs.data(), out.data());
-      for (size_t i = 0; i < m; ++i) {
-        const double f = out[i], g[3] = {out[m + i], out[2 * m + i], out[3 * m + i]};
-        const double g2 = g[0] * g[0] + g[1] * g[1] + g[2] * g[2];
-        if (!(std::abs(f) < best[i]) || !(g2 > 0)) continue;
-        best[i] = std::abs(f);
-        for (int a = 0; a < 3; ++a) xs[a * m + i] -= f * g[a] / g2;
-      }
-    }
-    for (size_t i = 0; i < m; ++i) {
-      double s = 0;
-      for (int a = 0; a < 3; ++a) s += (xs[a * m + i] - x0[a * m + i]) * (xs[a * m + i] - x0[a * m + i]);
-      d[r.begin() + i] = std::sqrt(s);
-      bad[r.begin() + i] = !(best[i] < 1e-9);
-    }
-  });
+  tbb::parallel_for(
+      tbb::blocked_range<size_t>(0, n, 4096), [&](const tbb::blocked_range<size_t>& r) {
+        const size_t m = r.size();
+        std::vector<double> xs(3 * m), x0(3 * m), out(4 * m);
+        for (size_t i = 0; i < m; ++i)
+          for (int a = 0; a < 3; ++a) xs[a * m + i] = x0[a * m + i] = v[3 * (r.begin() + i) + a];
+        std::vector<double> best(m, 1e300);
+        for (int it = 0; it < 30; ++it) {
+          model.eval_gradient_batch(int64_t(m), xs.data(), out.data());
+          for (size_t i = 0; i < m; ++i) {
+            const double f = out[i], g[3] = {out[m + i], out[2 * m + i], out[3 * m + i]};
+            const double g2 = g[0] * g[0] + g[1] * g[1] + g[2] * g[2];
+            if (!(std::abs(f) < best[i]) || !(g2 > 0)) continue;
+            best[i] = std::abs(f);
+            for (int a = 0; a < 3; ++a) xs[a * m + i] -= f * g[a] / g2;
+          }
+        }
+        for (size_t i = 0; i < m; ++i) {
+          double s = 0;
+          for (int a = 0; a < 3; ++a)
+            s += (xs[a * m + i] - x0[a * m + i]) * (xs[a * m + i] - x0[a * m + i]);
+          d[r.begin() + i] = std::sqrt(s);
+          bad[r.begin() + i] = !(best[i] < 1e-9);
+        }
+      });
   double mx = 0, sum = 0;
   size_t nbad = 0;
   for (size_t i = 0; i < n; ++i) {
@@ -119,7 +121,8 @@ int dist(const hfrt::Model& model, const std::string& path) {
 
 int main(int argc, char** argv) {
   if (argc < 4) {
-    std::fprintf(stderr, "usage: %s grid MODEL BOX N OUT.f32 [THREADS] | dist MODEL MESH\n", argv[0]);
+    std::fprintf(stderr, "usage: %s grid MODEL BOX N OUT.f32 [THREADS] | dist MODEL MESH\n",
+                 argv[0]);
     return 2;
   }
   const std::string mode = argv[1];
@@ -134,7 +137,8 @@ int main(int argc, char** argv) {
     const int threads = argc >= 7 ? std::atoi(argv[6]) : 0;
     std::unique_ptr<tbb::global_control> limit;
     if (threads > 0)
-      limit = std::make_unique<tbb::global_control>(tbb::global_control::max_allowed_parallelism, threads);
+      limit = std::make_unique<tbb::global_control>(tbb::global_control::max_allowed_parallelism,
+                                                    threads);
     return grid(*compiled.model, b, std::atoi(argv[4]), argv[5]);
   }
   if (mode == "dist") return dist(*compiled.model, argv[3]);

@@ -19,6 +19,7 @@ struct Case {
   const char* path;  // relative to the corpus (or "examples/..." relative to the source)
   int resolution;
   std::vector<double> params = {};  // -a
+  double simplify = 0;              // --simplify
 };
 
 std::string full_path(const std::string& p) {
@@ -37,6 +38,7 @@ TEST_P(CorpusMesh, ClosedOrientedManifold) {
   job.model = &*compiled.model;
   job.file = path;
   job.resolution = GetParam().resolution;
+  job.simplify = GetParam().simplify;
   app::MeshJobResult r = app::run_mesh_job(job);
   ASSERT_EQ(r.status, app::MeshJobStatus::kOk) << r.error;
   EXPECT_EQ(testing::check_closed_manifold(r.mesh.vertices, r.mesh.triangles), "");
@@ -65,6 +67,9 @@ const Case kCases[] = {
     {"web/stat_auckland__NZSA2022__dice_assembled.hf", 48},
     {"examples/armadillo.hf", 40},
     {"examples/teapot.hf", 40},
+    // Simplified: still closed, oriented manifolds.
+    {"github/alexander-penev__FRep-Designer-Bench/c1_gear.hf", 48, {}, 1e-3},
+    {"github/alexander-penev__FRep-Designer-Bench/s4_gyroid.hf", 40, {}, 2e-3},
 };
 
 // The corpus's block minus sphere is empty (the unit block fits inside the unit ball): a
@@ -79,7 +84,8 @@ TEST(CorpusMeshErrors, EmptyModelHasNoSurface) {
   job.resolution = 32;
   app::MeshJobResult r = app::run_mesh_job(job);
   EXPECT_EQ(r.status, app::MeshJobStatus::kNoSurface);
-  EXPECT_EQ(r.error.rfind("block_minus_sphere.hf: error: object 'my_model' has no surface in the box ", 0),
+  EXPECT_EQ(r.error.rfind(
+                "block_minus_sphere.hf: error: object 'my_model' has no surface in the box ", 0),
             0u)
       << r.error;
   EXPECT_TRUE(r.mesh.triangles.empty());
@@ -90,6 +96,7 @@ INSTANTIATE_TEST_SUITE_P(Models, CorpusMesh, ::testing::ValuesIn(kCases),
                            std::string name = info.param.path;
                            name = name.substr(name.find_last_of('/') + 1);
                            name = name.substr(0, name.find('.'));
+                           if (info.param.simplify > 0) name += "_simplified";
                            for (char& c : name)
                              if (!isalnum(static_cast<unsigned char>(c))) c = '_';
                            return name;

@@ -84,7 +84,8 @@ inline double mesh_volume(const std::vector<Vec3>& v,
 inline double mesh_area(const std::vector<Vec3>& v,
                         const std::vector<std::array<uint32_t, 3>>& triangles) {
   double area = 0;
-  for (const auto& t : triangles) area += 0.5 * double(length(cross(v[t[1]] - v[t[0]], v[t[2]] - v[t[0]])));
+  for (const auto& t : triangles)
+    area += 0.5 * double(length(cross(v[t[1]] - v[t[0]], v[t[2]] - v[t[0]])));
   return area;
 }
 

@@ -10,8 +10,9 @@
 #include <cmath>
 #include <numbers>
 
-#include "testsupport/analytic_fields.h"
+#include "mesher/simplify.h"
 #include "tests/mesher/mesh_check.h"
+#include "testsupport/analytic_fields.h"
 
 namespace hfrt::mesher {
 namespace {
@@ -32,7 +33,8 @@ class BoxField : public AnalyticField {
  public:
   BoxField(Vec3 c, Vec3 half) : c_(c), h_(half) {}
   double value(double x, double y, double z) const override {
-    return std::min({h_.x - std::abs(x - c_.x), h_.y - std::abs(y - c_.y), h_.z - std::abs(z - c_.z)});
+    return std::min(
+        {h_.x - std::abs(x - c_.x), h_.y - std::abs(y - c_.y), h_.z - std::abs(z - c_.z)});
   }
   Vec3 gradient(double x, double y, double z) const override {
     const double p[3] = {x - c_.x, y - c_.y, z - c_.z};
@@ -226,6 +228,39 @@ TEST(Mesher, ColoursFromAttributes) {
     EXPECT_EQ(m.colors[i].x, m.vertices[i].x > 0 ? 1.0f : 0.0f);
     EXPECT_EQ(m.colors[i].z, m.vertices[i].x > 0 ? 0.0f : 1.0f);
   }
+}
+
+TEST(Simplify, BoxKeepsItsShapeWithFewTriangles) {
+  const Vec3 c{0.05f, -0.02f, 0.03f}, h{0.61f, 0.43f, 0.37f};
+  BoxField solid(c, h);
+  TriMesh m = mesh_field(solid, options_for(Box({-1, -1, -1}, {1, 1, 1}), 40));
+  const size_t before = m.triangles.size();
+  const double vol = mesh_volume(m.vertices, m.triangles);
+  SimplifyStats st;
+  simplify_mesh(&m, 1e-4, &st);
+  ASSERT_EQ(check_closed_manifold(m.vertices, m.triangles), "");
+  EXPECT_EQ(st.triangles_before, before);
+  EXPECT_EQ(st.triangles_after, m.triangles.size());
+  // Flat faces collapse to a handful of triangles each.
+  EXPECT_LT(m.triangles.size() * 20, before);
+  EXPECT_NEAR(mesh_volume(m.vertices, m.triangles) / vol, 1.0, 1e-4);
+  double worst = 0;
+  for (const Vec3& v : m.vertices) worst = std::max(worst, solid.surface_distance(v));
+  EXPECT_LT(worst, 2e-4);
+}
+
+TEST(Simplify, SphereStaysWithinTheBound) {
+  SphereField sphere({0, 0, 0}, 1.0);
+  TriMesh m = mesh_field(sphere, options_for(Box({-1.2f, -1.2f, -1.2f}, {1.2f, 1.2f, 1.2f}), 48));
+  const size_t before = m.triangles.size();
+  const double bound = 5e-3;
+  simplify_mesh(&m, bound);
+  ASSERT_EQ(check_closed_manifold(m.vertices, m.triangles), "");
+  EXPECT_LT(m.triangles.size(), before / 2);
+  double worst = 0;
+  for (const Vec3& v : m.vertices) worst = std::max(worst, std::abs(sphere.value(v.x, v.y, v.z)));
+  EXPECT_LT(worst, bound);
+  EXPECT_NEAR(mesh_volume(m.vertices, m.triangles) / (4.0 / 3.0 * std::numbers::pi), 1.0, 0.01);
 }
 
 }  // namespace

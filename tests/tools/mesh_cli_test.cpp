@@ -8,9 +8,9 @@
 #include <cmath>
 #include <cstring>
 #include <map>
-#include <tuple>
 #include <numbers>
 #include <string>
+#include <tuple>
 
 #include "geom/mesh.h"
 #include "tests/mesher/mesh_check.h"
@@ -89,6 +89,24 @@ TEST_F(MeshCliTest, ColoursInPlyAndObj) {
   EXPECT_EQ(slurp(dir_ / "plain.ply").find("red"), std::string::npos);
 }
 
+TEST_F(MeshCliTest, SimplifyGivesFewerTriangles) {
+  CliRun full = hfrt("mesh sphere.hf -o full.stl --resolution 40");
+  CliRun simple = hfrt("mesh sphere.hf -o simple.stl --resolution 40 --simplify 0.005 --stats");
+  ASSERT_EQ(full.exit_code, 0) << full.err;
+  ASSERT_EQ(simple.exit_code, 0) << simple.err;
+  EXPECT_NE(simple.err.find("stats: simplify "), std::string::npos) << simple.err;
+  std::vector<Vec3> v1, v2;
+  std::vector<std::array<uint32_t, 3>> t1, t2;
+  ASSERT_TRUE(read_binary_stl(slurp(dir_ / "full.stl"), &v1, &t1));
+  ASSERT_TRUE(read_binary_stl(slurp(dir_ / "simple.stl"), &v2, &t2));
+  EXPECT_LT(t2.size() * 2, t1.size());
+  EXPECT_EQ(mesher::testing::check_closed_manifold(v2, t2), "");
+  CliRun bad = hfrt("mesh sphere.hf -o s.stl --simplify -1");
+  EXPECT_EQ(bad.exit_code, 2);
+  EXPECT_EQ(bad.err,
+            "hfrt mesh: --simplify expects a positive error bound (a distance in model units)\n");
+}
+
 TEST_F(MeshCliTest, WritesGltfBinary) {
   CliRun r = hfrt("mesh sphere.hf -o ball.glb --resolution 16");
   ASSERT_EQ(r.exit_code, 0) << r.err;
@@ -135,7 +153,8 @@ TEST_F(MeshCliTest, UnknownFormatIsRefused) {
 TEST_F(MeshCliTest, TimeIsNotSupportedYet) {
   CliRun r = hfrt("mesh sphere.hf -o s.stl --time 1");
   EXPECT_EQ(r.exit_code, 2);
-  EXPECT_NE(r.err.find("hfrt mesh: --time: hfrt has no time input yet"), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("hfrt mesh: --time: hfrt has no time input yet"), std::string::npos)
+      << r.err;
 }
 
 TEST_F(MeshCliTest, TwoDimensionalObjectIsRefused) {

@@ -1,5 +1,6 @@
 // `hfrt mesh MODEL.hf -o OUT.{stl,obj,ply,glb} [--resolution N | --cell S]
-//      [--bbox x0,y0,z0,x1,y1,z1] [--object NAME] [-a v1,...] [--time T] [--threads N]
+//      [--bbox x0,y0,z0,x1,y1,z1] [--object NAME] [-a v1,...] [--time T] [--simplify E]
+//      [--threads N]
 //      [--backend jit|interp] [--no-color] [--stats]`
 //
 // Polygonises the solid (F >= 0) into a watertight, oriented triangle mesh (app/mesh_job.h,
@@ -37,6 +38,7 @@ struct MeshCli {
   bool time_given = false;
   int threads = 0;
   bool no_color = false;
+  double simplify = 0;
   bool stats = false;
 };
 
@@ -55,6 +57,9 @@ int run_mesh(const MeshCli& cli) {
     return usage_error("--cell expects a positive cell size");
   }
   if (cli.threads < 0) return usage_error("--threads expects a non-negative count (0: all cores)");
+  if (!(cli.simplify >= 0) || !std::isfinite(cli.simplify)) {
+    return usage_error("--simplify expects a positive error bound (a distance in model units)");
+  }
   if (cli.time_given) {
     return usage_error(
         "--time: hfrt has no time input yet (the language has no time variable; x[4] is 0 "
@@ -87,9 +92,9 @@ int run_mesh(const MeshCli& cli) {
     if (dir.empty()) dir = ".";
     std::error_code ec;
     if (!std::filesystem::is_directory(dir, ec) || access(dir.c_str(), W_OK) != 0) {
-      std::fprintf(stderr, "hfrt: %s: cannot write: %s\n", cli.output.c_str(),
-                   std::filesystem::is_directory(dir, ec) ? "permission denied"
-                                                          : "no such directory");
+      std::fprintf(
+          stderr, "hfrt: %s: cannot write: %s\n", cli.output.c_str(),
+          std::filesystem::is_directory(dir, ec) ? "permission denied" : "no such directory");
       return 2;
     }
   }
@@ -97,6 +102,7 @@ int run_mesh(const MeshCli& cli) {
   job.cell = cli.cell;
   job.threads = cli.threads;
   job.colors = !cli.no_color;
+  job.simplify = cli.simplify;
 
   int code = 0;
   auto loaded = load_model(cli.model, /*eager_f32=*/true, &code);
@@ -152,10 +158,14 @@ CommandRunner register_mesh(CLI::App& app) {
                   "time of an animated model (not supported yet: the language has no time "
                   "input; refused)")
       ->each([cli](const std::string&) { cli->time_given = true; });
+  sub->add_option("--simplify", cli->simplify,
+                  "merge triangles while every vertex stays within ERROR (model units) of the "
+                  "tangent planes it replaces: fewer triangles on flat regions");
   sub->add_option("--threads", cli->threads, "worker threads (default: all cores)");
   sub->add_option("--backend", cli->model.backend, "evaluator: jit (default) or interp")
       ->check(CLI::IsMember({"jit", "interp"}));
-  sub->add_flag("--no-color", cli->no_color, "no per-vertex colours even when the model has s[1..3]");
+  sub->add_flag("--no-color", cli->no_color,
+                "no per-vertex colours even when the model has s[1..3]");
   sub->add_flag("--stats", cli->stats, "print the grid, the octree, counts and times on stderr");
   return [cli] { return run_mesh(*cli); };
 }

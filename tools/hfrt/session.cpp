@@ -11,13 +11,13 @@
 #include <sstream>
 #include <thread>
 
+#include "app/mesh_job.h"
 #include "app/model_field.h"
 #include "base/check.h"
-#include "app/mesh_job.h"
 #include "base/timer.h"
-#include "mesher/mesh_io.h"
 #include "lang/diagnostics.h"
 #include "lang/objects.h"
+#include "mesher/mesh_io.h"
 
 namespace hfrt::tools {
 namespace {
