@@ -55,6 +55,21 @@ MeshJobResult run_mesh_job(const MeshJob& job) {
   opt.box = region;
   opt.resolution = job.resolution;
   opt.cell = job.cell;
+  {
+    int cells[3];
+    double size[3];
+    mesher::grid_for(opt, cells, size);
+    const int most = std::max({cells[0], cells[1], cells[2]});
+    if (most > kMaxMeshCells) {
+      out.status = MeshJobStatus::kTooFine;
+      char buf[200];
+      std::snprintf(buf, sizeof buf, "%g", double(job.cell));
+      out.error = std::string("hfrt mesh: --cell ") + buf + " gives " + std::to_string(most) +
+                  " cells along the region's longest side (at most " +
+                  std::to_string(kMaxMeshCells) + ")";
+      return out;
+    }
+  }
   opt.threads = job.threads;
   opt.colors = job.colors;
   opt.progress = job.progress;

@@ -39,7 +39,11 @@ enum class MeshJobStatus {
   kOk,
   kNotThreeD,  ///< the object is not a function of x[1..3]
   kNoSurface,  ///< no part of the solid in the box: nothing to mesh
+  kTooFine,    ///< --cell asks for more than kMaxMeshCells cells along a side (usage error)
 };
+
+/// The most cells along a side of the region (`--resolution` and `--cell` alike).
+constexpr int kMaxMeshCells = 8192;
 
 struct MeshJobResult {
   MeshJobStatus status = MeshJobStatus::kOk;

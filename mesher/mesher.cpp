@@ -33,6 +33,7 @@ constexpr int kMaxCells = (1 << kKeyBits) - 4;
 constexpr size_t kPad = 16;           // batches are padded to this many points
 constexpr float kRankCutoff = 0.02f;  // eigenvalues of A^T A below this * max are dropped
 constexpr int kRootSteps = 3;         // Illinois steps per crossing edge
+constexpr int kNewtonSteps = 10;      // gradient evaluations per vertex at most
 
 uint64_t cell_key(int i, int j, int k) {
   return uint64_t(i) | (uint64_t(j) << kKeyBits) | (uint64_t(k) << (2 * kKeyBits));
@@ -441,7 +442,8 @@ void grid_for(const MeshOptions& options, int cells[3], double size[3]) {
                                          : double(b.max_extent()) / std::max(1, options.resolution);
   for (int a = 0; a < 3; ++a) {
     double s = double(b.hi[a]) - double(b.lo[a]);
-    int n = int(std::ceil(s / target - 1e-6));
+    // Relative slack: float inputs (1.2f / 0.05f = 48.0000012) must not add a cell.
+    int n = int(std::ceil(s / target * (1 - 1e-6)));
     n = std::clamp(n, 1, kMaxCells);
     cells[a] = n;
     size[a] = s > 0 ? s / n : target;
@@ -834,13 +836,14 @@ TriMesh mesh_field(const render::Field& field, const MeshOptions& options, MeshS
       std::vector<Vec3> g(n), start(n);
       std::vector<uint8_t> active(n);
       std::vector<float> last_f(n, std::numeric_limits<float>::infinity());
-      std::vector<Vec3> prev(n);
+      std::vector<Vec3> prev(n), prev_step(n);
+      std::vector<float> scale(n, 1);
       for (size_t i = 0; i < n; ++i) {
         start[i] = mesh.vertices[vb + i];
         active[i] = project[vb + i] != 0;
       }
       size_t moved = 0;
-      for (int it = 0; it < 6; ++it) {
+      for (int it = 0; it < kNewtonSteps; ++it) {
         size_t na = 0;
         std::vector<size_t> idx;
         for (size_t i = 0; i < n; ++i) {
@@ -863,12 +866,19 @@ TriMesh mesh_field(const render::Field& field, const MeshOptions& options, MeshS
           }
           const float af = std::abs(fs[j]);
           if (!(af < last_f[i])) {
-            mesh.vertices[vi] = prev[i];  // the last step did not help (rounding): undo it
-            active[i] = 0;
-            if (it > 1) ++moved;
+            // The step did not reduce |F| (a kink of min/max, or rounding): a shorter one
+            // from the previous point, until it is too short to matter.
+            scale[i] *= 0.25f;
+            if (scale[i] < 1.0f / 64 || it == kNewtonSteps - 1) {
+              mesh.vertices[vi] = prev[i];
+              active[i] = 0;
+              if (it > 1) ++moved;
+            } else {
+              mesh.vertices[vi] = prev[i] + prev_step[i] * scale[i];
+            }
             continue;
           }
-          if (af / std::sqrt(g2) <= on_surface || it == 5) {
+          if (af / std::sqrt(g2) <= on_surface || it == kNewtonSteps - 1) {
             active[i] = 0;
             if (it > 0) ++moved;
             continue;
@@ -878,6 +888,8 @@ TriMesh mesh_field(const render::Field& field, const MeshOptions& options, MeshS
           Vec3 step = g[j] * (-fs[j] / g2);
           const float sl = length(step);
           if (sl > hmin) step = step * (hmin / sl);
+          prev_step[i] = step;
+          scale[i] = 1;
           mesh.vertices[vi] = mesh.vertices[vi] + step;
         }
       }

@@ -107,6 +107,21 @@ TEST_F(MeshCliTest, SimplifyGivesFewerTriangles) {
             "hfrt mesh: --simplify expects a positive error bound (a distance in model units)\n");
 }
 
+TEST_F(MeshCliTest, CellSizeSetsTheGrid) {
+  CliRun r = hfrt("mesh sphere.hf -o c.stl --bbox 1.2 --cell 0.05 --stats");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_NE(r.err.find("grid 48x48x48 cells"), std::string::npos) << r.err;
+  CliRun fine = hfrt("mesh sphere.hf -o c.stl --bbox 1 --cell 0.0001");
+  EXPECT_EQ(fine.exit_code, 2);
+  EXPECT_NE(fine.err.find("hfrt mesh: --cell 0.0001 gives 20000 cells along the region's longest "
+                          "side (at most 8192)"),
+            std::string::npos)
+      << fine.err;
+  CliRun both = hfrt("mesh sphere.hf -o c.stl --cell 0.05 --resolution 10");
+  EXPECT_EQ(both.exit_code, 2);
+  EXPECT_NE(both.err.find("excludes"), std::string::npos) << both.err;
+}
+
 TEST_F(MeshCliTest, WritesGltfBinary) {
   CliRun r = hfrt("mesh sphere.hf -o ball.glb --resolution 16");
   ASSERT_EQ(r.exit_code, 0) << r.err;

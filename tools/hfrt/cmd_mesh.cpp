@@ -49,7 +49,7 @@ int usage_error(const std::string& message) {
 
 int run_mesh(const MeshCli& cli) {
   app::MeshJob job;
-  if (cli.resolution < 1 || cli.resolution > 8192) {
+  if (cli.resolution < 1 || cli.resolution > app::kMaxMeshCells) {
     return usage_error("--resolution expects a cell count from 1 to 8192 (got " +
                        std::to_string(cli.resolution) + ")");
   }
@@ -117,7 +117,7 @@ int run_mesh(const MeshCli& cli) {
   for (const std::string& w : result.warnings) std::fprintf(stderr, "%s\n", w.c_str());
   if (result.status != app::MeshJobStatus::kOk) {
     std::fprintf(stderr, "%s\n", result.error.c_str());
-    return 1;
+    return result.status == app::MeshJobStatus::kTooFine ? 2 : 1;
   }
   const auto t0 = Clock::now();
   auto written = mesher::write_mesh(cli.output, result.mesh);
