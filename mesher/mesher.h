@@ -16,7 +16,7 @@
 //     into patches as marching cubes would connect them (on a face with four crossings the
 //     inside corners are separated, a rule that only looks at the face, so both cells sharing
 //     it agree): one vertex per patch.
-//  4. Each crossing edge's zero is found by bisection and interpolation, its normal by the
+//  4. Each crossing edge's zero is found by Illinois false-position steps, its normal by the
 //     exact gradient; the patch vertex minimises the quadric error of those tangent planes
 //     (truncated pseudo-inverse around the mass point), clamped to its cell, so that sharp
 //     edges and corners of CSG are reproduced. A vertex that is then not on F = 0 (a smooth
