@@ -85,6 +85,8 @@ TEST_F(MeshCliTest, ColoursInPlyAndObj) {
   const std::string obj = slurp(dir_ / "c.obj");
   // `v x y z r g b` with s = (1, 0.5, 0).
   EXPECT_NE(obj.find(" 1 0.5 0\n"), std::string::npos) << obj.substr(0, 400);
+  ASSERT_EQ(hfrt("mesh colour.hf -o c.glb --resolution 16").exit_code, 0);
+  EXPECT_NE(slurp(dir_ / "c.glb").find("COLOR_0"), std::string::npos);
   ASSERT_EQ(hfrt("mesh colour.hf -o plain.ply --resolution 16 --no-color").exit_code, 0);
   EXPECT_EQ(slurp(dir_ / "plain.ply").find("red"), std::string::npos);
 }
