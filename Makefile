@@ -3,7 +3,7 @@ BUILD_DIR ?= build
 JOBS ?= $(shell nproc)
 CMAKE_FLAGS ?= -G Ninja -DCMAKE_BUILD_TYPE=Release
 
-.PHONY: all deps configure build demo test bench bench-render bench-peers clean format
+.PHONY: all deps configure build demo test bench bench-render bench-peers bench-mesh clean format
 
 all: build
 
@@ -38,6 +38,13 @@ bench-peers: configure
 	@cmake --build $(BUILD_DIR) --target hfrt hfrt_bench_maskdiff hfrt_bench_prospero -j $(JOBS)
 	@bench/peers/povray --build-dir $(BUILD_DIR) $(PEERS_ARGS)
 	@$(BUILD_DIR)/bench/hfrt_bench_prospero --frames 3 --interp-rows 4
+
+# hfrt mesh vs scikit-image marching cubes on a JIT-sampled grid (bench/README.md).
+# MESH_ARGS: e.g. --res 256 --models gyroid,blend,csg --threads 2.
+MESH_ARGS ?=
+bench-mesh: build
+	@cmake --build $(BUILD_DIR) --target hfrt hfrt_bench_mesh_tool -j $(JOBS)
+	@/usr/bin/python3 bench/mesher/mesh_vs_grid.py --build $(BUILD_DIR) $(MESH_ARGS)
 
 clean:
 	@rm -rf $(BUILD_DIR) out

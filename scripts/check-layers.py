@@ -21,7 +21,7 @@ from collections import defaultdict
 
 # Allowed dependencies, lowest layer first.  A folder may always include itself.
 # "*" allows any folder; "!name" then forbids one folder again.
-LIBS = ["base", "lang", "ir", "stdlib", "geom", "jit", "render", "app", "scene"]
+LIBS = ["base", "lang", "ir", "stdlib", "geom", "jit", "render", "scene", "mesher", "app"]
 LAYERS = {
     "base": set(),                                      # checks, Result, files, Vec3/Box/Interval, timers
     "lang": {"base"},                                   # HyperFun lexer, parser, sema
@@ -31,7 +31,8 @@ LAYERS = {
     "jit": {"stdlib", "ir", "lang", "base", "geom"},    # lowering, interpreters, LLVM; owns hfrt/*.h
     "render": {"base"},                                 # ray tracer, knows fields not models
     "scene": {"render", "base"},                        # scene files (TOML) into SceneDescs
-    "app": {"jit", "render", "geom", "stdlib", "ir", "lang", "base", "scene"},  # joins models and renderer
+    "mesher": {"render", "base"},                       # dual contouring of a render::Field; mesh files
+    "app": {"jit", "render", "scene", "mesher", "geom", "stdlib", "ir", "lang", "base"},  # joins models and renderer
     "testsupport": set(LIBS),                           # test helpers shared by tests/ and bench/
     "tools": set(LIBS),                                 # the hfrt command-line tool
     "tests": {"*"},                                     # top: anything

@@ -47,6 +47,7 @@ int main(int argc, char** argv) {
   add(hfrt::tools::register_slice);
   add(hfrt::tools::register_repl);
   add(hfrt::tools::register_emit);
+  add(hfrt::tools::register_mesh);
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {

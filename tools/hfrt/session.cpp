@@ -11,11 +11,13 @@
 #include <sstream>
 #include <thread>
 
+#include "app/mesh_job.h"
 #include "app/model_field.h"
 #include "base/check.h"
 #include "base/timer.h"
 #include "lang/diagnostics.h"
 #include "lang/objects.h"
+#include "mesher/mesh_io.h"
 
 namespace hfrt::tools {
 namespace {
@@ -105,6 +107,8 @@ const char* kHelp =
     "  :scene -o OUT              render the loaded scene (with its edits) to OUT\n"
     "  :set material.NAME.KEY V   edit the loaded scene (also camera.KEY, render.KEY,\n"
     "                             light.N.KEY, object.N.KEY); re-renders a rendered scene\n"
+    "  :mesh OUT [RESOLUTION]     mesh the current object to OUT (.stl .obj .ply .glb; as hfrt\n"
+    "                             mesh, with the remembered bbox, a, object and threads)\n"
     "  :show  :objects  :stats    session state\n"
     "  :watch FILE                reload and re-render whenever FILE changes (Ctrl-C stops)\n"
     "  :preview off|ansi|sixel|kitty|auto   inline preview in a terminal (auto: detected)\n"
@@ -120,9 +124,9 @@ Session::Session() {
 }
 
 const std::vector<std::string>& Session::command_names() {
-  static const std::vector<std::string> names = {":load",  ":eval",    ":render", ":set",
-                                                 ":show",  ":objects", ":stats",  ":watch",
-                                                 ":scene", ":preview", ":help",   ":quit"};
+  static const std::vector<std::string> names = {":load",    ":eval",  ":render", ":set",   ":show",
+                                                 ":objects", ":stats", ":watch",  ":scene", ":mesh",
+                                                 ":preview", ":help",  ":quit"};
   return names;
 }
 
@@ -184,6 +188,7 @@ SessionResult Session::dispatch(std::string_view input) {
   if (cmd == ":show") return cmd_show();
   if (cmd == ":objects") return cmd_objects();
   if (cmd == ":stats") return cmd_stats();
+  if (cmd == ":mesh") return cmd_mesh(args);
   if (cmd == ":help") return success(kHelp);
   if (cmd == ":quit" || cmd == ":q") {
     SessionResult r;
@@ -681,6 +686,58 @@ SessionResult Session::cmd_stats() const {
                 "(last %.1f ms), evals %d",
                 objects_.size(), compiles_, cache_.size(), last_compile_ms_, renders_,
                 last_render_ms_, evals_);
+  return success(buf);
+}
+
+}  // namespace hfrt::tools
+
+namespace hfrt::tools {
+
+SessionResult Session::cmd_mesh(const std::vector<std::string>& args) {
+  if (args.empty() || args.size() > 2) return failure("hfrt: :mesh expects OUT [RESOLUTION]");
+  if (current_.empty()) return failure("hfrt: no current object (define one or :load a file)");
+  int resolution = 128;
+  if (args.size() == 2) {
+    char* end = nullptr;
+    const long v = std::strtol(args[1].c_str(), &end, 10);
+    if (*end || v < 1 || v > 8192) {
+      return failure("hfrt: :mesh: RESOLUTION expects a cell count from 1 to 8192 (got '" +
+                     args[1] + "')");
+    }
+    resolution = int(v);
+  }
+  if (!mesher::mesh_format_for(args[0])) {
+    return failure("hfrt: " + args[0] + ": unknown mesh format (expected " +
+                   mesher::mesh_formats_list() + ")");
+  }
+  const std::string object = cli_.model.object.empty() ? current_ : cli_.model.object;
+  std::string err;
+  const Model* m = model_for(source(), object, &err, 0, "<session>");
+  if (!m) return failure(err);
+  // -a: as in render_to, the cached model gets the parameters for this mesh only.
+  Model& model = const_cast<Model&>(*m);
+  const std::vector<double> saved_params = model.params();
+  model.set_params(setup_.params);
+  struct RestoreParams {
+    Model& m;
+    const std::vector<double>& p;
+    ~RestoreParams() { m.set_params(p); }
+  } restore{model, saved_params};
+  app::MeshJob job;
+  job.model = &model;
+  job.file = "<session>";
+  job.bbox_given = !cli_.bbox.empty();
+  if (job.bbox_given) job.bbox = setup_.options.bbox;
+  job.resolution = resolution;
+  job.threads = setup_.options.threads;
+  app::MeshJobResult r = app::run_mesh_job(job);
+  for (const std::string& w : r.warnings) std::fprintf(stderr, "%s\n", w.c_str());
+  if (r.status != app::MeshJobStatus::kOk) return failure(r.error);
+  auto written = mesher::write_mesh(args[0], r.mesh);
+  if (!written.ok()) return failure("hfrt: " + written.error().message);
+  char buf[200];
+  std::snprintf(buf, sizeof buf, "%s %zu vertices, %zu triangles, %.1f ms", args[0].c_str(),
+                r.mesh.vertices.size(), r.mesh.triangles.size(), r.stats.seconds_total * 1e3);
   return success(buf);
 }
 

@@ -132,6 +132,8 @@ class Session {
   SessionResult cmd_scene(const std::vector<std::string>& args);
   SessionResult cmd_scene_set(const std::vector<std::string>& args);
   SessionResult render_scene(const std::string& out);
+  /// `:mesh OUT [RESOLUTION]`: app::run_mesh_job on the current object, written to OUT.
+  SessionResult cmd_mesh(const std::vector<std::string>& args);
 
   /// The compiled current object, compiling (or taking from the cache) as needed. On a
   /// compile error fills `err` with the diagnostics.

@@ -1,0 +1,216 @@
+#include "mesher/simplify.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <queue>
+#include <vector>
+
+#include "base/check.h"
+
+namespace hfrt::mesher {
+namespace {
+
+struct P3 {
+  double x = 0, y = 0, z = 0;
+};
+P3 to_p3(Vec3 v) {
+  return {v.x, v.y, v.z};
+}
+P3 sub(P3 a, P3 b) {
+  return {a.x - b.x, a.y - b.y, a.z - b.z};
+}
+P3 cross3(P3 a, P3 b) {
+  return {a.y * b.z - a.z * b.y, a.z * b.x - a.x * b.z, a.x * b.y - a.y * b.x};
+}
+double dot3(P3 a, P3 b) {
+  return a.x * b.x + a.y * b.y + a.z * b.z;
+}
+
+/// A symmetric 4x4 quadric: the sum of (n . p + d)^2 over a set of planes.
+struct Quadric {
+  double q[10] = {0, 0, 0, 0, 0, 0, 0, 0, 0, 0};  // xx xy xz xw yy yz yw zz zw ww
+  void add_plane(P3 n, double d) {
+    const double v[4] = {n.x, n.y, n.z, d};
+    int k = 0;
+    for (int i = 0; i < 4; ++i)
+      for (int j = i; j < 4; ++j) q[k++] += v[i] * v[j];
+  }
+  Quadric& operator+=(const Quadric& o) {
+    for (int i = 0; i < 10; ++i) q[i] += o.q[i];
+    return *this;
+  }
+  double eval(P3 p) const {
+    const double v[4] = {p.x, p.y, p.z, 1};
+    double s = 0;
+    int k = 0;
+    for (int i = 0; i < 4; ++i)
+      for (int j = i; j < 4; ++j, ++k) s += (i == j ? 1 : 2) * q[k] * v[i] * v[j];
+    return std::max(0.0, s);
+  }
+};
+
+struct Candidate {
+  double cost;
+  uint32_t a, b;    // a < b; b is merged into a
+  uint32_t va, vb;  // versions of a and b when evaluated
+  uint8_t choice;   // 0: a's position, 1: b's, 2: the midpoint
+  bool operator>(const Candidate& o) const {
+    if (cost != o.cost) return cost > o.cost;
+    if (a != o.a) return a > o.a;
+    return b > o.b;
+  }
+};
+
+}  // namespace
+
+void simplify_mesh(TriMesh* mesh, double max_error, SimplifyStats* stats) {
+  HFRT_CHECK(max_error > 0);
+  const auto t0 = std::chrono::steady_clock::now();
+  const size_t nv = mesh->vertices.size(), nt = mesh->triangles.size();
+  auto& tris = mesh->triangles;
+  std::vector<P3> pos(nv);
+  for (size_t i = 0; i < nv; ++i) pos[i] = to_p3(mesh->vertices[i]);
+  std::vector<uint8_t> tri_alive(nt, 1), v_alive(nv, 1);
+  std::vector<uint32_t> version(nv, 0);
+  std::vector<std::vector<uint32_t>> vtris(nv);
+  std::vector<Quadric> quad(nv);
+  for (uint32_t t = 0; t < nt; ++t) {
+    const P3 a = pos[tris[t][0]], b = pos[tris[t][1]], c = pos[tris[t][2]];
+    P3 n = cross3(sub(b, a), sub(c, a));
+    const double len = std::sqrt(dot3(n, n));
+    for (int k = 0; k < 3; ++k) vtris[tris[t][k]].push_back(t);
+    if (!(len > 0)) continue;
+    n = {n.x / len, n.y / len, n.z / len};
+    for (int k = 0; k < 3; ++k) quad[tris[t][k]].add_plane(n, -dot3(n, a));
+  }
+  const double limit = max_error * max_error;
+  size_t alive_tris = nt, collapses = 0;
+
+  auto neighbours = [&](uint32_t v, std::vector<uint32_t>* out) {
+    out->clear();
+    for (uint32_t t : vtris[v]) {
+      if (!tri_alive[t]) continue;
+      for (int k = 0; k < 3; ++k)
+        if (tris[t][k] != v) out->push_back(tris[t][k]);
+    }
+    std::sort(out->begin(), out->end());
+    out->erase(std::unique(out->begin(), out->end()), out->end());
+  };
+  auto evaluate = [&](uint32_t a, uint32_t b, Candidate* c) {
+    if (a > b) std::swap(a, b);
+    Quadric q = quad[a];
+    q += quad[b];
+    const P3 mid{(pos[a].x + pos[b].x) / 2, (pos[a].y + pos[b].y) / 2, (pos[a].z + pos[b].z) / 2};
+    const double costs[3] = {q.eval(pos[a]), q.eval(pos[b]), q.eval(mid)};
+    const int best = int(std::min_element(costs, costs + 3) - costs);
+    *c = {costs[best], a, b, version[a], version[b], uint8_t(best)};
+    return costs[best] <= limit;
+  };
+
+  std::priority_queue<Candidate, std::vector<Candidate>, std::greater<Candidate>> heap;
+  for (uint32_t t = 0; t < nt; ++t) {
+    for (int k = 0; k < 3; ++k) {
+      const uint32_t a = tris[t][k], b = tris[t][(k + 1) % 3];
+      if (a > b) continue;  // each edge once (a closed mesh has both directions)
+      Candidate c;
+      if (evaluate(a, b, &c)) heap.push(c);
+    }
+  }
+
+  std::vector<uint32_t> na, nb, shared;
+  while (!heap.empty() && alive_tris > 4) {
+    const Candidate c = heap.top();
+    heap.pop();
+    const uint32_t a = c.a, b = c.b;
+    if (!v_alive[a] || !v_alive[b] || version[a] != c.va || version[b] != c.vb) continue;
+    // The two triangles of the edge, and the link condition.
+    shared.clear();
+    for (uint32_t t : vtris[a]) {
+      if (!tri_alive[t]) continue;
+      if (tris[t][0] == b || tris[t][1] == b || tris[t][2] == b) shared.push_back(t);
+    }
+    if (shared.size() != 2) continue;
+    neighbours(a, &na);
+    neighbours(b, &nb);
+    std::vector<uint32_t> common;
+    std::set_intersection(na.begin(), na.end(), nb.begin(), nb.end(), std::back_inserter(common));
+    if (common.size() != 2) continue;
+    const P3 np = c.choice == 0   ? pos[a]
+                  : c.choice == 1 ? pos[b]
+                                  : P3{(pos[a].x + pos[b].x) / 2, (pos[a].y + pos[b].y) / 2,
+                                       (pos[a].z + pos[b].z) / 2};
+    // No triangle around a or b may turn over or collapse.
+    bool ok = true;
+    for (uint32_t v : {a, b}) {
+      for (uint32_t t : vtris[v]) {
+        if (!ok) break;
+        if (!tri_alive[t] || t == shared[0] || t == shared[1]) continue;
+        P3 p[3], q[3];
+        for (int k = 0; k < 3; ++k) {
+          p[k] = pos[tris[t][k]];
+          q[k] = (tris[t][k] == a || tris[t][k] == b) ? np : p[k];
+        }
+        const P3 n0 = cross3(sub(p[1], p[0]), sub(p[2], p[0]));
+        const P3 n1 = cross3(sub(q[1], q[0]), sub(q[2], q[0]));
+        const double l0 = std::sqrt(dot3(n0, n0)), l1 = std::sqrt(dot3(n1, n1));
+        if (!(l1 > 1e-12 * l0) || dot3(n0, n1) < 0.2 * l0 * l1) ok = false;
+      }
+    }
+    if (!ok) continue;
+    // Collapse b into a.
+    for (uint32_t t : shared) tri_alive[t] = 0;
+    alive_tris -= 2;
+    for (uint32_t t : vtris[b]) {
+      if (!tri_alive[t]) continue;
+      for (int k = 0; k < 3; ++k)
+        if (tris[t][k] == b) tris[t][k] = a;
+      vtris[a].push_back(t);
+    }
+    vtris[b].clear();
+    std::erase_if(vtris[a], [&](uint32_t t) { return !tri_alive[t]; });
+    v_alive[b] = 0;
+    if (c.choice == 1 && !mesh->colors.empty()) mesh->colors[a] = mesh->colors[b];
+    pos[a] = np;
+    quad[a] += quad[b];
+    ++version[a];
+    ++collapses;
+    neighbours(a, &na);
+    for (uint32_t n : na) {
+      Candidate nc;
+      if (evaluate(a, n, &nc)) heap.push(nc);
+    }
+  }
+
+  // Compact: the surviving vertices in their old order, then the surviving triangles.
+  std::vector<uint32_t> remap(nv, ~uint32_t(0));
+  TriMesh out;
+  for (uint32_t t = 0; t < nt; ++t) {
+    if (!tri_alive[t]) continue;
+    std::array<uint32_t, 3> tri;
+    for (int k = 0; k < 3; ++k) tri[k] = tris[t][k];
+    out.triangles.push_back(tri);
+  }
+  for (auto& tri : out.triangles) {
+    for (uint32_t& v : tri) {
+      if (remap[v] == ~uint32_t(0)) remap[v] = 0;  // mark used
+    }
+  }
+  for (uint32_t v = 0; v < nv; ++v) {
+    if (remap[v] == ~uint32_t(0)) continue;
+    remap[v] = uint32_t(out.vertices.size());
+    out.vertices.push_back({float(pos[v].x), float(pos[v].y), float(pos[v].z)});
+    if (!mesh->colors.empty()) out.colors.push_back(mesh->colors[v]);
+  }
+  for (auto& tri : out.triangles)
+    for (uint32_t& v : tri) v = remap[v];
+  if (stats) {
+    stats->triangles_before = nt;
+    stats->triangles_after = out.triangles.size();
+    stats->collapses = collapses;
+    stats->seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  }
+  *mesh = std::move(out);
+}
+
+}  // namespace hfrt::mesher
