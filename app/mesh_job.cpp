@@ -4,6 +4,7 @@
 #include <cstdio>
 
 #include "app/model_field.h"
+#include "app/scene_job.h"
 #include "base/timer.h"
 #include "render/framing.h"
 
@@ -119,6 +120,78 @@ std::string format_mesh_stats(const MeshJobResult& r, double compile_ms, double 
     text += buf;
   }
   return text;
+}
+
+MeshJobResult run_scene_mesh_job(const scene::SceneDesc& sc, const MeshJob& settings) {
+  MeshJobResult all;
+  ModelOptions mo;
+  mo.eager_f64 = false;
+  mo.eager_f32 = true;
+  std::vector<MeshJobResult> parts(sc.objects.size());
+  bool any_colour = false;
+  for (size_t i = 0; i < sc.objects.size(); ++i) {
+    const scene::ObjectDesc& o = sc.objects[i];
+    CompileResult compiled = compile_scene_object(sc, i, mo);
+    if (!compiled.error.empty()) {
+      all.status = MeshJobStatus::kEnvironment;
+      all.error = compiled.error;
+      return all;
+    }
+    if (!compiled.ok()) {
+      all.status = MeshJobStatus::kSourceError;
+      all.error = compiled.rendered;
+      return all;
+    }
+    MeshJob job = settings;
+    job.model = &*compiled.model;
+    job.file = o.file.empty() ? sc.path : o.file;
+    job.bbox = o.bbox.value_or(render::Box{{-10, -10, -10}, {10, 10, 10}});
+    job.bbox_given = false;
+    parts[i] = run_mesh_job(job);
+    MeshJobResult& r = parts[i];
+    for (std::string& w : r.warnings) all.warnings.push_back(std::move(w));
+    all.prepare_ms += r.prepare_ms;
+    all.extent_ms += r.extent_ms;
+    if (r.status == MeshJobStatus::kNoSurface) {
+      char where[64];
+      std::snprintf(where, sizeof where, ":%d:%d", o.pos.line, o.pos.column);
+      all.warnings.push_back(sc.path + where +
+                             ": warning: this [[object]] has no surface in its box; skipped");
+      continue;
+    }
+    if (r.status != MeshJobStatus::kOk) return std::move(r);
+    // Into the world: a uniform scale and a rotation keep the triangles' orientation.
+    const render::Transform place = scene::placement(o);
+    for (render::Vec3& v : r.mesh.vertices) v = place.point_to_world(v);
+    all.region.extend(place.box_to_world(r.region));
+    any_colour = any_colour || !r.mesh.colors.empty();
+  }
+  for (size_t i = 0; i < parts.size(); ++i) {
+    MeshJobResult& r = parts[i];
+    if (r.status != MeshJobStatus::kOk) continue;
+    const uint32_t base = uint32_t(all.mesh.vertices.size());
+    all.mesh.vertices.insert(all.mesh.vertices.end(), r.mesh.vertices.begin(),
+                             r.mesh.vertices.end());
+    for (const auto& t : r.mesh.triangles) {
+      all.mesh.triangles.push_back({t[0] + base, t[1] + base, t[2] + base});
+    }
+    if (any_colour) {
+      if (r.mesh.colors.empty()) {
+        const scene::ObjectDesc& o = sc.objects[i];
+        const render::Vec3 c =
+            o.material.empty() ? render::Material{}.color : sc.materials.at(o.material).color;
+        r.mesh.colors.assign(r.mesh.vertices.size(), c);
+      }
+      all.mesh.colors.insert(all.mesh.colors.end(), r.mesh.colors.begin(), r.mesh.colors.end());
+    }
+    all.stats.seconds_total += r.stats.seconds_total;
+  }
+  if (all.mesh.triangles.empty()) {
+    all.status = MeshJobStatus::kNoSurface;
+    all.error = sc.path + ": error: no object of the scene has a surface in its box\n  hint: " +
+                "check each [[object]]'s bbox";
+  }
+  return all;
 }
 
 }  // namespace hfrt::app

@@ -12,6 +12,7 @@
 #include "mesher/mesher.h"
 #include "mesher/simplify.h"
 #include "render/vec.h"
+#include "scene/scene_file.h"
 
 namespace hfrt::app {
 
@@ -37,9 +38,11 @@ struct MeshJob {
 
 enum class MeshJobStatus {
   kOk,
-  kNotThreeD,  ///< the object is not a function of x[1..3]
-  kNoSurface,  ///< no part of the solid in the box: nothing to mesh
-  kTooFine,    ///< --cell asks for more than kMaxMeshCells cells along a side (usage error)
+  kNotThreeD,    ///< the object is not a function of x[1..3]
+  kNoSurface,    ///< no part of the solid in the box: nothing to mesh
+  kTooFine,      ///< --cell asks for more than kMaxMeshCells cells along a side (usage error)
+  kSourceError,  ///< a scene's model does not compile (`error`: the located diagnostics)
+  kEnvironment,  ///< a scene's model file cannot be read, a JIT cannot be created
 };
 
 /// The most cells along a side of the region (`--resolution` and `--cell` alike).
@@ -60,6 +63,14 @@ struct MeshJobResult {
 
 /// Meshes `job.model` (which must outlive the call and not change during it).
 MeshJobResult run_mesh_job(const MeshJob& job);
+
+/// Meshes every [[object]] of a scene file (`hfrt mesh scene.toml`): each model in its own box
+/// with the settings of `settings` (resolution or cell size in model units, threads, colours,
+/// simplification), placed in the world by its scale, rotation and translation, into one mesh
+/// of several closed shells. Objects without a colour attribute take their material's colour
+/// when another object is coloured. Objects with no surface in their box are skipped (a
+/// warning); none at all is kNoSurface.
+MeshJobResult run_scene_mesh_job(const scene::SceneDesc& scene, const MeshJob& settings);
 
 /// The `stats: ...` lines of `hfrt mesh --stats` (each ending with a newline).
 std::string format_mesh_stats(const MeshJobResult& result, double compile_ms, double write_ms);

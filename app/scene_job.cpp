@@ -120,18 +120,7 @@ SceneJobResult run_scene_job(const scene::SceneDesc& sc, const SceneOverrides& o
       model_of[i] = it->second;
       continue;
     }
-    ModelOptions mo_i = mo;
-    mo_i.object = o.name.value_or("");
-    // An inline source is compiled as the scene file's text at its place (object_source pads
-    // it), so that its diagnostics point into the scene file.
-    std::string name = o.file, text, env_error;
-    if (o.file.empty() && !scene::object_source(o, sc.path, &text, &name, &env_error)) {
-      res.status = SceneJobStatus::kEnvironment;
-      res.error = env_error;
-      return res;
-    }
-    CompileResult compiled =
-        o.file.empty() ? Model::compile(text, mo_i, name) : Model::compile_file(o.file, mo_i);
+    CompileResult compiled = compile_scene_object(sc, i, mo);
     if (!compiled.error.empty()) {
       res.status = SceneJobStatus::kEnvironment;
       res.error = compiled.error;
@@ -139,15 +128,12 @@ SceneJobResult run_scene_job(const scene::SceneDesc& sc, const SceneOverrides& o
     }
     if (!compiled.ok()) {
       res.status = SceneJobStatus::kSourceError;
-      char where[64];
-      std::snprintf(where, sizeof where, ":%d:%d", o.pos.line, o.pos.column);
-      res.error = compiled.rendered + sc.path + where +
-                  ": note: in the model of this [[object]] (" + object_label(o, i) + ")\n";
+      res.error = compiled.rendered;
       return res;
     }
+    const std::string name = o.file.empty() ? sc.path : o.file;
     CompiledModel cm;
     cm.model = std::make_unique<Model>(std::move(*compiled.model));
-    cm.model->set_params(o.params);
     cm.file = name;
     if (auto it = code_source.find(base); it != code_source.end()) {
       cm.shared_code = cm.model->share_code(*models[it->second].model);
@@ -268,6 +254,30 @@ SceneJobResult run_scene_job(const scene::SceneDesc& sc, const SceneOverrides& o
   for (size_t i = 0; i < res.objects.size(); ++i) res.objects[i].root = out->stats.root_used[i];
   if (out->stats.cancelled) res.status = SceneJobStatus::kCancelled;
   return res;
+}
+
+CompileResult compile_scene_object(const scene::SceneDesc& sc, size_t i, ModelOptions mo) {
+  const scene::ObjectDesc& o = sc.objects[i];
+  mo.object = o.name.value_or("");
+  // An inline source is compiled as the scene file's text at its place (object_source pads
+  // it), so that its diagnostics point into the scene file.
+  std::string name = o.file, text, env_error;
+  if (o.file.empty() && !scene::object_source(o, sc.path, &text, &name, &env_error)) {
+    CompileResult r;
+    r.error = env_error;
+    return r;
+  }
+  CompileResult compiled =
+      o.file.empty() ? Model::compile(text, mo, name) : Model::compile_file(o.file, mo);
+  if (compiled.ok()) {
+    compiled.model->set_params(o.params);
+  } else if (compiled.error.empty()) {
+    char where[64];
+    std::snprintf(where, sizeof where, ":%d:%d", o.pos.line, o.pos.column);
+    compiled.rendered +=
+        sc.path + where + ": note: in the model of this [[object]] (" + object_label(o, i) + ")\n";
+  }
+  return compiled;
 }
 
 std::string format_scene_stats(const SceneJobResult& job, const render::TraceStats& s) {

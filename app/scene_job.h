@@ -12,6 +12,7 @@
 #include <string>
 #include <vector>
 
+#include "hfrt/model.h"
 #include "render/framing.h"
 #include "render/image.h"
 #include "render/renderer.h"
@@ -69,6 +70,13 @@ struct SceneJobResult {
 SceneJobResult run_scene_job(const scene::SceneDesc& scene, const SceneOverrides& overrides,
                              render::ProgressFn progress, const std::atomic<bool>* cancel,
                              render::TraceResult* out);
+
+/// Compiles the model of one [[object]] of `scene` (its file, or its inline source at its place
+/// in the scene file, so that diagnostics point there), with its object name and parameters
+/// applied. `compiled.error` holds an environment failure, `compiled.rendered` the located
+/// diagnostics (with a note naming the [[object]] when it does not compile).
+CompileResult compile_scene_object(const scene::SceneDesc& scene, size_t index,
+                                   ModelOptions options);
 
 /// The `stats: ...` lines of `--stats` for a scene render (each ending with a newline).
 std::string format_scene_stats(const SceneJobResult& job, const render::TraceStats& stats);

@@ -77,6 +77,34 @@ TEST_F(MeshCliTest, WritesAClosedSphereAsStl) {
   EXPECT_EQ(mesh->triangles.size(), tris.size());
 }
 
+// A scene file: each [[object]] meshed in its box and placed. Two unit balls scaled by 0.5 and
+// 1.5 and moved apart: two closed shells whose volumes add to (0.5^3 + 1.5^3) 4/3 pi, every
+// vertex on one of the placed spheres.
+TEST_F(MeshCliTest, SceneFileMeshesEveryObjectPlaced) {
+  write("two.toml",
+        "[[object]]\nfile = \"sphere.hf\"\nbbox = [-2, -2, -2, 2, 2, 2]\n"
+        "scale = 0.5\ntranslate = [-3, 0, 0]\n"
+        "[[object]]\nfile = \"sphere.hf\"\nbbox = [-2, -2, -2, 2, 2, 2]\n"
+        "scale = 1.5\nrotate = [0, 0, 30]\ntranslate = [2, 1, 0]\n");
+  CliRun r = hfrt("mesh two.toml -o two.stl --resolution 48");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  std::vector<Vec3> v;
+  std::vector<std::array<uint32_t, 3>> tris;
+  ASSERT_TRUE(read_binary_stl(slurp(dir_ / "two.stl"), &v, &tris));
+  EXPECT_EQ(mesher::testing::check_closed_manifold(v, tris), "");
+  const double expect = (0.125 + 3.375) * 4.0 / 3.0 * std::numbers::pi;
+  EXPECT_NEAR(mesher::testing::mesh_volume(v, tris) / expect, 1.0, 0.01);
+  for (const Vec3& p : v) {
+    double d1 = std::abs(length(p - Vec3{-3, 0, 0}) - 0.5);
+    double d2 = std::abs(length(p - Vec3{2, 1, 0}) - 1.5);
+    EXPECT_LT(std::min(d1, d2), 2e-3) << p.x << " " << p.y << " " << p.z;
+  }
+  // Model options belong to the [[object]]s.
+  r = hfrt("mesh two.toml -o x.stl --bbox 1");
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_NE(r.err.find("--bbox, --object and -a apply to a .hf model"), std::string::npos) << r.err;
+}
+
 TEST_F(MeshCliTest, ColoursInPlyAndObj) {
   ASSERT_EQ(hfrt("mesh colour.hf -o c.ply --resolution 16").exit_code, 0);
   const std::string ply = slurp(dir_ / "c.ply");

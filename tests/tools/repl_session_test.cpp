@@ -292,7 +292,8 @@ TEST(ReplSet, EveryRenderOptionIsAccepted) {
                                                      {"background", "0,0,0"},
                                                      {"no-shadows", "on"},
                                                      {"backend", "interp"},
-                                                     {"stats", "on"}};
+                                                     {"stats", "on"},
+                                                     {"max-depth", "3"}};
   for (const std::string& name : render_option_names()) {
     auto it = values.find(name);
     ASSERT_NE(it, values.end()) << "no test value for --" << name;
@@ -320,6 +321,7 @@ TEST(ReplSet, EveryRenderOptionIsAccepted) {
   EXPECT_EQ(cli.model.backend, "interp");
   EXPECT_EQ(cli.aov, "depth,normal");
   EXPECT_TRUE(cli.stats);
+  EXPECT_EQ(cli.max_depth, 3);
   // `default` restores one option; the first REPL's spellings still work.
   ASSERT_TRUE(s.run(":set size default").ok);
   EXPECT_EQ(s.render_settings().options.width, 512);

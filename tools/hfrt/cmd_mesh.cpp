@@ -22,6 +22,7 @@
 #include "base/timer.h"
 #include "mesher/mesh_io.h"
 #include "render/progress.h"
+#include "scene/scene_file.h"
 #include "tools/hfrt/commands.h"
 #include "tools/hfrt/model_request.h"
 
@@ -104,19 +105,43 @@ int run_mesh(const MeshCli& cli) {
   job.colors = !cli.no_color;
   job.simplify = cli.simplify;
 
-  int code = 0;
-  auto loaded = load_model(cli.model, /*eager_f32=*/true, &code);
-  if (!loaded) return code;
-  job.model = &*loaded->model;
-  job.file = cli.model.file;
-
   render::ProgressBar bar("meshing", isatty(STDERR_FILENO) != 0);
   job.progress = [&bar](size_t done, size_t total) { bar.update(done, total); };
-  app::MeshJobResult result = app::run_mesh_job(job);
+  app::MeshJobResult result;
+  double compile_ms = 0;
+  const std::string& file = cli.model.file;
+  if (file.size() > 5 && file.compare(file.size() - 5, 5, ".toml") == 0) {
+    // A scene file: every [[object]] in its own box, placed (app::run_scene_mesh_job).
+    if (!cli.bbox.empty() || !cli.model.object.empty() || !cli.model.params.empty()) {
+      return usage_error(
+          "--bbox, --object and -a apply to a .hf model; in a scene file set them on the "
+          "[[object]] (bbox, name, params)");
+    }
+    scene::SceneDesc desc;
+    scene::SceneError serr;
+    if (!scene::read_scene_file(file, &desc, &serr)) {
+      std::fputs(serr.render().c_str(), stderr);
+      return 1;
+    }
+    result = app::run_scene_mesh_job(desc, job);
+  } else {
+    int code = 0;
+    auto loaded = load_model(cli.model, /*eager_f32=*/true, &code);
+    if (!loaded) return code;
+    compile_ms = loaded->compile_ms;
+    job.model = &*loaded->model;
+    job.file = cli.model.file;
+    result = app::run_mesh_job(job);
+  }
   bar.finish();
   for (const std::string& w : result.warnings) std::fprintf(stderr, "%s\n", w.c_str());
   if (result.status != app::MeshJobStatus::kOk) {
-    std::fprintf(stderr, "%s\n", result.error.c_str());
+    if (result.status == app::MeshJobStatus::kEnvironment) {
+      std::fprintf(stderr, "hfrt: %s\n", result.error.c_str());
+      return 2;
+    }
+    std::fputs(result.error.c_str(), stderr);
+    if (!result.error.empty() && result.error.back() != '\n') std::fputc('\n', stderr);
     return result.status == app::MeshJobStatus::kTooFine ? 2 : 1;
   }
   const auto t0 = Clock::now();
@@ -130,7 +155,7 @@ int run_mesh(const MeshCli& cli) {
                cli.output.c_str(), result.mesh.vertices.size(), result.mesh.triangles.size(),
                result.mesh.colors.empty() ? "" : ", coloured", result.stats.seconds_total);
   if (cli.stats) {
-    std::fputs(app::format_mesh_stats(result, loaded->compile_ms, write_ms).c_str(), stderr);
+    std::fputs(app::format_mesh_stats(result, compile_ms, write_ms).c_str(), stderr);
   }
   return 0;
 }
@@ -141,7 +166,9 @@ CommandRunner register_mesh(CLI::App& app) {
   auto cli = std::make_shared<MeshCli>();
   CLI::App* sub = app.add_subcommand(
       "mesh", "polygonise the solid into a watertight triangle mesh (STL, OBJ, PLY, glTF)");
-  sub->add_option("model", cli->model.file, "HyperFun model file")->required();
+  sub->add_option("model", cli->model.file,
+                  "HyperFun model file, or a scene file (.toml): every object, placed")
+      ->required();
   sub->add_option("-o,--output", cli->output,
                   "output mesh: .stl, .obj, .ply or .glb (colours in .ply and .obj)")
       ->required();
