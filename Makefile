@@ -3,7 +3,7 @@ BUILD_DIR ?= build
 JOBS ?= $(shell nproc)
 CMAKE_FLAGS ?= -G Ninja -DCMAKE_BUILD_TYPE=Release
 
-.PHONY: all deps configure build demo test bench bench-render bench-peers clean format
+.PHONY: all deps configure build demo test bench bench-render bench-peers clean format package
 
 all: build
 
@@ -44,3 +44,8 @@ clean:
 
 format:
 	@git ls-files '*.cpp' '*.h' | xargs clang-format -i
+
+# The Debian package (CPack, cmake/HfrtPackage.cmake): $(BUILD_DIR)/hfrt_VERSION_amd64.deb.
+# Install it with `sudo apt-get install ./$(BUILD_DIR)/hfrt_*.deb`.
+package: build
+	@cd $(BUILD_DIR) && cpack -G DEB
