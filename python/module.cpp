@@ -203,7 +203,7 @@ py::object eval_typed(const PyModel& pm, const py::array& points, bool attribute
     if (!attributes) return value;
     return py::make_tuple(value, s[py::int_(0)]);
   }
-  if (!attributes) return std::move(f);
+  if (!attributes) return f;
   return py::make_tuple(f, s);
 }
 
@@ -293,7 +293,7 @@ py::array gradient_typed(const PyModel& pm, const py::array& points) {
     });
   }
   if (single) return g[py::int_(0)];
-  return std::move(g);
+  return g;
 }
 
 py::array model_gradient(const PyModel& pm, const py::object& points) {
@@ -376,7 +376,7 @@ py::array render(const PyModel& pm, int width, int height, const py::dict& camer
   }
   switch (r.status) {
     case RenderOutcome::Status::kOk:
-      return std::move(out);
+      return out;
     case RenderOutcome::Status::kInvalidSettings:
       throw py::value_error(r.error);
     case RenderOutcome::Status::kSourceError: {
