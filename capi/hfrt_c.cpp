@@ -231,18 +231,21 @@ int32_t hfrt_last_error_diagnostic_count(void) {
 
 hfrt_status hfrt_last_error_diagnostic(int32_t index, hfrt_diagnostic* out) {
   static const char* kFn = "hfrt_last_error_diagnostic";
-  if (out == nullptr) return bad_arg(kFn, "out is NULL");
-  if (index < 0 || size_t(index) >= t_error.diagnostics.size()) {
-    // Do not clobber the diagnostics being read: only the status and message change.
-    LastError& e = t_error;
-    const std::string msg = std::string(kFn) + ": index " + std::to_string(index) +
-                            " is out of range (0.." + std::to_string(e.diagnostics.size()) + ")";
+  LastError& e = t_error;
+  // A misuse of this call must not clobber the diagnostics being read: only the status,
+  // message and function change.
+  auto misuse = [&](std::string message) {
     e.status = HFRT_ERROR_INVALID_ARGUMENT;
     e.function = kFn;
-    e.message = msg;
+    e.message = std::string(kFn) + ": " + message;
     return HFRT_ERROR_INVALID_ARGUMENT;
+  };
+  if (out == nullptr) return misuse("out is NULL");
+  if (index < 0 || size_t(index) >= e.diagnostics.size()) {
+    return misuse("index " + std::to_string(index) + " is out of range (0.." +
+                  std::to_string(e.diagnostics.size()) + ")");
   }
-  export_diagnostic(t_error.diagnostics[size_t(index)], out);
+  export_diagnostic(e.diagnostics[size_t(index)], out);
   return HFRT_OK;
 }
 

@@ -393,7 +393,7 @@ TEST(CApi, ConcurrentEvalAndSetParamsOnOneHandle) {
       }
     });
   }
-  for (int i = 0; i < 200; ++i) {
+  for (int i = 0; i < 50; ++i) {
     double a = i % 2 ? 1.0 : 2.0;
     ASSERT_EQ(hfrt_model_set_params(p.m, &a, 1), HFRT_OK);
     std::this_thread::yield();
