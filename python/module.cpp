@@ -181,7 +181,8 @@ py::object eval_typed(const PyModel& pm, const py::array& points, bool attribute
   const py::ssize_t n = check_points(points, k, "points", &single);
   auto a = py::array_t<T>::ensure(points);  // same dtype: no copy
   py::array_t<T> f(n);
-  py::array_t<T> s({n, py::ssize_t(ns)});
+  // The attributes' array only when they are asked for (it is ns times the size of f).
+  py::array_t<T> s({attributes ? n : py::ssize_t(0), py::ssize_t(ns)});
   T* fp = f.mutable_data();
   T* sp = s.mutable_data();
   {

@@ -116,7 +116,8 @@ class Model:
     @property
     def params(self):
         """The current a[] values (a list)."""
-        return list(self._m.params)
+        p = list(self._m.params)
+        return p + [0.0] * (self.num_params - len(p))
 
     @property
     def diagnostics(self):
@@ -177,6 +178,8 @@ def render(model_or_scene, size=(512, 512), camera=None, *, bbox=None, root="aut
         model = Model(_pathlib.Path(path))
     else:
         raise TypeError("render() expects a Model or a path")
+    if isinstance(bbox, (int, float)):
+        bbox = [bbox]
     if isinstance(size, int):
         width = height = size
     else:

@@ -12,13 +12,19 @@ import numpy as np
 import hfrt
 
 
+def _usage(message):
+    """A usage error: the message on stderr, exit 2 (as hfrt's)."""
+    sys.stderr.write(message + "\n")
+    sys.exit(2)
+
+
 def _floats(text, n, what):
     try:
         v = [float(t) for t in text.split(",")]
     except ValueError:
         v = []
     if len(v) != n:
-        raise SystemExit(f"hfrt: {what} expects {n} comma-separated numbers (got '{text}')")
+        _usage(f"hfrt: {what} expects {n} comma-separated numbers (got '{text}')")
     return v
 
 
@@ -29,7 +35,7 @@ def _size(text):
             return w, h
     except ValueError:
         pass
-    raise SystemExit(f"hfrt render: --size expects WxH with positive integers (got '{text}')")
+    _usage(f"hfrt render: --size expects WxH with positive integers (got '{text}')")
 
 
 def _params(text):
@@ -38,7 +44,7 @@ def _params(text):
     try:
         return [float(t) for t in text.lstrip("=").split(",")]
     except ValueError:
-        raise SystemExit(f"hfrt: -a expects numbers separated by commas, e.g. -a 1,0.5 (got '{text}')")
+        _usage(f"hfrt: -a expects numbers separated by commas, e.g. -a 1,0.5 (got '{text}')")
 
 
 def _load(args):
@@ -95,9 +101,10 @@ def cmd_render(args):
         parts = args.bbox.split(",")
         bbox = _floats(args.bbox, 6 if len(parts) == 6 else 1, "--bbox")
     background = _floats(args.background, 3, "--background") if args.background else None
+    size = _size(args.size)  # the options first, then the model (as `hfrt render`)
     m = _load(args)
     try:
-        img = hfrt.render(m, size=_size(args.size), camera=camera, bbox=bbox, root=args.root,
+        img = hfrt.render(m, size=size, camera=camera, bbox=bbox, root=args.root,
                           spp=args.spp, threads=args.threads, shadows=not args.no_shadows,
                           background=background)
         hfrt.write_image(args.output, img)

@@ -403,4 +403,4 @@ def test_main_render_writes_an_image(tmp_path):
     r = _py(["render", str(bad), "-o", str(out)])
     assert r.returncode == 1 and f"{bad}:1:" in r.stderr
     r = _py(["render", str(bad), "-o", str(out), "--size", "big"])
-    assert r.returncode != 0 and "--size" in r.stderr
+    assert r.returncode == 2 and "--size" in r.stderr
