@@ -154,10 +154,22 @@ void for_blocks(const py::array_t<T>& a, py::ssize_t n, int k, bool single, Eval
   std::vector<T> buf(size_t(kBlock) * size_t(k));
   for (py::ssize_t start = 0; start < n; start += kBlock) {
     const py::ssize_t m = std::min(kBlock, n - start);
-    for (int c = 0; c < k; ++c) {
-      T* dst = buf.data() + size_t(c) * size_t(m);
-      const T* src = base + start * s0 + c * s1;
-      for (py::ssize_t i = 0; i < m; ++i) dst[i] = src[i * s0];
+    // One sequential pass over the rows (the input is read once, in memory order; the
+    // block's k columns stay in L1/L2 for the evaluator).
+    const T* src = base + start * s0;
+    T* dst = buf.data();
+    if (k == 3 && s1 == 1) {
+      T* dy = dst + m;
+      T* dz = dy + m;
+      for (py::ssize_t i = 0; i < m; ++i, src += s0) {
+        dst[i] = src[0];
+        dy[i] = src[1];
+        dz[i] = src[2];
+      }
+    } else {
+      for (py::ssize_t i = 0; i < m; ++i, src += s0) {
+        for (int c = 0; c < k; ++c) dst[size_t(c) * size_t(m) + size_t(i)] = src[c * s1];
+      }
     }
     eval(m, buf.data(), start);
   }
