@@ -21,7 +21,7 @@ from collections import defaultdict
 
 # Allowed dependencies, lowest layer first.  A folder may always include itself.
 # "*" allows any folder; "!name" then forbids one folder again.
-LIBS = ["base", "lang", "ir", "stdlib", "geom", "jit", "render", "app", "capi"]
+LIBS = ["base", "lang", "ir", "stdlib", "geom", "jit", "render", "app"]
 LAYERS = {
     "base": set(),                                      # checks, Result, files, Vec3/Box/Interval, timers
     "lang": {"base"},                                   # HyperFun lexer, parser, sema
@@ -31,14 +31,15 @@ LAYERS = {
     "jit": {"stdlib", "ir", "lang", "base", "geom"},    # lowering, interpreters, LLVM; owns hfrt/*.h
     "render": {"base"},                                 # ray tracer, knows fields not models
     "app": {"jit", "render", "geom", "stdlib", "ir", "lang", "base"},  # joins models and renderer
-    "capi": {"app", "jit", "render", "geom", "stdlib", "ir", "lang", "base"},  # libhfrt.so: C API
-    "python": {"capi", "jit"},                          # the Python module: public headers only
     "testsupport": set(LIBS),                           # test helpers shared by tests/ and bench/
     "tools": set(LIBS),                                 # the hfrt command-line tool
     "tests": {"*"},                                     # top: anything
     "bench": {"*", "!tests"},                           # top, but not the test tree
     "examples": {"*"},                                  # top: anything
     "fuzz": {"*"},                                      # top: anything
+    # hfrt as a library (issue 19): above app/, beside tools/.
+    "capi": {"app", "jit", "render", "geom", "stdlib", "ir", "lang", "base"},  # libhfrt.so: C API
+    "python": {"capi", "jit"},                          # the Python module: public headers only
 }
 PUBLIC_DIRS = {"hfrt": "jit"}   # `hfrt/x.h` resolves to jit/include/hfrt/x.h
 SEARCH_ROOTS = ["", "jit/include", "capi/include"]  # -I paths, relative to the repo root
