@@ -5,10 +5,11 @@
 2. The installed include/ holds the public headers only (hfrt/hfrt.h, model.h, render.h).
 3. Builds, outside the source and build trees, against the installed files only:
    - examples/embed/c/main.c with `cc -std=c99 $(pkg-config --cflags --libs hfrt)`;
-   - examples/embed/cmake (find_package(hfrt) -> hfrt::hfrt) with a fresh CMake project.
-4. Runs both, the installed `hfrt eval` and (with --python) the installed Python module
-   (`python3 -m hfrt eval`) on the same points of corpus models and requires the four outputs
-   to be byte-identical (17 significant digits: bit-identical doubles).
+   - examples/embed/cmake (find_package(hfrt) -> hfrt::hfrt) with a fresh CMake project: the
+     C++ example and the C example again.
+4. Runs them, the installed `hfrt eval` and (with --python) the installed Python module
+   (`python3 -m hfrt eval`) on the same points of corpus models and requires every output to
+   be byte-identical to `hfrt eval`'s (17 significant digits: bit-identical doubles).
 """
 import argparse
 import os
@@ -94,7 +95,7 @@ def main():
         cxx_build = os.path.join(tmp, "cxx")
         run([args.cmake, "-S", os.path.join(args.source, "examples/embed/cmake"), "-B", cxx_build,
              "-G", args.generator, "-DCMAKE_BUILD_TYPE=Release", "-DCMAKE_PREFIX_PATH=" + prefix,
-             "-DCMAKE_CXX_COMPILER=" + args.cxx], env=env, cwd=tmp)
+             "-DCMAKE_CXX_COMPILER=" + args.cxx, "-DCMAKE_C_COMPILER=" + args.cc], env=env, cwd=tmp)
         run([args.cmake, "--build", cxx_build], env=env, cwd=tmp)
         cxx_exe = os.path.join(cxx_build, "hfrt_eval_cxx")
         hfrt_exe = os.path.join(prefix, "bin", "hfrt")
@@ -111,7 +112,9 @@ def main():
             ref = run([hfrt_exe, "eval", model] + opts, input=pts, env=env)
             positional = [obj, params] if params else ([obj] if obj else [])
             outs = {"c (pkg-config)": run([c_exe, model] + positional, input=pts, env=env),
-                    "c++ (find_package)": run([cxx_exe, model] + positional, input=pts, env=env)}
+                    "c++ (find_package)": run([cxx_exe, model] + positional, input=pts, env=env),
+                    "c (find_package)": run([os.path.join(cxx_build, "hfrt_eval_c_cmake"), model] +
+                                            positional, input=pts, env=env)}
             if args.python:
                 outs["python -m hfrt"] = run([args.python, "-m", "hfrt", "eval", model] + opts,
                                              input=pts, env=py_env, cwd=tmp)
@@ -128,7 +131,7 @@ def main():
              png], env=env)
         if not os.path.getsize(png):
             sys.exit("the C++ consumer wrote an empty image")
-        print(f"install test: OK ({checked} values x {2 + bool(args.python)} consumers "
+        print(f"install test: OK ({checked} values x {3 + bool(args.python)} consumers "
               f"identical to hfrt eval, {len(MODELS)} corpus models)")
     finally:
         if args.keep:
