@@ -30,7 +30,6 @@ LAYERS = {
     "geom": {"base"},                                   # meshes, BVH, patches
     "jit": {"stdlib", "ir", "lang", "base", "geom"},    # lowering, interpreters, LLVM; owns hfrt/*.h
     "render": {"base"},                                 # ray tracer, knows fields not models
-    "scene": {"render", "base"},                        # scene files (TOML) into SceneDescs
     "app": {"jit", "render", "geom", "stdlib", "ir", "lang", "base"},  # joins models and renderer
     "testsupport": set(LIBS),                           # test helpers shared by tests/ and bench/
     "tools": set(LIBS),                                 # the hfrt command-line tool
@@ -39,7 +38,7 @@ LAYERS = {
     "examples": {"*"},                                  # top: anything
     "fuzz": {"*"},                                      # top: anything
     # hfrt as a library (issue 19): above app/, beside tools/.
-    "capi": {"app", "jit", "render", "scene", "geom", "stdlib", "ir", "lang", "base"},  # libhfrt.so: C API
+    "capi": {"app", "jit", "render", "geom", "stdlib", "ir", "lang", "base"},  # libhfrt.so: C API
     "python": {"capi", "jit"},                          # the Python module: public headers only
 }
 PUBLIC_DIRS = {"hfrt": "jit"}   # `hfrt/x.h` resolves to jit/include/hfrt/x.h
