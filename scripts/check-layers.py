@@ -38,7 +38,7 @@ LAYERS = {
     "examples": {"*"},                                  # top: anything
     "fuzz": {"*"},                                      # top: anything
     # hfrt as a library (issue 19): above app/, beside tools/.
-    "capi": {"app", "jit", "render", "geom", "stdlib", "ir", "lang", "base"},  # libhfrt.so: C API
+    "capi": {"app", "jit", "render", "scene", "geom", "stdlib", "ir", "lang", "base"},  # libhfrt.so: C API
     "python": {"capi", "jit"},                          # the Python module: public headers only
 }
 PUBLIC_DIRS = {"hfrt": "jit"}   # `hfrt/x.h` resolves to jit/include/hfrt/x.h
