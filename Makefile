@@ -3,7 +3,7 @@ BUILD_DIR ?= build
 JOBS ?= $(shell nproc)
 CMAKE_FLAGS ?= -G Ninja -DCMAKE_BUILD_TYPE=Release
 
-.PHONY: all deps configure build demo test bench bench-render bench-peers bench-mesh clean format
+.PHONY: all deps configure build demo test bench bench-render bench-peers bench-mesh bench-scenes clean format package
 
 all: build
 
@@ -46,8 +46,20 @@ bench-mesh: build
 	@cmake --build $(BUILD_DIR) --target hfrt hfrt_bench_mesh_tool -j $(JOBS)
 	@/usr/bin/python3 bench/mesher/mesh_vs_grid.py --build $(BUILD_DIR) $(MESH_ARGS)
 
+# hfrt vs POV-Ray 3.7 on the scene files of examples/scenes (reflection, refraction, area
+# lights, depth of field): wall times side by side, the max-depth-0 cost, images side by side
+# in out/bench-scenes. SCENES_ARGS: e.g. --size 320x240 --spp 1 --threads 2.
+SCENES_ARGS ?= --size 320x240 --spp 1
+bench-scenes: build
+	@/usr/bin/python3 bench/peers/povray_scenes --build-dir $(BUILD_DIR) $(SCENES_ARGS)
+
 clean:
 	@rm -rf $(BUILD_DIR) out
 
 format:
 	@git ls-files '*.cpp' '*.h' | xargs clang-format -i
+
+# The Debian package (CPack, cmake/HfrtPackage.cmake): $(BUILD_DIR)/hfrt_VERSION_amd64.deb.
+# Install it with `sudo apt-get install ./$(BUILD_DIR)/hfrt_*.deb`.
+package: build
+	@cd $(BUILD_DIR) && cpack -G DEB

@@ -39,9 +39,12 @@ LAYERS = {
     "bench": {"*", "!tests"},                           # top, but not the test tree
     "examples": {"*"},                                  # top: anything
     "fuzz": {"*"},                                      # top: anything
+    # hfrt as a library (issue 19): above app/, beside tools/.
+    "capi": {"app", "jit", "render", "scene", "geom", "stdlib", "ir", "lang", "base"},  # libhfrt.so: C API
+    "python": {"capi", "jit"},                          # the Python module: public headers only
 }
 PUBLIC_DIRS = {"hfrt": "jit"}   # `hfrt/x.h` resolves to jit/include/hfrt/x.h
-SEARCH_ROOTS = ["", "jit/include"]  # -I paths, relative to the repo root
+SEARCH_ROOTS = ["", "jit/include", "capi/include"]  # -I paths, relative to the repo root
 EXTS = (".h", ".hpp", ".cpp", ".cc", ".c")
 INCLUDE_RE = re.compile(r'^\s*#\s*include\s*([<"])([^">]+)[">]')
 
