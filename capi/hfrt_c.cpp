@@ -495,4 +495,27 @@ hfrt_status hfrt_render_model(const hfrt_model* model, const hfrt_render_options
   });
 }
 
+hfrt_status hfrt_render_scene_file(const char* path, int32_t width, int32_t height, int32_t threads,
+                                   float* rgba, int64_t rgba_len) {
+  static const char* kFn = "hfrt_render_scene_file";
+  return guard(kFn, [&]() -> hfrt_status {
+    if (path == nullptr) return bad_arg(kFn, "path is NULL");
+    if (rgba == nullptr) return bad_arg(kFn, "rgba is NULL");
+    if (rgba_len < 0) return bad_arg(kFn, "rgba_len is negative");
+    hfrt::RenderOutcome r =
+        hfrt::render_scene_file(path, width, height, rgba, size_t(rgba_len), threads);
+    switch (r.status) {
+      case hfrt::RenderOutcome::Status::kOk:
+        return HFRT_OK;
+      case hfrt::RenderOutcome::Status::kInvalidSettings:
+        return bad_arg(kFn, r.error);
+      case hfrt::RenderOutcome::Status::kSourceError:
+        return fail(HFRT_ERROR_RENDER, kFn, r.error, path);
+      case hfrt::RenderOutcome::Status::kRenderError:
+        break;
+    }
+    return fail(HFRT_ERROR_RENDER, kFn, std::string(kFn) + ": " + r.error);
+  });
+}
+
 }  // extern "C"

@@ -7,8 +7,10 @@
 #include <exception>
 
 #include "app/render_job.h"
+#include "app/scene_job.h"
 #include "render/image.h"
 #include "render/renderer.h"
+#include "scene/scene_file.h"
 
 namespace hfrt {
 namespace {
@@ -116,6 +118,60 @@ RenderOutcome render_model(const Model& model, const RenderSettings& settings, f
         return fail(RenderOutcome::Status::kSourceError, done.error);
       case app::RenderJobStatus::kUsageError:
       case app::RenderJobStatus::kCancelled:
+        return fail(RenderOutcome::Status::kRenderError, done.error);
+    }
+    const render::Image& img = result.image;
+    for (size_t i = 0; i < pixels; ++i) {
+      rgba[4 * i] = img.rgb[3 * i];
+      rgba[4 * i + 1] = img.rgb[3 * i + 1];
+      rgba[4 * i + 2] = img.rgb[3 * i + 2];
+      rgba[4 * i + 3] = img.alpha[i];
+    }
+  } catch (const std::exception& e) {
+    return fail(RenderOutcome::Status::kRenderError, std::string("render failed: ") + e.what());
+  }
+  return outcome;
+}
+
+RenderOutcome render_scene_file(const std::string& path, int width, int height, float* rgba,
+                                size_t rgba_len, int threads) {
+  RenderOutcome outcome;
+  auto fail = [&](RenderOutcome::Status status, std::string message) {
+    outcome.status = status;
+    outcome.error = std::move(message);
+    return outcome;
+  };
+  if (width < 1 || height < 1 || width > 32768 || height > 32768) {
+    return fail(RenderOutcome::Status::kInvalidSettings, "width and height must be 1..32768");
+  }
+  if (threads < 0) return fail(RenderOutcome::Status::kInvalidSettings, "threads is negative");
+  const size_t pixels = size_t(width) * size_t(height);
+  if (rgba == nullptr) return fail(RenderOutcome::Status::kInvalidSettings, "rgba is null");
+  if (rgba_len < 4 * pixels) {
+    return fail(RenderOutcome::Status::kInvalidSettings,
+                "rgba has " + std::to_string(rgba_len) + " floats, a " + std::to_string(width) +
+                    "x" + std::to_string(height) + " image needs " + std::to_string(4 * pixels));
+  }
+  try {
+    scene::SceneDesc desc;
+    scene::SceneError err;
+    if (!scene::read_scene_file(path, &desc, &err)) {
+      return fail(RenderOutcome::Status::kSourceError, err.render());
+    }
+    app::SceneOverrides ov;
+    ov.size = std::array<int, 2>{width, height};
+    ov.threads = threads;
+    render::TraceResult result;
+    app::SceneJobResult done = app::run_scene_job(desc, ov, nullptr, nullptr, &result);
+    outcome.warnings = done.warnings;
+    switch (done.status) {
+      case app::SceneJobStatus::kOk:
+        break;
+      case app::SceneJobStatus::kSourceError:
+        return fail(RenderOutcome::Status::kSourceError, done.error);
+      case app::SceneJobStatus::kEnvironment:
+      case app::SceneJobStatus::kUsageError:
+      case app::SceneJobStatus::kCancelled:
         return fail(RenderOutcome::Status::kRenderError, done.error);
     }
     const render::Image& img = result.image;

@@ -403,6 +403,36 @@ py::array render(const PyModel& pm, int width, int height, const py::dict& camer
   throw std::runtime_error(r.error);
 }
 
+/// hfrt.render of a scene file: the scene's settings, the caller's size and threads.
+py::array render_scene(const std::string& path, int width, int height, int threads) {
+  if (width < 1 || height < 1) throw py::value_error("size must be positive");
+  py::array_t<float> out({py::ssize_t(height), py::ssize_t(width), py::ssize_t(4)});
+  float* p = out.mutable_data();
+  const size_t len = size_t(width) * size_t(height) * 4;
+  RenderOutcome r;
+  {
+    py::gil_scoped_release release;
+    r = render_scene_file(path, width, height, p, len, threads);
+  }
+  for (const std::string& w : r.warnings) {
+    PyErr_WarnEx(PyExc_RuntimeWarning, w.c_str(), 1);
+  }
+  switch (r.status) {
+    case RenderOutcome::Status::kOk:
+      return out;
+    case RenderOutcome::Status::kInvalidSettings:
+      throw py::value_error(r.error);
+    case RenderOutcome::Status::kSourceError: {
+      py::object err = g_compile_error(r.error, py::list());
+      PyErr_SetObject(g_compile_error.ptr(), err.ptr());
+      throw py::error_already_set();
+    }
+    case RenderOutcome::Status::kRenderError:
+      break;
+  }
+  throw std::runtime_error(r.error);
+}
+
 }  // namespace
 }  // namespace hfrt::python
 
@@ -439,6 +469,9 @@ PYBIND11_MODULE(_hfrt, mod) {
       .def("render", &render, py::arg("width"), py::arg("height"), py::arg("camera"),
            py::arg("bbox"), py::arg("root"), py::arg("spp"), py::arg("threads"), py::arg("shadows"),
            py::arg("background"));
+
+  mod.def("_render_scene", &render_scene, py::arg("path"), py::arg("width"), py::arg("height"),
+          py::arg("threads"));
 
   mod.def(
       "write_image",

@@ -164,17 +164,21 @@ def render(model_or_scene, size=(512, 512), camera=None, *, bbox=None, root="aut
     width); what is missing is framed automatically. bbox: 6 values (or one half-size).
     root: 'auto', 'sign', 'interval' or 'analytic'.
 
-    Scene files (.toml) are not supported yet: the scene loader is not part of this hfrt
-    version (NotImplementedError).
+    A scene file (.toml, docs/scenes.md) is traced with its own camera, lights, materials and
+    settings at `size` on `threads`; the other arguments must be left at their defaults. A bad
+    scene or a model that does not compile raises CompileError with the located message.
     """
     if isinstance(model_or_scene, Model):
         model = model_or_scene
     elif isinstance(model_or_scene, (str, _os.PathLike)):
         path = _os.fspath(model_or_scene)
         if path.lower().endswith(".toml"):
-            raise NotImplementedError(
-                "hfrt.render: scene files are not supported by this version of hfrt "
-                "(render a Model or a .hf file)")
+            if camera is not None or bbox is not None or root != "auto" or spp != 1 or \
+                    not shadows or background is not None:
+                raise ValueError("hfrt.render: a scene file sets camera, bbox, root, spp, "
+                                 "shadows and background itself (pass size and threads only)")
+            width, height = (size, size) if isinstance(size, int) else (int(v) for v in size)
+            return _hfrt._render_scene(path, width, height, int(threads))
         model = Model(_pathlib.Path(path))
     else:
         raise TypeError("render() expects a Model or a path")

@@ -4,6 +4,7 @@
 // and rendering into a caller's buffer (coverage against the disk's area).
 
 #include <gtest/gtest.h>
+#include <unistd.h>
 
 #include <atomic>
 #include <cmath>
@@ -481,3 +482,56 @@ TEST(CApi, AnalyticRootOnANonPolynomialModelIsLocated) {
 }
 
 }  // namespace
+
+namespace {
+
+/// Writes `text` to a file of the temporary folder and returns its path.
+std::string temp_file(const std::string& name, const std::string& text) {
+  std::string path = ::testing::TempDir() + "hfrt_capi_" + std::to_string(::getpid()) + "_" + name;
+  std::ofstream(path) << text;
+  return path;
+}
+
+}  // namespace
+
+// A scene file through the C API: an emitting ball (ambient 1, no diffuse or highlight) of a
+// known colour, seen orthographically: the centre pixel has exactly that colour, a corner the
+// scene's background.
+TEST(CApi, RenderSceneFile) {
+  std::string ball = temp_file("ball.hf",
+                               "my_model(x[3], a[1]) { my_model = 1 - sqrt(x[1]*x[1] + "
+                               "x[2]*x[2] + x[3]*x[3]); }\n");
+  std::string scene =
+      temp_file("s.toml",
+                "[camera]\neye = [0, 0, 5]\nlook_at = [0, 0, 0]\northo = 4\n"
+                "[render]\nbackground = [0, 0, 1]\n"
+                "[material.lamp]\ncolor = [0.25, 0.5, 0.75]\nambient = 1\ndiffuse = 0\n"
+                "specular = 0\n[[object]]\nfile = \"" +
+                    ball + "\"\nbbox = [-2, -2, -2, 2, 2, 2]\nmaterial = \"lamp\"\n");
+  const int w = 16, h = 16;
+  std::vector<float> rgba(4 * w * h, -1.0f);
+  ASSERT_EQ(hfrt_render_scene_file(scene.c_str(), w, h, 2, rgba.data(), int64_t(rgba.size())),
+            HFRT_OK)
+      << hfrt_last_error_message();
+  const int c = 4 * (h / 2 * w + w / 2);
+  EXPECT_FLOAT_EQ(rgba[c], 0.25f);
+  EXPECT_FLOAT_EQ(rgba[c + 1], 0.5f);
+  EXPECT_FLOAT_EQ(rgba[c + 2], 0.75f);
+  EXPECT_EQ(rgba[c + 3], 1.0f);
+  EXPECT_EQ(rgba[2], 1.0f);  // the corner sees the background
+  EXPECT_EQ(rgba[3], 0.0f);
+  // Errors: a located scene error, NULL pointers, a small buffer.
+  std::string bad = temp_file("bad.toml", "[render]\nspp = 0\n");
+  EXPECT_EQ(hfrt_render_scene_file(bad.c_str(), w, h, 0, rgba.data(), int64_t(rgba.size())),
+            HFRT_ERROR_RENDER);
+  EXPECT_NE(std::string(hfrt_last_error_message()).find(bad + ":2:7: error: "), std::string::npos)
+      << hfrt_last_error_message();
+  EXPECT_EQ(hfrt_render_scene_file(nullptr, w, h, 0, rgba.data(), 4), HFRT_ERROR_INVALID_ARGUMENT);
+  EXPECT_EQ(hfrt_render_scene_file(scene.c_str(), w, h, 0, nullptr, 4),
+            HFRT_ERROR_INVALID_ARGUMENT);
+  EXPECT_EQ(hfrt_render_scene_file(scene.c_str(), w, h, 0, rgba.data(), 5),
+            HFRT_ERROR_INVALID_ARGUMENT);
+  std::remove(ball.c_str());
+  std::remove(scene.c_str());
+  std::remove(bad.c_str());
+}

@@ -352,14 +352,33 @@ def test_render_errors(model, tmp_path):
         hfrt.render(model, size=8, bbox=[1, 2, 3])
     with pytest.raises(RuntimeError):
         hfrt.render(model, size=8, camera={"eye": [0, 0, 0], "look_at": [0, 0, 0]})
-    with pytest.raises(NotImplementedError, match="scene files"):
-        hfrt.render(tmp_path / "scene.toml", size=8)
+    (tmp_path / "bad.toml").write_text("[render]\nspp = 0\n")
+    with pytest.raises(hfrt.CompileError, match="bad.toml:2:7: error"):
+        hfrt.render(tmp_path / "bad.toml", size=8)
+    with pytest.raises(ValueError, match="scene file sets camera"):
+        hfrt.render(tmp_path / "bad.toml", size=8, camera={"fov": 30})
     with pytest.raises(TypeError):
         hfrt.render(3.0)
     m = hfrt.Model("my_model(x[3], a[1])\n{\n  my_model = 1 - sin(x[1]) - x[2]*x[2];\n}\n",
                    name="sin.hf")
     with pytest.raises(hfrt.CompileError, match="sin.hf:3:"):
         hfrt.render(m, size=8, root="analytic")
+
+
+def test_render_a_scene_file(tmp_path):
+    # An emitting ball of a known colour, seen orthographically: the centre pixel has exactly
+    # that colour, a corner the scene's background.
+    (tmp_path / "ball.hf").write_text(
+        "my_model(x[3], a[1]) { my_model = 1 - sqrt(x[1]*x[1] + x[2]*x[2] + x[3]*x[3]); }\n")
+    (tmp_path / "s.toml").write_text(
+        "[camera]\neye = [0, 0, 5]\nlook_at = [0, 0, 0]\northo = 4\n"
+        "[render]\nbackground = [0, 0, 1]\n"
+        "[material.lamp]\ncolor = [0.25, 0.5, 0.75]\nambient = 1\ndiffuse = 0\nspecular = 0\n"
+        "[[object]]\nfile = \"ball.hf\"\nbbox = [-2, -2, -2, 2, 2, 2]\nmaterial = \"lamp\"\n")
+    img = hfrt.render(tmp_path / "s.toml", size=(16, 12), threads=2)
+    assert img.shape == (12, 16, 4) and img.dtype == np.float32
+    assert np.allclose(img[6, 8], [0.25, 0.5, 0.75, 1.0])
+    assert np.allclose(img[0, 0], [0, 0, 1, 0])
 
 
 def test_render_a_path_and_write_image(tmp_path):

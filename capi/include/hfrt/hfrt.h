@@ -198,12 +198,17 @@ void hfrt_render_options_init(hfrt_render_options* options);
  * floats each (linear RGB and the alpha coverage), rgba_len >= 4 * width * height.
  * HFRT_ERROR_RENDER when the camera is degenerate or HFRT_ROOT_ANALYTIC is asked for a model
  * that does not qualify (the message is then located in the source).
- *
- * Scene files (scene/scene_file.h, several models with materials and lights) cannot be
- * rendered through this API yet: their loader is not part of hfrt at this version. TODO:
- * hfrt_render_scene_file(path, options, rgba, rgba_len) once it exists. */
+ * Scene files: hfrt_render_scene_file(). */
 hfrt_status hfrt_render_model(const hfrt_model* model, const hfrt_render_options* options,
                               float* rgba, int64_t rgba_len);
+
+/** Traces a scene file (docs/scenes.md: placed models with materials and lights, reflection,
+ * refraction, soft shadows, depth of field) into `rgba` as hfrt_render_model does, with the
+ * scene's settings except the size (width x height) and `threads` (0: all cores).
+ * HFRT_ERROR_RENDER with the located message for a bad scene file or a model that does not
+ * compile; HFRT_ERROR_INVALID_ARGUMENT for a NULL or small buffer or a bad size. */
+hfrt_status hfrt_render_scene_file(const char* path, int32_t width, int32_t height, int32_t threads,
+                                   float* rgba, int64_t rgba_len);
 
 #ifdef __cplusplus
 }

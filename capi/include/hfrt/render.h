@@ -60,6 +60,14 @@ struct RenderOutcome {
 RenderOutcome render_model(const Model& model, const RenderSettings& settings, float* rgba,
                            size_t rgba_len, const std::string& file = "<model>");
 
+/// Traces a scene file (docs/scenes.md: several placed models with materials and lights,
+/// reflection, refraction, soft shadows, depth of field) into `rgba` as render_model does, with
+/// the scene's own settings except the image size (width x height, which the caller allocated)
+/// and `threads` (0: all cores). A bad scene file or a model that does not compile is
+/// kSourceError with the located message; never throws.
+RenderOutcome render_scene_file(const std::string& path, int width, int height, float* rgba,
+                                size_t rgba_len, int threads = 0);
+
 /// Writes an RGBA buffer as render_model fills it to `path`; the format follows the extension
 /// (PNG, EXR, TIFF, JPEG; 8- and 16-bit formats get sRGB-encoded colour, EXR keeps linear
 /// floats and alpha). Returns "" on success, else the message.
