@@ -179,6 +179,22 @@ hfrt_status compile(const char* function, const std::string& source_or_path, boo
   return HFRT_OK;
 }
 
+/// The status of a render (hfrt::render_model, hfrt::render_scene_file), its error recorded;
+/// `file` locates a source error.
+hfrt_status render_status(const char* fn, const hfrt::RenderOutcome& r, const std::string& file) {
+  switch (r.status) {
+    case hfrt::RenderOutcome::Status::kOk:
+      return HFRT_OK;
+    case hfrt::RenderOutcome::Status::kInvalidSettings:
+      return bad_arg(fn, r.error);
+    case hfrt::RenderOutcome::Status::kSourceError:
+      return fail(HFRT_ERROR_RENDER, fn, r.error, file);
+    case hfrt::RenderOutcome::Status::kRenderError:
+      break;
+  }
+  return fail(HFRT_ERROR_RENDER, fn, std::string(fn) + ": " + r.error);
+}
+
 }  // namespace
 
 extern "C" {
@@ -481,17 +497,7 @@ hfrt_status hfrt_render_model(const hfrt_model* model, const hfrt_render_options
     std::shared_lock lock(model->mutex);
     hfrt::RenderOutcome r =
         hfrt::render_model(model->model, s, rgba, size_t(rgba_len), model->file);
-    switch (r.status) {
-      case hfrt::RenderOutcome::Status::kOk:
-        return HFRT_OK;
-      case hfrt::RenderOutcome::Status::kInvalidSettings:
-        return bad_arg(kFn, r.error);
-      case hfrt::RenderOutcome::Status::kSourceError:
-        return fail(HFRT_ERROR_RENDER, kFn, r.error, model->file);
-      case hfrt::RenderOutcome::Status::kRenderError:
-        break;
-    }
-    return fail(HFRT_ERROR_RENDER, kFn, std::string(kFn) + ": " + r.error);
+    return render_status(kFn, r, model->file);
   });
 }
 
@@ -504,17 +510,7 @@ hfrt_status hfrt_render_scene_file(const char* path, int32_t width, int32_t heig
     if (rgba_len < 0) return bad_arg(kFn, "rgba_len is negative");
     hfrt::RenderOutcome r =
         hfrt::render_scene_file(path, width, height, rgba, size_t(rgba_len), threads);
-    switch (r.status) {
-      case hfrt::RenderOutcome::Status::kOk:
-        return HFRT_OK;
-      case hfrt::RenderOutcome::Status::kInvalidSettings:
-        return bad_arg(kFn, r.error);
-      case hfrt::RenderOutcome::Status::kSourceError:
-        return fail(HFRT_ERROR_RENDER, kFn, r.error, path);
-      case hfrt::RenderOutcome::Status::kRenderError:
-        break;
-    }
-    return fail(HFRT_ERROR_RENDER, kFn, std::string(kFn) + ": " + r.error);
+    return render_status(kFn, r, path);
   });
 }
 

@@ -67,6 +67,27 @@ render::RootMode to_root(RootSearch r) {
   return render::RootMode::kAuto;
 }
 
+/// "" when `rgba` holds a width x height RGBA image (4 floats a pixel), else why not.
+std::string check_rgba(int width, int height, const float* rgba, size_t rgba_len) {
+  const size_t pixels = size_t(width) * size_t(height);
+  if (rgba == nullptr) return "rgba is null";
+  if (rgba_len < 4 * pixels) {
+    return "rgba has " + std::to_string(rgba_len) + " floats, a " + std::to_string(width) + "x" +
+           std::to_string(height) + " image needs " + std::to_string(4 * pixels);
+  }
+  return "";
+}
+
+/// The image's linear RGB and alpha coverage into `rgba`, 4 floats a pixel.
+void copy_rgba(const render::Image& img, float* rgba) {
+  for (size_t i = 0; i < img.pixels(); ++i) {
+    rgba[4 * i] = img.rgb[3 * i];
+    rgba[4 * i + 1] = img.rgb[3 * i + 1];
+    rgba[4 * i + 2] = img.rgb[3 * i + 2];
+    rgba[4 * i + 3] = img.alpha[i];
+  }
+}
+
 }  // namespace
 
 RenderOutcome render_model(const Model& model, const RenderSettings& settings, float* rgba,
@@ -79,14 +100,8 @@ RenderOutcome render_model(const Model& model, const RenderSettings& settings, f
   };
   std::string bad = check_settings(settings);
   if (!bad.empty()) return fail(RenderOutcome::Status::kInvalidSettings, bad);
-  const size_t pixels = size_t(settings.width) * size_t(settings.height);
-  if (rgba == nullptr) return fail(RenderOutcome::Status::kInvalidSettings, "rgba is null");
-  if (rgba_len < 4 * pixels) {
-    return fail(RenderOutcome::Status::kInvalidSettings,
-                "rgba has " + std::to_string(rgba_len) + " floats, a " +
-                    std::to_string(settings.width) + "x" + std::to_string(settings.height) +
-                    " image needs " + std::to_string(4 * pixels));
-  }
+  bad = check_rgba(settings.width, settings.height, rgba, rgba_len);
+  if (!bad.empty()) return fail(RenderOutcome::Status::kInvalidSettings, bad);
   try {
     app::RenderJob job;
     job.model = &model;
@@ -120,13 +135,7 @@ RenderOutcome render_model(const Model& model, const RenderSettings& settings, f
       case app::RenderJobStatus::kCancelled:
         return fail(RenderOutcome::Status::kRenderError, done.error);
     }
-    const render::Image& img = result.image;
-    for (size_t i = 0; i < pixels; ++i) {
-      rgba[4 * i] = img.rgb[3 * i];
-      rgba[4 * i + 1] = img.rgb[3 * i + 1];
-      rgba[4 * i + 2] = img.rgb[3 * i + 2];
-      rgba[4 * i + 3] = img.alpha[i];
-    }
+    copy_rgba(result.image, rgba);
   } catch (const std::exception& e) {
     return fail(RenderOutcome::Status::kRenderError, std::string("render failed: ") + e.what());
   }
@@ -145,13 +154,8 @@ RenderOutcome render_scene_file(const std::string& path, int width, int height, 
     return fail(RenderOutcome::Status::kInvalidSettings, "width and height must be 1..32768");
   }
   if (threads < 0) return fail(RenderOutcome::Status::kInvalidSettings, "threads is negative");
-  const size_t pixels = size_t(width) * size_t(height);
-  if (rgba == nullptr) return fail(RenderOutcome::Status::kInvalidSettings, "rgba is null");
-  if (rgba_len < 4 * pixels) {
-    return fail(RenderOutcome::Status::kInvalidSettings,
-                "rgba has " + std::to_string(rgba_len) + " floats, a " + std::to_string(width) +
-                    "x" + std::to_string(height) + " image needs " + std::to_string(4 * pixels));
-  }
+  std::string bad = check_rgba(width, height, rgba, rgba_len);
+  if (!bad.empty()) return fail(RenderOutcome::Status::kInvalidSettings, bad);
   try {
     scene::SceneDesc desc;
     scene::SceneError err;
@@ -174,13 +178,7 @@ RenderOutcome render_scene_file(const std::string& path, int width, int height, 
       case app::SceneJobStatus::kCancelled:
         return fail(RenderOutcome::Status::kRenderError, done.error);
     }
-    const render::Image& img = result.image;
-    for (size_t i = 0; i < pixels; ++i) {
-      rgba[4 * i] = img.rgb[3 * i];
-      rgba[4 * i + 1] = img.rgb[3 * i + 1];
-      rgba[4 * i + 2] = img.rgb[3 * i + 2];
-      rgba[4 * i + 3] = img.alpha[i];
-    }
+    copy_rgba(result.image, rgba);
   } catch (const std::exception& e) {
     return fail(RenderOutcome::Status::kRenderError, std::string("render failed: ") + e.what());
   }

@@ -340,6 +340,29 @@ RootSearch parse_root(const std::string& root) {
                         "')");
 }
 
+/// A render's image, or its error as a Python exception (ValueError for bad settings,
+/// CompileError for located source errors, RuntimeError otherwise); warnings become Python
+/// RuntimeWarnings.
+py::array render_result(const RenderOutcome& r, py::array out) {
+  for (const std::string& w : r.warnings) {
+    PyErr_WarnEx(PyExc_RuntimeWarning, w.c_str(), 1);
+  }
+  switch (r.status) {
+    case RenderOutcome::Status::kOk:
+      return out;
+    case RenderOutcome::Status::kInvalidSettings:
+      throw py::value_error(r.error);
+    case RenderOutcome::Status::kSourceError: {
+      py::object err = g_compile_error(r.error, py::list());
+      PyErr_SetObject(g_compile_error.ptr(), err.ptr());
+      throw py::error_already_set();
+    }
+    case RenderOutcome::Status::kRenderError:
+      break;
+  }
+  throw std::runtime_error(r.error);
+}
+
 py::array render(const PyModel& pm, int width, int height, const py::dict& camera,
                  const py::object& bbox, const std::string& root, int spp, int threads,
                  bool shadows, const py::object& background) {
@@ -384,23 +407,7 @@ py::array render(const PyModel& pm, int width, int height, const py::dict& camer
     std::shared_lock lock(pm.mutex);
     r = render_model(pm.m(), s, p, len, pm.file);
   }
-  for (const std::string& w : r.warnings) {
-    PyErr_WarnEx(PyExc_RuntimeWarning, w.c_str(), 1);
-  }
-  switch (r.status) {
-    case RenderOutcome::Status::kOk:
-      return out;
-    case RenderOutcome::Status::kInvalidSettings:
-      throw py::value_error(r.error);
-    case RenderOutcome::Status::kSourceError: {
-      py::object err = g_compile_error(r.error, py::list());
-      PyErr_SetObject(g_compile_error.ptr(), err.ptr());
-      throw py::error_already_set();
-    }
-    case RenderOutcome::Status::kRenderError:
-      break;
-  }
-  throw std::runtime_error(r.error);
+  return render_result(r, std::move(out));
 }
 
 /// hfrt.render of a scene file: the scene's settings, the caller's size and threads.
@@ -414,23 +421,7 @@ py::array render_scene(const std::string& path, int width, int height, int threa
     py::gil_scoped_release release;
     r = render_scene_file(path, width, height, p, len, threads);
   }
-  for (const std::string& w : r.warnings) {
-    PyErr_WarnEx(PyExc_RuntimeWarning, w.c_str(), 1);
-  }
-  switch (r.status) {
-    case RenderOutcome::Status::kOk:
-      return out;
-    case RenderOutcome::Status::kInvalidSettings:
-      throw py::value_error(r.error);
-    case RenderOutcome::Status::kSourceError: {
-      py::object err = g_compile_error(r.error, py::list());
-      PyErr_SetObject(g_compile_error.ptr(), err.ptr());
-      throw py::error_already_set();
-    }
-    case RenderOutcome::Status::kRenderError:
-      break;
-  }
-  throw std::runtime_error(r.error);
+  return render_result(r, std::move(out));
 }
 
 }  // namespace

@@ -1,11 +1,6 @@
 #include "render/renderer.h"
 
-#include <tbb/blocked_range.h>
 #include <tbb/enumerable_thread_specific.h>
-#include <tbb/global_control.h>
-#include <tbb/info.h>
-#include <tbb/parallel_for.h>
-#include <tbb/task_arena.h>
 
 #include <algorithm>
 #include <atomic>
@@ -16,6 +11,7 @@
 
 #include "base/check.h"
 #include "render/sampling.h"
+#include "render/tiles.h"
 
 namespace hfrt::render {
 
@@ -665,54 +661,32 @@ void render_into(const Field& field, const RenderOptions& options, RenderResult*
   result.image.resize(options.width, options.height);
   TileRenderer tiles(field, options, &result.image);
 
-  const int ts = options.tile_size;
-  const int ntx = (options.width + ts - 1) / ts, nty = (options.height + ts - 1) / ts;
-  const size_t ntiles = size_t(ntx) * nty;
-  std::atomic<size_t> done{0};
-  std::atomic<bool> cancelled{false};
   std::mutex nan_mutex;
   size_t nan_tile = std::numeric_limits<size_t>::max();
   Vec3 nan_point;
 
   tbb::enumerable_thread_specific<ThreadState> states([&] { return ThreadState(field); });
-  int threads = options.threads > 0 ? options.threads : tbb::info::default_concurrency();
-  // TBB caps workers at the core count unless told otherwise; --threads N means N.
-  tbb::global_control allow(tbb::global_control::max_allowed_parallelism,
-                            std::max<size_t>(threads, tbb::info::default_concurrency()));
-  tbb::task_arena arena(threads);
-  arena.execute([&] {
-    tbb::parallel_for(
-        tbb::blocked_range<size_t>(0, ntiles, 1), [&](const tbb::blocked_range<size_t>& r) {
-          ThreadState& st = states.local();
-          for (size_t ti = r.begin(); ti != r.end(); ++ti) {
-            if (options.cancel && options.cancel->load(std::memory_order_relaxed)) {
-              cancelled.store(true, std::memory_order_relaxed);
-              return;
-            }
-            int tx = int(ti % ntx), ty = int(ti / ntx);
-            int x0 = tx * ts, y0 = ty * ts;
-            int x1 = std::min(options.width, x0 + ts), y1 = std::min(options.height, y0 + ts);
-            st.searcher.reset_nan_point();
-            tiles.render_tile(x0, y0, x1, y1, st);
-            if (st.searcher.has_nan_point()) {
-              // Keep the first in tile order, so the report does not depend on scheduling.
-              std::lock_guard<std::mutex> lock(nan_mutex);
-              if (ti < nan_tile) {
-                nan_tile = ti;
-                nan_point = st.searcher.nan_point();
-              }
-            }
-            size_t d = ++done;
-            if (options.progress) options.progress(d, ntiles);
-          }
-        });
-  });
+  TileLoop loop = for_each_tile(options.width, options.height, options.tile_size, options.threads,
+                                options.progress, options.cancel, [&](const Tile& t) {
+                                  ThreadState& st = states.local();
+                                  st.searcher.reset_nan_point();
+                                  tiles.render_tile(t.x0, t.y0, t.x1, t.y1, st);
+                                  if (st.searcher.has_nan_point()) {
+                                    // Keep the first in tile order, so the report does not depend
+                                    // on scheduling.
+                                    std::lock_guard<std::mutex> lock(nan_mutex);
+                                    if (t.index < nan_tile) {
+                                      nan_tile = t.index;
+                                      nan_point = st.searcher.nan_point();
+                                    }
+                                  }
+                                });
 
   RenderStats& s = result.stats;
   s.root_used = tiles.root_used();
-  s.tiles = ntiles;
-  s.threads = threads;
-  s.cancelled = cancelled.load();
+  s.tiles = loop.tiles;
+  s.threads = loop.threads;
+  s.cancelled = loop.cancelled;
   for (ThreadState& st : states) {
     s.evals += st.searcher.counters();
     s.primary_rays += st.primary_rays;

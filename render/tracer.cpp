@@ -1,11 +1,6 @@
 #include "render/tracer.h"
 
-#include <tbb/blocked_range.h>
 #include <tbb/enumerable_thread_specific.h>
-#include <tbb/global_control.h>
-#include <tbb/info.h>
-#include <tbb/parallel_for.h>
-#include <tbb/task_arena.h>
 
 #include <algorithm>
 #include <atomic>
@@ -18,6 +13,7 @@
 #include "base/check.h"
 #include "render/sampling.h"
 #include "render/texture.h"
+#include "render/tiles.h"
 
 namespace hfrt::render {
 
@@ -132,6 +128,15 @@ class NegatedField final : public Field {
   const Field& f_;
 };
 
+/// The root search an object gets: its own, or for kAuto analytic when the field lists ray
+/// candidates, else interval when it has intervals, else sign.
+RootMode resolved_root(const SceneObject& o) {
+  if (o.root != RootMode::kAuto) return o.root;
+  return o.field->has_ray_candidates()
+             ? RootMode::kAnalytic
+             : (o.field->has_interval() ? RootMode::kInterval : RootMode::kSign);
+}
+
 /// What the tracer knows of one object for the whole trace.
 struct ObjectInfo {
   const SceneObject* object;
@@ -229,12 +234,7 @@ class SceneTracer {
       info.object = &o;
       info.negated = std::make_unique<NegatedField>(*o.field);
       info.material = &materials[size_t(o.material)];
-      RootMode m = o.root;
-      if (m == RootMode::kAuto) {
-        m = o.field->has_ray_candidates()
-                ? RootMode::kAnalytic
-                : (o.field->has_interval() ? RootMode::kInterval : RootMode::kSign);
-      }
+      const RootMode m = resolved_root(o);
       HFRT_CHECK(m != RootMode::kInterval || o.field->has_interval());
       HFRT_CHECK(m != RootMode::kAnalytic || o.field->has_ray_candidates());
       info.mode = m;
@@ -256,8 +256,6 @@ class SceneTracer {
       footprint_b_ = length(r1.d - r0.d);
     }
   }
-
-  RootMode root_used(size_t k) const { return objects_[k].mode; }
 
   ThreadState make_state() const {
     ThreadState ts;
@@ -961,11 +959,6 @@ void trace_into(const std::vector<SceneObject>& objects, const std::vector<Mater
   out->image.resize(options.width, options.height);
   Image* image = &out->image;
 
-  const int ts = options.tile_size;
-  const int ntx = (options.width + ts - 1) / ts, nty = (options.height + ts - 1) / ts;
-  const size_t ntiles = size_t(ntx) * nty;
-  std::atomic<size_t> done{0};
-  std::atomic<bool> cancelled{false};
   struct Worker {
     std::unique_ptr<SceneTracer> tracer;
     ThreadState state;
@@ -976,35 +969,17 @@ void trace_into(const std::vector<SceneObject>& objects, const std::vector<Mater
     w.state = w.tracer->make_state();
     return w;
   });
-  int threads = options.threads > 0 ? options.threads : tbb::info::default_concurrency();
-  tbb::global_control allow(tbb::global_control::max_allowed_parallelism,
-                            std::max<size_t>(threads, tbb::info::default_concurrency()));
-  tbb::task_arena arena(threads);
-  arena.execute([&] {
-    tbb::parallel_for(
-        tbb::blocked_range<size_t>(0, ntiles, 1), [&](const tbb::blocked_range<size_t>& r) {
-          Worker& w = workers.local();
-          for (size_t ti = r.begin(); ti != r.end(); ++ti) {
-            if (options.cancel && options.cancel->load(std::memory_order_relaxed)) {
-              cancelled.store(true, std::memory_order_relaxed);
-              return;
-            }
-            int tx = int(ti % ntx), ty = int(ti / ntx);
-            int x0 = tx * ts, y0 = ty * ts;
-            int x1 = std::min(options.width, x0 + ts), y1 = std::min(options.height, y0 + ts);
-            w.tracer->trace_tile(x0, y0, x1, y1, w.state);
-            size_t d = ++done;
-            if (options.progress) options.progress(d, ntiles);
-          }
-        });
-  });
+  TileLoop loop = for_each_tile(options.width, options.height, options.tile_size, options.threads,
+                                options.progress, options.cancel, [&](const Tile& t) {
+                                  Worker& w = workers.local();
+                                  w.tracer->trace_tile(t.x0, t.y0, t.x1, t.y1, w.state);
+                                });
 
   TraceStats& s = out->stats;
-  s.tiles = ntiles;
-  s.threads = threads;
-  s.cancelled = cancelled.load();
-  SceneTracer probe(objects, materials, options, image);
-  for (size_t k = 0; k < objects.size(); ++k) s.root_used.push_back(probe.root_used(k));
+  s.tiles = loop.tiles;
+  s.threads = loop.threads;
+  s.cancelled = loop.cancelled;
+  for (const SceneObject& o : objects) s.root_used.push_back(resolved_root(o));
   for (Worker& w : workers) {
     for (auto& rs : w.state.searchers) s.evals += rs->counters();
     for (auto& rs : w.state.negated) s.evals += rs->counters();

@@ -1,0 +1,36 @@
+#pragma once
+// The tile loop of the renderers (render/renderer.h, render/tracer.h): square tiles of an
+// image, each one unit of work for TBB on a task arena of the asked number of threads, with
+// progress after each tile and cancellation between tiles. The tile layout depends only on the
+// image and tile size, never on the thread count, which is what keeps both renderers'
+// images bit-identical for any number of threads.
+
+#include <atomic>
+#include <cstddef>
+#include <functional>
+
+namespace hfrt::render {
+
+/// One tile: its index in row-major tile order and its pixels [x0, x1) x [y0, y1).
+struct Tile {
+  size_t index = 0;
+  int x0 = 0, y0 = 0, x1 = 0, y1 = 0;
+};
+
+/// How a tile loop ran.
+struct TileLoop {
+  size_t tiles = 0;
+  int threads = 0;         ///< workers used (the request, or all cores for 0)
+  bool cancelled = false;  ///< `cancel` was seen set: some tiles were not run
+};
+
+/// Runs `fn` once per tile of a width x height image cut into tile_size squares, concurrently
+/// on `threads` workers (0: all cores; more than the cores is honoured). `fn` is called from
+/// worker threads and must be thread-safe; a worker's scratch state belongs in the caller's
+/// thread-specific storage. `progress` (may be empty) gets (tiles done, tiles) after each
+/// tile; `cancel` (may be null) is read before each tile.
+TileLoop for_each_tile(int width, int height, int tile_size, int threads,
+                       const std::function<void(size_t done, size_t total)>& progress,
+                       const std::atomic<bool>* cancel, const std::function<void(const Tile&)>& fn);
+
+}  // namespace hfrt::render
