@@ -23,11 +23,11 @@ std::string box_text(const render::Box& b) {
 MeshJobResult run_mesh_job(const MeshJob& job) {
   MeshJobResult out;
   const Model& model = *job.model;
-  if (model.num_inputs() != 3) {
+  if (model.num_inputs() < 3) {  // x[4] is time (Model::set_time); more coordinates are 0
     out.status = MeshJobStatus::kNotThreeD;
     out.error = job.file + ": error: object '" + model.object_name() + "' has " +
                 std::to_string(model.num_inputs()) +
-                " coordinates; hfrt mesh needs a 3-D object (x[3])\n  hint: a 2-D object can "
+                " coordinates; hfrt mesh needs a 3-D object (x[3], or x[4] with time)\n  hint: a 2-D object can "
                 "be drawn with hfrt slice";
     return out;
   }

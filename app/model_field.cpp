@@ -61,12 +61,13 @@ inline render::Interval to_render_interval(const IntervalValue& r, bool* maybe_n
 }
 
 /// Packs up to three coordinate arrays into the structure-of-arrays layout of the model
-/// (x[1..3]; any further coordinates, e.g. time, are held at 0).
-void pack(int dims, size_t n, const float* x, const float* y, const float* z,
+/// (x[1..3]; x[4] is the model's time, further coordinates are held at 0).
+void pack(int dims, double time, size_t n, const float* x, const float* y, const float* z,
           std::vector<float>* xs) {
   xs->assign(size_t(std::max(dims, 1)) * n, 0.0f);
   const float* src[3] = {x, y, z};
   for (int k = 0; k < std::min(dims, 3); ++k) std::copy(src[k], src[k] + n, xs->data() + k * n);
+  if (dims > 3) std::fill_n(xs->data() + 3 * n, n, float(time));
 }
 
 }  // namespace
@@ -120,7 +121,7 @@ void ModelField::eval(size_t n, const float* x, const float* y, const float* z,
                       float* out_f) const {
   if (n == 0) return;
   Scratch& sc = t_scratch;
-  pack(dims_, n, x, y, z, &sc.xs);
+  pack(dims_, model_.time(), n, x, y, z, &sc.xs);
   if (sign_only_) {
     model_.eval_batch_sign(int64_t(n), sc.xs.data(), out_f);
     return;
@@ -130,9 +131,12 @@ void ModelField::eval(size_t n, const float* x, const float* y, const float* z,
 
 render::Interval ModelField::eval_interval(const render::Box& box, bool* maybe_nan) const {
   // Float box corners are exact in double; the f64 enclosure is rounded outwards.
-  const double lo[3] = {box.lo.x, box.lo.y, box.lo.z};
-  const double hi[3] = {box.hi.x, box.hi.y, box.hi.z};
-  return to_render_interval(model_.eval_interval(lo, hi), maybe_nan);
+  // x[4] is the model's time: a point interval for a still frame.
+  const double t = model_.time();
+  const double lo[4] = {box.lo.x, box.lo.y, box.lo.z, t};
+  const double hi[4] = {box.hi.x, box.hi.y, box.hi.z, t};
+  const size_t k = dims_ > 3 ? 4 : 3;
+  return to_render_interval(model_.eval_interval({lo, k}, {hi, k}), maybe_nan);
 }
 
 void ModelField::eval_intervals(size_t n, const render::Box* boxes, render::Interval* out,
@@ -143,13 +147,18 @@ void ModelField::eval_intervals(size_t n, const render::Box* boxes, render::Inte
     std::vector<uint8_t> out_nan;
   };
   thread_local BoxScratch sc;
-  // Structure of arrays over the model's coordinates; any beyond the third are held at 0.
+  // Structure of arrays over the model's coordinates; x[4] is the time (a point), any
+  // further ones are held at 0.
   const size_t dims = size_t(std::max(dims_, 1));
   sc.lo.resize(dims * n);
   sc.hi.resize(dims * n);
   if (dims_ != 3) {
     std::fill(sc.lo.begin(), sc.lo.end(), 0.0);
     std::fill(sc.hi.begin(), sc.hi.end(), 0.0);
+  }
+  if (dims_ > 3) {
+    std::fill_n(sc.lo.data() + 3 * n, n, model_.time());
+    std::fill_n(sc.hi.data() + 3 * n, n, model_.time());
   }
   for (size_t k = 0; k < std::min<size_t>(size_t(dims_), 3); ++k) {
     double* lo = sc.lo.data() + k * n;
@@ -173,7 +182,7 @@ void ModelField::eval_gradient(size_t n, const float* x, const float* y, const f
                                float* dx, float* dy, float* dz) const {
   if (n == 0) return;
   Scratch& sc = t_scratch;
-  pack(dims_, n, x, y, z, &sc.xs);
+  pack(dims_, model_.time(), n, x, y, z, &sc.xs);
   sc.out.resize(4 * n);
   model_.eval_gradient_batch(int64_t(n), sc.xs.data(), sc.out.data());
   std::copy(&sc.out[0], &sc.out[n], f);
@@ -186,13 +195,13 @@ void ModelField::eval_attributes(size_t n, const float* x, const float* y, const
                                  float* out_s) const {
   if (n == 0 || model_.num_attributes() == 0) return;
   Scratch& sc = t_scratch;
-  pack(dims_, n, x, y, z, &sc.xs);
+  pack(dims_, model_.time(), n, x, y, z, &sc.xs);
   std::vector<float> f(n);
   model_.eval_batch(int64_t(n), sc.xs.data(), f.data(), out_s);
 }
 
 std::string ModelField::explain_nan(render::Vec3 p) const {
-  PointValue v = model_.eval({double(p.x), double(p.y), double(p.z)});
+  PointValue v = model_.eval({double(p.x), double(p.y), double(p.z), model_.time()});
   char where[160];
   std::snprintf(where, sizeof where, " (first at x=(%g, %g, %g))", p.x, p.y, p.z);
   if (v.ok()) return std::string("no value in single precision") + where;
@@ -281,6 +290,7 @@ void ModelField::prepare_render(render::RootMode root) {
   set_sign_only_eval(true);
   if (sign_only_) {
     std::vector<float> origin(size_t(std::max(model_.num_inputs(), 1)), 0.0f);
+    if (origin.size() > 3) origin[3] = float(model_.time());
     float f = 0;
     model_.eval_batch_sign(1, origin.data(), &f);
   }

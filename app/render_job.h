@@ -35,6 +35,7 @@ struct RenderSetup {
   render::CameraRequest camera;
   render::AovSet aovs;
   std::vector<double> params;  ///< -a
+  double time = 0;             ///< --time: x[4] (Model::set_time)
 };
 
 /// The field a render uses: the model's own, or (when the model's interval evaluator is the

@@ -1,6 +1,9 @@
 #include "app/scene_job.h"
 
+#include <bit>
+#include <cmath>
 #include <cstdio>
+#include <limits>
 #include <map>
 #include <sstream>
 
@@ -8,7 +11,9 @@
 #include "app/render_job.h"
 #include "base/timer.h"
 #include "hfrt/model.h"
+#include "render/sampling.h"
 #include "render/texture.h"
+#include "render/tiles.h"
 
 namespace hfrt::app {
 namespace {
@@ -42,11 +47,179 @@ std::string object_label(const scene::ObjectDesc& o, size_t index) {
 
 }  // namespace
 
-SceneJobResult run_scene_job(const scene::SceneDesc& sc, const SceneOverrides& ov,
-                             render::ProgressFn progress, const std::atomic<bool>* cancel,
-                             render::TraceResult* out) {
-  SceneJobResult res;
-  render::TraceOptions& opt = res.options;
+struct PreparedScene::Impl {
+  scene::SceneDesc scene;
+  SceneOverrides ov;
+  render::TraceOptions base;  // everything but the camera (resolved per render)
+  render::RootMode root = render::RootMode::kAuto;
+  std::map<std::string, std::shared_ptr<const render::TextureImage>> textures;
+  std::vector<CompiledModel> models;
+  std::vector<size_t> model_of;   // per object
+  std::vector<size_t> first_of;   // per model: the first object placing it (its params)
+  std::vector<bool> keyed_model;  // per model: its params are keyed
+  SceneJobResult compiled;        // compile figures and warnings, object reports
+  // Settled by the first render (settle()): the framed extent and the auto roots.
+  bool settled = false;
+  bool frame = false;  // eye or look_at left to framing
+  render::Box extent;
+  std::vector<render::RootMode> roots;
+  std::vector<std::string> why;
+
+  /// The time at which the camera is framed and `--root auto` decided: the animation's first
+  /// frame, so that any subset of frames sees the same camera and searches.
+  double anchor(double t) const {
+    return scene.animation.given ? scene.animation.frame_time(0) : t;
+  }
+
+  /// The scene at time t: keys applied, every model's time and keyed parameters set, objects
+  /// placed, materials (with their textures) and lights.
+  struct Frame {
+    scene::SceneDesc scene;
+    std::vector<render::SceneObject> objects;
+    std::vector<render::Material> materials;
+  };
+  Frame at(double t) {
+    Frame f;
+    f.scene = scene.keyed.empty() ? scene : scene::scene_at(scene, t);
+    for (size_t m = 0; m < models.size(); ++m) {
+      Model& model = *models[m].model;
+      model.set_time(t);
+      if (keyed_model[m]) model.set_params(f.scene.objects[first_of[m]].params);
+    }
+    f.materials.push_back(render::Material{});
+    std::map<std::string, int> index;
+    for (const auto& [name, mat] : f.scene.materials) {
+      index[name] = int(f.materials.size());
+      f.materials.push_back(mat);
+      if (auto it = textures.find(name); it != textures.end())
+        f.materials.back().texture_image = it->second;
+    }
+    for (size_t i = 0; i < f.scene.objects.size(); ++i) {
+      const scene::ObjectDesc& o = f.scene.objects[i];
+      const CompiledModel& cm = models[model_of[i]];
+      render::SceneObject so;
+      so.field = cm.used;
+      so.bbox = o.bbox.value_or(render::RenderOptions{}.bbox);
+      so.transform = scene::placement(o);
+      so.material = o.material.empty() ? 0 : index.at(o.material);
+      so.root = root;
+      // --root interval on a field whose intervals are the interpreter's: the model's own.
+      if (root == render::RootMode::kInterval && !cm.used->has_interval())
+        so.field = cm.field.get();
+      if (settled && root == render::RootMode::kAuto) so.root = roots[i];
+      f.objects.push_back(so);
+    }
+    return f;
+  }
+
+  render::CameraRequest camera_request(const scene::SceneDesc& sc) const {
+    render::CameraRequest req = sc.camera.request;
+    if (ov.camera.eye) req.eye = ov.camera.eye;
+    if (ov.camera.look_at) req.look_at = ov.camera.look_at;
+    if (ov.camera.up) req.up = ov.camera.up;
+    if (ov.camera.fov_deg) req.fov_deg = ov.camera.fov_deg, req.ortho_width.reset();
+    if (ov.camera.ortho_width) req.ortho_width = ov.camera.ortho_width, req.fov_deg.reset();
+    return req;
+  }
+
+  /// The camera of a frame; false with the error in `res` when it is degenerate.
+  bool camera(const Frame& f, render::Camera* out, SceneJobResult* res) const {
+    *out = render::resolve_camera(camera_request(f.scene), extent,
+                                  float(base.width) / float(base.height));
+    render::Vec3 view = out->look_at - out->eye;
+    if (length(view) == 0) {
+      res->status = SceneJobStatus::kUsageError;
+      res->error = "the camera's eye and look_at are the same point";
+      return false;
+    }
+    if (length(cross(normalize(view), normalize(out->up))) < 1e-6f) {
+      res->status = SceneJobStatus::kUsageError;
+      res->error = "the camera's up is parallel to the view direction; give another up";
+      return false;
+    }
+    return true;
+  }
+
+  /// Frames the camera (when the scene leaves it to framing: every object's extent in its box,
+  /// placed in the world, at the animation's first and last frames) and settles `--root auto`
+  /// per object at the anchor time.
+  bool settle(double t, SceneJobResult* res) {
+    if (settled) return true;
+    const double t0 = anchor(t);
+    const render::CameraRequest req = camera_request(scene_at_or_self(t0));
+    frame = !req.eye || !req.look_at;
+    if (frame) {
+      std::vector<double> times{t0};
+      if (scene.animation.given && scene.animation.frames > 1)
+        times.push_back(scene.animation.frame_time(scene.animation.frames - 1));
+      for (double ft : times) {
+        Frame f = at(ft);
+        for (const render::SceneObject& so : f.objects) {
+          render::Box e = render::find_extent(*so.field, so.bbox, so.field->has_interval() ? 6 : 5);
+          extent.extend(so.transform.box_to_world(e));
+        }
+      }
+    }
+    if (extent.empty()) extent = render::Box{{-1, -1, -1}, {1, 1, 1}};
+    Frame f = at(t0);
+    render::Camera cam;
+    if (!camera(f, &cam, res)) return false;
+    roots.assign(f.objects.size(), root);
+    why.assign(f.objects.size(), "");
+    // `--root auto`, per object: analytic when the model qualifies, else the decision of the
+    // single-model render (render::choose_root's probe, which tells whether the model's
+    // enclosures are tight enough for intervals to pay) for the same camera, seen in the
+    // object's own space.
+    if (root == render::RootMode::kAuto) {
+      const auto t_probe = Clock::now();
+      for (size_t i = 0; i < f.objects.size(); ++i) {
+        const render::SceneObject& so = f.objects[i];
+        const CompiledModel& cm = models[model_of[i]];
+        render::RenderOptions probe;
+        probe.width = base.width;
+        probe.height = base.height;
+        probe.bbox = so.bbox;
+        probe.threads = base.threads;
+        probe.root = render::RootMode::kAuto;
+        probe.camera = cam;
+        probe.camera.eye = so.transform.point_to_object(cam.eye);
+        probe.camera.look_at = so.transform.point_to_object(cam.look_at);
+        probe.camera.up = normalize(so.transform.direction_to_object(cam.up));
+        probe.camera.ortho_width = cam.ortho_width / so.transform.scale();
+        const AnalyticInfo& info = cm.field->analytic_info();
+        render::RootDecision d = settle_root(*so.field, &probe, &info, cm.file);
+        roots[i] = probe.root;
+        why[i] = d.why;
+      }
+      compiled.probe_ms = ms_since(t_probe);
+    }
+    settled = true;
+    return true;
+  }
+
+  scene::SceneDesc scene_at_or_self(double t) const {
+    return scene.keyed.empty() ? scene : scene::scene_at(scene, t);
+  }
+};
+
+PreparedScene::PreparedScene(std::unique_ptr<Impl> impl) : impl_(std::move(impl)) {}
+PreparedScene::~PreparedScene() = default;
+
+const render::TraceOptions& PreparedScene::options() const {
+  return impl_->base;
+}
+const scene::SceneDesc& PreparedScene::scene() const {
+  return impl_->scene;
+}
+
+std::unique_ptr<PreparedScene> PreparedScene::prepare(const scene::SceneDesc& sc,
+                                                      const SceneOverrides& ov,
+                                                      SceneJobResult* res) {
+  auto impl = std::make_unique<Impl>();
+  Impl& p = *impl;
+  p.scene = sc;
+  p.ov = ov;
+  render::TraceOptions& opt = p.base;
 
   // Render settings: command line over scene over defaults.
   std::array<int, 2> size =
@@ -54,206 +227,287 @@ SceneJobResult run_scene_job(const scene::SceneDesc& sc, const SceneOverrides& o
   opt.width = size[0];
   opt.height = size[1];
   opt.spp = ov.spp ? *ov.spp : sc.render.spp.value_or(1);
-  opt.adaptive = sc.render.adaptive.value_or(false);
+  opt.adaptive = sc.render.adaptive.value_or(false) && !(sc.animation.shutter > 0);
   opt.max_depth = ov.max_depth ? *ov.max_depth : sc.render.max_depth.value_or(5);
   if (ov.background) {
     opt.background = *ov.background;
   } else if (sc.render.background) {
     opt.background = *sc.render.background;
   }
-  opt.lights = ov.lights.empty() ? sc.lights : ov.lights;
   opt.shadows = !ov.no_shadows;
   opt.threads = ov.threads;
-  opt.progress = std::move(progress);
-  opt.cancel = cancel;
   opt.aperture = sc.camera.aperture;
   opt.focus_distance = sc.camera.focus_distance.value_or(0.0f);
-  render::RootMode root = render::RootMode::kAuto;
   if (ov.root) {
-    root = *ov.root;
+    p.root = *ov.root;
   } else if (sc.render.root) {
     // The reader accepts only the words of root_mode_name().
-    bool known = render::parse_root_mode(*sc.render.root, &root);
+    bool known = render::parse_root_mode(*sc.render.root, &p.root);
     HFRT_CHECK_MSG(known, "scene reader let an unknown root mode through");
   }
+  const render::RootMode root = p.root;
 
-  // Materials: index 0 is the default material, then the scene's by name.
-  std::vector<render::Material> materials{render::Material{}};
-  std::map<std::string, int> material_index;
+  // Textures, loaded once (materials are rebuilt per frame: their numbers may be keyed).
   for (const auto& [name, m] : sc.materials) {
-    material_index[name] = int(materials.size());
-    materials.push_back(m);
     if (m.texture.empty()) continue;
     if (m.mapping == render::TextureMapping::kUv) {
-      res.status = SceneJobStatus::kSourceError;
-      res.error = sc.path + ": error: material '" + name +
-                  "': mapping = \"uv\" needs texture coordinates, which HyperFun models do not "
-                  "have\nhint: use planar, spherical, cylindrical or triplanar\n";
-      return res;
+      res->status = SceneJobStatus::kSourceError;
+      res->error = sc.path + ": error: material '" + name +
+                   "': mapping = \"uv\" needs texture coordinates, which HyperFun models do not "
+                   "have\nhint: use planar, spherical, cylindrical or triplanar\n";
+      return nullptr;
     }
     auto image = render::load_texture(m.texture);
     if (!image.ok()) {
-      res.status = SceneJobStatus::kEnvironment;
-      res.error = "material '" + name + "': " + image.error().message;
-      return res;
+      res->status = SceneJobStatus::kEnvironment;
+      res->error = "material '" + name + "': " + image.error().message;
+      return nullptr;
     }
-    materials.back().texture_image = image.value();
+    p.textures[name] = image.value();
   }
 
   // Compile: one model per (file or source, object name, parameters); models that differ only
-  // in their parameters share the JIT code of the first (Model::share_code).
+  // in their parameters share the JIT code of the first (Model::share_code). An object whose
+  // parameters are keyed has a model of its own (its parameters change per frame).
   ModelOptions mo;
   mo.backend = ov.interp_backend ? Backend::kInterp : Backend::kJit;
   mo.eager_f64 = false;
   mo.eager_f32 = true;
-  std::vector<CompiledModel> models;
   std::map<std::string, size_t> by_key;       // source + name + params -> models index
   std::map<std::string, size_t> code_source;  // source + name -> first model
-  std::vector<size_t> model_of(sc.objects.size());
+  p.model_of.resize(sc.objects.size());
   const auto t_compile = Clock::now();
   for (size_t i = 0; i < sc.objects.size(); ++i) {
     const scene::ObjectDesc& o = sc.objects[i];
     std::string base = (o.file.empty() ? "source:" + o.source : "file:" + o.file) + '\0' +
                        o.name.value_or("") + '\0';
-    std::string key = base + params_key(o.params);
+    const bool keyed = i < sc.keyed_params.size() && sc.keyed_params[i];
+    std::string key = base + (keyed ? "keyed:" + std::to_string(i) : params_key(o.params));
     if (auto it = by_key.find(key); it != by_key.end()) {
-      model_of[i] = it->second;
+      p.model_of[i] = it->second;
       continue;
     }
-    CompileResult compiled = compile_scene_object(sc, i, mo);
-    if (!compiled.error.empty()) {
-      res.status = SceneJobStatus::kEnvironment;
-      res.error = compiled.error;
-      return res;
+    CompileResult c = compile_scene_object(sc, i, mo);
+    if (!c.error.empty()) {
+      res->status = SceneJobStatus::kEnvironment;
+      res->error = c.error;
+      return nullptr;
     }
-    if (!compiled.ok()) {
-      res.status = SceneJobStatus::kSourceError;
-      res.error = compiled.rendered;
-      return res;
+    if (!c.ok()) {
+      res->status = SceneJobStatus::kSourceError;
+      res->error = c.rendered;
+      return nullptr;
     }
-    const std::string name = o.file.empty() ? sc.path : o.file;
     CompiledModel cm;
-    cm.model = std::make_unique<Model>(std::move(*compiled.model));
-    cm.file = name;
+    cm.model = std::make_unique<Model>(std::move(*c.model));
+    cm.file = o.file.empty() ? sc.path : o.file;
     if (auto it = code_source.find(base); it != code_source.end()) {
-      cm.shared_code = cm.model->share_code(*models[it->second].model);
+      cm.shared_code = cm.model->share_code(*p.models[it->second].model);
     } else {
-      code_source[base] = models.size();
+      code_source[base] = p.models.size();
     }
-    model_of[i] = models.size();
-    by_key[key] = models.size();
-    models.push_back(std::move(cm));
+    p.model_of[i] = p.models.size();
+    by_key[key] = p.models.size();
+    p.first_of.push_back(i);
+    p.keyed_model.push_back(keyed);
+    p.models.push_back(std::move(cm));
   }
-  res.compilations = code_source.size();
-  res.compile_ms = ms_since(t_compile);
+  res->compilations = code_source.size();
+  res->compile_ms = ms_since(t_compile);
 
   // Fields and code: the three evaluators of each compilation, compiled up front.
   const auto t_prepare = Clock::now();
-  for (CompiledModel& cm : models) {
+  for (CompiledModel& cm : p.models) {
     cm.field = std::make_unique<ModelField>(*cm.model, cm.file);
     cm.sampled = std::make_unique<WithoutIntervals>(*cm.field);
     cm.used = &render_field(*cm.model, *cm.field, *cm.sampled, root);
     if (!cm.shared_code) {
       PreparedCode code = prepare_render_code(*cm.model);
-      for (std::string& w : code.warnings) res.warnings.push_back(std::move(w));
+      for (std::string& w : code.warnings) res->warnings.push_back(std::move(w));
     }
     if (root == render::RootMode::kAnalytic && !cm.field->has_ray_candidates()) {
-      res.status = SceneJobStatus::kSourceError;
-      res.error = analytic_root_diagnostic(cm.field->analytic_info(), cm.file);
-      return res;
+      res->status = SceneJobStatus::kSourceError;
+      res->error = analytic_root_diagnostic(cm.field->analytic_info(), cm.file);
+      return nullptr;
     }
     const bool analytic = root == render::RootMode::kAnalytic ||
                           (root == render::RootMode::kAuto && cm.used->has_ray_candidates());
     if (analytic) cm.field->prepare_render(render::RootMode::kAnalytic);
   }
-  res.prepare_ms = ms_since(t_prepare);
+  res->prepare_ms = ms_since(t_prepare);
 
-  // The placed objects.
-  std::vector<render::SceneObject> objects;
-  std::vector<bool> model_placed(models.size(), false);
+  std::vector<bool> model_placed(p.models.size(), false);
   for (size_t i = 0; i < sc.objects.size(); ++i) {
-    const scene::ObjectDesc& o = sc.objects[i];
-    const CompiledModel& cm = models[model_of[i]];
-    render::SceneObject so;
-    so.field = cm.used;
-    so.bbox = o.bbox.value_or(render::RenderOptions{}.bbox);
-    so.transform = scene::placement(o);
-    so.material = o.material.empty() ? 0 : material_index.at(o.material);
-    // --root interval on a field whose intervals are the interpreter's: the model's own.
-    so.root = root;
-    if (root == render::RootMode::kInterval && !cm.used->has_interval()) so.field = cm.field.get();
-    objects.push_back(so);
+    const CompiledModel& cm = p.models[p.model_of[i]];
     SceneObjectReport rep;
-    rep.name = object_label(o, i);
-    rep.shared = cm.shared_code || model_placed[model_of[i]];
-    model_placed[model_of[i]] = true;
-    rep.world_box = so.transform.box_to_world(so.bbox);
-    res.objects.push_back(rep);
+    rep.name = object_label(sc.objects[i], i);
+    rep.shared = cm.shared_code || model_placed[p.model_of[i]];
+    model_placed[p.model_of[i]] = true;
+    res->objects.push_back(rep);
   }
+  p.compiled = *res;
+  return std::unique_ptr<PreparedScene>(new PreparedScene(std::move(impl)));
+}
 
-  // The camera: the scene's, completed by framing every object's solid when eye or look-at
-  // is missing (each object's extent in its box, placed in the world).
-  render::CameraRequest req = sc.camera.request;
-  if (ov.camera.eye) req.eye = ov.camera.eye;
-  if (ov.camera.look_at) req.look_at = ov.camera.look_at;
-  if (ov.camera.up) req.up = ov.camera.up;
-  if (ov.camera.fov_deg) req.fov_deg = ov.camera.fov_deg, req.ortho_width.reset();
-  if (ov.camera.ortho_width) req.ortho_width = ov.camera.ortho_width, req.fov_deg.reset();
-  render::Box extent;
-  if (!req.eye || !req.look_at) {
-    for (const render::SceneObject& so : objects) {
-      render::Box e = render::find_extent(*so.field, so.bbox, so.field->has_interval() ? 6 : 5);
-      extent.extend(so.transform.box_to_world(e));
+namespace {
+
+/// Adds one pass of a motion-blurred render to the running sums (colour and coverage summed;
+/// depth and normal weighted by coverage), over the pixels of `tiles` (all when null).
+void accumulate(const render::Image& pass, const render::TraceOptions& opt,
+                const std::vector<size_t>* tiles, render::Image* sum, std::vector<float>* weight) {
+  auto add_pixel = [&](size_t i) {
+    for (int c = 0; c < 3; ++c) sum->rgb[3 * i + c] += pass.rgb[3 * i + c];
+    sum->alpha[i] += pass.alpha[i];
+    if (pass.alpha[i] > 0 && std::isfinite(pass.depth[i])) {
+      const float w = pass.alpha[i];
+      sum->depth[i] = (*weight)[i] == 0 ? w * pass.depth[i] : sum->depth[i] + w * pass.depth[i];
+      for (int c = 0; c < 3; ++c) sum->normal[3 * i + c] += w * pass.normal[3 * i + c];
+      (*weight)[i] += w;
     }
+  };
+  const size_t n = tiles ? tiles->size() : render::tile_count(opt.width, opt.height, opt.tile_size);
+  for (size_t k = 0; k < n; ++k) {
+    const render::Tile t =
+        render::tile_at(opt.width, opt.height, opt.tile_size, tiles ? (*tiles)[k] : k);
+    for (int y = t.y0; y < t.y1; ++y)
+      for (int x = t.x0; x < t.x1; ++x) add_pixel(size_t(y) * size_t(opt.width) + size_t(x));
   }
-  if (extent.empty()) extent = render::Box{{-1, -1, -1}, {1, 1, 1}};
-  opt.camera = render::resolve_camera(req, extent, float(opt.width) / float(opt.height));
-  render::Vec3 view = opt.camera.look_at - opt.camera.eye;
-  if (length(view) == 0) {
-    res.status = SceneJobStatus::kUsageError;
-    res.error = "the camera's eye and look_at are the same point";
-    return res;
-  }
-  if (length(cross(normalize(view), normalize(opt.camera.up))) < 1e-6f) {
-    res.status = SceneJobStatus::kUsageError;
-    res.error = "the camera's up is parallel to the view direction; give another up";
-    return res;
-  }
+}
 
-  // `--root auto`, per object: analytic when the model qualifies, else the decision of the
-  // single-model render (render::choose_root's probe, which tells whether the model's
-  // enclosures are tight enough for intervals to pay) for the same camera, seen in the object's
-  // own space.
-  if (root == render::RootMode::kAuto) {
-    const auto t_probe = Clock::now();
-    for (size_t i = 0; i < objects.size(); ++i) {
-      render::SceneObject& so = objects[i];
-      const CompiledModel& cm = models[model_of[i]];
-      render::RenderOptions probe;
-      probe.width = opt.width;
-      probe.height = opt.height;
-      probe.bbox = so.bbox;
-      probe.threads = opt.threads;
-      probe.root = render::RootMode::kAuto;
-      probe.camera = opt.camera;
-      probe.camera.eye = so.transform.point_to_object(opt.camera.eye);
-      probe.camera.look_at = so.transform.point_to_object(opt.camera.look_at);
-      probe.camera.up = normalize(so.transform.direction_to_object(opt.camera.up));
-      probe.camera.ortho_width = opt.camera.ortho_width / so.transform.scale();
-      const AnalyticInfo& info = cm.field->analytic_info();
-      render::RootDecision d = settle_root(*so.field, &probe, &info, cm.file);
-      so.root = probe.root;
-      res.objects[i].why = d.why;
-    }
-    res.probe_ms = ms_since(t_probe);
-  }
+void add_stats(const render::TraceStats& pass, render::TraceStats* s) {
+  s->tiles = pass.tiles;
+  s->threads = pass.threads;
+  s->camera_rays += pass.camera_rays;
+  s->secondary_rays += pass.secondary_rays;
+  s->shadow_rays += pass.shadow_rays;
+  s->hits += pass.hits;
+  s->refined_pixels += pass.refined_pixels;
+  s->evals += pass.evals;
+  s->search_seconds += pass.search_seconds;
+  s->shade_seconds += pass.shade_seconds;
+  s->seconds += pass.seconds;
+  s->root_used = pass.root_used;
+  s->cancelled = s->cancelled || pass.cancelled;
+}
 
+}  // namespace
+
+SceneJobResult PreparedScene::render(double t, render::ProgressFn progress,
+                                     const std::atomic<bool>* cancel, render::TraceResult* out,
+                                     const std::vector<size_t>* tiles) {
+  Impl& p = *impl_;
+  SceneJobResult res = p.compiled;
+  res.time = t;
+  if (!p.settle(t, &res)) return res;
+  res.probe_ms = p.compiled.probe_ms;
+  for (size_t i = 0; i < res.objects.size(); ++i) res.objects[i].why = p.why[i];
+
+  const scene::AnimationDesc& anim = p.scene.animation;
+  const bool blur = anim.shutter > 0;
+  const int passes = blur ? p.base.spp : 1;
+  res.passes = passes;
+  const size_t tiles_per_pass =
+      tiles ? tiles->size() : render::tile_count(p.base.width, p.base.height, p.base.tile_size);
   const auto t_render = Clock::now();
-  render::trace_into(objects, materials, opt, out);
+  render::TraceResult pass;
+  std::vector<float> weight;
+  if (passes > 1) {
+    if (out->image.width != p.base.width || out->image.height != p.base.height || !tiles)
+      out->image.resize(p.base.width, p.base.height);
+    weight.assign(out->image.pixels(), 0.0f);
+    // The running sums start at zero over the pixels rendered.
+    render::Image& img = out->image;
+    const render::TraceOptions& o = p.base;
+    const size_t n = tiles_per_pass;
+    for (size_t k = 0; k < n; ++k) {
+      const render::Tile tl =
+          render::tile_at(o.width, o.height, o.tile_size, tiles ? (*tiles)[k] : k);
+      for (int y = tl.y0; y < tl.y1; ++y) {
+        for (int x = tl.x0; x < tl.x1; ++x) {
+          const size_t i = size_t(y) * size_t(o.width) + size_t(x);
+          for (int c = 0; c < 3; ++c) img.rgb[3 * i + c] = img.normal[3 * i + c] = 0;
+          img.alpha[i] = 0;
+          img.depth[i] = std::numeric_limits<float>::infinity();
+        }
+      }
+    }
+    out->stats = render::TraceStats{};
+  }
+  for (int j = 0; j < passes; ++j) {
+    double tj = t;
+    if (blur) {
+      // Time stratum j of the shutter, jittered by a hash of (t, j): the same for every pixel
+      // and every process.
+      const uint64_t h = render::mix64(std::bit_cast<uint64_t>(t) ^ (uint64_t(j) << 1) ^ 0x6d62ull);
+      tj = t + anim.shutter * (double(j) + double(render::unit_float(h))) / double(passes);
+    }
+    Impl::Frame f = p.at(tj);
+    render::TraceOptions opt = p.base;
+    opt.lights = p.ov.lights.empty() ? f.scene.lights : p.ov.lights;
+    if (!p.camera(f, &opt.camera, &res)) return res;
+    opt.cancel = cancel;
+    opt.tiles = tiles;
+    if (progress) {
+      opt.progress = [&progress, j, tiles_per_pass, passes](size_t d, size_t) {
+        progress(size_t(j) * tiles_per_pass + d, tiles_per_pass * size_t(passes));
+      };
+    }
+    if (passes > 1) {
+      opt.sample_begin = j;
+      opt.sample_count = 1;
+      render::trace_into(f.objects, f.materials, opt, &pass);
+      accumulate(pass.image, opt, tiles, &out->image, &weight);
+      add_stats(pass.stats, &out->stats);
+    } else {
+      render::trace_into(f.objects, f.materials, opt, out);
+    }
+    if (j == 0) res.options = opt;
+    if (cancel && cancel->load()) break;
+  }
+  if (passes > 1) {
+    // Means: colour and coverage over the passes, depth and normal over the passes that hit.
+    render::Image& img = out->image;
+    const float inv = 1.0f / float(passes);
+    const render::TraceOptions& o = p.base;
+    for (size_t k = 0; k < tiles_per_pass; ++k) {
+      const render::Tile tl =
+          render::tile_at(o.width, o.height, o.tile_size, tiles ? (*tiles)[k] : k);
+      for (int y = tl.y0; y < tl.y1; ++y) {
+        for (int x = tl.x0; x < tl.x1; ++x) {
+          const size_t i = size_t(y) * size_t(o.width) + size_t(x);
+          for (int c = 0; c < 3; ++c) img.rgb[3 * i + c] *= inv;
+          img.alpha[i] *= inv;
+          if (weight[i] > 0) {
+            img.depth[i] /= weight[i];
+            render::Vec3 nn = normalize(
+                render::Vec3{img.normal[3 * i], img.normal[3 * i + 1], img.normal[3 * i + 2]});
+            img.normal[3 * i] = nn.x;
+            img.normal[3 * i + 1] = nn.y;
+            img.normal[3 * i + 2] = nn.z;
+          }
+        }
+      }
+    }
+    res.options.spp = p.base.spp;
+  }
   res.render_ms = ms_since(t_render);
-  for (size_t i = 0; i < res.objects.size(); ++i) res.objects[i].root = out->stats.root_used[i];
+  const Impl::Frame at_t = p.at(t);
+  for (size_t i = 0; i < res.objects.size(); ++i) {
+    res.objects[i].root = out->stats.root_used[i];
+    res.objects[i].world_box = at_t.objects[i].transform.box_to_world(at_t.objects[i].bbox);
+  }
   if (out->stats.cancelled) res.status = SceneJobStatus::kCancelled;
   return res;
+}
+
+SceneJobResult run_scene_job(const scene::SceneDesc& sc, const SceneOverrides& ov,
+                             render::ProgressFn progress, const std::atomic<bool>* cancel,
+                             render::TraceResult* out) {
+  SceneJobResult res;
+  std::unique_ptr<PreparedScene> prepared = PreparedScene::prepare(sc, ov, &res);
+  if (!prepared) return res;
+  const double t = ov.time ? *ov.time : sc.animation.frame_time(0);
+  return prepared->render(t, std::move(progress), cancel, out);
 }
 
 CompileResult compile_scene_object(const scene::SceneDesc& sc, size_t i, ModelOptions mo) {

@@ -35,6 +35,8 @@ struct SceneOverrides {
   bool no_shadows = false;
   int threads = 0;
   bool interp_backend = false;  ///< --backend interp
+  /// --time: the time rendered by run_scene_job (default: the animation's start, or 0).
+  std::optional<double> time;
 };
 
 /// How a scene job ended.
@@ -63,9 +65,47 @@ struct SceneJobResult {
   std::vector<SceneObjectReport> objects;
   size_t compilations = 0;  ///< distinct models compiled
   double compile_ms = 0, prepare_ms = 0, probe_ms = 0, render_ms = 0;
+  double time = 0;  ///< the time rendered
+  int passes = 1;   ///< motion-blur passes (1: none)
 };
 
-/// Compiles and traces `scene` into `*out`. Never throws; every failure is a status.
+/// A scene compiled once for many renders: the frames of an animation, the time strata of
+/// motion blur, the tiles of a render split across processes. Each model is compiled once; a
+/// render at time t applies the scene's keys (scene::scene_at), gives every model its time
+/// (x[4], Model::set_time) and its keyed parameters (Model::set_params): numbers, never a
+/// recompile. The camera, when the scene leaves eye or look_at to framing, is framed once (over
+/// the solids at the animation's first and last frames), and `--root auto` is settled once, so
+/// that every frame, any subset of frames and any subset of tiles see the same camera and
+/// search: a render is a function of (t, tiles) only.
+class PreparedScene {
+ public:
+  /// Compiles the scene's models and loads its textures. Null with res->status and res->error
+  /// when that fails; else res gets the compile figures and warnings.
+  static std::unique_ptr<PreparedScene> prepare(const scene::SceneDesc& scene,
+                                                const SceneOverrides& overrides,
+                                                SceneJobResult* res);
+  ~PreparedScene();
+
+  /// Renders time `t` into `*out`. With the animation's shutter > 0 (motion blur), sample s of
+  /// each pixel (of the spp) is traced at time t + shutter (s + u_s) / spp (u_s in [0, 1) a
+  /// hash of t and s): one pass per sample, the passes averaged, so that time strata follow
+  /// the pixel strata. `tiles` (may be null) restricts the render to those tiles
+  /// (render::TraceOptions::tiles); the other pixels of `out` are left as they were.
+  SceneJobResult render(double t, render::ProgressFn progress, const std::atomic<bool>* cancel,
+                        render::TraceResult* out, const std::vector<size_t>* tiles = nullptr);
+
+  /// The render settings (size, spp, tile size ...) every render uses.
+  const render::TraceOptions& options() const;
+  const scene::SceneDesc& scene() const;
+
+ private:
+  struct Impl;
+  explicit PreparedScene(std::unique_ptr<Impl> impl);
+  std::unique_ptr<Impl> impl_;
+};
+
+/// Compiles and traces `scene` at time overrides.time (default: the animation's start) into
+/// `*out`: PreparedScene::prepare, then render. Never throws; every failure is a status.
 /// `progress` and `cancel` are as in render::TraceOptions.
 SceneJobResult run_scene_job(const scene::SceneDesc& scene, const SceneOverrides& overrides,
                              render::ProgressFn progress, const std::atomic<bool>* cancel,

@@ -97,8 +97,8 @@ class PolyEmitter : public VectorEmitter {
         }
         break;
       case PolyOp::kParam:
-        // The caller passes at least num_params values (Model pads them).
-        if (in.aux >= 0 && in.aux < fn_.num_params) {
+        // The caller passes at least poly_num_params(fn) values (PolyJit::eval pads them).
+        if (in.aux >= 0 && in.aux < poly_num_params(fn_)) {
           llvm::Value* v =
               b_.CreateLoad(st_, b_.CreateConstInBoundsGEP1_64(st_, a_, uint64_t(in.aux)));
           r[0] = b_.CreateVectorSplat(unsigned(w_), v);
@@ -227,7 +227,7 @@ Result<std::unique_ptr<PolyJit>> PolyJit::compile(const Function& fn, const Poly
   auto code = session.value()->compile(std::move(unit), name, options, &impl->stats);
   if (!code.ok()) return code.error();
   impl->code = std::move(code.value());
-  impl->num_params = fn.num_params;
+  impl->num_params = poly_num_params(fn);
   impl->num_leaves = program.leaves.size();
   return std::unique_ptr<PolyJit>(new PolyJit(std::move(impl)));
 }

@@ -96,6 +96,10 @@ struct Model::Impl {
   bool shares_code = false;        ///< compiled is another model's (share_code)
   std::vector<double> params_f64;  ///< padded to num_params, then the hoisted numbers
   std::vector<float> params_f32;
+  double time = 0;  ///< x[4] where the caller gives three coordinates (set_time)
+  /// The polynomial domain's parameters (jit::poly_num_params): params_f64's first num_params,
+  /// then x[4] = time and x[5..] = 0.
+  std::vector<double> poly_args;
   ModelStats stats;
 
   void pad_params() {
@@ -106,6 +110,10 @@ struct Model::Impl {
     for (size_t j = 0; j < constants.size() && user + j < n; ++j)
       params_f64[user + j] = constants[j];
     params_f32.assign(params_f64.begin(), params_f64.end());
+    const jit::Function& fn = compiled->fn;
+    poly_args.assign(size_t(std::max(jit::poly_num_params(fn), 1)), 0.0);
+    std::copy(params_f64.begin(), params_f64.begin() + fn.num_params, poly_args.begin());
+    if (fn.num_inputs > 3) poly_args[size_t(fn.num_params)] = time;
   }
 
   /// Makes a fresh Compiled of the lowered object `lowered` (its Function is moved in; JIT
@@ -282,6 +290,14 @@ const std::vector<double>& Model::params() const {
   return impl_->params;
 }
 
+void Model::set_time(double t) {
+  impl_->time = t;
+  impl_->pad_params();
+}
+double Model::time() const {
+  return impl_->time;
+}
+
 PointValue Model::eval(std::span<const double> x) const {
   const Compiled& c = *impl_->compiled;
   const int nx = c.fn.num_inputs;
@@ -440,11 +456,11 @@ void Model::ray_polynomials(const double o[3], const double d[3], double* out) c
   const jit::PolyAnalysis& p = c.poly->analysis();
   HFRT_CHECK_MSG(p.qualifies, "ray_polynomials on an object that does not qualify: " << p.reason);
   if (p.program.surfaces.empty()) {
-    c.poly->eval(o, d, impl_->params_f64, out);
+    c.poly->eval(o, d, impl_->poly_args, out);
     return;
   }
   // The surface leaves' points follow the polynomial leaves: the caller gets the latter only.
-  const double* all = all_leaves(c, impl_->params_f64, o, d);
+  const double* all = all_leaves(c, impl_->poly_args, o, d);
   std::copy(all, all + size_t(p.program.num_poly_leaves) * jit::kPolyCoeffs, out);
 }
 
@@ -454,7 +470,7 @@ void Model::ray_surface_crossings(const double o[3], const double d[3], double t
   const jit::PolyAnalysis& p = c.poly->analysis();
   HFRT_CHECK_MSG(p.qualifies, "ray_surface_crossings on an object that does not qualify");
   if (p.program.surfaces.empty() || !(t0 < t1)) return;
-  const double* all = all_leaves(c, impl_->params_f64, o, d);
+  const double* all = all_leaves(c, impl_->poly_args, o, d);
   thread_local std::vector<geom::Crossing> crossings;
   // Rays are traced in float: clamp an unbounded segment to what float holds.
   const float tmin = float(std::max(t0, -3e38)), tmax = float(std::min(t1, 3e38));

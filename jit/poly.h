@@ -36,6 +36,7 @@
 // Not thread-hostile: the analysis is a pure function; PolyInterpreter::eval is const and
 // uses per-thread scratch memory.
 
+#include <algorithm>
 #include <cstdint>
 #include <memory>
 #include <span>
@@ -54,6 +55,14 @@ using namespace ::hfrt::ir;
 
 inline constexpr int kPolyMaxDegree = 4;
 inline constexpr int kPolyCoeffs = kPolyMaxDegree + 1;
+
+/// How many values the polynomial domain's parameter vector holds: the function's a[] (with
+/// its hoisted numbers), then x[4], x[5], ... for objects with more than three inputs. Along
+/// a ray only x[1..3] move; the others (time in an animation) are numbers held for the whole
+/// ray, so the analysis reads them as parameters instead of giving up.
+inline int poly_num_params(const Function& fn) {
+  return fn.num_params + std::max(0, fn.num_inputs - 3);
+}
 
 /// One instruction of a PolyProgram; register i is the result of instruction i (5
 /// coefficients). Arguments are earlier registers.

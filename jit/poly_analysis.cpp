@@ -196,8 +196,13 @@ class Analyzer {
       case Op::kConst:
         return set_poly(v, 0, konst(in.imm));
       case Op::kInput:
-        return set_poly(v, in.aux < 3 ? 1 : 0,
-                        emit(PolyOp::kInput, in.aux < 3 ? 1 : 0, -1, -1, -1, 0, in.aux));
+        // x[4], x[5], ... are held at one value along a ray (time, for an animation): the
+        // poly domain reads them as the parameters after a[] (kPolyHeldInputs in poly.h).
+        if (in.aux >= 3) {
+          const int slot = in.aux < fn_.num_inputs ? int(fn_.num_params) + in.aux - 3 : -1;
+          return set_poly(v, 0, emit(PolyOp::kParam, 0, -1, -1, -1, 0, slot));
+        }
+        return set_poly(v, 1, emit(PolyOp::kInput, 1, -1, -1, -1, 0, in.aux));
       case Op::kParam:
         return set_poly(v, 0, emit(PolyOp::kParam, 0, -1, -1, -1, 0, in.aux));
       case Op::kLoadSlot:

@@ -8,16 +8,34 @@
 
 #include <algorithm>
 
+#include "base/check.h"
+
 namespace hfrt::render {
+
+size_t tile_count(int width, int height, int tile_size) {
+  const int ntx = (width + tile_size - 1) / tile_size, nty = (height + tile_size - 1) / tile_size;
+  return size_t(ntx) * size_t(nty);
+}
+
+Tile tile_at(int width, int height, int tile_size, size_t index) {
+  const int ts = tile_size;
+  const int ntx = (width + ts - 1) / ts;
+  Tile t;
+  t.index = index;
+  t.x0 = int(index % size_t(ntx)) * ts;
+  t.y0 = int(index / size_t(ntx)) * ts;
+  t.x1 = std::min(width, t.x0 + ts);
+  t.y1 = std::min(height, t.y0 + ts);
+  return t;
+}
 
 TileLoop for_each_tile(int width, int height, int tile_size, int threads,
                        const std::function<void(size_t done, size_t total)>& progress,
-                       const std::atomic<bool>* cancel,
-                       const std::function<void(const Tile&)>& fn) {
-  const int ts = tile_size;
-  const int ntx = (width + ts - 1) / ts, nty = (height + ts - 1) / ts;
+                       const std::atomic<bool>* cancel, const std::function<void(const Tile&)>& fn,
+                       const std::vector<size_t>* only) {
+  const size_t all = tile_count(width, height, tile_size);
   TileLoop loop;
-  loop.tiles = size_t(ntx) * nty;
+  loop.tiles = only ? only->size() : all;
   loop.threads = threads > 0 ? threads : tbb::info::default_concurrency();
   std::atomic<size_t> done{0};
   std::atomic<bool> cancelled{false};
@@ -28,18 +46,14 @@ TileLoop for_each_tile(int width, int height, int tile_size, int threads,
   arena.execute([&] {
     tbb::parallel_for(tbb::blocked_range<size_t>(0, loop.tiles, 1),
                       [&](const tbb::blocked_range<size_t>& r) {
-                        for (size_t ti = r.begin(); ti != r.end(); ++ti) {
+                        for (size_t k = r.begin(); k != r.end(); ++k) {
                           if (cancel && cancel->load(std::memory_order_relaxed)) {
                             cancelled.store(true, std::memory_order_relaxed);
                             return;
                           }
-                          Tile t;
-                          t.index = ti;
-                          t.x0 = int(ti % ntx) * ts;
-                          t.y0 = int(ti / ntx) * ts;
-                          t.x1 = std::min(width, t.x0 + ts);
-                          t.y1 = std::min(height, t.y0 + ts);
-                          fn(t);
+                          const size_t ti = only ? (*only)[k] : k;
+                          HFRT_CHECK(ti < all);
+                          fn(tile_at(width, height, tile_size, ti));
                           size_t d = ++done;
                           if (progress) progress(d, loop.tiles);
                         }

@@ -8,6 +8,7 @@
 #include <atomic>
 #include <cstddef>
 #include <functional>
+#include <vector>
 
 namespace hfrt::render {
 
@@ -29,8 +30,16 @@ struct TileLoop {
 /// worker threads and must be thread-safe; a worker's scratch state belongs in the caller's
 /// thread-specific storage. `progress` (may be empty) gets (tiles done, tiles) after each
 /// tile; `cancel` (may be null) is read before each tile.
+/// `only` (may be null) restricts the loop to those tile indices (row-major, each < the tile
+/// count; a render split across processes gives each its share): progress then counts them.
 TileLoop for_each_tile(int width, int height, int tile_size, int threads,
                        const std::function<void(size_t done, size_t total)>& progress,
-                       const std::atomic<bool>* cancel, const std::function<void(const Tile&)>& fn);
+                       const std::atomic<bool>* cancel, const std::function<void(const Tile&)>& fn,
+                       const std::vector<size_t>* only = nullptr);
+
+/// The number of tiles of a width x height image cut into tile_size squares.
+size_t tile_count(int width, int height, int tile_size);
+/// Tile `index` of that layout.
+Tile tile_at(int width, int height, int tile_size, size_t index);
 
 }  // namespace hfrt::render

@@ -271,13 +271,17 @@ class SceneTracer {
     const size_t npix = size_t(tw) * th;
     pix_.assign(npix, PixelAccum{});
     cull_tile(tx0, ty0, tx1, ty1, ts);
-    const int first = opt_.adaptive ? std::min(opt_.spp, TraceOptions::kAdaptiveFirst) : opt_.spp;
+    const bool subset = opt_.sample_count > 0;
+    const int begin = subset ? opt_.sample_begin : 0;
+    const int first = subset          ? begin + opt_.sample_count
+                      : opt_.adaptive ? std::min(opt_.spp, TraceOptions::kAdaptiveFirst)
+                                      : opt_.spp;
     std::vector<std::pair<int, int>> list;  // (pixel, sample index)
-    list.reserve(npix * size_t(first));
+    list.reserve(npix * size_t(first - begin));
     for (size_t p = 0; p < npix; ++p)
-      for (int s = 0; s < first; ++s) list.push_back({int(p), s});
+      for (int s = begin; s < first; ++s) list.push_back({int(p), s});
     trace_samples(list, tx0, ty0, tw, ts);
-    if (first < opt_.spp) {
+    if (!subset && first < opt_.spp) {
       list.clear();
       for (size_t p = 0; p < npix; ++p) {
         const PixelAccum& a = pix_[p];
@@ -954,9 +958,12 @@ void trace_into(const std::vector<SceneObject>& objects, const std::vector<Mater
   HFRT_CHECK(options.spp >= 1 && options.spp <= 65536);
   HFRT_CHECK(options.tile_size >= 1);
   HFRT_CHECK(options.max_depth >= 0);
+  HFRT_CHECK(options.sample_count >= 0 && options.sample_begin >= 0 &&
+             options.sample_begin + options.sample_count <= options.spp);
   auto start = Clock::now();
   out->stats = TraceStats{};
-  out->image.resize(options.width, options.height);
+  if (out->image.width != options.width || out->image.height != options.height || !options.tiles)
+    out->image.resize(options.width, options.height);
   Image* image = &out->image;
 
   struct Worker {
@@ -969,11 +976,14 @@ void trace_into(const std::vector<SceneObject>& objects, const std::vector<Mater
     w.state = w.tracer->make_state();
     return w;
   });
-  TileLoop loop = for_each_tile(options.width, options.height, options.tile_size, options.threads,
-                                options.progress, options.cancel, [&](const Tile& t) {
-                                  Worker& w = workers.local();
-                                  w.tracer->trace_tile(t.x0, t.y0, t.x1, t.y1, w.state);
-                                });
+  TileLoop loop = for_each_tile(
+      options.width, options.height, options.tile_size, options.threads, options.progress,
+      options.cancel,
+      [&](const Tile& t) {
+        Worker& w = workers.local();
+        w.tracer->trace_tile(t.x0, t.y0, t.x1, t.y1, w.state);
+      },
+      options.tiles);
 
   TraceStats& s = out->stats;
   s.tiles = loop.tiles;

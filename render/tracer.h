@@ -96,6 +96,15 @@ struct TraceOptions {
   int tile_size = 16;
   ProgressFn progress;
   const std::atomic<bool>* cancel = nullptr;
+  /// Only samples [sample_begin, sample_begin + sample_count) of each pixel's spp-sample
+  /// pattern (sample_count 0: all of them; adaptive sampling is then off). Motion blur traces
+  /// each time stratum as a pass of its own samples, so that the passes together are the
+  /// spp-sample render, sample s seen at time stratum s.
+  int sample_begin = 0, sample_count = 0;
+  /// Only these tiles (row-major indices of the tile_size layout, render/tiles.h), when not
+  /// null: the other pixels of the image are left as they were. A render split across
+  /// processes (MPI) gives each its share.
+  const std::vector<size_t>* tiles = nullptr;
 };
 
 struct TraceStats {

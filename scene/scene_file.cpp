@@ -11,6 +11,7 @@
 #include <initializer_list>
 #include <string_view>
 
+#include "base/check.h"
 #include "base/file.h"
 
 namespace hfrt::scene {
@@ -126,7 +127,7 @@ class Reader {
       return fail(e.source(), "invalid TOML: " + std::string(e.description()));
     }
     if (!check_keys(root, "the scene file", "at the top level",
-                    {"camera", "render", "light", "material", "object"}))
+                    {"camera", "render", "light", "material", "object", "animation"}))
       return false;
     if (const toml::node* n = root.get("camera")) {
       const toml::table* t = table_of(*n, "camera", "[camera]");
@@ -135,6 +136,10 @@ class Reader {
     if (const toml::node* n = root.get("render")) {
       const toml::table* t = table_of(*n, "render", "[render]");
       if (!t || !read_render(*t)) return false;
+    }
+    if (const toml::node* n = root.get("animation")) {
+      const toml::table* t = table_of(*n, "animation", "[animation]");
+      if (!t || !read_animation(*t)) return false;
     }
     // Materials before objects: objects name them.
     if (const toml::node* n = root.get("material")) {
@@ -162,6 +167,7 @@ class Reader {
       e.hint = "add an [[object]] table with file = \"model.hf\" (or source = \"...\")";
       return false;
     }
+    out_->keyed_params.resize(out_->objects.size(), false);
     return true;
   }
 
@@ -256,7 +262,29 @@ class Reader {
 
   // --- typed values ------------------------------------------------------------------------
 
-  bool number(const toml::node& n, const std::string& what, double* out) {
+  /// Writes a number's value at a time into a SceneDesc (for keyed numbers).
+  using Setter = std::function<void(SceneDesc&, double)>;
+  /// The same for component i of a vector (or element i of params).
+  using IndexSetter = std::function<void(SceneDesc&, size_t, double)>;
+
+  /// A number; where `set` is given, also keys (`{ keys = [[t, v], ...] }`): then *out is the
+  /// value at time 0 and the keys are recorded with `set` (SceneDesc::keyed). Either way
+  /// values_ lists every value read with its node, for the callers' range checks.
+  bool number(const toml::node& n, const std::string& what, double* out, const Setter& set = {}) {
+    values_.clear();
+    if (const toml::table* t = n.as_table()) {
+      if (!set) {
+        return fail(n.source(), what + " cannot be keyed: it must be a number",
+                    std::string("keys are for ") + keyable_numbers());
+      }
+      return keys(*t, what, out, set);
+    }
+    if (!plain_number(n, what, out)) return false;
+    values_.push_back({*out, &n});
+    return true;
+  }
+
+  bool plain_number(const toml::node& n, const std::string& what, double* out) {
     if (const auto* i = n.as_integer()) {
       *out = static_cast<double>(i->get());
     } else if (const auto* f = n.as_floating_point()) {
@@ -265,6 +293,56 @@ class Reader {
     } else {
       return fail(n.source(), what + " must be a number, not " + type_name(n));
     }
+    return true;
+  }
+
+  /// `{ keys = [[t0, v0], [t1, v1], ...] }`.
+  bool keys(const toml::table& t, const std::string& what, double* out, const Setter& set) {
+    const std::string kwhat = what + " keys";
+    if (!check_keys(t, "a keyed number", "in the keys of " + what, {"keys"})) return false;
+    const toml::node* k = t.get("keys");
+    static const char* kShape =
+        "keys = [[time, value], ...]: times increasing; linear between keys, constant outside";
+    if (!k) return fail(t.source(), what + " is a table without keys", kShape);
+    const toml::array* a = k->as_array();
+    if (!a || a->empty()) {
+      return fail(k->source(),
+                  kwhat + " must be a non-empty array of [time, value] pairs, not " +
+                      (a ? std::string("an empty array") : std::string(type_name(*k))),
+                  kShape);
+    }
+    KeyedNumber kn;
+    kn.what = what;
+    kn.pos = SourcePos{path_, static_cast<int>(t.source().begin.line),
+                       static_cast<int>(t.source().begin.column)};
+    kn.set = set;
+    std::vector<std::pair<double, const toml::node*>> values;
+    for (size_t i = 0; i < a->size(); ++i) {
+      const toml::node& e = *a->get(i);
+      const toml::array* pair = e.as_array();
+      const std::string item = kwhat + "[" + std::to_string(i) + "]";
+      if (!pair || pair->size() != 2) {
+        return fail(
+            e.source(),
+            item + " must be a [time, value] pair, not " +
+                (pair ? "an array of " + std::to_string(pair->size()) : std::string(type_name(e))),
+            kShape);
+      }
+      double time = 0, value = 0;
+      if (!plain_number(*pair->get(0), item + " time", &time)) return false;
+      if (!plain_number(*pair->get(1), item + " value", &value)) return false;
+      if (!kn.keys.keys.empty() && !(time > kn.keys.keys.back()[0])) {
+        return fail(pair->get(0)->source(),
+                    item + " time must be after the previous key's (" +
+                        fmt(kn.keys.keys.back()[0]) + "), not " + fmt(time),
+                    kShape);
+      }
+      kn.keys.keys.push_back({time, value});
+      values.push_back({value, pair->get(1)});
+    }
+    *out = kn.keys.at(0.0);
+    out_->keyed.push_back(std::move(kn));
+    values_ = std::move(values);
     return true;
   }
 
@@ -289,9 +367,10 @@ class Reader {
     return true;
   }
 
-  /// An array of exactly `count` numbers (count 0: any length).
-  bool numbers(const toml::node& n, const std::string& what, size_t count,
-               std::vector<double>* out) {
+  /// An array of exactly `count` numbers (count 0: any length); with `set`, each may be keys.
+  /// all_values_ gets every value read (for range checks).
+  bool numbers(const toml::node& n, const std::string& what, size_t count, std::vector<double>* out,
+               const IndexSetter& set = {}) {
     const toml::array* a = n.as_array();
     const std::string shape =
         count ? "an array of " + std::to_string(count) + " numbers" : "an array of numbers";
@@ -300,40 +379,63 @@ class Reader {
       return fail(n.source(), what + " must be " + shape + ", not " + std::to_string(a->size()));
     }
     out->clear();
+    all_values_.clear();
     for (size_t i = 0; i < a->size(); ++i) {
       double v = 0;
-      if (!number(*a->get(i), what + "[" + std::to_string(i) + "]", &v)) return false;
+      Setter one;
+      if (set) one = [set, i](SceneDesc& s, double value) { set(s, i, value); };
+      if (!number(*a->get(i), what + "[" + std::to_string(i) + "]", &v, one)) return false;
       out->push_back(v);
+      for (const auto& [value, node] : values_) all_values_.push_back({value, node, i});
     }
     return true;
   }
 
-  bool vec3(const toml::node& n, const std::string& what, render::Vec3* out) {
+  /// A Vec3 component by index (for setters).
+  static float& component(render::Vec3& v, size_t i) { return i == 0 ? v.x : i == 1 ? v.y : v.z; }
+
+  /// `place` finds the vector in a SceneDesc (for keyed components); null: not keyable.
+  using VecPlace = std::function<render::Vec3&(SceneDesc&)>;
+
+  bool vec3(const toml::node& n, const std::string& what, render::Vec3* out,
+            const VecPlace& place = {}) {
     std::vector<double> v;
-    if (!numbers(n, what, 3, &v)) return false;
+    IndexSetter set;
+    if (place)
+      set = [place](SceneDesc& s, size_t i, double x) { component(place(s), i) = float(x); };
+    if (!numbers(n, what, 3, &v, set)) return false;
     *out = render::Vec3{float(v[0]), float(v[1]), float(v[2])};
     return true;
   }
 
-  /// A vector whose components are >= 0 (colours, absorption).
-  bool colour(const toml::node& n, const std::string& what, render::Vec3* out) {
-    std::vector<double> v;
-    if (!numbers(n, what, 3, &v)) return false;
-    for (size_t i = 0; i < 3; ++i) {
-      if (v[i] < 0) {
-        return fail(n.as_array()->get(i)->source(),
-                    what + "[" + std::to_string(i) + "] must be >= 0, not " + fmt(v[i]));
+  /// A vector whose components are >= 0 (colours, absorption); every key value too.
+  bool colour(const toml::node& n, const std::string& what, render::Vec3* out,
+              const VecPlace& place = {}) {
+    if (!vec3(n, what, out, place)) return false;
+    for (const ValueAt& va : all_values_) {
+      if (va.value < 0) {
+        return fail(va.node->source(),
+                    what + "[" + std::to_string(va.index) + "] must be >= 0, not " + fmt(va.value));
       }
     }
-    *out = render::Vec3{float(v[0]), float(v[1]), float(v[2])};
     return true;
   }
 
   /// A number in a range: lo/hi with open (>) or closed (>=) ends; NaN bounds are absent.
+  /// With `set`, the number may be keyed: every key's value must be in range.
   bool ranged(const toml::node& n, const std::string& what, double lo, bool lo_open, double hi,
-              bool hi_open, float* out, const std::string& unit = "") {
-    double v = 0;
-    if (!number(n, what, &v)) return false;
+              bool hi_open, float* out, const std::string& unit = "", const Setter& set = {}) {
+    double first = 0;
+    if (!number(n, what, &first, set)) return false;
+    *out = static_cast<float>(first);
+    for (const auto& [v, node] : values_) {
+      if (!in_range(*node, what, v, lo, lo_open, hi, hi_open, unit)) return false;
+    }
+    return true;
+  }
+
+  bool in_range(const toml::node& n, const std::string& what, double v, double lo, bool lo_open,
+                double hi, bool hi_open, const std::string& unit) {
     const bool lo_ok = std::isnan(lo) || (lo_open ? v > lo : v >= lo);
     const bool hi_ok = std::isnan(hi) || (hi_open ? v < hi : v <= hi);
     if (!lo_ok || !hi_ok) {
@@ -346,7 +448,6 @@ class Reader {
       }
       return fail(n.source(), what + " must be " + range + unit + ", not " + fmt(v));
     }
-    *out = static_cast<float>(v);
     return true;
   }
 
@@ -407,11 +508,15 @@ class Reader {
     out_->has_camera = true;
     render::Vec3 v;
     if (const toml::node* n = t.get("eye")) {
-      if (!vec3(*n, "[camera] eye", &v)) return false;
+      if (!vec3(*n, "[camera] eye", &v,
+                [](SceneDesc& s) -> render::Vec3& { return *s.camera.request.eye; }))
+        return false;
       c.request.eye = v;
     }
     if (const toml::node* n = t.get("look_at")) {
-      if (!vec3(*n, "[camera] look_at", &v)) return false;
+      if (!vec3(*n, "[camera] look_at", &v,
+                [](SceneDesc& s) -> render::Vec3& { return *s.camera.request.look_at; }))
+        return false;
       c.request.look_at = v;
     }
     if (const toml::node* n = t.get("up")) {
@@ -429,7 +534,9 @@ class Reader {
     }
     float f = 0;
     if (fov) {
-      if (!ranged(*fov, "[camera] fov", 0, true, 180, true, &f, " degrees")) return false;
+      if (!ranged(*fov, "[camera] fov", 0, true, 180, true, &f, " degrees",
+                  [](SceneDesc& s, double x) { s.camera.request.fov_deg = float(x); }))
+        return false;
       c.request.fov_deg = f;
     }
     if (ortho) {
@@ -497,11 +604,44 @@ class Reader {
     return true;
   }
 
+  bool read_animation(const toml::table& t) {
+    if (!check_keys(t, "[animation]", "in [animation]", {"frames", "start", "end", "shutter"}))
+      return false;
+    AnimationDesc& a = out_->animation;
+    a.given = true;
+    if (const toml::node* n = t.get("frames")) {
+      if (!at_least(*n, "[animation] frames", 1, &a.frames)) return false;
+    }
+    if (const toml::node* n = t.get("start")) {
+      if (!number(*n, "[animation] start", &a.start)) return false;
+    }
+    a.end = a.start;
+    if (const toml::node* n = t.get("end")) {
+      if (!number(*n, "[animation] end", &a.end)) return false;
+      if (a.frames > 1 && !(a.end > a.start)) {
+        return fail(n->source(),
+                    "[animation] end must be after start (" + fmt(a.start) + "), not " + fmt(a.end),
+                    "frame i has time start + (end - start) * i / (frames - 1)");
+      }
+    } else if (a.frames > 1) {
+      return fail(t.source(), "[animation] has " + std::to_string(a.frames) + " frames but no end",
+                  "end = 1.0: frame i has time start + (end - start) * i / (frames - 1)");
+    }
+    if (const toml::node* n = t.get("shutter")) {
+      float s = 0;
+      if (!ranged(*n, "[animation] shutter", 0, false, NAN, false, &s)) return false;
+      a.shutter = s;
+    }
+    return true;
+  }
+
   bool read_light(const toml::table& t) {
     if (!check_keys(t, "[[light]]", "in [[light]]",
                     {"kind", "position", "direction", "radius", "color", "intensity", "samples"}))
       return false;
     render::Light l;
+    const size_t li = out_->lights.size();
+    const VecPlace light_v = [li](SceneDesc& s) -> render::Vec3& { return s.lights[li].v; };
     std::string kind = "point";
     if (const toml::node* n = t.get("kind")) {
       if (!choice(*n, "[[light]] kind", {"point", "directional", "sphere"}, &kind)) return false;
@@ -532,14 +672,14 @@ class Reader {
       if (!n)
         return fail(header, "a directional light needs a direction",
                     "direction = [x, y, z] points from the scene towards the light");
-      if (!vec3(*n, "[[light]] direction", &l.v)) return false;
+      if (!vec3(*n, "[[light]] direction", &l.v, light_v)) return false;
       if (length(l.v) <= 0) return fail(n->source(), "[[light]] direction must not be zero");
     } else {
       const toml::node* n = t.get("position");
       if (!n)
         return fail(header, std::string("a ") + kind + " light needs a position",
                     "position = [x, y, z]");
-      if (!vec3(*n, "[[light]] position", &l.v)) return false;
+      if (!vec3(*n, "[[light]] position", &l.v, light_v)) return false;
     }
     if (sphere) {
       const toml::node* n = t.get("radius");
@@ -555,10 +695,14 @@ class Reader {
       if (!at_least(*s, "[[light]] samples", 1, &l.samples)) return false;
     }
     if (const toml::node* n = t.get("color")) {
-      if (!colour(*n, "[[light]] color", &l.color)) return false;
+      if (!colour(*n, "[[light]] color", &l.color,
+                  [li](SceneDesc& s) -> render::Vec3& { return s.lights[li].color; }))
+        return false;
     }
     if (const toml::node* n = t.get("intensity")) {
-      if (!ranged(*n, "[[light]] intensity", 0, false, NAN, false, &l.intensity)) return false;
+      if (!ranged(*n, "[[light]] intensity", 0, false, NAN, false, &l.intensity, "",
+                  [li](SceneDesc& s, double x) { s.lights[li].intensity = float(x); }))
+        return false;
     }
     out_->lights.push_back(l);
     return true;
@@ -600,32 +744,41 @@ class Reader {
       return false;
     render::Material m;
     const std::string p = what + " ";
-    if (const toml::node* n = t.get("color"); n && !colour(*n, p + "color", &m.color)) return false;
+    auto place = [name](render::Vec3 render::Material::*field) -> VecPlace {
+      return [name, field](SceneDesc& s) -> render::Vec3& { return s.materials[name].*field; };
+    };
+    if (const toml::node* n = t.get("color");
+        n && !colour(*n, p + "color", &m.color, place(&render::Material::color)))
+      return false;
     struct Scalar {
       const char* key;
-      float* out;
+      float render::Material::*field;
       double lo;
       bool lo_open;
       double hi;
     };
     const Scalar scalars[] = {
-        {"ambient", &m.ambient, 0, false, NAN},
-        {"diffuse", &m.diffuse, 0, false, NAN},
-        {"specular", &m.specular, 0, false, NAN},
-        {"shininess", &m.shininess, 0, true, NAN},
-        {"reflect", &m.reflect, 0, false, 1},
-        {"transmit", &m.transmit, 0, false, 1},
-        {"ior", &m.ior, 0, true, NAN},
-        {"roughness", &m.roughness, 0, false, 1},
+        {"ambient", &render::Material::ambient, 0, false, NAN},
+        {"diffuse", &render::Material::diffuse, 0, false, NAN},
+        {"specular", &render::Material::specular, 0, false, NAN},
+        {"shininess", &render::Material::shininess, 0, true, NAN},
+        {"reflect", &render::Material::reflect, 0, false, 1},
+        {"transmit", &render::Material::transmit, 0, false, 1},
+        {"ior", &render::Material::ior, 0, true, NAN},
+        {"roughness", &render::Material::roughness, 0, false, 1},
     };
     for (const Scalar& s : scalars) {
       if (const toml::node* n = t.get(s.key)) {
-        if (!ranged(*n, p + s.key, s.lo, s.lo_open, s.hi, false, s.out)) return false;
+        const auto field = s.field;
+        if (!ranged(*n, p + s.key, s.lo, s.lo_open, s.hi, false, &(m.*field), "",
+                    [name, field](SceneDesc& d, double x) { d.materials[name].*field = float(x); }))
+          return false;
       }
     }
     if (const toml::node* n = t.get("fresnel"); n && !boolean(*n, p + "fresnel", &m.fresnel))
       return false;
-    if (const toml::node* n = t.get("absorb"); n && !colour(*n, p + "absorb", &m.absorb))
+    if (const toml::node* n = t.get("absorb");
+        n && !colour(*n, p + "absorb", &m.absorb, place(&render::Material::absorb)))
       return false;
     if (const toml::node* n = t.get("texture")) {
       if (!existing_file(*n, p + "texture", "texture file", &m.texture)) return false;
@@ -653,6 +806,7 @@ class Reader {
                      "scale"}))
       return false;
     ObjectDesc o;
+    const size_t oi = out_->objects.size();
     o.pos.file = path_;
     o.pos.line = static_cast<int>(t.source().begin.line);
     o.pos.column = static_cast<int>(t.source().begin.column);
@@ -684,7 +838,14 @@ class Reader {
                              static_cast<int>(n->source().begin.column)};
     }
     if (const toml::node* n = t.get("params")) {
-      if (!numbers(*n, "[[object]] params", 0, &o.params)) return false;
+      const size_t keyed_before = out_->keyed.size();
+      if (!numbers(*n, "[[object]] params", 0, &o.params,
+                   [oi](SceneDesc& s, size_t i, double x) { s.objects[oi].params[i] = x; }))
+        return false;
+      if (out_->keyed.size() > keyed_before) {
+        out_->keyed_params.resize(oi + 1, false);
+        out_->keyed_params[oi] = true;
+      }
     }
     if (const toml::node* n = t.get("bbox")) {
       std::vector<double> b;
@@ -719,12 +880,17 @@ class Reader {
       }
     }
     if (const toml::node* n = t.get("translate");
-        n && !vec3(*n, "[[object]] translate", &o.translate))
+        n && !vec3(*n, "[[object]] translate", &o.translate,
+                   [oi](SceneDesc& s) -> render::Vec3& { return s.objects[oi].translate; }))
       return false;
-    if (const toml::node* n = t.get("rotate"); n && !vec3(*n, "[[object]] rotate", &o.rotate_deg))
+    if (const toml::node* n = t.get("rotate");
+        n && !vec3(*n, "[[object]] rotate", &o.rotate_deg,
+                   [oi](SceneDesc& s) -> render::Vec3& { return s.objects[oi].rotate_deg; }))
       return false;
     if (const toml::node* n = t.get("scale")) {
-      if (!ranged(*n, "[[object]] scale", 0, true, NAN, false, &o.scale)) return false;
+      if (!ranged(*n, "[[object]] scale", 0, true, NAN, false, &o.scale, "",
+                  [oi](SceneDesc& s, double x) { s.objects[oi].scale = float(x); }))
+        return false;
     }
     out_->objects.push_back(std::move(o));
     return true;
@@ -735,6 +901,15 @@ class Reader {
   SceneDesc* out_;
   SceneError* err_;
   std::string folder_;
+  /// The values the last number() read, with their nodes (one, or one per key).
+  std::vector<std::pair<double, const toml::node*>> values_;
+  struct ValueAt {
+    double value;
+    const toml::node* node;
+    size_t index;  ///< element of the array
+  };
+  /// The values the last numbers() read.
+  std::vector<ValueAt> all_values_;
 };
 
 }  // namespace
@@ -794,6 +969,34 @@ bool read_scene_file(const std::string& path, SceneDesc* out, SceneError* err) {
     return false;
   }
   return parse_scene(*text, path, out, err);
+}
+
+double Keys::at(double t) const {
+  HFRT_CHECK(!keys.empty());
+  if (t <= keys.front()[0]) return keys.front()[1];
+  if (t >= keys.back()[0]) return keys.back()[1];
+  const auto hi =
+      std::upper_bound(keys.begin(), keys.end(), t,
+                       [](double x, const std::array<double, 2>& k) { return x < k[0]; });
+  const auto lo = hi - 1;
+  const double u = (t - (*lo)[0]) / ((*hi)[0] - (*lo)[0]);
+  return (*lo)[1] + u * ((*hi)[1] - (*lo)[1]);
+}
+
+double AnimationDesc::frame_time(int frame) const {
+  if (frames <= 1) return start;
+  return start + (end - start) * double(frame) / double(frames - 1);
+}
+
+SceneDesc scene_at(const SceneDesc& scene, double t) {
+  SceneDesc s = scene;
+  for (const KeyedNumber& k : scene.keyed) k.set(s, k.keys.at(t));
+  return s;
+}
+
+const char* keyable_numbers() {
+  return "an object's params, translate, rotate and scale; the camera's eye, look_at and fov; a "
+         "light's position, direction, color and intensity; a material's numbers and colours";
 }
 
 render::Transform placement(const ObjectDesc& o) {
@@ -865,6 +1068,12 @@ std::string summary(const SceneDesc& s) {
   if (s.render.max_depth) settings.push_back("depth " + std::to_string(*s.render.max_depth));
   if (s.render.root) settings.push_back("root " + *s.render.root);
   if (!settings.empty()) out += "; " + join(settings);
+  if (s.animation.given) {
+    out += "; " + count(size_t(s.animation.frames), "frame", "frames") + " (time " +
+           fmt(s.animation.start) + " to " + fmt(s.animation.end) + ")";
+    if (s.animation.shutter > 0) out += ", motion blur " + fmt(s.animation.shutter);
+  }
+  if (!s.keyed.empty()) out += ", " + count(s.keyed.size(), "keyed number", "keyed numbers");
   return out;
 }
 

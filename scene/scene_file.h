@@ -6,6 +6,7 @@
 // and column of the offending key or value (toml++ keeps source positions).
 
 #include <array>
+#include <functional>
 #include <map>
 #include <optional>
 #include <string>
@@ -79,6 +80,34 @@ render::Transform placement(const ObjectDesc& object);
 /// A box enclosing `box` (model space) placed in the world by object_to_world.
 render::Box world_box(const ObjectDesc& object, const render::Box& box);
 
+/// A number that changes with time: `{ keys = [[t0, v0], [t1, v1], ...] }` in the file, times
+/// strictly increasing; linear between keys, the first / last value before / after them.
+struct Keys {
+  std::vector<std::array<double, 2>> keys;  ///< (time, value), at least one
+  double at(double t) const;
+};
+
+/// `[animation]`: frame i (0-based) has time start + (end - start) * i / (frames - 1).
+struct AnimationDesc {
+  bool given = false;  ///< the file has an [animation] table
+  int frames = 1;
+  double start = 0, end = 0;
+  /// > 0: motion blur; each sample of frame time t takes a time in [t, t + shutter].
+  double shutter = 0;
+  double frame_time(int frame) const;
+};
+
+struct SceneDesc;
+
+/// One keyed number of a scene file: what it is, where it was written, its keys, and how its
+/// value at a time reaches a SceneDesc (scene_at).
+struct KeyedNumber {
+  std::string what;  ///< "[[object]] translate[0]", as in messages
+  SourcePos pos;
+  Keys keys;
+  std::function<void(SceneDesc&, double)> set;
+};
+
 /// A whole scene file.
 struct SceneDesc {
   std::string path;  ///< the scene file as given
@@ -89,7 +118,17 @@ struct SceneDesc {
   /// `[material.NAME]`, by name. Texture paths are resolved against the scene file's folder.
   std::map<std::string, render::Material> materials;
   std::vector<ObjectDesc> objects;
+  AnimationDesc animation;
+  /// Every keyed number. The values above are the ones at time 0; scene_at() gives others.
+  std::vector<KeyedNumber> keyed;
+  /// Objects whose params are keyed (object index -> true): their models take new parameter
+  /// values per frame (Model::set_params), never a recompile.
+  std::vector<bool> keyed_params;
 };
+
+/// The scene at time `t`: every keyed number set to its value at t. (`keyed` is kept, so the
+/// result can be moved to another time again.)
+SceneDesc scene_at(const SceneDesc& scene, double t);
 
 /// One located error: `file:line:col: error: message` (+ an optional hint line).
 struct SceneError {
@@ -115,6 +154,11 @@ bool read_scene_file(const std::string& path, SceneDesc* out, SceneError* err);
 /// The same from text in memory (`path` names it in messages; relative file names are resolved
 /// against its folder).
 bool parse_scene(const std::string& text, const std::string& path, SceneDesc* out, SceneError* err);
+
+/// Numbers that may be keyed instead of constant: an object's params, translate, rotate and
+/// scale; the camera's eye, look_at and fov; a light's position, direction, color and
+/// intensity; a material's numbers and colours. For messages.
+const char* keyable_numbers();
 
 /// A one-line description of a scene that read without errors, for `hfrt check`, e.g.
 /// `scene.toml: 3 objects, 2 lights, 2 materials; perspective camera; 512x512, 4 spp, depth 5`

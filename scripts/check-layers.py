@@ -21,7 +21,7 @@ from collections import defaultdict
 
 # Allowed dependencies, lowest layer first.  A folder may always include itself.
 # "*" allows any folder; "!name" then forbids one folder again.
-LIBS = ["base", "lang", "ir", "stdlib", "geom", "jit", "render", "scene", "mesher", "app"]
+LIBS = ["base", "lang", "ir", "stdlib", "geom", "jit", "render", "scene", "mesher", "app", "cluster"]
 LAYERS = {
     "base": set(),                                      # checks, Result, files, Vec3/Box/Interval, timers
     "lang": {"base"},                                   # HyperFun lexer, parser, sema
@@ -33,6 +33,7 @@ LAYERS = {
     "scene": {"render", "base"},                        # scene files (TOML) into SceneDescs
     "mesher": {"render", "base"},                       # dual contouring of a render::Field; mesh files
     "app": {"jit", "render", "scene", "mesher", "geom", "stdlib", "ir", "lang", "base"},  # joins models and renderer
+    "cluster": {"app", "render", "scene", "base"},      # MPI: renders across processes
     "testsupport": set(LIBS),                           # test helpers shared by tests/ and bench/
     "tools": set(LIBS),                                 # the hfrt command-line tool
     "tests": {"*"},                                     # top: anything

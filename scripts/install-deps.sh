@@ -21,6 +21,8 @@ packages=(
   libtomlplusplus-dev                                   # scene files (render/scene)
   pybind11-dev python3-dev python3-numpy python3-pytest  # the Python module and its tests
   python3-skimage                                       # the marching-cubes peer of the mesher tests/bench
+  libopenmpi-dev openmpi-bin                            # rendering across processes (cluster/, mpirun tests)
+  ffmpeg                                                # `hfrt render --video` and its test
 )
 if [[ "${1:-}" == "--bench" ]]; then
   packages+=(libembree-dev)   # optional: hfrt_bench_mesh compares against Embree when found

@@ -146,5 +146,68 @@ TEST(ModelFieldAnalytic, SphereRootsAreExact) {
   EXPECT_EQ(cand.size(), 1u);
 }
 
+// Time (issue 24): x[4] of a model reaches every evaluator the renderer uses as the number
+// Model::set_time holds, without a recompile: the analytic candidates, points, intervals and
+// gradients all see the sphere at its centre for that time.
+TEST(ModelFieldTime, EveryDomainSeesTheSphereWhereTimePutsIt) {
+  auto compiled = Model::compile(
+      "my_model(x[4], a[1]) { cx = -2 + 4 * x[4];\n"
+      "  my_model = 1 - (x[1] - cx)^2 - x[2]^2 - x[3]^2; }");
+  ASSERT_TRUE(compiled.ok()) << compiled.rendered;
+  Model& model = *compiled.model;
+  ModelField field(model, "moving");
+  ASSERT_TRUE(field.has_ray_candidates()) << field.analytic_info().reason;
+  double poly_ms = -1, interval_ms = -1;
+  for (double t : {0.0, 0.25, 0.5, 1.0}) {
+    model.set_time(t);
+    EXPECT_EQ(model.time(), t);
+    const double cx = -2 + 4 * t;
+    // Analytic: along x from -10 the unit sphere is met at cx - 1 + 10 and cx + 1 + 10.
+    std::vector<double> cand;
+    field.ray_candidates({-10, 0, 0}, {1, 0, 0}, 0, 100, &cand);
+    std::sort(cand.begin(), cand.end());
+    ASSERT_EQ(cand.size(), 2u) << "t = " << t;
+    EXPECT_NEAR(cand[0], cx - 1 + 10, 1e-9);
+    EXPECT_NEAR(cand[1], cx + 1 + 10, 1e-9);
+    // Points: F = 1 at the centre, 1 - 4 = -3 two units to the side.
+    const float xs[2] = {float(cx), float(cx + 2)}, zeros[2] = {0, 0};
+    float f[2];
+    field.eval(2, xs, zeros, zeros, f);
+    EXPECT_NEAR(f[0], 1.0f, 1e-5f);
+    EXPECT_NEAR(f[1], -3.0f, 1e-5f);
+    // Intervals: a small box around the centre is inside, one far away is outside.
+    bool maybe_nan = false;
+    render::Interval in = field.eval_interval(
+        render::Box{{float(cx) - 0.1f, -0.1f, -0.1f}, {float(cx) + 0.1f, 0.1f, 0.1f}}, &maybe_nan);
+    EXPECT_GT(in.lo, 0) << "t = " << t;
+    render::Interval out = field.eval_interval(
+        render::Box{{float(cx) + 3, -0.1f, -0.1f}, {float(cx) + 3.2f, 0.1f, 0.1f}}, &maybe_nan);
+    EXPECT_LT(out.hi, 0) << "t = " << t;
+    // Gradient: dF/dx = -2 (x - cx), time held constant.
+    const float gx[1] = {float(cx + 0.5)}, z1[1] = {0};
+    float gf, dx, dy, dz;
+    field.eval_gradient(1, gx, z1, z1, &gf, &dx, &dy, &dz);
+    EXPECT_NEAR(dx, -1.0f, 1e-5f);
+    // Time is a number, not a recompile: the code compiled for the first time serves all.
+    const ModelStats st = model.stats();
+    ASSERT_TRUE(st.polynomial.compiled);
+    ASSERT_TRUE(st.interval.compiled);
+    if (poly_ms < 0) poly_ms = st.polynomial.compile_ms, interval_ms = st.interval.compile_ms;
+    EXPECT_EQ(st.polynomial.compile_ms, poly_ms);
+    EXPECT_EQ(st.interval.compile_ms, interval_ms);
+  }
+}
+
+TEST(ModelFieldTime, ThreeDimensionalModelIgnoresTime) {
+  auto compiled = Model::compile("my_model(x[3], a[1]) { my_model = 1 - x[1]^2 - x[2]^2; }");
+  ASSERT_TRUE(compiled.ok()) << compiled.rendered;
+  compiled.model->set_time(5);
+  ModelField field(*compiled.model, "still");
+  const float x[1] = {0}, z[1] = {0};
+  float f = 0;
+  field.eval(1, x, z, z, &f);
+  EXPECT_EQ(f, 1.0f);
+}
+
 }  // namespace
 }  // namespace hfrt::app

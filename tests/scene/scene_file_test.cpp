@@ -379,7 +379,8 @@ TEST_F(SceneFileTest, UnknownTopLevelTable) {
   SceneError e = error_of(std::string("[camra]\nfov = 30\n") + kObject);
   EXPECT_EQ(e.message, "unknown key 'camra' at the top level");
   EXPECT_EQ(e.hint,
-            "did you mean 'camera'? the scene file has: camera, render, light, material, object");
+            "did you mean 'camera'? the scene file has: camera, render, light, material, object, "
+            "animation");
   EXPECT_EQ(e.pos.line, 1);
   EXPECT_EQ(e.pos.column, 2);
 }

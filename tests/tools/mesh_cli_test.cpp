@@ -195,10 +195,20 @@ TEST_F(MeshCliTest, UnknownFormatIsRefused) {
             "hfrt mesh: s.xyz: unknown mesh format '.xyz' (expected .stl, .obj, .ply or .glb)\n");
 }
 
-TEST_F(MeshCliTest, TimeIsNotSupportedYet) {
+TEST_F(MeshCliTest, TimeOnAThreeDimensionalObjectIsANote) {
   CliRun r = hfrt("mesh sphere.hf -o s.stl --time 1");
+  EXPECT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_NE(r.err.find("hfrt: note: --time has no effect: object 'my_model' declares 3 "
+                       "coordinates (time is x[4])"),
+            std::string::npos)
+      << r.err;
+}
+
+TEST_F(MeshCliTest, BadTimeIsRefused) {
+  CliRun r = hfrt("mesh sphere.hf -o s.stl --time soon");
   EXPECT_EQ(r.exit_code, 2);
-  EXPECT_NE(r.err.find("hfrt mesh: --time: hfrt has no time input yet"), std::string::npos)
+  EXPECT_NE(r.err.find("hfrt: --time expects a number, e.g. --time 0.5 (got 'soon')"),
+            std::string::npos)
       << r.err;
 }
 
@@ -206,7 +216,8 @@ TEST_F(MeshCliTest, TwoDimensionalObjectIsRefused) {
   CliRun r = hfrt("mesh flat.hf -o f.stl");
   EXPECT_EQ(r.exit_code, 1);
   EXPECT_NE(r.err.find("flat.hf: error: object 'my_model' has 2 coordinates; hfrt mesh needs a "
-                       "3-D object (x[3])\n  hint: a 2-D object can be drawn with hfrt slice"),
+                       "3-D object (x[3], or x[4] with time)\n  hint: a 2-D object can be drawn "
+                       "with hfrt slice"),
             std::string::npos)
       << r.err;
 }

@@ -142,6 +142,33 @@ TEST(ReplSession, LoadPicksMyModel) {
   fs::remove_all(dir);
 }
 
+// `:set time T` (issue 24): x[4] of the model, a number for the cached model (no recompile),
+// restored after the render like -a.
+TEST(ReplSession, TimeMovesAnAnimatedModel) {
+  Session s;
+  fs::path dir = temp_dir();
+  ASSERT_TRUE(
+      s.run("m(x[4], a[1]) { m = 1 - (x[1] - (-2 + 4 * x[4]))^2 - x[2]*x[2] - x[3]*x[3]; }").ok);
+  const std::string out = (dir / "t.png").string();
+  for (double t : {0.0, 0.75}) {
+    ASSERT_TRUE(s.run(":set time " + std::to_string(t)).ok);
+    SessionResult r = s.run(":render " + out +
+                            " --size 64x16 --ortho 8 --eye 0,0,10 --look-at 0,0,0 "
+                            "--bbox -4,-2,-2,4,2,2");
+    ASSERT_TRUE(r.ok) << r.err;
+    const render::Image& img = *s.last_image();
+    double sum = 0, n = 0;
+    for (int x = 0; x < 64; ++x) {
+      const float a = img.alpha[size_t(8 * 64 + x)];
+      sum += a * ((x + 0.5) / 8 - 4);
+      n += a;
+    }
+    EXPECT_NEAR(sum / n, -2 + 4 * t, 0.07) << t;
+  }
+  EXPECT_FALSE(s.run(":set time later").ok);
+  fs::remove_all(dir);
+}
+
 TEST(ReplSession, RenderRemembersOptions) {
   Session s;
   fs::path dir = temp_dir();
@@ -293,7 +320,8 @@ TEST(ReplSet, EveryRenderOptionIsAccepted) {
                                                      {"no-shadows", "on"},
                                                      {"backend", "interp"},
                                                      {"stats", "on"},
-                                                     {"max-depth", "3"}};
+                                                     {"max-depth", "3"},
+                                                     {"time", "0.25"}};
   for (const std::string& name : render_option_names()) {
     auto it = values.find(name);
     ASSERT_NE(it, values.end()) << "no test value for --" << name;
@@ -322,6 +350,7 @@ TEST(ReplSet, EveryRenderOptionIsAccepted) {
   EXPECT_EQ(cli.aov, "depth,normal");
   EXPECT_TRUE(cli.stats);
   EXPECT_EQ(cli.max_depth, 3);
+  EXPECT_EQ(cli.model.time, "0.25");
   // `default` restores one option; the first REPL's spellings still work.
   ASSERT_TRUE(s.run(":set size default").ok);
   EXPECT_EQ(s.render_settings().options.width, 512);

@@ -189,8 +189,8 @@ int run_emit_scene(EmitCli& cli, const CLI::App& sub) {
   // ignored, which must not happen silently.
   // --size, --spp and --max-depth replace the scene's values, as for `hfrt render scene.toml`.
   static const std::set<std::string> kSceneOptions = {
-      "pov",   "output", "max-gradient", "accuracy",  "transparent-background",
-      "function-only", "help", "size", "spp", "max-depth"};
+      "pov",           "output", "max-gradient", "accuracy", "transparent-background",
+      "function-only", "help",   "size",         "spp",      "max-depth"};
   for (const CLI::Option* o : sub.get_options()) {
     if (o->count() == 0 || o->get_positional()) continue;
     const std::vector<std::string>& longs = o->get_lnames();
@@ -328,7 +328,8 @@ int run_emit_scene(EmitCli& cli, const CLI::App& sub) {
   ps.aperture = desc.camera.aperture;
   ps.focus_distance = desc.camera.focus_distance.value_or(length(c.look_at - c.eye));
   ps.spp = sub.count("--spp") > 0 ? cli.render.spp : desc.render.spp.value_or(1);
-  ps.max_depth = cli.render.max_depth >= 0 ? cli.render.max_depth : desc.render.max_depth.value_or(5);
+  ps.max_depth =
+      cli.render.max_depth >= 0 ? cli.render.max_depth : desc.render.max_depth.value_or(5);
   ps.background = desc.render.background.value_or(defaults.background);
   ps.transparent_background = cli.transparent;
   ps.lights = desc.lights;

@@ -35,8 +35,6 @@ struct MeshCli {
   int resolution = 128;
   float cell = 0;
   std::string bbox;
-  double time = 0;
-  bool time_given = false;
   int threads = 0;
   bool no_color = false;
   double simplify = 0;
@@ -60,11 +58,6 @@ int run_mesh(const MeshCli& cli) {
   if (cli.threads < 0) return usage_error("--threads expects a non-negative count (0: all cores)");
   if (!(cli.simplify >= 0) || !std::isfinite(cli.simplify)) {
     return usage_error("--simplify expects a positive error bound (a distance in model units)");
-  }
-  if (cli.time_given) {
-    return usage_error(
-        "--time: hfrt has no time input yet (the language has no time variable; x[4] is 0 "
-        "when meshing); mesh without --time");
   }
   if (!cli.bbox.empty()) {
     std::vector<float> b;
@@ -181,10 +174,7 @@ CommandRunner register_mesh(CLI::App& app) {
                   "default: the solid's extent inside -10..10");
   sub->add_option("--object", cli->model.object, "object to mesh (default: my_model or the first)");
   sub->add_option("-a", cli->model.params, "parameter values a[1],a[2],... separated by commas");
-  sub->add_option("--time", cli->time,
-                  "time of an animated model (not supported yet: the language has no time "
-                  "input; refused)")
-      ->each([cli](const std::string&) { cli->time_given = true; });
+  sub->add_option("--time", cli->model.time, "time: x[4] of an animated model (default 0)");
   sub->add_option("--simplify", cli->simplify,
                   "merge triangles while every vertex stays within ERROR (model units) of the "
                   "tangent planes it replaces: fewer triangles on flat regions");

@@ -122,6 +122,7 @@ CommandRunner register_slice(CLI::App& app) {
   sub->add_option("--z", cli->z, "z of the slice for 3-D models (default 0)");
   sub->add_option("--threads", cli->threads, "worker threads (default: all cores)");
   sub->add_option("-a", cli->model.params, "parameter values a[1],a[2],... separated by commas");
+  sub->add_option("--time", cli->model.time, "time: x[4] of an animated model (default 0)");
   sub->add_option("--object", cli->model.object,
                   "object to render (default: my_model or the first)");
   sub->add_option("--backend", cli->model.backend, "evaluator: jit (default) or interp")

@@ -34,6 +34,13 @@ bool parse_floats(const std::string& text, std::vector<float>* out, size_t count
   return ok;
 }
 
+bool parse_time(const std::string& text, double* out) {
+  std::vector<double> v;
+  if (!parse_doubles(text, &v, 1)) return false;
+  *out = v[0];
+  return true;
+}
+
 std::optional<LoadedModel> load_model(const ModelRequest& request, bool eager_f32, int* exit_code) {
   ModelOptions mo;
   mo.object = request.object;
@@ -44,6 +51,13 @@ std::optional<LoadedModel> load_model(const ModelRequest& request, bool eager_f3
   if (!parse_doubles(request.params, &params)) {
     std::fprintf(stderr, "hfrt: -a expects numbers separated by commas, e.g. -a 1,0.5 (got '%s')\n",
                  request.params.c_str());
+    *exit_code = 2;
+    return std::nullopt;
+  }
+  double time = 0;
+  if (!request.time.empty() && !parse_time(request.time, &time)) {
+    std::fprintf(stderr, "hfrt: --time expects a number, e.g. --time 0.5 (got '%s')\n",
+                 request.time.c_str());
     *exit_code = 2;
     return std::nullopt;
   }
@@ -63,6 +77,13 @@ std::optional<LoadedModel> load_model(const ModelRequest& request, bool eager_f3
   }
   loaded.model = std::move(compiled.model);
   loaded.model->set_params(params);
+  loaded.model->set_time(time);
+  if (!request.time.empty() && loaded.model->num_inputs() < 4) {
+    std::fprintf(stderr,
+                 "hfrt: note: --time has no effect: object '%s' declares %d coordinates (time is "
+                 "x[4])\n",
+                 loaded.model->object_name().c_str(), loaded.model->num_inputs());
+  }
   return loaded;
 }
 

@@ -16,6 +16,7 @@ struct ModelRequest {
   std::string object;
   std::string params;  ///< "v1,v2,..." for a[1..]
   std::string backend = "jit";
+  std::string time;  ///< --time: x[4] of the model ("" : 0)
 };
 
 /// A compiled model ready for rendering, with its compile time.
@@ -24,7 +25,11 @@ struct LoadedModel {
   double compile_ms = 0;
 };
 
-/// Compiles the model and applies --object and -a. On failure prints the reason (diagnostics
+/// Parses a --time value (a finite number); false when malformed.
+bool parse_time(const std::string& text, double* out);
+
+/// Compiles the model and applies --object, -a and --time (with a note on stderr when the
+/// object has fewer than four coordinates, so that time cannot reach it). On failure prints the reason (diagnostics
 /// for source errors) and returns nullopt with `*exit_code` = 1 (compile errors) or 2 (usage
 /// or environment).
 std::optional<LoadedModel> load_model(const ModelRequest& request, bool eager_f32, int* exit_code);

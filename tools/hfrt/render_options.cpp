@@ -79,6 +79,8 @@ void add_render_options(CLI::App& app, RenderCli* cli) {
   app.add_option("--spp", cli->spp, "samples per pixel, stratified and jittered (default 1)");
   app.add_option("--threads", cli->threads, "worker threads (default: all cores)");
   app.add_option("-a", cli->model.params, "parameter values a[1],a[2],... separated by commas");
+  app.add_option("--time", cli->model.time,
+                 "time: x[4] of an animated model; a scene's time (its keys and models)");
   app.add_option("--object", cli->model.object,
                  "object to render (default: my_model or the first)");
   app.add_option("--light", cli->lights,
@@ -98,9 +100,9 @@ void add_render_options(CLI::App& app, RenderCli* cli) {
 
 const std::vector<std::string>& render_option_names() {
   static const std::vector<std::string> names = {
-      "size",    "bbox", "eye",        "look-at",    "up",      "fov",   "ortho",
-      "root",    "spp",  "threads",    "a",          "object",  "light", "step",
-      "epsilon", "aov",  "background", "no-shadows", "backend", "stats", "max-depth"};
+      "size",       "bbox",       "eye",     "look-at", "up",        "fov",  "ortho",   "root",
+      "spp",        "threads",    "a",       "object",  "light",     "step", "epsilon", "aov",
+      "background", "no-shadows", "backend", "stats",   "max-depth", "time"};
   return names;
 }
 
@@ -213,6 +215,9 @@ bool translate_render_options(const RenderCli& cli, app::RenderSetup* out, std::
   if (!parse_doubles(cli.model.params, &s.params)) {
     return fail("-a expects numbers separated by commas, e.g. -a 1,0.5 (got '" + cli.model.params +
                 "')");
+  }
+  if (!cli.model.time.empty() && !parse_time(cli.model.time, &s.time)) {
+    return fail("--time expects a number, e.g. --time 0.5 (got '" + cli.model.time + "')");
   }
   if (cli.model.backend != "jit" && cli.model.backend != "interp") {
     return fail("--backend expects jit or interp (got '" + cli.model.backend + "')");

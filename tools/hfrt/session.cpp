@@ -392,6 +392,8 @@ bool reset_option(const std::string& name, RenderCli* cli) {
     cli->threads = d.threads;
   else if (name == "a")
     cli->model.params = d.model.params;
+  else if (name == "time")
+    cli->model.time = d.model.time;
   else if (name == "object")
     cli->model.object = d.model.object;
   else if (name == "light")
@@ -552,12 +554,18 @@ SessionResult Session::render_to(const std::string& out) {
   // -a: the cached model gets the parameters for this render and its own back afterwards.
   Model& model = const_cast<Model&>(*m);
   const std::vector<double> saved_params = model.params();
+  const double saved_time = model.time();
   model.set_params(setup_.params);
+  model.set_time(setup_.time);
   struct RestoreParams {
     Model& m;
     const std::vector<double>& p;
-    ~RestoreParams() { m.set_params(p); }
-  } restore{model, saved_params};
+    double t;
+    ~RestoreParams() {
+      m.set_params(p);
+      m.set_time(t);
+    }
+  } restore{model, saved_params, saved_time};
 
   app::RenderJob job;
   job.model = &model;
@@ -569,7 +577,8 @@ SessionResult Session::render_to(const std::string& out) {
   std::string key = object + '\x1f' + cli_.size + '\x1f' + cli_.bbox + '\x1f' + cli_.eye + '\x1f' +
                     cli_.look_at + '\x1f' + cli_.up + '\x1f' + std::to_string(cli_.fov) + '\x1f' +
                     std::to_string(cli_.ortho) + '\x1f' + cli_.root + '\x1f' + cli_.model.params +
-                    '\x1f' + cli_.model.backend + '\x1f' + std::to_string(cli_.threads);
+                    '\x1f' + cli_.model.time + '\x1f' + cli_.model.backend + '\x1f' +
+                    std::to_string(cli_.threads);
   if (view_key_ == key) job.view = &view_;
   // Into the image buffer of the render before last (the last one is still shown): its pages
   // are already mapped.
@@ -664,6 +673,7 @@ SessionResult Session::cmd_show() const {
   for (const std::string& l : cli_.lights) lights += (lights.empty() ? "" : " ") + l;
   typed("light", lights);
   typed("a", cli_.model.params);
+  typed("time", cli_.model.time);
   typed("object", cli_.model.object.empty() ? "" : cli_.model.object);
   typed("aov", cli_.aov);
   typed("background", cli_.background);
@@ -717,12 +727,18 @@ SessionResult Session::cmd_mesh(const std::vector<std::string>& args) {
   // -a: as in render_to, the cached model gets the parameters for this mesh only.
   Model& model = const_cast<Model&>(*m);
   const std::vector<double> saved_params = model.params();
+  const double saved_time = model.time();
   model.set_params(setup_.params);
+  model.set_time(setup_.time);
   struct RestoreParams {
     Model& m;
     const std::vector<double>& p;
-    ~RestoreParams() { m.set_params(p); }
-  } restore{model, saved_params};
+    double t;
+    ~RestoreParams() {
+      m.set_params(p);
+      m.set_time(t);
+    }
+  } restore{model, saved_params, saved_time};
   app::MeshJob job;
   job.model = &model;
   job.file = "<session>";

@@ -211,6 +211,15 @@ class Model {
   void set_params(std::vector<double> a);
   const std::vector<double>& params() const;
 
+  /// Time: the value of x[4] for the evaluators that take points or rays in three
+  /// coordinates (ray_polynomials, ray_surface_crossings; and the renderer and mesher, which
+  /// pack x[4] = time() into the points they pass). Default 0, the original tools'
+  /// convention for coordinates beyond the third; x[5..] stay 0. Calls that take all
+  /// num_inputs() coordinates (eval, eval_batch, ...) use theirs. A number, never a recompile:
+  /// set it per frame. Not thread-safe, like set_params.
+  void set_time(double t);
+  double time() const;
+
   /// Evaluates one point; missing coordinates are 0, extra ones are ignored. With the JIT
   /// backend a point whose value is NaN because of a run-time error is evaluated again by
   /// the interpreter to fill `error` with the message and location.
