@@ -3,7 +3,7 @@ BUILD_DIR ?= build
 JOBS ?= $(shell nproc)
 CMAKE_FLAGS ?= -G Ninja -DCMAKE_BUILD_TYPE=Release
 
-.PHONY: all deps configure build demo test bench bench-render bench-peers bench-mesh bench-scenes clean format package
+.PHONY: all deps configure build demo test bench bench-render bench-peers bench-mesh bench-scenes bench-cluster clean format package
 
 all: build
 
@@ -52,6 +52,12 @@ bench-mesh: build
 SCENES_ARGS ?= --size 320x240 --spp 1
 bench-scenes: build
 	@/usr/bin/python3 bench/peers/povray_scenes --build-dir $(BUILD_DIR) $(SCENES_ARGS)
+
+# MPI scaling of `hfrt render` (1 process, then mpirun -np 2): one image by tiles, a sequence by
+# frames, bit-identity checked, and an estimate for 64 ranks. CLUSTER_ARGS: e.g. --ranks 2,3.
+CLUSTER_ARGS ?=
+bench-cluster: build
+	@/usr/bin/python3 bench/cluster/mpi_scaling.py --build $(BUILD_DIR) $(CLUSTER_ARGS)
 
 clean:
 	@rm -rf $(BUILD_DIR) out

@@ -298,6 +298,13 @@ std::unique_ptr<PreparedScene> PreparedScene::prepare(const scene::SceneDesc& sc
       res->error = c.rendered;
       return nullptr;
     }
+    // Warnings of a model that compiled (located in its file, or in the scene file for an
+    // inline source) are shown, not lost.
+    if (!c.rendered.empty()) {
+      std::string text = c.rendered;
+      while (!text.empty() && text.back() == '\n') text.pop_back();
+      res->warnings.push_back(text);
+    }
     CompiledModel cm;
     cm.model = std::make_unique<Model>(std::move(*c.model));
     cm.file = o.file.empty() ? sc.path : o.file;

@@ -2,6 +2,7 @@
 // validates its arguments, runs inside guard() (no exception crosses into C) and records
 // failures in the calling thread's LastError.
 
+#include <cmath>
 #include <cstring>
 #include <exception>
 #include <limits>
@@ -345,6 +346,17 @@ hfrt_status hfrt_model_set_params(hfrt_model* model, const double* params, int32
     std::vector<double> a(params, params + count);
     std::unique_lock lock(model->mutex);
     model->model.set_params(std::move(a));
+    return HFRT_OK;
+  });
+}
+
+hfrt_status hfrt_model_set_time(hfrt_model* model, double time) {
+  static const char* kFn = "hfrt_model_set_time";
+  return guard(kFn, [&]() -> hfrt_status {
+    if (model == nullptr) return bad_arg(kFn, "model is NULL");
+    if (!std::isfinite(time)) return bad_arg(kFn, "time is not a finite number");
+    std::unique_lock lock(model->mutex);
+    model->model.set_time(time);
     return HFRT_OK;
   });
 }

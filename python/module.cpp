@@ -325,6 +325,12 @@ void model_set_params(PyModel& pm, const std::vector<double>& params) {
   pm.model->set_params(params);
 }
 
+void model_set_time(PyModel& pm, double t) {
+  if (!std::isfinite(t)) throw py::value_error("set_time: time is not a finite number");
+  std::unique_lock lock(pm.mutex);
+  pm.model->set_time(t);
+}
+
 std::array<double, 3> vec3(const py::handle& o, const char* what) {
   auto v = o.cast<std::vector<double>>();
   if (v.size() != 3) throw py::value_error(std::string(what) + " must have 3 values");
@@ -457,6 +463,8 @@ PYBIND11_MODULE(_hfrt, mod) {
       .def("eval_interval", &model_eval_interval, py::arg("lo"), py::arg("hi"))
       .def("gradient", &model_gradient, py::arg("points"))
       .def("set_params", &model_set_params, py::arg("params"))
+      .def("set_time", &model_set_time, py::arg("time"))
+      .def_property_readonly("time", [](const PyModel& p) { return p.m().time(); })
       .def("render", &render, py::arg("width"), py::arg("height"), py::arg("camera"),
            py::arg("bbox"), py::arg("root"), py::arg("spp"), py::arg("threads"), py::arg("shadows"),
            py::arg("background"));

@@ -145,6 +145,16 @@ class Model:
         """Sets a[1..] (missing ones are 0) without recompiling."""
         self._m.set_params([float(v) for v in params])
 
+    def set_time(self, time):
+        """Sets x[4] (time) for renders, where points have three coordinates; eval takes every
+        input from its points. A number, never a recompile."""
+        self._m.set_time(float(time))
+
+    @property
+    def time(self):
+        """The time set by set_time (x[4] of renders; default 0)."""
+        return self._m.time
+
     def render(self, size=(512, 512), camera=None, **kwargs):
         """hfrt.render(self, size, camera, **kwargs)."""
         return render(self, size, camera, **kwargs)

@@ -434,6 +434,43 @@ TEST(CApi, RenderCoversTheDiskOfTheBall) {
   EXPECT_EQ(rgba[c + 3], 1.0f);
 }
 
+// Time (issue 24): hfrt_model_set_time moves a model whose x[4] is time, in renders.
+TEST(CApi, SetTimeMovesTheRenderedModel) {
+  hfrt_model* raw = nullptr;
+  ASSERT_EQ(hfrt_model_compile_source(
+                "m(x[4], a[1]) { m = 1 - (x[1] - (-2 + 4 * x[4]))^2 - x[2]^2 - x[3]^2; }",
+                "moving.hf", nullptr, &raw),
+            HFRT_OK)
+      << hfrt_last_error_message();
+  ModelPtr p{raw};
+  hfrt_render_options ro;
+  hfrt_render_options_init(&ro);
+  const int w = 64, h = 16;
+  ro.width = w;
+  ro.height = h;
+  ro.has_eye = ro.has_look_at = 1;
+  ro.eye[2] = 10;
+  ro.ortho_width = 8;
+  ro.bbox[0] = -4, ro.bbox[1] = -2, ro.bbox[2] = -2;
+  ro.bbox[3] = 4, ro.bbox[4] = 2, ro.bbox[5] = 2;
+  for (double t : {0.0, 0.75}) {
+    ASSERT_EQ(hfrt_model_set_time(p.m, t), HFRT_OK);
+    std::vector<float> rgba(4 * w * h);
+    ASSERT_EQ(hfrt_render_model(p.m, &ro, rgba.data(), int64_t(rgba.size())), HFRT_OK)
+        << hfrt_last_error_message();
+    double sum = 0, n = 0;
+    for (int x = 0; x < w; ++x) {
+      const float a = rgba[4 * (8 * w + x) + 3];
+      sum += a * ((x + 0.5) / 8 - 4);
+      n += a;
+    }
+    EXPECT_NEAR(sum / n, -2 + 4 * t, 0.07) << t;
+  }
+  EXPECT_EQ(hfrt_model_set_time(p.m, NAN), HFRT_ERROR_INVALID_ARGUMENT);
+  EXPECT_EQ(last_function(), "hfrt_model_set_time");
+  EXPECT_EQ(hfrt_model_set_time(nullptr, 0), HFRT_ERROR_INVALID_ARGUMENT);
+}
+
 TEST(CApi, RenderErrorsAreStatuses) {
   ModelPtr p{compile_ball(1.0)};
   hfrt_render_options ro;

@@ -339,6 +339,23 @@ def test_render_covers_the_disk(model):
     assert img2.shape == (16, 16, 4)
 
 
+def test_set_time_moves_a_model_in_renders():
+    # Time (issue 24): x[4] of the model; eval takes it from the points, renders from set_time.
+    m = hfrt.Model("m(x[4], a[1]) { m = 1 - (x[1] - (-2 + 4 * x[4]))^2 - x[2]^2 - x[3]^2; }")
+    assert m.time == 0.0
+    assert m.eval([1.0, 0, 0, 0.75]) == 1.0
+    xs = (np.arange(64) + 0.5) / 8 - 4
+    for t in (0.0, 0.75):
+        m.set_time(t)
+        assert m.time == t
+        img = m.render(size=(64, 16), camera={"eye": [0, 0, 10], "look_at": [0, 0, 0],
+                                              "ortho": 8}, bbox=[-4, -2, -2, 4, 2, 2])
+        a = img[8, :, 3]
+        assert abs((a * xs).sum() / a.sum() - (-2 + 4 * t)) < 0.07
+    with pytest.raises(ValueError, match="set_time: time is not a finite number"):
+        m.set_time(float("nan"))
+
+
 def test_render_errors(model, tmp_path):
     with pytest.raises(ValueError, match="root"):
         hfrt.render(model, size=8, root="nope")

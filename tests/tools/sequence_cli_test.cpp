@@ -167,6 +167,21 @@ TEST_F(SequenceCli, VideoThroughFfmpeg) {
   EXPECT_FALSE(fs::exists(dir_ / "v"));
 }
 
+// A model's compile warnings reach the user from a scene too (regression: they were dropped).
+TEST_F(SequenceCli, ModelWarningsOfAScene) {
+  write("warn.hf",
+        "my_model(x[4], a[1]) {\n  array c[3];\n  c = [0, 0, 0];\n"
+        "  my_model = hfSphere(x, c, 1);\n}\n");
+  write("w.toml",
+        "[render]\nsize = [8, 8]\n[[object]]\nfile = \"warn.hf\"\nbbox = [-2, -2, -2, 2, 2, 2]\n");
+  CliRun r = hfrt("render w.toml -o w.png");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_NE(r.err.find("warn.hf:4:23: warning: hfSphere: the point array 'x' has 4 elements, not "
+                       "3; the call returns the failure value -1111111111111.0"),
+            std::string::npos)
+      << r.err;
+}
+
 TEST_F(SequenceCli, BadPatternsFramesAndShardsAreRefused) {
   write("a.toml", scene(5));
   struct Case {

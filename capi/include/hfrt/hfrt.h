@@ -140,6 +140,11 @@ hfrt_status hfrt_model_diagnostic(const hfrt_model* model, int32_t index, hfrt_d
  * object's a size. */
 hfrt_status hfrt_model_set_params(hfrt_model* model, const double* params, int32_t count);
 
+/** Sets the time: x[4] of an object with four or more inputs, for the calls that take points in
+ * three coordinates (hfrt_render_model). Default 0. A number, never a recompile; concurrent with
+ * evaluations like hfrt_model_set_params. The eval calls take every input from the caller. */
+hfrt_status hfrt_model_set_time(hfrt_model* model, double time);
+
 /* ---- Evaluating ------------------------------------------------------------------------ */
 /* Each takes n >= 0 points (n = 0 is a no-op), coordinates xs as a structure of arrays of
  * num_inputs rows (xs_len >= num_inputs * n), and output buffers with their lengths. Points
