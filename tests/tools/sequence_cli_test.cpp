@@ -167,6 +167,14 @@ TEST_F(SequenceCli, VideoThroughFfmpeg) {
   EXPECT_FALSE(fs::exists(dir_ / "v"));
 }
 
+// The REPL's `:set time T` renders a loaded scene at T.
+TEST_F(SequenceCli, ReplRendersASceneAtTheTimeSet) {
+  write("a.toml", scene(5));
+  CliRun r = hfrt("repl", ":scene a.toml\n:set time 0.75\n:scene -o r.exr\n");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_NEAR(centre("r.exr"), 1.0, 0.07) << r.out << r.err;
+}
+
 // A model's compile warnings reach the user from a scene too (regression: they were dropped).
 TEST_F(SequenceCli, ModelWarningsOfAScene) {
   write("warn.hf",

@@ -73,6 +73,7 @@ SessionResult Session::render_scene(const std::string& out) {
   app::SceneOverrides ov;
   ov.threads = setup_.options.threads;
   ov.interp_backend = cli_.model.backend == "interp";
+  if (!cli_.model.time.empty()) ov.time = setup_.time;  // `:set time T`: the scene at T
   render::TraceResult result;
   result.image = std::move(spare_image_);
   app::SceneJobResult done = app::run_scene_job(*scene_, ov, nullptr, &cancel_, &result);
