@@ -27,7 +27,8 @@ MeshJobResult run_mesh_job(const MeshJob& job) {
     out.status = MeshJobStatus::kNotThreeD;
     out.error = job.file + ": error: object '" + model.object_name() + "' has " +
                 std::to_string(model.num_inputs()) +
-                " coordinates; hfrt mesh needs a 3-D object (x[3], or x[4] with time)\n  hint: a 2-D object can "
+                " coordinates; hfrt mesh needs a 3-D object (x[3], or x[4] with time)\n  hint: a "
+                "2-D object can "
                 "be drawn with hfrt slice";
     return out;
   }
@@ -142,6 +143,7 @@ MeshJobResult run_scene_mesh_job(const scene::SceneDesc& sc, const MeshJob& sett
       all.error = compiled.rendered;
       return all;
     }
+    compiled.model->set_time(settings.time);
     MeshJob job = settings;
     job.model = &*compiled.model;
     job.file = o.file.empty() ? sc.path : o.file;

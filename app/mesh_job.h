@@ -33,6 +33,9 @@ struct MeshJob {
   bool colors = true;    ///< per-vertex colour from s[1..3] when the model has them
   /// > 0: simplify the mesh with this error bound (mesher/simplify.h), in model units.
   double simplify = 0;
+  /// run_scene_mesh_job only: the time of the scene's models (x[4], Model::set_time); the
+  /// caller applies the scene's keys (scene::scene_at). run_mesh_job takes the model's own.
+  double time = 0;
   std::function<void(size_t done, size_t total)> progress;
 };
 

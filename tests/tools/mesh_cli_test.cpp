@@ -105,6 +105,33 @@ TEST_F(MeshCliTest, SceneFileMeshesEveryObjectPlaced) {
   EXPECT_NE(r.err.find("--bbox, --object and -a apply to a .hf model"), std::string::npos) << r.err;
 }
 
+// Time (issue 24): a model moved by x[4] and a scene with keyed translate are meshed where the
+// time puts them: every vertex on the unit sphere at its centre for that time.
+TEST_F(MeshCliTest, TimeMovesModelsAndScenes) {
+  write("moving.hf",
+        "my_model(x[4], a[1]) { my_model = 1 - (x[1] - (-2 + 4 * x[4]))^2 - x[2]^2 - x[3]^2; }\n");
+  write("keyed.toml",
+        "[animation]\nframes = 3\nend = 1\n[[object]]\nfile = \"sphere.hf\"\n"
+        "bbox = [-2, -2, -2, 2, 2, 2]\ntranslate = [{ keys = [[0, -2], [1, 2]] }, 0, 0]\n");
+  struct Case {
+    std::string args;
+    double cx;
+  };
+  for (const Case& c : {Case{"mesh moving.hf -o m.stl --bbox -4,-2,-2,4,2,2 --time 0.75", 1.0},
+                        Case{"mesh keyed.toml -o m.stl --time 0.25", -1.0},
+                        Case{"mesh keyed.toml -o m.stl", -2.0}}) {
+    CliRun r = hfrt(c.args + " --resolution 32");
+    ASSERT_EQ(r.exit_code, 0) << c.args << "\n" << r.err;
+    std::vector<Vec3> v;
+    std::vector<std::array<uint32_t, 3>> tris;
+    ASSERT_TRUE(read_binary_stl(slurp(dir_ / "m.stl"), &v, &tris));
+    ASSERT_FALSE(v.empty());
+    for (const Vec3& p : v) {
+      EXPECT_LT(std::abs(length(p - Vec3{float(c.cx), 0, 0}) - 1), 5e-3) << c.args;
+    }
+  }
+}
+
 TEST_F(MeshCliTest, ColoursInPlyAndObj) {
   ASSERT_EQ(hfrt("mesh colour.hf -o c.ply --resolution 16").exit_code, 0);
   const std::string ply = slurp(dir_ / "c.ply");
