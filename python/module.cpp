@@ -184,15 +184,37 @@ void scatter(const T* soa, py::ssize_t m, int rows, T* out, py::ssize_t start) {
   }
 }
 
+/// The `out=` array of eval: a writable, C-contiguous 1-D array of n values of the points'
+/// dtype, used as it is (no copy, no allocation: a caller that evaluates many batches reuses
+/// one buffer and skips the page faults of a fresh array). A TypeError or ValueError otherwise.
 template <typename T>
-py::object eval_typed(const PyModel& pm, const py::array& points, bool attributes) {
+py::array_t<T> out_array(const py::object& out, py::ssize_t n) {
+  if (!py::isinstance<py::array>(out)) throw py::type_error("eval: out must be a NumPy array");
+  py::array a = py::reinterpret_borrow<py::array>(out);
+  if (!a.dtype().is(py::dtype::of<T>())) {
+    throw py::type_error(std::string("eval: out must have the points' dtype (") +
+                         (sizeof(T) == 4 ? "float32" : "float64") + ")");
+  }
+  if (a.ndim() != 1 || a.shape(0) != n) {
+    throw py::value_error("eval: out must have shape (" + std::to_string(n) + ",)");
+  }
+  if (!(a.flags() & py::array::c_style) || !a.writeable()) {
+    throw py::value_error("eval: out must be contiguous and writable");
+  }
+  return py::reinterpret_borrow<py::array_t<T>>(a);
+}
+
+template <typename T>
+py::object eval_typed(const PyModel& pm, const py::array& points, bool attributes,
+                      const py::object& out) {
   const Model& m = pm.m();
   const int k = m.num_inputs();
   const int ns = m.num_attributes();
   bool single = false;
   const py::ssize_t n = check_points(points, k, "points", &single);
   auto a = py::array_t<T>::ensure(points);  // same dtype: no copy
-  py::array_t<T> f(n);
+  if (!out.is_none() && single) throw py::value_error("eval: out is for arrays of points");
+  py::array_t<T> f = out.is_none() ? py::array_t<T>(n) : out_array<T>(out, n);
   // The attributes' array only when they are asked for (it is ns times the size of f).
   py::array_t<T> s({attributes ? n : py::ssize_t(0), py::ssize_t(ns)});
   T* fp = f.mutable_data();
@@ -232,11 +254,12 @@ py::array as_float_array(const py::object& o) {
   return py::array_t<double, py::array::forcecast>::ensure(o);
 }
 
-py::object model_eval(const PyModel& pm, const py::object& points, bool attributes) {
+py::object model_eval(const PyModel& pm, const py::object& points, bool attributes,
+                      const py::object& out) {
   py::array a = as_float_array(points);
   if (!a) throw py::type_error("points must be convertible to a float array");
-  if (is_f32(a)) return eval_typed<float>(pm, a, attributes);
-  return eval_typed<double>(pm, a, attributes);
+  if (is_f32(a)) return eval_typed<float>(pm, a, attributes, out);
+  return eval_typed<double>(pm, a, attributes, out);
 }
 
 py::tuple model_eval_interval(const PyModel& pm, const py::object& lo_obj,
@@ -459,7 +482,8 @@ PYBIND11_MODULE(_hfrt, mod) {
                                for (const auto& d : p.warnings) out.append(diagnostic_dict(d));
                                return out;
                              })
-      .def("eval", &model_eval, py::arg("points"), py::arg("attributes") = false)
+      .def("eval", &model_eval, py::arg("points"), py::arg("attributes") = false,
+           py::arg("out") = py::none())
       .def("eval_interval", &model_eval_interval, py::arg("lo"), py::arg("hi"))
       .def("gradient", &model_gradient, py::arg("points"))
       .def("set_params", &model_set_params, py::arg("params"))

@@ -125,10 +125,12 @@ class Model:
         return [_diag(d) for d in self._m.diagnostics]
 
     # -- evaluation ----------------------------------------------------------------------
-    def eval(self, points, attributes=False):
+    def eval(self, points, attributes=False, out=None):
         """F at points[n, k] -> ndarray[n] (a float for a single point of shape (k,)).
-        With attributes=True: (f[n], s[n, num_attributes]). NaN where F has no value."""
-        return self._m.eval(points, attributes)
+        With attributes=True: (f[n], s[n, num_attributes]). NaN where F has no value.
+        out: an ndarray[n] of the points' dtype to write F into (returned), as NumPy's out=:
+        no allocation, for callers that evaluate many batches."""
+        return self._m.eval(points, attributes, out)
 
     def eval_interval(self, lo, hi):
         """Encloses F over the boxes [lo[i], hi[i]] (lo, hi: (n, k), lo <= hi) ->

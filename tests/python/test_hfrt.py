@@ -237,6 +237,30 @@ def test_gradient_is_the_closed_form(model, dtype, tol):
     np.testing.assert_allclose(one, [2.25 - 1.25, -2, 0, -1], atol=1e-12)
 
 
+def test_eval_into_out():
+    m = hfrt.Model(BALL, params=[2.0])
+    pts = np.array([[0.0, 0, 0], [1, 0, 0], [2, 0, 0]])
+    out = np.full(3, -7.0)
+    r = m.eval(pts, out=out)
+    assert r is out or np.shares_memory(r, out)
+    np.testing.assert_array_equal(out, [4.0, 3.0, 0.0])
+    out32 = np.zeros(3, dtype=np.float32)
+    m.eval(pts.astype(np.float32), out=out32)
+    np.testing.assert_array_equal(out32, [4.0, 3.0, 0.0])
+    f, s = m.eval(pts, attributes=True, out=out)
+    assert np.shares_memory(f, out) and s.shape == (3, 2)
+    with pytest.raises(TypeError, match=r"eval: out must have the points' dtype \(float64\)"):
+        m.eval(pts, out=out32)
+    with pytest.raises(ValueError, match=r"eval: out must have shape \(3,\)"):
+        m.eval(pts, out=np.zeros(4))
+    with pytest.raises(ValueError, match="eval: out must be contiguous and writable"):
+        m.eval(pts, out=np.zeros(6)[::2])
+    with pytest.raises(TypeError, match="eval: out must be a NumPy array"):
+        m.eval(pts, out=[0.0, 0.0, 0.0])
+    with pytest.raises(ValueError, match="eval: out is for arrays of points"):
+        m.eval([1.0, 0, 0], out=np.zeros(1))
+
+
 def test_set_params(model):
     m = hfrt.Model(BALL)
     assert m.params == [0.0]
