@@ -362,7 +362,7 @@ namespace {
 /// depth and normal weighted by coverage), over the pixels of `tiles` (all when null).
 void accumulate(const render::Image& pass, const render::TraceOptions& opt,
                 const std::vector<size_t>* tiles, render::Image* sum, std::vector<float>* weight) {
-  auto add_pixel = [&](size_t i) {
+  render::for_each_tile_pixel(opt.width, opt.height, opt.tile_size, tiles, [&](size_t i) {
     for (int c = 0; c < 3; ++c) sum->rgb[3 * i + c] += pass.rgb[3 * i + c];
     sum->alpha[i] += pass.alpha[i];
     if (pass.alpha[i] > 0 && std::isfinite(pass.depth[i])) {
@@ -371,30 +371,7 @@ void accumulate(const render::Image& pass, const render::TraceOptions& opt,
       for (int c = 0; c < 3; ++c) sum->normal[3 * i + c] += w * pass.normal[3 * i + c];
       (*weight)[i] += w;
     }
-  };
-  const size_t n = tiles ? tiles->size() : render::tile_count(opt.width, opt.height, opt.tile_size);
-  for (size_t k = 0; k < n; ++k) {
-    const render::Tile t =
-        render::tile_at(opt.width, opt.height, opt.tile_size, tiles ? (*tiles)[k] : k);
-    for (int y = t.y0; y < t.y1; ++y)
-      for (int x = t.x0; x < t.x1; ++x) add_pixel(size_t(y) * size_t(opt.width) + size_t(x));
-  }
-}
-
-void add_stats(const render::TraceStats& pass, render::TraceStats* s) {
-  s->tiles = pass.tiles;
-  s->threads = pass.threads;
-  s->camera_rays += pass.camera_rays;
-  s->secondary_rays += pass.secondary_rays;
-  s->shadow_rays += pass.shadow_rays;
-  s->hits += pass.hits;
-  s->refined_pixels += pass.refined_pixels;
-  s->evals += pass.evals;
-  s->search_seconds += pass.search_seconds;
-  s->shade_seconds += pass.shade_seconds;
-  s->seconds += pass.seconds;
-  s->root_used = pass.root_used;
-  s->cancelled = s->cancelled || pass.cancelled;
+  });
 }
 
 }  // namespace
@@ -425,19 +402,11 @@ SceneJobResult PreparedScene::render(double t, render::ProgressFn progress,
     // The running sums start at zero over the pixels rendered.
     render::Image& img = out->image;
     const render::TraceOptions& o = p.base;
-    const size_t n = tiles_per_pass;
-    for (size_t k = 0; k < n; ++k) {
-      const render::Tile tl =
-          render::tile_at(o.width, o.height, o.tile_size, tiles ? (*tiles)[k] : k);
-      for (int y = tl.y0; y < tl.y1; ++y) {
-        for (int x = tl.x0; x < tl.x1; ++x) {
-          const size_t i = size_t(y) * size_t(o.width) + size_t(x);
-          for (int c = 0; c < 3; ++c) img.rgb[3 * i + c] = img.normal[3 * i + c] = 0;
-          img.alpha[i] = 0;
-          img.depth[i] = std::numeric_limits<float>::infinity();
-        }
-      }
-    }
+    render::for_each_tile_pixel(o.width, o.height, o.tile_size, tiles, [&img](size_t i) {
+      for (int c = 0; c < 3; ++c) img.rgb[3 * i + c] = img.normal[3 * i + c] = 0;
+      img.alpha[i] = 0;
+      img.depth[i] = std::numeric_limits<float>::infinity();
+    });
     out->stats = render::TraceStats{};
   }
   for (int j = 0; j < passes; ++j) {
@@ -464,7 +433,7 @@ SceneJobResult PreparedScene::render(double t, render::ProgressFn progress,
       opt.sample_count = 1;
       render::trace_into(f.objects, f.materials, opt, &pass);
       accumulate(pass.image, opt, tiles, &out->image, &weight);
-      add_stats(pass.stats, &out->stats);
+      out->stats.add(pass.stats);
     } else {
       render::trace_into(f.objects, f.materials, opt, out);
     }
@@ -476,25 +445,18 @@ SceneJobResult PreparedScene::render(double t, render::ProgressFn progress,
     render::Image& img = out->image;
     const float inv = 1.0f / float(passes);
     const render::TraceOptions& o = p.base;
-    for (size_t k = 0; k < tiles_per_pass; ++k) {
-      const render::Tile tl =
-          render::tile_at(o.width, o.height, o.tile_size, tiles ? (*tiles)[k] : k);
-      for (int y = tl.y0; y < tl.y1; ++y) {
-        for (int x = tl.x0; x < tl.x1; ++x) {
-          const size_t i = size_t(y) * size_t(o.width) + size_t(x);
-          for (int c = 0; c < 3; ++c) img.rgb[3 * i + c] *= inv;
-          img.alpha[i] *= inv;
-          if (weight[i] > 0) {
-            img.depth[i] /= weight[i];
-            render::Vec3 nn = normalize(
-                render::Vec3{img.normal[3 * i], img.normal[3 * i + 1], img.normal[3 * i + 2]});
-            img.normal[3 * i] = nn.x;
-            img.normal[3 * i + 1] = nn.y;
-            img.normal[3 * i + 2] = nn.z;
-          }
-        }
+    render::for_each_tile_pixel(o.width, o.height, o.tile_size, tiles, [&](size_t i) {
+      for (int c = 0; c < 3; ++c) img.rgb[3 * i + c] *= inv;
+      img.alpha[i] *= inv;
+      if (weight[i] > 0) {
+        img.depth[i] /= weight[i];
+        render::Vec3 nn = normalize(
+            render::Vec3{img.normal[3 * i], img.normal[3 * i + 1], img.normal[3 * i + 2]});
+        img.normal[3 * i] = nn.x;
+        img.normal[3 * i + 1] = nn.y;
+        img.normal[3 * i + 2] = nn.z;
       }
-    }
+    });
     res.options.spp = p.base.spp;
   }
   res.render_ms = ms_since(t_render);

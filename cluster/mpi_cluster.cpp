@@ -41,52 +41,22 @@ std::vector<size_t> batch_tiles(int id, size_t per_batch, size_t tiles) {
 /// row by row), or (unpack) copies them from `buf` into `image`.
 void pack(const render::Image& image, const render::TraceOptions& opt,
           const std::vector<size_t>& tiles, std::vector<float>* buf) {
-  for (size_t ti : tiles) {
-    const render::Tile t = render::tile_at(opt.width, opt.height, opt.tile_size, ti);
-    for (int y = t.y0; y < t.y1; ++y) {
-      for (int x = t.x0; x < t.x1; ++x) {
-        const size_t i = size_t(y) * size_t(opt.width) + size_t(x);
-        buf->insert(buf->end(), {image.rgb[3 * i], image.rgb[3 * i + 1], image.rgb[3 * i + 2],
-                                 image.alpha[i], image.depth[i], image.normal[3 * i],
-                                 image.normal[3 * i + 1], image.normal[3 * i + 2]});
-      }
-    }
-  }
+  render::for_each_tile_pixel(opt.width, opt.height, opt.tile_size, &tiles, [&](size_t i) {
+    buf->insert(buf->end(), {image.rgb[3 * i], image.rgb[3 * i + 1], image.rgb[3 * i + 2],
+                             image.alpha[i], image.depth[i], image.normal[3 * i],
+                             image.normal[3 * i + 1], image.normal[3 * i + 2]});
+  });
 }
 
 void unpack(const float* buf, const render::TraceOptions& opt, const std::vector<size_t>& tiles,
             render::Image* image) {
-  for (size_t ti : tiles) {
-    const render::Tile t = render::tile_at(opt.width, opt.height, opt.tile_size, ti);
-    for (int y = t.y0; y < t.y1; ++y) {
-      for (int x = t.x0; x < t.x1; ++x) {
-        const size_t i = size_t(y) * size_t(opt.width) + size_t(x);
-        image->rgb[3 * i] = buf[0];
-        image->rgb[3 * i + 1] = buf[1];
-        image->rgb[3 * i + 2] = buf[2];
-        image->alpha[i] = buf[3];
-        image->depth[i] = buf[4];
-        image->normal[3 * i] = buf[5];
-        image->normal[3 * i + 1] = buf[6];
-        image->normal[3 * i + 2] = buf[7];
-        buf += kFloatsPerPixel;
-      }
-    }
-  }
-}
-
-void add_counts(const render::TraceStats& s, render::TraceStats* sum) {
-  sum->camera_rays += s.camera_rays;
-  sum->secondary_rays += s.secondary_rays;
-  sum->shadow_rays += s.shadow_rays;
-  sum->hits += s.hits;
-  sum->refined_pixels += s.refined_pixels;
-  sum->evals += s.evals;
-  sum->search_seconds += s.search_seconds;
-  sum->shade_seconds += s.shade_seconds;
-  sum->threads = s.threads;
-  sum->root_used = s.root_used;
-  sum->cancelled = sum->cancelled || s.cancelled;
+  render::for_each_tile_pixel(opt.width, opt.height, opt.tile_size, &tiles, [&](size_t i) {
+    for (int c = 0; c < 3; ++c) image->rgb[3 * i + c] = buf[c];
+    image->alpha[i] = buf[3];
+    image->depth[i] = buf[4];
+    for (int c = 0; c < 3; ++c) image->normal[3 * i + c] = buf[5 + c];
+    buf += kFloatsPerPixel;
+  });
 }
 
 }  // namespace
@@ -169,7 +139,7 @@ app::SceneJobResult Cluster::render_image(app::PreparedScene& scene, double t,
       const std::vector<size_t> mine = batch_tiles(id, per_batch, tiles);
       app::SceneJobResult r = scene.render(t, nullptr, nullptr, out, &mine);
       render_ms += r.render_ms;
-      add_counts(out->stats, &stats);
+      stats.add(out->stats);
       buf.clear();
       pack(out->image, opt, mine, &buf);
       msg.resize(sizeof(int32_t) + buf.size() * sizeof(float));
@@ -229,7 +199,7 @@ app::SceneJobResult Cluster::render_image(app::PreparedScene& scene, double t,
       const std::vector<size_t> batch = batch_tiles(id, per_batch, tiles);
       app::SceneJobResult r = scene.render(t, nullptr, nullptr, out, &batch);
       render_ms += r.render_ms;
-      add_counts(out->stats, &stats);
+      stats.add(out->stats);
       tick(batch.size());
     }
     dispatcher.join();

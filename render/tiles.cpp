@@ -29,6 +29,16 @@ Tile tile_at(int width, int height, int tile_size, size_t index) {
   return t;
 }
 
+void for_each_tile_pixel(int width, int height, int tile_size, const std::vector<size_t>* tiles,
+                         const std::function<void(size_t pixel)>& fn) {
+  const size_t n = tiles ? tiles->size() : tile_count(width, height, tile_size);
+  for (size_t k = 0; k < n; ++k) {
+    const Tile t = tile_at(width, height, tile_size, tiles ? (*tiles)[k] : k);
+    for (int y = t.y0; y < t.y1; ++y)
+      for (int x = t.x0; x < t.x1; ++x) fn(size_t(y) * size_t(width) + size_t(x));
+  }
+}
+
 TileLoop for_each_tile(int width, int height, int tile_size, int threads,
                        const std::function<void(size_t done, size_t total)>& progress,
                        const std::atomic<bool>* cancel, const std::function<void(const Tile&)>& fn,

@@ -41,5 +41,9 @@ TileLoop for_each_tile(int width, int height, int tile_size, int threads,
 size_t tile_count(int width, int height, int tile_size);
 /// Tile `index` of that layout.
 Tile tile_at(int width, int height, int tile_size, size_t index);
+/// Calls fn(pixel index y * width + x) for every pixel of `tiles` (all tiles when null), tile by
+/// tile in the order given, row by row inside a tile (the order a tile farm packs pixels in).
+void for_each_tile_pixel(int width, int height, int tile_size, const std::vector<size_t>* tiles,
+                         const std::function<void(size_t pixel)>& fn);
 
 }  // namespace hfrt::render

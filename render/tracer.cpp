@@ -1004,6 +1004,22 @@ void trace_into(const std::vector<SceneObject>& objects, const std::vector<Mater
   s.seconds = seconds_since(start);
 }
 
+void TraceStats::add(const TraceStats& o) {
+  seconds += o.seconds;
+  threads = o.threads;
+  tiles = o.tiles;
+  camera_rays += o.camera_rays;
+  secondary_rays += o.secondary_rays;
+  shadow_rays += o.shadow_rays;
+  hits += o.hits;
+  refined_pixels += o.refined_pixels;
+  root_used = o.root_used;
+  evals += o.evals;
+  search_seconds += o.search_seconds;
+  shade_seconds += o.shade_seconds;
+  cancelled = cancelled || o.cancelled;
+}
+
 TraceResult trace(const std::vector<SceneObject>& objects, const std::vector<Material>& materials,
                   const TraceOptions& options) {
   TraceResult r;

@@ -120,6 +120,10 @@ struct TraceStats {
   /// Thread-seconds in root searches (camera, secondary and shadow rays) and in the rest.
   double search_seconds = 0, shade_seconds = 0;
   bool cancelled = false;
+
+  /// Adds the counts and times of another trace of the same scene (a motion-blur pass, another
+  /// batch of tiles); tiles, threads and root_used become the other's.
+  void add(const TraceStats& other);
 };
 
 struct TraceResult {
