@@ -169,20 +169,99 @@ std::optional<Error> precheck_obj(const std::string& path, const std::string& te
   return std::nullopt;
 }
 
-// The header of a PLY file must be complete before Assimp sees it: Assimp 5.2 loops forever
-// on a header without "end_header".
-std::optional<Error> precheck_ply_header(const std::string& path, const std::string& text) {
-  std::istringstream in(text);
-  std::string line;
-  size_t lineno = 0;
-  while (std::getline(in, line)) {
+// Bytes of a PLY scalar type; 0 for a name that is not one.
+size_t ply_type_size(const std::string& t) {
+  if (t == "char" || t == "uchar" || t == "int8" || t == "uint8") return 1;
+  if (t == "short" || t == "ushort" || t == "int16" || t == "uint16") return 2;
+  if (t == "int" || t == "uint" || t == "int32" || t == "uint32" || t == "float" || t == "float32")
+    return 4;
+  if (t == "double" || t == "float64") return 8;
+  return 0;
+}
+
+// A PLY file must be complete before Assimp sees it: Assimp 5.2 loops forever on a header
+// without "end_header", and its binary reader reads past the end of a body shorter than the
+// header's element counts say (then crashes on the garbage indices; found by
+// fuzz/mesh_fuzz.cpp). So the header is parsed (format, elements, property types) and a
+// binary body is walked, list counts included, to check that every element fits in the file.
+std::optional<Error> precheck_ply(const std::string& path, const std::string& text) {
+  struct Property {
+    size_t size = 0;        // a scalar's bytes, or a list item's
+    size_t count_size = 0;  // a list: the bytes of its count; 0 for a scalar
+  };
+  struct Element {
+    std::string name;
+    unsigned long long count = 0;
+    std::vector<Property> properties;
+  };
+  std::vector<Element> elements;
+  bool binary = false, big_endian = false;
+  size_t pos = 0, lineno = 0, body = std::string::npos;
+  while (pos < text.size()) {
+    size_t end = text.find('\n', pos);
+    if (end == std::string::npos) end = text.size();
+    std::string line = text.substr(pos, end - pos);
+    pos = end + 1;
     ++lineno;
     if (!line.empty() && line.back() == '\r') line.pop_back();
-    if (lineno == 1 && line != "ply") return located(path, 1, "expected the PLY magic 'ply'");
-    if (line == "end_header") return std::nullopt;
-    if (lineno > 1000 || in.tellg() > 65536) break;
+    if (lineno == 1) {
+      if (line != "ply") return located(path, 1, "expected the PLY magic 'ply'");
+      continue;
+    }
+    if (line == "end_header") {
+      body = std::min(pos, text.size());
+      break;
+    }
+    if (lineno > 1000 || pos > 65536) break;
+    const std::vector<std::string> tok = tokens_of(line);
+    if (tok.empty()) continue;
+    if (tok[0] == "format" && tok.size() >= 2) {
+      binary = tok[1] != "ascii";
+      big_endian = tok[1] == "binary_big_endian";
+    } else if (tok[0] == "element") {
+      std::optional<long long> n = tok.size() == 3 ? parse_int(tok[2]) : std::nullopt;
+      if (!n || *n < 0) return located(path, lineno, "malformed PLY element line '" + line + "'");
+      elements.push_back({tok[1], static_cast<unsigned long long>(*n), {}});
+    } else if (tok[0] == "property") {
+      if (elements.empty()) return located(path, lineno, "PLY property before any element");
+      Property p;
+      if (tok.size() == 5 && tok[1] == "list") {
+        p.count_size = ply_type_size(tok[2]);
+        p.size = ply_type_size(tok[3]);
+        if (p.count_size == 0 || p.size == 0)
+          return located(path, lineno, "unknown PLY list type in '" + line + "'");
+      } else {
+        p.size = tok.size() == 3 ? ply_type_size(tok[1]) : 0;
+        if (p.size == 0) return located(path, lineno, "malformed PLY property '" + line + "'");
+      }
+      elements.back().properties.push_back(p);
+    }
   }
-  return Error{path + ": malformed PLY header (no end_header line)"};
+  if (body == std::string::npos) return Error{path + ": malformed PLY header (no end_header line)"};
+  if (!binary) return std::nullopt;
+  // Every property takes at least one byte, so this walk ends within text.size() steps.
+  size_t at = body;
+  for (const Element& e : elements) {
+    if (e.properties.empty()) continue;
+    for (unsigned long long i = 0; i < e.count; ++i) {
+      for (const Property& p : e.properties) {
+        size_t need = p.count_size ? p.count_size : p.size;
+        if (p.count_size && text.size() - at >= p.count_size) {
+          unsigned long long n = 0;
+          for (size_t b = 0; b < p.count_size; ++b) {
+            const size_t k = big_endian ? b : p.count_size - 1 - b;
+            n = (n << 8) | static_cast<unsigned char>(text[at + k]);
+          }
+          need = n > (text.size() / p.size) ? text.size() + 1 : p.count_size + n * p.size;
+        }
+        if (text.size() - at < need)
+          return Error{path + ": truncated binary PLY: " + e.name + " " + std::to_string(i + 1) +
+                       " of " + std::to_string(e.count) + " runs past the end of the file"};
+        at += need;
+      }
+    }
+  }
+  return std::nullopt;
 }
 
 bool is_degenerate(const TriangleMesh& m, const std::array<uint32_t, 3>& t) {
@@ -251,18 +330,20 @@ Result<TriangleMesh> load_mesh(const std::string& path) {
   } else if (ext == ".obj") {
     if (auto err = precheck_obj(path, *text)) return *err;
   } else if (ext == ".ply") {
-    if (auto err = precheck_ply_header(path, *text)) return *err;
+    if (auto err = precheck_ply(path, *text)) return *err;
   }
 
   Assimp::Importer importer;
-  // Points and lines are removed so that only polygons (triangulated) remain.
+  // Points and lines are removed so that only polygons (triangulated) remain. The scene is
+  // validated (every index in range) before any other step: the post-processing steps index
+  // vertices unchecked and crash on a file whose faces name vertices it does not have.
   importer.SetPropertyInteger(AI_CONFIG_PP_SBP_REMOVE,
                               aiPrimitiveType_POINT | aiPrimitiveType_LINE);
-  const aiScene* scene =
-      importer.ReadFileFromMemory(text->data(), text->size(),
-                                  aiProcess_Triangulate | aiProcess_JoinIdenticalVertices |
-                                      aiProcess_PreTransformVertices | aiProcess_SortByPType,
-                                  ext.c_str() + 1);
+  const aiScene* scene = importer.ReadFileFromMemory(
+      text->data(), text->size(),
+      aiProcess_ValidateDataStructure | aiProcess_Triangulate | aiProcess_JoinIdenticalVertices |
+          aiProcess_PreTransformVertices | aiProcess_SortByPType,
+      ext.c_str() + 1);
   if (!scene) return Error{path + ": malformed mesh: " + importer.GetErrorString()};
 
   TriangleMesh mesh;
