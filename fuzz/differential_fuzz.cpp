@@ -44,8 +44,8 @@ class Generator {
   explicit Generator(Bytes* in) : in_(in) {}
 
   std::string constant() {
-    static const char* const kTable[] = {"0", "1", "2", "0.5", "3.25", "10", "0.001", "100",
-                                         "1e-7", "1e6"};
+    static const char* const kTable[] = {"0",  "1",     "2",   "0.5",  "3.25",
+                                         "10", "0.001", "100", "1e-7", "1e6"};
     const int k = in_->pick(12);
     if (k < 10) return kTable[k];
     // A byte-made number: 0.0 .. 25.5.
@@ -65,19 +65,32 @@ class Generator {
     const int k = in_->pick(13);
     const auto sub = [&] { return expr(depth - 1); };
     switch (k) {
-      case 0: return leaf();
-      case 1: return "(" + sub() + " + " + sub() + ")";
-      case 2: return "(" + sub() + " - " + sub() + ")";
-      case 3: return "(" + sub() + " * " + sub() + ")";
-      case 4: return "(" + sub() + " / " + sub() + ")";
-      case 5: return "sqrt(" + sub() + ")";
-      case 6: return "min(" + sub() + ", " + sub() + ")";
-      case 7: return "max(" + sub() + ", " + sub() + ")";
-      case 8: return "(" + sub() + " | " + sub() + ")";
-      case 9: return "(" + sub() + " & " + sub() + ")";
-      case 10: return "(-" + sub() + ")";
-      case 11: return "abs(" + sub() + ")";
-      default: return "(" + sub() + " * " + sub() + " - " + sub() + ")";
+      case 0:
+        return leaf();
+      case 1:
+        return "(" + sub() + " + " + sub() + ")";
+      case 2:
+        return "(" + sub() + " - " + sub() + ")";
+      case 3:
+        return "(" + sub() + " * " + sub() + ")";
+      case 4:
+        return "(" + sub() + " / " + sub() + ")";
+      case 5:
+        return "sqrt(" + sub() + ")";
+      case 6:
+        return "min(" + sub() + ", " + sub() + ")";
+      case 7:
+        return "max(" + sub() + ", " + sub() + ")";
+      case 8:
+        return "(" + sub() + " | " + sub() + ")";
+      case 9:
+        return "(" + sub() + " & " + sub() + ")";
+      case 10:
+        return "(-" + sub() + ")";
+      case 11:
+        return "abs(" + sub() + ")";
+      default:
+        return "(" + sub() + " * " + sub() + " - " + sub() + ")";
     }
   }
 
@@ -120,21 +133,22 @@ class Generator {
 std::string g_program;  // for the failure message
 
 [[noreturn]] void fail(const char* what, const double* p, double got, double want) {
-  std::fprintf(stderr, "differential mismatch: %s\n  at x = (%.17g, %.17g, %.17g)\n",
-               what, p[0], p[1], p[2]);
+  std::fprintf(stderr, "differential mismatch: %s\n  at x = (%.17g, %.17g, %.17g)\n", what, p[0],
+               p[1], p[2]);
   std::fprintf(stderr, "  got %.17g (%016llx), want %.17g (%016llx)\nprogram:\n%s", got,
                static_cast<unsigned long long>(std::bit_cast<uint64_t>(got)), want,
-               static_cast<unsigned long long>(std::bit_cast<uint64_t>(want)),
-               g_program.c_str());
+               static_cast<unsigned long long>(std::bit_cast<uint64_t>(want)), g_program.c_str());
   std::abort();
 }
 
 bool same_bits(double a, double b) {
-  return (std::isnan(a) && std::isnan(b)) || std::bit_cast<uint64_t>(a) == std::bit_cast<uint64_t>(b);
+  return (std::isnan(a) && std::isnan(b)) ||
+         std::bit_cast<uint64_t>(a) == std::bit_cast<uint64_t>(b);
 }
 
 /// F at the points pts (3 coordinates each) with the model's f64 batch evaluator.
-std::vector<double> eval_points(const hfrt::Model& m, const std::vector<std::array<double, 3>>& pts) {
+std::vector<double> eval_points(const hfrt::Model& m,
+                                const std::vector<std::array<double, 3>>& pts) {
   const int64_t n = static_cast<int64_t>(pts.size());
   std::vector<double> xs(3 * pts.size());
   for (size_t i = 0; i < pts.size(); ++i) {
@@ -218,7 +232,8 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
     if (!same_bits(gj.f, gi.f)) fail("gradient f JIT vs interpreter", p.data(), gj.f, gi.f);
     if (!same_bits(gj.f, fj[i])) fail("gradient f vs scalar f", p.data(), gj.f, fj[i]);
     for (int k = 0; k < 3; ++k) {
-      if (!same_bits(gj.d[k], gi.d[k])) fail("gradient JIT vs interpreter", p.data(), gj.d[k], gi.d[k]);
+      if (!same_bits(gj.d[k], gi.d[k]))
+        fail("gradient JIT vs interpreter", p.data(), gj.d[k], gi.d[k]);
     }
     const double f0 = fj[i];
     if (!std::isfinite(f0) || std::abs(f0) > 1e6) continue;

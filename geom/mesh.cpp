@@ -179,22 +179,82 @@ size_t ply_type_size(const std::string& t) {
   return 0;
 }
 
+// A PLY property as the body checks need it.
+struct PlyProperty {
+  size_t size = 0;         // a scalar's bytes, or a list item's
+  size_t count_size = 0;   // a list: the bytes of its count; 0 for a scalar
+  bool is_signed = true;   // the (item) type is signed
+  bool is_integer = true;  // the (item) type is an integer type
+};
+struct PlyElement {
+  std::string name;
+  unsigned long long count = 0;
+  std::vector<PlyProperty> properties;
+};
+
+// The body of an ASCII PLY (from byte `body`, line `lineno` + 1): one element a line, every
+// property a number, list counts non-negative integers, face indices in range. Assimp's ASCII
+// reader takes garbage without a word and then aborts on an internal assertion
+// (TriangulateProcess.cpp: numOut != pMesh->mNumFaces; found by fuzz/mesh_fuzz.cpp), or
+// leaks; these checks also give the line of the problem.
+std::optional<Error> precheck_ply_ascii_body(const std::string& path, const std::string& text,
+                                             size_t body, size_t lineno,
+                                             const std::vector<PlyElement>& elements) {
+  unsigned long long vertices = 0;
+  for (const PlyElement& e : elements)
+    if (e.name == "vertex") vertices = e.count;
+  size_t pos = body;
+  for (const PlyElement& e : elements) {
+    if (e.properties.empty()) continue;
+    for (unsigned long long i = 0; i < e.count; ++i) {
+      std::vector<std::string> tok;
+      while (tok.empty() && pos < text.size()) {  // blank lines are skipped
+        size_t end = text.find('\n', pos);
+        if (end == std::string::npos) end = text.size();
+        tok = tokens_of(text.substr(pos, end - pos));
+        pos = end + 1;
+        ++lineno;
+      }
+      const std::string what =
+          e.name + " " + std::to_string(i + 1) + " of " + std::to_string(e.count);
+      if (tok.empty()) return located(path, lineno, "truncated PLY: " + what + " is missing");
+      size_t t = 0;
+      auto number = [&](std::optional<double>* v) {
+        *v = t < tok.size() ? parse_real(tok[t]) : std::nullopt;
+        ++t;
+        return v->has_value();
+      };
+      for (const PlyProperty& p : e.properties) {
+        std::optional<double> v;
+        if (!number(&v)) return located(path, lineno, "malformed or missing number in " + what);
+        if (!p.count_size) continue;
+        if (*v < 0 || *v != std::floor(*v))
+          return located(path, lineno, "bad list length " + tok[t - 1] + " in " + what);
+        if (*v == 0 && e.name == "face") return located(path, lineno, what + " has no vertices");
+        if (*v > static_cast<double>(tok.size() - t))
+          return located(path, lineno, "list of " + tok[t - 1] + " values is cut short in " + what);
+        for (long long k = static_cast<long long>(*v); k > 0; --k) {
+          if (!number(&v)) return located(path, lineno, "malformed or missing number in " + what);
+          if (e.name == "face" &&
+              (*v < 0 || *v != std::floor(*v) || *v >= static_cast<double>(vertices)))
+            return located(path, lineno,
+                           "vertex index " + tok[t - 1] + " out of range 0.." +
+                               std::to_string(vertices) + " - 1 in " + what);
+        }
+      }
+      if (t != tok.size()) return located(path, lineno, "extra values in " + what);
+    }
+  }
+  return std::nullopt;
+}
+
 // A PLY file must be complete before Assimp sees it: Assimp 5.2 loops forever on a header
 // without "end_header", and its binary reader reads past the end of a body shorter than the
 // header's element counts say (then crashes on the garbage indices; found by
 // fuzz/mesh_fuzz.cpp). So the header is parsed (format, elements, property types) and a
 // binary body is walked, list counts included, to check that every element fits in the file.
 std::optional<Error> precheck_ply(const std::string& path, const std::string& text) {
-  struct Property {
-    size_t size = 0;        // a scalar's bytes, or a list item's
-    size_t count_size = 0;  // a list: the bytes of its count; 0 for a scalar
-  };
-  struct Element {
-    std::string name;
-    unsigned long long count = 0;
-    std::vector<Property> properties;
-  };
-  std::vector<Element> elements;
+  std::vector<PlyElement> elements;
   bool binary = false, big_endian = false;
   size_t pos = 0, lineno = 0, body = std::string::npos;
   while (pos < text.size()) {
@@ -224,7 +284,7 @@ std::optional<Error> precheck_ply(const std::string& path, const std::string& te
       elements.push_back({tok[1], static_cast<unsigned long long>(*n), {}});
     } else if (tok[0] == "property") {
       if (elements.empty()) return located(path, lineno, "PLY property before any element");
-      Property p;
+      PlyProperty p;
       if (tok.size() == 5 && tok[1] == "list") {
         p.count_size = ply_type_size(tok[2]);
         p.size = ply_type_size(tok[3]);
@@ -234,29 +294,56 @@ std::optional<Error> precheck_ply(const std::string& path, const std::string& te
         p.size = tok.size() == 3 ? ply_type_size(tok[1]) : 0;
         if (p.size == 0) return located(path, lineno, "malformed PLY property '" + line + "'");
       }
+      p.is_signed = tok[tok.size() - 2].find('u') == std::string::npos;  // int8, not uint8
+      p.is_integer =
+          tok[tok.size() - 2].find("float") == std::string::npos && tok[tok.size() - 2] != "double";
       elements.back().properties.push_back(p);
+    } else if (tok[0] != "comment" && tok[0] != "obj_info") {
+      // What Assimp would make of it is unknown, and the body checks below would then
+      // disagree with its reading of the body.
+      return located(path, lineno, "unknown PLY header line '" + line + "'");
     }
   }
   if (body == std::string::npos) return Error{path + ": malformed PLY header (no end_header line)"};
-  if (!binary) return std::nullopt;
+  if (!binary) return precheck_ply_ascii_body(path, text, body, lineno, elements);
   // Every property takes at least one byte, so this walk ends within text.size() steps.
+  unsigned long long vertices = 0;
+  for (const PlyElement& e : elements)
+    if (e.name == "vertex") vertices = e.count;
+  // The unsigned value of the `size` bytes at `at` (the file's byte order).
+  auto read = [&](size_t at, size_t size) {
+    unsigned long long n = 0;
+    for (size_t b = 0; b < size; ++b) {
+      const size_t k = big_endian ? b : size - 1 - b;
+      n = (n << 8) | static_cast<unsigned char>(text[at + k]);
+    }
+    return n;
+  };
   size_t at = body;
-  for (const Element& e : elements) {
+  for (const PlyElement& e : elements) {
     if (e.properties.empty()) continue;
     for (unsigned long long i = 0; i < e.count; ++i) {
-      for (const Property& p : e.properties) {
+      const std::string what =
+          e.name + " " + std::to_string(i + 1) + " of " + std::to_string(e.count);
+      for (const PlyProperty& p : e.properties) {
         size_t need = p.count_size ? p.count_size : p.size;
+        unsigned long long n = 0;
         if (p.count_size && text.size() - at >= p.count_size) {
-          unsigned long long n = 0;
-          for (size_t b = 0; b < p.count_size; ++b) {
-            const size_t k = big_endian ? b : p.count_size - 1 - b;
-            n = (n << 8) | static_cast<unsigned char>(text[at + k]);
-          }
+          n = read(at, p.count_size);
           need = n > (text.size() / p.size) ? text.size() + 1 : p.count_size + n * p.size;
         }
         if (text.size() - at < need)
-          return Error{path + ": truncated binary PLY: " + e.name + " " + std::to_string(i + 1) +
-                       " of " + std::to_string(e.count) + " runs past the end of the file"};
+          return Error{path + ": truncated binary PLY: " + what + " runs past the end of the file"};
+        if (p.count_size && e.name == "face") {
+          // Assimp aborts on a face without vertices (an assertion in its triangulation).
+          if (n == 0) return Error{path + ": binary PLY: " + what + " has no vertices"};
+          for (unsigned long long k = 0; k < n && p.is_integer; ++k) {
+            unsigned long long v = read(at + p.count_size + k * p.size, p.size);
+            const bool negative = p.is_signed && (v >> (8 * p.size - 1)) != 0;
+            if (negative || v >= vertices)
+              return Error{path + ": binary PLY: " + what + " has a vertex index out of range"};
+          }
+        }
         at += need;
       }
     }
