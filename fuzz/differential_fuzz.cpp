@@ -165,6 +165,9 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   Bytes in(data, size);
   Generator gen(&in);
   g_program = gen.program();
+  // HFRT_FUZZ_PRINT=1: show the generated program (to look at what the corpus exercises).
+  static const bool print = std::getenv("HFRT_FUZZ_PRINT") != nullptr;
+  if (print) std::fprintf(stderr, "%s", g_program.c_str());
 
   hfrt::ModelOptions jit_options;
   jit_options.interval_jit_max_insts = -1;  // always the JIT in every domain
