@@ -251,8 +251,10 @@ std::optional<Error> precheck_ply_ascii_body(const std::string& path, const std:
 // A PLY file must be complete before Assimp sees it: Assimp 5.2 loops forever on a header
 // without "end_header", and its binary reader reads past the end of a body shorter than the
 // header's element counts say (then crashes on the garbage indices; found by
-// fuzz/mesh_fuzz.cpp). So the header is parsed (format, elements, property types) and a
-// binary body is walked, list counts included, to check that every element fits in the file.
+// fuzz/mesh_fuzz.cpp). So the header is parsed (format, elements, property types; a line
+// that is none of these is an error) and the body checked: a binary one is walked, list counts
+// included, to check that every element fits in the file and that every face has vertices in
+// range; an ASCII one line by line (precheck_ply_ascii_body).
 std::optional<Error> precheck_ply(const std::string& path, const std::string& text) {
   std::vector<PlyElement> elements;
   bool binary = false, big_endian = false;
@@ -306,7 +308,6 @@ std::optional<Error> precheck_ply(const std::string& path, const std::string& te
   }
   if (body == std::string::npos) return Error{path + ": malformed PLY header (no end_header line)"};
   if (!binary) return precheck_ply_ascii_body(path, text, body, lineno, elements);
-  // Every property takes at least one byte, so this walk ends within text.size() steps.
   unsigned long long vertices = 0;
   for (const PlyElement& e : elements)
     if (e.name == "vertex") vertices = e.count;
@@ -319,6 +320,7 @@ std::optional<Error> precheck_ply(const std::string& path, const std::string& te
     }
     return n;
   };
+  // Every property takes at least one byte, so this walk ends within text.size() steps.
   size_t at = body;
   for (const PlyElement& e : elements) {
     if (e.properties.empty()) continue;
