@@ -6,6 +6,7 @@
 #include <algorithm>
 #include <assimp/Importer.hpp>
 #include <cctype>
+#include <cerrno>
 #include <cmath>
 #include <cstdlib>
 #include <filesystem>
@@ -54,10 +55,13 @@ std::optional<double> parse_real(const std::string& tok) {
   return v;
 }
 
+// A whole token as an integer; out of long long's range is malformed too (strtoll would
+// saturate, and a count of LLONG_MAX overflowed the checks below: found by fuzz/mesh_fuzz.cpp).
 std::optional<long long> parse_int(const std::string& tok) {
   char* end = nullptr;
+  errno = 0;
   long long v = std::strtoll(tok.c_str(), &end, 10);
-  if (end == tok.c_str() || *end != '\0') return std::nullopt;
+  if (end == tok.c_str() || *end != '\0' || errno == ERANGE) return std::nullopt;
   return v;
 }
 
@@ -106,7 +110,7 @@ std::optional<Error> precheck_off(const std::string& path, const std::string& te
     if (state == kFaces) {
       auto n = parse_int(tok[0]);
       if (!n || *n < 1) return located(path, lineno, "malformed face size '" + tok[0] + "'");
-      if (static_cast<long long>(tok.size()) < 1 + *n)
+      if (*n > static_cast<long long>(tok.size()) - 1)
         return located(path, lineno, "a face of " + tok[0] + " vertices lists fewer indices");
       for (long long k = 1; k <= *n; ++k) {
         auto idx = parse_int(tok[k]);

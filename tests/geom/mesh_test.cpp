@@ -258,5 +258,17 @@ TEST_F(MeshFiles, MalformedAsciiPlyBodyHasItsLine) {
   EXPECT_EQ(ok->triangles.size(), 4u);
 }
 
+// Found by fuzz/mesh_fuzz.cpp: a face size beyond long long's range (strtoll saturated it to
+// LLONG_MAX) overflowed the size check (1 + n, undefined behaviour) and the index loop then read
+// past the line's tokens. Out-of-range integers are malformed now.
+TEST_F(MeshFiles, HugeOffFaceSizeIsMalformed) {
+  const std::string e = error_of(
+      "huge.off", "OFF\n4 1 0\n0 0 0\n1 0 0\n0 1 0\n0 0 1\n" + std::string(60, '4') + " 0 1 3\n");
+  EXPECT_NE(e.find("huge.off:7: malformed face size '444"), std::string::npos) << e;
+  const std::string i =
+      error_of("idx.off", "OFF\n3 1 0\n0 0 0\n1 0 0\n0 1 0\n3 0 1 99999999999999999999\n");
+  EXPECT_NE(i.find("idx.off:6: malformed vertex index"), std::string::npos) << i;
+}
+
 }  // namespace
 }  // namespace hfrt::geom
