@@ -4,6 +4,7 @@ JOBS ?= $(shell nproc)
 CMAKE_FLAGS ?= -G Ninja -DCMAKE_BUILD_TYPE=Release
 
 .PHONY: all deps configure build demo test bench bench-render bench-peers bench-mesh bench-scenes bench-cluster clean format package
+.PHONY: test-asan test-tsan fuzz
 
 all: build
 
@@ -69,3 +70,33 @@ format:
 # Install it with `sudo apt-get install ./$(BUILD_DIR)/hfrt_*.deb`.
 package: build
 	@cd $(BUILD_DIR) && cpack -G DEB
+
+# The suite under sanitizers (CMakePresets.json: `asan` = ASan + UBSan in build-asan, `tsan` in
+# build-tsan). LLVM's own allocations and the JIT'd code are not instrumented; what is
+# suppressed, and why, is in scripts/sanitizers/. SAN_TARGETS: what to build (default all);
+# SAN_CTEST_ARGS: which tests; by default all but those that load libhfrt.so into a program
+# built without the sanitizer (the Python module in /usr/bin/python3, the installed-package
+# consumers), which the sanitizer runtimes cannot start in.
+SAN_TARGETS ?= all
+SAN_CTEST_ARGS ?= -E '^(python\.|capi\.install_consumers)'
+SAN_DIR := $(CURDIR)/scripts/sanitizers
+ASAN_ENV = ASAN_OPTIONS=detect_leaks=1:check_initialization_order=1:abort_on_error=0 \
+  LSAN_OPTIONS=suppressions=$(SAN_DIR)/lsan.supp:print_suppressions=0 \
+  UBSAN_OPTIONS=halt_on_error=1:print_stacktrace=1:suppressions=$(SAN_DIR)/ubsan.supp
+TSAN_ENV = TSAN_OPTIONS=halt_on_error=1:second_deadlock_stack=1:suppressions=$(SAN_DIR)/tsan.supp
+
+test-asan: deps
+	@if [ ! -f build-asan/build.ninja ]; then cmake --preset asan; fi
+	@cmake --build build-asan -j $(JOBS) --target $(SAN_TARGETS)
+	@cd build-asan && $(ASAN_ENV) ctest --output-on-failure -j $(JOBS) --timeout 1800 $(SAN_CTEST_ARGS)
+
+test-tsan: deps
+	@if [ ! -f build-tsan/build.ninja ]; then cmake --preset tsan; fi
+	@cmake --build build-tsan -j $(JOBS) --target $(SAN_TARGETS)
+	@cd build-tsan && $(TSAN_ENV) ctest --output-on-failure -j $(JOBS) --timeout 1800 $(SAN_CTEST_ARGS)
+
+# libFuzzer targets (fuzz/, the `fuzz` preset: clang-19, build-fuzz), each run FUZZ_SECONDS on
+# seed corpora from ../shared/corpus; prints exec/s and coverage per target (scripts/fuzz.sh).
+FUZZ_SECONDS ?= 60
+fuzz: deps
+	@FUZZ_JOBS=$(JOBS) scripts/fuzz.sh $(FUZZ_SECONDS)

@@ -6,6 +6,7 @@
 
 #include <algorithm>
 #include <atomic>
+#include <cmath>
 
 #include "base/check.h"
 
@@ -68,16 +69,23 @@ class Builder {
     return body(tbb::blocked_range<uint32_t>(begin, end), RangeInfo{});
   }
 
+  // Clamped in float before the conversion: converting a NaN or an out-of-range float to int is
+  // undefined behaviour.
   int bin_of(float c, float lo, float scale, int nbins) const {
-    int b = static_cast<int>((c - lo) * scale);
-    return std::clamp(b, 0, nbins - 1);
+    const float t = (c - lo) * scale;
+    if (!(t > 0)) return 0;
+    if (t >= static_cast<float>(nbins - 1)) return nbins - 1;
+    return static_cast<int>(t);
   }
 
   void fill_bins(uint32_t begin, uint32_t end, const Box& cb, int nbins, BinSet* set) const {
     float scale[3];
     for (int a = 0; a < 3; ++a) {
-      float ext = cb.hi[a] - cb.lo[a];
-      scale[a] = ext > 0 ? nbins / ext : 0;
+      // A denormal extent makes nbins / ext infinite, and (c - lo) * inf is NaN at c = lo
+      // (found by fuzz/mesh_fuzz.cpp): such an axis cannot be binned, like a zero extent.
+      const float ext = cb.hi[a] - cb.lo[a];
+      const float s = ext > 0 ? nbins / ext : 0;
+      scale[a] = std::isfinite(s) ? s : 0;
     }
     auto body = [&](const tbb::blocked_range<uint32_t>& r, BinSet acc) {
       for (uint32_t i = r.begin(); i != r.end(); ++i) {

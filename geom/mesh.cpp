@@ -6,6 +6,7 @@
 #include <algorithm>
 #include <assimp/Importer.hpp>
 #include <cctype>
+#include <cerrno>
 #include <cmath>
 #include <cstdlib>
 #include <filesystem>
@@ -54,10 +55,13 @@ std::optional<double> parse_real(const std::string& tok) {
   return v;
 }
 
+// A whole token as an integer; out of long long's range is malformed too (strtoll would
+// saturate, and a count of LLONG_MAX overflowed the checks below: found by fuzz/mesh_fuzz.cpp).
 std::optional<long long> parse_int(const std::string& tok) {
   char* end = nullptr;
+  errno = 0;
   long long v = std::strtoll(tok.c_str(), &end, 10);
-  if (end == tok.c_str() || *end != '\0') return std::nullopt;
+  if (end == tok.c_str() || *end != '\0' || errno == ERANGE) return std::nullopt;
   return v;
 }
 
@@ -106,7 +110,7 @@ std::optional<Error> precheck_off(const std::string& path, const std::string& te
     if (state == kFaces) {
       auto n = parse_int(tok[0]);
       if (!n || *n < 1) return located(path, lineno, "malformed face size '" + tok[0] + "'");
-      if (static_cast<long long>(tok.size()) < 1 + *n)
+      if (*n > static_cast<long long>(tok.size()) - 1)
         return located(path, lineno, "a face of " + tok[0] + " vertices lists fewer indices");
       for (long long k = 1; k <= *n; ++k) {
         auto idx = parse_int(tok[k]);
@@ -169,20 +173,188 @@ std::optional<Error> precheck_obj(const std::string& path, const std::string& te
   return std::nullopt;
 }
 
-// The header of a PLY file must be complete before Assimp sees it: Assimp 5.2 loops forever
-// on a header without "end_header".
-std::optional<Error> precheck_ply_header(const std::string& path, const std::string& text) {
-  std::istringstream in(text);
-  std::string line;
-  size_t lineno = 0;
-  while (std::getline(in, line)) {
+// Bytes of a PLY scalar type; 0 for a name that is not one.
+size_t ply_type_size(const std::string& t) {
+  if (t == "char" || t == "uchar" || t == "int8" || t == "uint8") return 1;
+  if (t == "short" || t == "ushort" || t == "int16" || t == "uint16") return 2;
+  if (t == "int" || t == "uint" || t == "int32" || t == "uint32" || t == "float" || t == "float32")
+    return 4;
+  if (t == "double" || t == "float64") return 8;
+  return 0;
+}
+
+// A PLY property as the body checks need it.
+struct PlyProperty {
+  size_t size = 0;         // a scalar's bytes, or a list item's
+  size_t count_size = 0;   // a list: the bytes of its count; 0 for a scalar
+  bool is_signed = true;   // the (item) type is signed
+  bool is_integer = true;  // the (item) type is an integer type
+};
+struct PlyElement {
+  std::string name;
+  unsigned long long count = 0;
+  std::vector<PlyProperty> properties;
+};
+
+// The body of an ASCII PLY (from byte `body`, line `lineno` + 1): one element a line, every
+// property a number, list counts non-negative integers, face indices in range. Assimp's ASCII
+// reader takes garbage without a word and then aborts on an internal assertion
+// (TriangulateProcess.cpp: numOut != pMesh->mNumFaces; found by fuzz/mesh_fuzz.cpp), or
+// leaks; these checks also give the line of the problem.
+std::optional<Error> precheck_ply_ascii_body(const std::string& path, const std::string& text,
+                                             size_t body, size_t lineno,
+                                             const std::vector<PlyElement>& elements) {
+  unsigned long long vertices = 0;
+  for (const PlyElement& e : elements)
+    if (e.name == "vertex") vertices = e.count;
+  size_t pos = body;
+  for (const PlyElement& e : elements) {
+    if (e.properties.empty()) continue;
+    for (unsigned long long i = 0; i < e.count; ++i) {
+      std::vector<std::string> tok;
+      while (tok.empty() && pos < text.size()) {  // blank lines are skipped
+        size_t end = text.find('\n', pos);
+        if (end == std::string::npos) end = text.size();
+        tok = tokens_of(text.substr(pos, end - pos));
+        pos = end + 1;
+        ++lineno;
+      }
+      const std::string what =
+          e.name + " " + std::to_string(i + 1) + " of " + std::to_string(e.count);
+      if (tok.empty()) return located(path, lineno, "truncated PLY: " + what + " is missing");
+      size_t t = 0;
+      auto number = [&](std::optional<double>* v) {
+        *v = t < tok.size() ? parse_real(tok[t]) : std::nullopt;
+        ++t;
+        return v->has_value();
+      };
+      for (const PlyProperty& p : e.properties) {
+        std::optional<double> v;
+        if (!number(&v)) return located(path, lineno, "malformed or missing number in " + what);
+        if (!p.count_size) continue;
+        if (*v < 0 || *v != std::floor(*v))
+          return located(path, lineno, "bad list length " + tok[t - 1] + " in " + what);
+        if (*v == 0 && e.name == "face") return located(path, lineno, what + " has no vertices");
+        if (*v > static_cast<double>(tok.size() - t))
+          return located(path, lineno, "list of " + tok[t - 1] + " values is cut short in " + what);
+        for (long long k = static_cast<long long>(*v); k > 0; --k) {
+          if (!number(&v)) return located(path, lineno, "malformed or missing number in " + what);
+          if (e.name == "face" &&
+              (*v < 0 || *v != std::floor(*v) || *v >= static_cast<double>(vertices)))
+            return located(path, lineno,
+                           "vertex index " + tok[t - 1] + " out of range 0.." +
+                               std::to_string(vertices) + " - 1 in " + what);
+        }
+      }
+      if (t != tok.size()) return located(path, lineno, "extra values in " + what);
+    }
+  }
+  return std::nullopt;
+}
+
+// A PLY file must be complete before Assimp sees it: Assimp 5.2 loops forever on a header
+// without "end_header", and its binary reader reads past the end of a body shorter than the
+// header's element counts say (then crashes on the garbage indices; found by
+// fuzz/mesh_fuzz.cpp). So the header is parsed (format, elements, property types; a line
+// that is none of these is an error) and the body checked: a binary one is walked, list counts
+// included, to check that every element fits in the file and that every face has vertices in
+// range; an ASCII one line by line (precheck_ply_ascii_body).
+std::optional<Error> precheck_ply(const std::string& path, const std::string& text) {
+  std::vector<PlyElement> elements;
+  bool binary = false, big_endian = false;
+  size_t pos = 0, lineno = 0, body = std::string::npos;
+  while (pos < text.size()) {
+    size_t end = text.find('\n', pos);
+    if (end == std::string::npos) end = text.size();
+    std::string line = text.substr(pos, end - pos);
+    pos = end + 1;
     ++lineno;
     if (!line.empty() && line.back() == '\r') line.pop_back();
-    if (lineno == 1 && line != "ply") return located(path, 1, "expected the PLY magic 'ply'");
-    if (line == "end_header") return std::nullopt;
-    if (lineno > 1000 || in.tellg() > 65536) break;
+    if (lineno == 1) {
+      if (line != "ply") return located(path, 1, "expected the PLY magic 'ply'");
+      continue;
+    }
+    if (line == "end_header") {
+      body = std::min(pos, text.size());
+      break;
+    }
+    if (lineno > 1000 || pos > 65536) break;
+    const std::vector<std::string> tok = tokens_of(line);
+    if (tok.empty()) continue;
+    if (tok[0] == "format" && tok.size() >= 2) {
+      binary = tok[1] != "ascii";
+      big_endian = tok[1] == "binary_big_endian";
+    } else if (tok[0] == "element") {
+      std::optional<long long> n = tok.size() == 3 ? parse_int(tok[2]) : std::nullopt;
+      if (!n || *n < 0) return located(path, lineno, "malformed PLY element line '" + line + "'");
+      elements.push_back({tok[1], static_cast<unsigned long long>(*n), {}});
+    } else if (tok[0] == "property") {
+      if (elements.empty()) return located(path, lineno, "PLY property before any element");
+      PlyProperty p;
+      if (tok.size() == 5 && tok[1] == "list") {
+        p.count_size = ply_type_size(tok[2]);
+        p.size = ply_type_size(tok[3]);
+        if (p.count_size == 0 || p.size == 0)
+          return located(path, lineno, "unknown PLY list type in '" + line + "'");
+      } else {
+        p.size = tok.size() == 3 ? ply_type_size(tok[1]) : 0;
+        if (p.size == 0) return located(path, lineno, "malformed PLY property '" + line + "'");
+      }
+      p.is_signed = tok[tok.size() - 2].find('u') == std::string::npos;  // int8, not uint8
+      p.is_integer =
+          tok[tok.size() - 2].find("float") == std::string::npos && tok[tok.size() - 2] != "double";
+      elements.back().properties.push_back(p);
+    } else if (tok[0] != "comment" && tok[0] != "obj_info") {
+      // What Assimp would make of it is unknown, and the body checks below would then
+      // disagree with its reading of the body.
+      return located(path, lineno, "unknown PLY header line '" + line + "'");
+    }
   }
-  return Error{path + ": malformed PLY header (no end_header line)"};
+  if (body == std::string::npos) return Error{path + ": malformed PLY header (no end_header line)"};
+  if (!binary) return precheck_ply_ascii_body(path, text, body, lineno, elements);
+  unsigned long long vertices = 0;
+  for (const PlyElement& e : elements)
+    if (e.name == "vertex") vertices = e.count;
+  // The unsigned value of the `size` bytes at `at` (the file's byte order).
+  auto read = [&](size_t at, size_t size) {
+    unsigned long long n = 0;
+    for (size_t b = 0; b < size; ++b) {
+      const size_t k = big_endian ? b : size - 1 - b;
+      n = (n << 8) | static_cast<unsigned char>(text[at + k]);
+    }
+    return n;
+  };
+  // Every property takes at least one byte, so this walk ends within text.size() steps.
+  size_t at = body;
+  for (const PlyElement& e : elements) {
+    if (e.properties.empty()) continue;
+    for (unsigned long long i = 0; i < e.count; ++i) {
+      const std::string what =
+          e.name + " " + std::to_string(i + 1) + " of " + std::to_string(e.count);
+      for (const PlyProperty& p : e.properties) {
+        size_t need = p.count_size ? p.count_size : p.size;
+        unsigned long long n = 0;
+        if (p.count_size && text.size() - at >= p.count_size) {
+          n = read(at, p.count_size);
+          need = n > (text.size() / p.size) ? text.size() + 1 : p.count_size + n * p.size;
+        }
+        if (text.size() - at < need)
+          return Error{path + ": truncated binary PLY: " + what + " runs past the end of the file"};
+        if (p.count_size && e.name == "face") {
+          // Assimp aborts on a face without vertices (an assertion in its triangulation).
+          if (n == 0) return Error{path + ": binary PLY: " + what + " has no vertices"};
+          for (unsigned long long k = 0; k < n && p.is_integer; ++k) {
+            unsigned long long v = read(at + p.count_size + k * p.size, p.size);
+            const bool negative = p.is_signed && (v >> (8 * p.size - 1)) != 0;
+            if (negative || v >= vertices)
+              return Error{path + ": binary PLY: " + what + " has a vertex index out of range"};
+          }
+        }
+        at += need;
+      }
+    }
+  }
+  return std::nullopt;
 }
 
 bool is_degenerate(const TriangleMesh& m, const std::array<uint32_t, 3>& t) {
@@ -251,18 +423,20 @@ Result<TriangleMesh> load_mesh(const std::string& path) {
   } else if (ext == ".obj") {
     if (auto err = precheck_obj(path, *text)) return *err;
   } else if (ext == ".ply") {
-    if (auto err = precheck_ply_header(path, *text)) return *err;
+    if (auto err = precheck_ply(path, *text)) return *err;
   }
 
   Assimp::Importer importer;
-  // Points and lines are removed so that only polygons (triangulated) remain.
+  // Points and lines are removed so that only polygons (triangulated) remain. The scene is
+  // validated (every index in range) before any other step: the post-processing steps index
+  // vertices unchecked and crash on a file whose faces name vertices it does not have.
   importer.SetPropertyInteger(AI_CONFIG_PP_SBP_REMOVE,
                               aiPrimitiveType_POINT | aiPrimitiveType_LINE);
-  const aiScene* scene =
-      importer.ReadFileFromMemory(text->data(), text->size(),
-                                  aiProcess_Triangulate | aiProcess_JoinIdenticalVertices |
-                                      aiProcess_PreTransformVertices | aiProcess_SortByPType,
-                                  ext.c_str() + 1);
+  const aiScene* scene = importer.ReadFileFromMemory(
+      text->data(), text->size(),
+      aiProcess_ValidateDataStructure | aiProcess_Triangulate | aiProcess_JoinIdenticalVertices |
+          aiProcess_PreTransformVertices | aiProcess_SortByPType,
+      ext.c_str() + 1);
   if (!scene) return Error{path + ": malformed mesh: " + importer.GetErrorString()};
 
   TriangleMesh mesh;

@@ -23,6 +23,7 @@ packages=(
   python3-skimage                                       # the marching-cubes peer of the mesher tests/bench
   libopenmpi-dev openmpi-bin                            # rendering across processes (cluster/, mpirun tests)
   ffmpeg                                                # `hfrt render --video` and its test
+  clang-19 libclang-rt-19-dev                           # `make fuzz` (libFuzzer) and the fuzz preset
 )
 if [[ "${1:-}" == "--bench" ]]; then
   packages+=(libembree-dev)   # optional: hfrt_bench_mesh compares against Embree when found

@@ -7,6 +7,7 @@
 
 #include <algorithm>
 #include <functional>
+#include <limits>
 #include <random>
 
 #include "geom/mesh_surface.h"
@@ -74,6 +75,21 @@ TEST(Bvh, IdenticalCentroidsStillSplit) {
   std::vector<Box> boxes(100, Box{{0, 0, 0}, {1, 1, 1}});
   Bvh bvh = build_bvh(boxes);
   check_invariants(bvh, boxes, 4);
+}
+
+// Found by fuzz/mesh_fuzz.cpp: centroids spread over a denormal extent (a mesh with
+// coordinates like 1e-45) made the bin scale nbins / extent infinite and the bin index of the
+// lowest centroid 0 * inf = NaN, converted to int (undefined behaviour; caught by UBSan in the
+// fuzz and asan builds). Such an axis is now binned like one of zero extent.
+TEST(Bvh, DenormalCentroidExtentsBuild) {
+  std::vector<Box> boxes;
+  for (int i = 0; i < 12; ++i) {
+    const float x = std::numeric_limits<float>::denorm_min() * static_cast<float>(i % 3);
+    const float y = static_cast<float>(i);
+    boxes.push_back(Box{Vec3{x, y, 0}, Vec3{x, y + 0.5f, 1}});
+  }
+  Bvh bvh = build_bvh(boxes);
+  check_invariants(bvh, boxes, BvhBuildOptions{}.max_leaf_size);
 }
 
 TEST(Bvh, ParallelBuildMatchesSerial) {

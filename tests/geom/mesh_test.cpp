@@ -172,5 +172,103 @@ TEST(InlineMesh, Errors) {
   EXPECT_NE(mesh_from_arrays(v, {}).error().message.find("empty mesh"), std::string::npos);
 }
 
+// A binary PLY body (little endian): the tetrahedron's 4 float vertices and 4 triangles with
+// a uchar count and int indices, after a header that declares `vertices` vertices.
+std::string binary_tetra_ply(int vertices) {
+  std::string s = "ply\nformat binary_little_endian 1.0\nelement vertex " +
+                  std::to_string(vertices) +
+                  "\nproperty float x\nproperty float y\nproperty float z\nelement face 4\n"
+                  "property list uchar int vertex_indices\nend_header\n";
+  auto put = [&](const void* p, size_t n) { s.append(static_cast<const char*>(p), n); };
+  const float v[4][3] = {{0, 0, 0}, {1, 0, 0}, {0, 1, 0}, {0, 0, 1}};
+  put(v, sizeof v);
+  const int32_t t[4][3] = {{0, 2, 1}, {0, 1, 3}, {0, 3, 2}, {1, 2, 3}};
+  for (const auto& f : t) {
+    const uint8_t three = 3;
+    put(&three, 1);
+    put(f, sizeof f);
+  }
+  return s;
+}
+
+TEST_F(MeshFiles, LoadsBinaryPly) {
+  Result<TriangleMesh> m = load_mesh(write("b.ply", binary_tetra_ply(4)));
+  ASSERT_TRUE(m.ok()) << m.error().message;
+  EXPECT_EQ(m->vertices.size(), 4u);
+  EXPECT_EQ(m->triangles.size(), 4u);
+}
+
+// Found by fuzz/mesh_fuzz.cpp: a binary PLY whose header declares more vertices than its body
+// holds made Assimp read past the end and crash on the garbage indices (SEGV in its
+// post-processing). It is a located error now.
+TEST_F(MeshFiles, TruncatedBinaryPlyIsAnError) {
+  const std::string e = error_of("short.ply", binary_tetra_ply(8));
+  EXPECT_NE(e.find("short.ply: truncated binary PLY: face"), std::string::npos) << e;
+  EXPECT_NE(error_of("cut.ply", binary_tetra_ply(4).substr(0, 200)).find("truncated binary PLY"),
+            std::string::npos);
+  // A face without vertices made Assimp abort (TriangulateProcess.cpp: numOut !=
+  // pMesh->mNumFaces), as did an unknown header line that shifted its reading of the body.
+  std::string zero = binary_tetra_ply(4);
+  const size_t first_face = zero.find("end_header\n") + 11 + 48;
+  ASSERT_EQ(zero[first_face], 3);
+  std::string oor = zero;
+  zero.erase(first_face + 1, 12);
+  zero[first_face] = 0;
+  const std::string z = error_of("z.ply", zero);
+  EXPECT_NE(z.find("z.ply: binary PLY: face 1 of 4 has no vertices"), std::string::npos) << z;
+  oor[first_face + 1] = 4;  // the first index of the first face: 4 of vertices 0..3
+  const std::string r = error_of("r.ply", oor);
+  EXPECT_NE(r.find("r.ply: binary PLY: face 1 of 4 has a vertex index out of range"),
+            std::string::npos)
+      << r;
+  std::string plus = binary_tetra_ply(4);
+  plus.replace(plus.find("property float z"), 0, "+");
+  const std::string u = error_of("u.ply", plus);
+  EXPECT_NE(u.find("u.ply:6: unknown PLY header line '+property float z'"), std::string::npos) << u;
+  const std::string p = error_of("p.ply", "ply\nformat ascii 1.0\nproperty float x\nend_header\n");
+  EXPECT_NE(p.find("p.ply:3: PLY property before any element"), std::string::npos) << p;
+}
+
+// Found by fuzz/mesh_fuzz.cpp: ASCII PLY bodies with garbage in a line made Assimp abort on
+// an internal assertion (TriangulateProcess.cpp: numOut != pMesh->mNumFaces) or leak. The
+// body is checked line by line first, like OFF and OBJ files.
+TEST_F(MeshFiles, MalformedAsciiPlyBodyHasItsLine) {
+  const std::string header =
+      "ply\nformat ascii 1.0\nelement vertex 4\nproperty float x\nproperty float y\n"
+      "property float z\nelement face 4\nproperty list uchar int vertex_indices\nend_header\n";
+  const std::string v = "0 0 0\n1 0 0\n0 1 0\n0 0 1\n";
+  const std::string garbage = error_of("g.ply", header + v + "3 0 2 1\n3 0\xe0\xce\xdf\xd6\n");
+  EXPECT_NE(garbage.find("g.ply:15: list of 3 values is cut short in face 2 of 4"),
+            std::string::npos)
+      << garbage;
+  const std::string word = error_of("w.ply", header + "0 0 0\n1 0 $mat.twoside0\n");
+  EXPECT_NE(word.find("w.ply:11: malformed or missing number in vertex 2 of 4"), std::string::npos)
+      << word;
+  const std::string range = error_of("r.ply", header + v + "3 0 2 1\n3 0 1 3\n3 0 3 2\n3 1 2 4\n");
+  EXPECT_NE(range.find("r.ply:17: vertex index 4 out of range"), std::string::npos) << range;
+  const std::string missing = error_of("m.ply", header + v + "3 0 2 1\n");
+  EXPECT_NE(missing.find("truncated PLY: face 2 of 4 is missing"), std::string::npos) << missing;
+  const std::string zero = error_of("z.ply", header + v + "0\n");
+  EXPECT_NE(zero.find("z.ply:14: face 1 of 4 has no vertices"), std::string::npos) << zero;
+  const std::string extra = error_of("x.ply", header + "0 0 0 7\n");
+  EXPECT_NE(extra.find("x.ply:10: extra values in vertex 1 of 4"), std::string::npos) << extra;
+  Result<TriangleMesh> ok =
+      load_mesh(write("ok.ply", header + v + "3 0 2 1\n\n3 0 1 3\n3 0 3 2\n3 1 2 3\n"));
+  ASSERT_TRUE(ok.ok()) << ok.error().message;
+  EXPECT_EQ(ok->triangles.size(), 4u);
+}
+
+// Found by fuzz/mesh_fuzz.cpp: a face size beyond long long's range (strtoll saturated it to
+// LLONG_MAX) overflowed the size check (1 + n, undefined behaviour) and the index loop then read
+// past the line's tokens. Out-of-range integers are malformed now.
+TEST_F(MeshFiles, HugeOffFaceSizeIsMalformed) {
+  const std::string e = error_of(
+      "huge.off", "OFF\n4 1 0\n0 0 0\n1 0 0\n0 1 0\n0 0 1\n" + std::string(60, '4') + " 0 1 3\n");
+  EXPECT_NE(e.find("huge.off:7: malformed face size '444"), std::string::npos) << e;
+  const std::string i =
+      error_of("idx.off", "OFF\n3 1 0\n0 0 0\n1 0 0\n0 1 0\n3 0 1 99999999999999999999\n");
+  EXPECT_NE(i.find("idx.off:6: malformed vertex index"), std::string::npos) << i;
+}
+
 }  // namespace
 }  // namespace hfrt::geom
