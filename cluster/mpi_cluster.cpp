@@ -6,6 +6,7 @@
 
 #include <algorithm>
 #include <atomic>
+#include <chrono>
 #include <cstdint>
 #include <cstdlib>
 #include <cstring>
@@ -59,6 +60,17 @@ void unpack(const float* buf, const render::TraceOptions& opt, const std::vector
   });
 }
 
+/// Waits for a non-blocking collective without spinning a core (Open MPI's blocking calls poll
+/// at 100%, taking the core from ranks that still render on it).
+void wait_quietly(MPI_Request* request) {
+  for (;;) {
+    int done = 0;
+    MPI_Test(request, &done, MPI_STATUS_IGNORE);
+    if (done) return;
+    std::this_thread::sleep_for(std::chrono::microseconds(500));
+  }
+}
+
 }  // namespace
 
 bool started_by_mpirun() {
@@ -70,6 +82,8 @@ bool started_by_mpirun() {
 Result<std::unique_ptr<Cluster>> Cluster::join() {
   std::unique_ptr<Cluster> c(new Cluster());
   if (!started_by_mpirun()) return c;
+  // An idle rank yields its core (the user's own setting wins).
+  ::setenv("OMPI_MCA_mpi_yield_when_idle", "1", 0);
   int provided = 0;
   if (MPI_Init_thread(nullptr, nullptr, MPI_THREAD_SERIALIZED, &provided) != MPI_SUCCESS) {
     return Error{"MPI_Init_thread failed: cannot join the mpirun job"};
@@ -83,7 +97,9 @@ Result<std::unique_ptr<Cluster>> Cluster::join() {
 }
 
 Cluster::~Cluster() {
-  if (joined_) MPI_Finalize();
+  if (!joined_) return;
+  barrier();  // quietly: MPI_Finalize's own synchronisation would spin
+  MPI_Finalize();
 }
 
 void Cluster::broadcast(std::vector<int>* values) {
@@ -95,13 +111,18 @@ void Cluster::broadcast(std::vector<int>* values) {
 }
 
 void Cluster::barrier() {
-  if (size_ > 1) MPI_Barrier(MPI_COMM_WORLD);
+  if (size_ == 1) return;
+  MPI_Request request;
+  MPI_Ibarrier(MPI_COMM_WORLD, &request);
+  wait_quietly(&request);
 }
 
 int Cluster::max_all(int value) {
   if (size_ == 1) return value;
   int out = value;
-  MPI_Allreduce(&value, &out, 1, MPI_INT, MPI_MAX, MPI_COMM_WORLD);
+  MPI_Request request;
+  MPI_Iallreduce(&value, &out, 1, MPI_INT, MPI_MAX, MPI_COMM_WORLD, &request);
+  wait_quietly(&request);
   return out;
 }
 
@@ -167,8 +188,15 @@ app::SceneJobResult Cluster::render_image(app::PreparedScene& scene, double t,
     int active = size_ - 1;
     std::vector<unsigned char> msg;
     while (active > 0) {
+      // Poll with a pause instead of MPI_Probe, which spins a core at 100% in Open MPI: the
+      // core belongs to rank 0's renderer. A batch takes milliseconds; 0.2 ms is no delay.
       MPI_Status st;
-      MPI_Probe(MPI_ANY_SOURCE, kTagWork, MPI_COMM_WORLD, &st);
+      int pending = 0;
+      MPI_Iprobe(MPI_ANY_SOURCE, kTagWork, MPI_COMM_WORLD, &pending, &st);
+      if (!pending) {
+        std::this_thread::sleep_for(std::chrono::microseconds(200));
+        continue;
+      }
       int bytes = 0;
       MPI_Get_count(&st, MPI_BYTE, &bytes);
       msg.resize(size_t(std::max(bytes, int(sizeof(int32_t)))));
