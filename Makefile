@@ -99,4 +99,5 @@ test-tsan: deps
 # seed corpora from ../shared/corpus; prints exec/s and coverage per target (scripts/fuzz.sh).
 FUZZ_SECONDS ?= 60
 fuzz: deps
+	@scripts/install-deps.sh --fuzz
 	@FUZZ_JOBS=$(JOBS) scripts/fuzz.sh $(FUZZ_SECONDS)

@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # Installs the Debian packages hfrt needs to build and test. Idempotent and quiet when
 # everything is present; never prompts (CI runs it with no standard input).
-# Usage: scripts/install-deps.sh [--bench]   (--bench adds the optional benchmark peers)
+# Usage: scripts/install-deps.sh [--bench | --fuzz]   (--bench adds the optional benchmark peers,
+# --fuzz clang-19 and its runtime for `make fuzz`; `make test` needs neither)
 set -euo pipefail
 
 packages=(
@@ -23,10 +24,12 @@ packages=(
   python3-skimage                                       # the marching-cubes peer of the mesher tests/bench
   libopenmpi-dev openmpi-bin                            # rendering across processes (cluster/, mpirun tests)
   ffmpeg                                                # `hfrt render --video` and its test
-  clang-19 libclang-rt-19-dev                           # `make fuzz` (libFuzzer) and the fuzz preset
 )
 if [[ "${1:-}" == "--bench" ]]; then
   packages+=(libembree-dev)   # optional: hfrt_bench_mesh compares against Embree when found
+fi
+if [[ "${1:-}" == "--fuzz" ]]; then
+  packages+=(clang-19 libclang-rt-19-dev)   # `make fuzz` (libFuzzer) and the fuzz preset
 fi
 
 missing=()
