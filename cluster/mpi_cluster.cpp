@@ -82,8 +82,11 @@ bool started_by_mpirun() {
 Result<std::unique_ptr<Cluster>> Cluster::join() {
   std::unique_ptr<Cluster> c(new Cluster());
   if (!started_by_mpirun()) return c;
-  // An idle rank yields its core (the user's own setting wins).
+  // An idle rank yields its core; and no cross-memory-attach single copy between ranks on one
+  // node (containers forbid the ptrace it needs, and our messages are small). The user's own
+  // settings win.
   ::setenv("OMPI_MCA_mpi_yield_when_idle", "1", 0);
+  ::setenv("OMPI_MCA_btl_vader_single_copy_mechanism", "none", 0);
   int provided = 0;
   if (MPI_Init_thread(nullptr, nullptr, MPI_THREAD_SERIALIZED, &provided) != MPI_SUCCESS) {
     return Error{"MPI_Init_thread failed: cannot join the mpirun job"};
