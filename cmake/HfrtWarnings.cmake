@@ -2,7 +2,10 @@
 # Applied per target (no directory-wide flags) so third-party code keeps its own flags.
 function(hfrt_target_defaults target)
   target_compile_features(${target} PUBLIC cxx_std_20)
-  target_compile_options(${target} PRIVATE -Wall -Wextra -Wno-unused-parameter)
+  # -Werror=switch: a switch over an enum (above all ir::Op: ir/ir_ops.h, no `default:` in
+  # those switches) that misses a case does not compile, so a new op cannot be silently
+  # missing from a domain.
+  target_compile_options(${target} PRIVATE -Wall -Wextra -Wno-unused-parameter -Werror=switch)
   # GCC 12 reports false -Wrestrict positives inside libstdc++'s std::string code
   # (GCC bug 105651), fixed in GCC 13.
   if(CMAKE_CXX_COMPILER_ID STREQUAL "GNU" AND CMAKE_CXX_COMPILER_VERSION VERSION_LESS 13)
