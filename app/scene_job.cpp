@@ -5,6 +5,7 @@
 #include <cstdio>
 #include <limits>
 #include <map>
+#include <optional>
 #include <sstream>
 
 #include "app/model_field.h"
@@ -80,7 +81,7 @@ struct PreparedScene::Impl {
   };
   Frame at(double t) {
     Frame f;
-    f.scene = scene.keyed.empty() ? scene : scene::scene_at(scene, t);
+    f.scene = scene::scene_at(scene, t);
     for (size_t m = 0; m < models.size(); ++m) {
       Model& model = *models[m].model;
       model.set_time(t);
@@ -146,7 +147,7 @@ struct PreparedScene::Impl {
   bool settle(double t, SceneJobResult* res) {
     if (settled) return true;
     const double t0 = anchor(t);
-    const render::CameraRequest req = camera_request(scene_at_or_self(t0));
+    const render::CameraRequest req = camera_request(scene::scene_at(scene, t0));
     frame = !req.eye || !req.look_at;
     if (frame) {
       std::vector<double> times{t0};
@@ -195,10 +196,6 @@ struct PreparedScene::Impl {
     }
     settled = true;
     return true;
-  }
-
-  scene::SceneDesc scene_at_or_self(double t) const {
-    return scene.keyed.empty() ? scene : scene::scene_at(scene, t);
   }
 };
 
@@ -409,6 +406,7 @@ SceneJobResult PreparedScene::render(double t, render::ProgressFn progress,
     });
     out->stats = render::TraceStats{};
   }
+  std::optional<Impl::Frame> frame_at_t;  // the frame at t itself (the one pass without blur)
   for (int j = 0; j < passes; ++j) {
     double tj = t;
     if (blur) {
@@ -438,6 +436,7 @@ SceneJobResult PreparedScene::render(double t, render::ProgressFn progress,
       render::trace_into(f.objects, f.materials, opt, out);
     }
     if (j == 0) res.options = opt;
+    if (!blur) frame_at_t = std::move(f);
     if (cancel && cancel->load()) break;
   }
   if (passes > 1) {
@@ -460,7 +459,9 @@ SceneJobResult PreparedScene::render(double t, render::ProgressFn progress,
     res.options.spp = p.base.spp;
   }
   res.render_ms = ms_since(t_render);
-  const Impl::Frame at_t = p.at(t);
+  // Where the objects are at t (and the models' time back at t after the blur passes).
+  if (!frame_at_t) frame_at_t = p.at(t);
+  const Impl::Frame& at_t = *frame_at_t;
   for (size_t i = 0; i < res.objects.size(); ++i) {
     res.objects[i].root = out->stats.root_used[i];
     res.objects[i].world_box = at_t.objects[i].transform.box_to_world(at_t.objects[i].bbox);

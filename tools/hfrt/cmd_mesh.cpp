@@ -118,10 +118,11 @@ int run_mesh(const MeshCli& cli) {
     }
     // Time: --time, else the animation's first frame (as `hfrt render` takes it).
     job.time = desc.animation.frame_time(0);
-    if (!cli.model.time.empty() && !parse_time(cli.model.time, &job.time)) {
-      return usage_error("--time expects a number, e.g. --time 0.5 (got '" + cli.model.time + "')");
+    std::string time_error;
+    if (!cli.model.time.empty() && !parse_time(cli.model.time, &job.time, &time_error)) {
+      return usage_error(time_error);
     }
-    if (!desc.keyed.empty()) desc = scene::scene_at(desc, job.time);
+    desc = scene::scene_at(desc, job.time);
     result = app::run_scene_mesh_job(desc, job);
   } else {
     int code = 0;

@@ -34,9 +34,12 @@ bool parse_floats(const std::string& text, std::vector<float>* out, size_t count
   return ok;
 }
 
-bool parse_time(const std::string& text, double* out) {
+bool parse_time(const std::string& text, double* out, std::string* err) {
   std::vector<double> v;
-  if (!parse_doubles(text, &v, 1)) return false;
+  if (!parse_doubles(text, &v, 1)) {
+    *err = "--time expects a number, e.g. --time 0.5 (got '" + text + "')";
+    return false;
+  }
   *out = v[0];
   return true;
 }
@@ -55,9 +58,9 @@ std::optional<LoadedModel> load_model(const ModelRequest& request, bool eager_f3
     return std::nullopt;
   }
   double time = 0;
-  if (!request.time.empty() && !parse_time(request.time, &time)) {
-    std::fprintf(stderr, "hfrt: --time expects a number, e.g. --time 0.5 (got '%s')\n",
-                 request.time.c_str());
+  std::string time_error;
+  if (!request.time.empty() && !parse_time(request.time, &time, &time_error)) {
+    std::fprintf(stderr, "hfrt: %s\n", time_error.c_str());
     *exit_code = 2;
     return std::nullopt;
   }

@@ -25,13 +25,14 @@ struct LoadedModel {
   double compile_ms = 0;
 };
 
-/// Parses a --time value (a finite number); false when malformed.
-bool parse_time(const std::string& text, double* out);
+/// Parses a --time value (a finite number); false when malformed, with the message (without a
+/// prefix) in `*err`.
+bool parse_time(const std::string& text, double* out, std::string* err);
 
 /// Compiles the model and applies --object, -a and --time (with a note on stderr when the
-/// object has fewer than four coordinates, so that time cannot reach it). On failure prints the reason (diagnostics
-/// for source errors) and returns nullopt with `*exit_code` = 1 (compile errors) or 2 (usage
-/// or environment).
+/// object has fewer than four coordinates, so that time cannot reach it). On failure prints the
+/// reason (diagnostics for source errors) and returns nullopt with `*exit_code` = 1 (compile
+/// errors) or 2 (usage or environment).
 std::optional<LoadedModel> load_model(const ModelRequest& request, bool eager_f32, int* exit_code);
 
 /// Parses "v1,v2,..." (exactly `count` numbers when count > 0). False when malformed.

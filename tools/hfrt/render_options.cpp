@@ -216,8 +216,9 @@ bool translate_render_options(const RenderCli& cli, app::RenderSetup* out, std::
     return fail("-a expects numbers separated by commas, e.g. -a 1,0.5 (got '" + cli.model.params +
                 "')");
   }
-  if (!cli.model.time.empty() && !parse_time(cli.model.time, &s.time)) {
-    return fail("--time expects a number, e.g. --time 0.5 (got '" + cli.model.time + "')");
+  std::string time_error;
+  if (!cli.model.time.empty() && !parse_time(cli.model.time, &s.time, &time_error)) {
+    return fail(time_error);
   }
   if (cli.model.backend != "jit" && cli.model.backend != "interp") {
     return fail("--backend expects jit or interp (got '" + cli.model.backend + "')");

@@ -22,6 +22,28 @@
 namespace hfrt::tools {
 namespace {
 
+/// Gives a cached model the parameters and time of one render or mesh (-a, --time) and its own
+/// back when the scope ends.
+class ScopedModelSettings {
+ public:
+  ScopedModelSettings(Model& model, const std::vector<double>& params, double time)
+      : model_(model), params_(model.params()), time_(model.time()) {
+    model_.set_params(params);
+    model_.set_time(time);
+  }
+  ~ScopedModelSettings() {
+    model_.set_params(params_);
+    model_.set_time(time_);
+  }
+  ScopedModelSettings(const ScopedModelSettings&) = delete;
+  ScopedModelSettings& operator=(const ScopedModelSettings&) = delete;
+
+ private:
+  Model& model_;
+  std::vector<double> params_;
+  double time_;
+};
+
 std::string trim(std::string_view s) {
   size_t b = 0, e = s.size();
   while (b < e && std::isspace(static_cast<unsigned char>(s[b]))) ++b;
@@ -551,21 +573,9 @@ SessionResult Session::render_to(const std::string& out) {
   const Model* m = model_for(source(), object, &err, 0, "<session>");
   if (!m) return failure(err);
   auto t0 = std::chrono::steady_clock::now();
-  // -a: the cached model gets the parameters for this render and its own back afterwards.
+  // -a and --time: the cached model gets them for this render and its own back afterwards.
   Model& model = const_cast<Model&>(*m);
-  const std::vector<double> saved_params = model.params();
-  const double saved_time = model.time();
-  model.set_params(setup_.params);
-  model.set_time(setup_.time);
-  struct RestoreParams {
-    Model& m;
-    const std::vector<double>& p;
-    double t;
-    ~RestoreParams() {
-      m.set_params(p);
-      m.set_time(t);
-    }
-  } restore{model, saved_params, saved_time};
+  ScopedModelSettings scoped(model, setup_.params, setup_.time);
 
   app::RenderJob job;
   job.model = &model;
@@ -724,21 +734,9 @@ SessionResult Session::cmd_mesh(const std::vector<std::string>& args) {
   std::string err;
   const Model* m = model_for(source(), object, &err, 0, "<session>");
   if (!m) return failure(err);
-  // -a: as in render_to, the cached model gets the parameters for this mesh only.
+  // -a and --time: as in render_to, for this mesh only.
   Model& model = const_cast<Model&>(*m);
-  const std::vector<double> saved_params = model.params();
-  const double saved_time = model.time();
-  model.set_params(setup_.params);
-  model.set_time(setup_.time);
-  struct RestoreParams {
-    Model& m;
-    const std::vector<double>& p;
-    double t;
-    ~RestoreParams() {
-      m.set_params(p);
-      m.set_time(t);
-    }
-  } restore{model, saved_params, saved_time};
+  ScopedModelSettings scoped(model, setup_.params, setup_.time);
   app::MeshJob job;
   job.model = &model;
   job.file = "<session>";
