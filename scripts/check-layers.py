@@ -21,18 +21,19 @@ from collections import defaultdict
 
 # Allowed dependencies, lowest layer first.  A folder may always include itself.
 # "*" allows any folder; "!name" then forbids one folder again.
-LIBS = ["base", "lang", "ir", "stdlib", "geom", "jit", "render", "scene", "mesher", "app", "cluster"]
+LIBS = ["base", "gpu", "lang", "ir", "stdlib", "geom", "jit", "render", "scene", "mesher", "app", "cluster"]
 LAYERS = {
     "base": set(),                                      # checks, Result, files, Vec3/Box/Interval, timers
+    "gpu": {"base"},                                    # CUDA driver loaded at run time, kernel ABI
     "lang": {"base"},                                   # HyperFun lexer, parser, sema
     "ir": {"lang", "base"},                             # intermediate representation
     "stdlib": {"ir", "lang", "base", "geom"},           # HyperFun library functions
     "geom": {"base"},                                   # meshes, BVH, patches
-    "jit": {"stdlib", "ir", "lang", "base", "geom"},    # lowering, interpreters, LLVM; owns hfrt/*.h
+    "jit": {"stdlib", "ir", "lang", "base", "geom", "gpu"},    # lowering, interpreters, LLVM; owns hfrt/*.h
     "render": {"base"},                                 # ray tracer, knows fields not models
     "scene": {"render", "base"},                        # scene files (TOML) into SceneDescs
     "mesher": {"render", "base"},                       # dual contouring of a render::Field; mesh files
-    "app": {"jit", "render", "scene", "mesher", "geom", "stdlib", "ir", "lang", "base"},  # joins models and renderer
+    "app": {"jit", "render", "scene", "mesher", "geom", "stdlib", "ir", "lang", "base", "gpu"},  # joins models and renderer
     "cluster": {"app", "render", "scene", "base"},      # MPI: renders across processes
     "testsupport": set(LIBS),                           # test helpers shared by tests/ and bench/
     "tools": set(LIBS),                                 # the hfrt command-line tool
