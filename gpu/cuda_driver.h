@@ -31,15 +31,16 @@ class CudaDevice {
   CudaDevice(const CudaDevice&) = delete;
   CudaDevice& operator=(const CudaDevice&) = delete;
 
-  std::string name() const;         ///< e.g. "NVIDIA H200"
-  int compute_major() const;        ///< compute capability, e.g. 9 and 0
+  std::string name() const;   ///< e.g. "NVIDIA H200"
+  int compute_major() const;  ///< compute capability, e.g. 9 and 0
   int compute_minor() const;
-  size_t total_memory() const;      ///< bytes
+  size_t total_memory() const;  ///< bytes
 
   /// JIT-compiles PTX text with the driver; the error carries the driver's log.
   Result<std::unique_ptr<CudaModule>> load_ptx(std::string_view ptx);
 
   struct Impl;
+
  private:
   explicit CudaDevice(std::unique_ptr<Impl> impl);
   std::unique_ptr<Impl> impl_;
@@ -77,6 +78,7 @@ class CudaModule {
   Result<double> launch(const char* entry, int64_t threads, std::vector<void*> args);
 
   struct Impl;
+
  private:
   friend class CudaDevice;
   explicit CudaModule(std::unique_ptr<Impl> impl);

@@ -70,6 +70,7 @@ struct RenderParams {
   int32_t light_kind[kMaxLights];
   float light_v[kMaxLights][3];
   float light_radiance[kMaxLights][3];  ///< colour * intensity
+  float time;                           ///< x[4] of the evaluated points (Model::set_time)
 };
 static_assert(sizeof(RenderParams) % 4 == 0);
 

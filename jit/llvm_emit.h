@@ -13,11 +13,22 @@
 
 #include "ir/ir.h"
 #include "jit/llvm_includes.h"
+#include "jit/llvm_jit.h"  // Precision
 
 namespace hfrt::jit {
 
 // jit/ evaluates the IR: its types and ops are used unqualified here.
 using namespace ::hfrt::ir;
+
+/// The scalar JIT's code of `fn` (llvm_jit.cpp) in `module`: the internal function
+///   void body(const T* xs, i64 stride, const T* a, T* out_f, T* out_s, i64 out_stride)
+/// that evaluates one block of `lanes` points (x[k+1] of lane i at xs[k*stride + i], F to
+/// out_f[i], s[k+1] to out_s[k*out_stride + i] unless out_s is null), and, unless
+/// `batch_entry` is empty, the exported batch function of that name (BatchFn). Per-lane libm
+/// calls are declarations (op_libm_name); the caller links or defines them. Returns the body.
+/// The NVPTX kernels (llvm_nvptx.cpp) call it with one lane.
+llvm::Function* emit_scalar_function(llvm::Module& module, const Function& fn, Precision precision,
+                                     int lanes, const std::string& batch_entry);
 
 /// Slots written (kStoreSlot, kStoreIdx) by the instructions in [begin, end), ascending.
 std::vector<int> written_slots(const Function& fn, size_t begin, size_t end);

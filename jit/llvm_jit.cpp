@@ -83,10 +83,12 @@ class Emitter : public VectorEmitter {
                       lanes),
         surface_sign_only_(surface_sign_only) {}
 
-  /// Emits the body and the exported batch function `entry_name`.
-  void emit(const std::string& entry_name) {
+  /// Emits the body and, unless `entry_name` is empty, the exported batch function of that
+  /// name. Returns the body (emit_scalar_function).
+  llvm::Function* emit(const std::string& entry_name) {
     llvm::Function* body = emit_body();
-    emit_entry(entry_name, body);
+    if (!entry_name.empty()) emit_entry(entry_name, body);
+    return body;
   }
 
  private:
@@ -427,6 +429,11 @@ class Emitter : public VectorEmitter {
 };
 
 }  // namespace
+
+llvm::Function* emit_scalar_function(llvm::Module& module, const Function& fn, Precision precision,
+                                     int lanes, const std::string& batch_entry) {
+  return Emitter(module, fn, precision, lanes).emit(batch_entry);
+}
 
 // ---------------------------------------------------------------------------------------
 
