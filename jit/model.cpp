@@ -24,6 +24,7 @@
 #include "jit/interpreter.h"
 #include "jit/interval.h"
 #include "jit/llvm_jit.h"
+#include "jit/nvptx.h"
 #include "jit/poly.h"
 
 namespace hfrt {
@@ -513,6 +514,31 @@ bool Model::prepare_polynomial(std::string* error) const {
   if (!e.wants_jit() || !e.analysis().qualifies || e.code()) return true;
   if (error) *error = e.error();
   return false;
+}
+
+bool Model::device_ptx(std::string* ptx, std::string* error, const std::string& sm) const {
+  jit::PtxOptions o;
+  o.sm = sm;
+  Result<std::string> r = jit::emit_ptx(impl_->compiled->fn, o);
+  if (!r.ok()) {
+    if (error) *error = r.error().message;
+    return false;
+  }
+  *ptx = std::move(r).value();
+  return true;
+}
+
+std::shared_ptr<const jit::HostKernels> Model::device_kernels_on_host(std::string* error) const {
+  auto r = jit::HostKernels::compile(impl_->compiled->fn);
+  if (!r.ok()) {
+    if (error) *error = r.error().message;
+    return nullptr;
+  }
+  return std::shared_ptr<const jit::HostKernels>(std::move(r).value());
+}
+
+std::vector<float> Model::code_params_f32() const {
+  return impl_->params_f32;
 }
 
 std::string Model::ir_text() const {

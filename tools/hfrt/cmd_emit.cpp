@@ -29,6 +29,7 @@
 #include "app/model_field.h"
 #include "base/file.h"
 #include "base/result.h"
+#include "gpu/kernel_abi.h"
 #include "ir/ir.h"
 #include "jit/driver.h"
 #include "jit/pov_emit.h"
@@ -49,6 +50,8 @@ struct EmitCli {
   float max_gradient = 0;    // 0: estimated from hfrt's gradient evaluator
   float accuracy = 0;        // 0: bbox size * 1e-5, hfrt's default root tolerance
   bool transparent = false;  // background with transmit 1 (coverage in alpha with +UA)
+  bool ptx = false;           // --ptx: the GPU kernels (docs/gpu.md)
+  std::string sm = "sm_60";   // --sm: the PTX's GPU architecture
 };
 
 int usage_error(const std::string& message) {
@@ -348,9 +351,39 @@ int run_emit_scene(EmitCli& cli, const CLI::App& sub) {
   return write_output(cli.render.output, out, "scene");
 }
 
+/// `hfrt emit --ptx`: the kernels of gpu/kernel_abi.h for NVIDIA GPUs (docs/gpu.md).
+int run_emit_ptx(const EmitCli& cli) {
+  if (is_scene_file(cli.render.model.file)) {
+    return usage_error("--ptx takes a .hf model (scene files render on the CPU)");
+  }
+  if (cli.sm.rfind("sm_", 0) != 0 || cli.sm.size() < 5) {
+    return usage_error("--sm expects a GPU architecture such as sm_60, sm_80 or sm_90 (got '" +
+                       cli.sm + "')");
+  }
+  int code = 0;
+  auto loaded = load_model(cli.render.model, /*eager_f32=*/false, &code);
+  if (!loaded) return code;
+  const Model& model = *loaded->model;
+  std::string ptx, error;
+  if (!model.device_ptx(&ptx, &error, cli.sm)) {
+    std::fprintf(stderr, "hfrt emit: %s: %s\n", cli.render.model.file.c_str(), error.c_str());
+    return 1;
+  }
+  std::string out = "// Written by `hfrt emit --ptx` from " + cli.render.model.file + ", object " +
+                    model.object_name() + " (" + std::to_string(model.num_inputs()) +
+                    " coordinates, " + std::to_string(model.num_params()) +
+                    " parameters a[]).\n"
+                    "// Kernels (gpu/kernel_abi.h, docs/gpu.md): " +
+                    gpu::kEvalEntry + "(n, xs, a, out_f, out_s), one point per thread; " +
+                    gpu::kRenderEntry + "(params, a, out), one pixel per thread.\n";
+  return write_output(cli.render.output, out + ptx, ("PTX for " + cli.sm).c_str());
+}
+
 int run_emit(EmitCli& cli, const CLI::App& sub) {
   const bool color = use_color(STDERR_FILENO);
-  if (!cli.pov) return usage_error("choose the output language: --pov (the only one so far)");
+  if (cli.pov && cli.ptx) return usage_error("choose one output language: --pov or --ptx");
+  if (cli.ptx) return run_emit_ptx(cli);
+  if (!cli.pov) return usage_error("choose the output language: --pov or --ptx");
   if (is_scene_file(cli.render.model.file)) return run_emit_scene(cli, sub);
   app::RenderSetup setup;
   std::string err;
@@ -465,6 +498,9 @@ CommandRunner register_emit(CLI::App& app) {
   sub->add_option("model", cli->render.model.file, "HyperFun model file, or a scene file (.toml)")
       ->required();
   sub->add_flag("--pov", cli->pov, "POV-Ray 3.7 SDL");
+  sub->add_flag("--ptx", cli->ptx,
+                "PTX for NVIDIA GPUs: the point evaluator and ray caster kernels (docs/gpu.md)");
+  sub->add_option("--sm", cli->sm, "--ptx: the GPU architecture (default sm_60)");
   sub->add_option("-o,--output", cli->render.output, "output file (default: standard output)");
   sub->add_flag("--function-only", cli->function_only,
                 "write only the #declare of the function, not a scene");

@@ -24,6 +24,7 @@
 #include <memory>
 #include <string>
 
+#include "app/gpu_render.h"
 #include "app/render_job.h"
 #include "app/scene_job.h"
 #include "app/sequence.h"
@@ -256,16 +257,53 @@ int run_scene(const RenderCli& cli, const SequenceCli& seq, const CLI::App& give
   return 0;
 }
 
+/// `hfrt render --device cuda|cuda-host`: the generated kernels (docs/gpu.md).
+int run_render_on_device(const RenderCli& cli, app::RenderJob& job, app::Device device,
+                         double compile_ms) {
+  render::RenderResult result;
+  app::DeviceJobResult done = app::run_device_render_job(job, device, &result);
+  if (done.status != app::RenderJobStatus::kOk) {
+    if (!done.environment) return usage_error(done.error);
+    std::fprintf(stderr, "hfrt: --device %s: %s\n", app::device_name(device), done.error.c_str());
+    return 2;
+  }
+  auto written = render::write_image(result.image, cli.output, job.setup.aovs);
+  if (!written.ok()) {
+    std::fprintf(stderr, "hfrt: %s\n", written.error().message.c_str());
+    return 2;
+  }
+  std::fprintf(stderr, "hfrt: wrote %s (%dx%d, 1 spp, --device %s: %s, kernel %.2f ms)\n",
+               cli.output.c_str(), done.options.width, done.options.height,
+               app::device_name(device), done.run.device.c_str(), done.run.kernel_ms);
+  for (size_t i = 1; i < written.value().size(); ++i) {
+    std::fprintf(stderr, "hfrt: wrote %s\n", written.value()[i].c_str());
+  }
+  if (cli.stats) {
+    std::fprintf(stderr,
+                 "stats: compile %.1f ms (model), device code %.1f ms, kernel %.3f ms, "
+                 "transfers %.3f ms\n",
+                 compile_ms, done.run.compile_ms, done.run.kernel_ms, done.run.transfer_ms);
+  }
+  return 0;
+}
+
 int run_render(const RenderCli& cli) {
   app::RenderJob job;
   std::string err;
   if (!translate_render_options(cli, &job.setup, &err)) return usage_error(err);
+  app::Device device = app::Device::kCpu;
+  if (!app::parse_device(cli.device, &device)) {
+    return usage_error("--device expects cpu, cuda or cuda-host (got '" + cli.device + "')");
+  }
 
   int code = 0;
-  auto loaded = load_model(cli.model, /*eager_f32=*/true, &code);
+  auto loaded = load_model(cli.model, /*eager_f32=*/device == app::Device::kCpu, &code);
   if (!loaded) return code;
   job.model = &*loaded->model;
   job.file = cli.model.file;
+  if (device != app::Device::kCpu) {
+    return run_render_on_device(cli, job, device, loaded->compile_ms);
+  }
 
   render::ProgressBar bar("rendering", isatty(STDERR_FILENO) != 0);
   job.setup.options.progress = [&bar](size_t done, size_t total) { bar.update(done, total); };
@@ -328,8 +366,16 @@ CommandRunner register_render(CLI::App& app) {
                   "scene sequences: render every N-th frame from the K-th (K/N), for job arrays");
   sub->add_option("--video", seq->video, "scene sequences: also encode the frames with ffmpeg");
   sub->add_option("--fps", seq->fps, "frames a second of --video (default 24)");
+  sub->add_option("--device", cli->device,
+                  "cpu (default), cuda (an NVIDIA GPU: the model's generated kernels) or "
+                  "cuda-host (those kernels compiled for this CPU); docs/gpu.md");
   return [cli, seq, sub] {
-    if (is_scene_file(cli->model.file)) return run_scene(*cli, *seq, *sub);
+    if (is_scene_file(cli->model.file)) {
+      if (cli->device != "cpu") {
+        return usage_error("--device " + cli->device + " renders .hf models; scene files render on the CPU");
+      }
+      return run_scene(*cli, *seq, *sub);
+    }
     for (const char* opt : {"--frames", "--shard", "--resume", "--video", "--fps"}) {
       if (sub->count(opt) > 0) {
         return usage_error(std::string(opt) +

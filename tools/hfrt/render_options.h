@@ -55,6 +55,7 @@ struct RenderCli {
   bool no_shadows = false;
   bool stats = false;
   int max_depth = -1;  ///< scene files only; -1: the scene's value
+  std::string device = "cpu";  ///< --device (registered by `hfrt render` only)
 };
 
 /// Registers every render option (all but the model file and -o) on `app`, storing into `cli`

@@ -21,6 +21,10 @@
 
 namespace hfrt {
 
+namespace jit {
+class HostKernels;  // jit/nvptx.h
+}
+
 /// Which evaluator runs the model. Both give the same f64 values (the interpreter is the
 /// reference); the JIT is vectorised machine code, the interpreter can explain errors.
 enum class Backend { kJit, kInterp };
@@ -322,6 +326,21 @@ class Model {
 
   /// The object's hfrt IR as text (`hfrt ir`).
   std::string ir_text() const;
+
+  // --- The GPU path (docs/gpu.md) ---
+  /// The object's kernels for NVIDIA GPUs (gpu/kernel_abi.h: the point evaluator and the ray
+  /// caster) as PTX text for architecture `sm` ("sm_60": any GPU since Pascal, the driver
+  /// compiles it for newer ones), made by LLVM's NVPTX back end from the same IR as the CPU
+  /// code. False with `error` when the object cannot run on the GPU (mesh and patch leaves)
+  /// or LLVM lacks the NVPTX back end.
+  bool device_ptx(std::string* ptx, std::string* error, const std::string& sm = "sm_60") const;
+  /// The same kernels (the same LLVM code) compiled for this CPU: what the GPU computes,
+  /// without a GPU (tests, the device check's expectations, `--device cuda-host`). Null with
+  /// `error` as for device_ptx. Each call compiles anew.
+  std::shared_ptr<const jit::HostKernels> device_kernels_on_host(std::string* error) const;
+  /// a[] as the compiled code and the kernels take it: the parameters padded to the object's
+  /// count, then the hoisted numbers.
+  std::vector<float> code_params_f32() const;
   /// The optimised LLVM IR of a precision ("" for the interpreter backend).
   std::string llvm_ir(Precision precision) const;
   /// Warnings of the compilation (also in CompileResult::diagnostics).
