@@ -48,14 +48,21 @@ class CudaDevice {
   friend class DeviceBuffer;
 };
 
-/// Device memory (cuMemAlloc); freed on destruction.
+/// Device memory (cuMemAlloc); freed on destruction. Buffers and modules must go before the
+/// CudaDevice they came from.
 class DeviceBuffer {
  public:
+  /// An empty buffer: address 0 (a null pointer for a kernel), size 0.
+  DeviceBuffer() = default;
+  /// `bytes` of uninitialised device memory; 0 bytes gives an empty buffer without asking the
+  /// driver (cuMemAlloc refuses 0). The error names the size and the driver's error.
   static Result<DeviceBuffer> allocate(CudaDevice& device, size_t bytes);
   DeviceBuffer(DeviceBuffer&&) noexcept;
   DeviceBuffer& operator=(DeviceBuffer&&) noexcept;
   ~DeviceBuffer();
+  /// Copies `bytes` (at most size()) from the host to the start of the buffer.
   Result<bool> upload(const void* src, size_t bytes);
+  /// Copies `bytes` (at most size()) from the start of the buffer to the host.
   Result<bool> download(void* dst, size_t bytes) const;
   uint64_t address() const { return ptr_; }  ///< the CUdeviceptr, for kernel arguments
   size_t size() const { return bytes_; }
@@ -74,7 +81,9 @@ class CudaModule {
   ~CudaModule();
   /// Launches `entry` on a 1-D grid covering `threads` threads (blocks of kThreadsPerBlock),
   /// with `args` pointing at each argument's value (cuLaunchKernel's kernelParams), waits for
-  /// it and returns the kernel's time in milliseconds (CUDA events).
+  /// it and returns the kernel's time in milliseconds (CUDA events). `threads` == 0 launches
+  /// nothing and returns 0. Errors name the entry: one the module lacks, a launch the driver
+  /// refuses, a kernel that faults while running (cuGetErrorName and cuGetErrorString).
   Result<double> launch(const char* entry, int64_t threads, std::vector<void*> args);
 
   struct Impl;
@@ -84,5 +93,11 @@ class CudaModule {
   explicit CudaModule(std::unique_ptr<Impl> impl);
   std::unique_ptr<Impl> impl_;
 };
+
+/// Test hook: forgets the loaded driver (dlclose), so that the next CudaDevice::open loads
+/// $HFRT_LIBCUDA again; the tests switch between fake drivers with it. Outside tests the
+/// driver is loaded once per process and kept. Only while no CudaDevice, DeviceBuffer or
+/// CudaModule exists.
+void unload_driver_for_testing();
 
 }  // namespace hfrt::gpu
