@@ -58,7 +58,7 @@ Result<bool> write_eval_case(const fs::path& dir, const std::string& name, const
   auto kernels = model.device_kernels_on_host(&error);
   if (!kernels) return Error{error};
   const std::vector<float> a = model.code_params_f32();
-  std::vector<float> jit(size_t(n)), host(size_t(n));
+  std::vector<float> jit(static_cast<size_t>(n)), host(static_cast<size_t>(n));
   model.eval_batch(n, xs.data(), jit.data());
   kernels->eval(n, xs.data(), a.data(), host.data(), nullptr);
   fs::create_directories(dir);
@@ -164,8 +164,8 @@ Result<int> write_gpu_cases(const std::string& out_dir, const GpuCaseOptions& op
           xs[size_t(n) + i] = 1.0f - 2.0f * (y + 0.5f) / side;
         }
       }
-      auto ok = write_eval_case(fs::path(out_dir) / "prospero_1024", "prospero_1024", *model, xs,
-                                n, options.sm);
+      auto ok = write_eval_case(fs::path(out_dir) / "prospero_1024", "prospero_1024", *model, xs, n,
+                                options.sm);
       if (!ok.ok()) return Error{"prospero: " + ok.error().message};
       log("eval case prospero_1024 (1024x1024 points)");
       ++written;

@@ -15,8 +15,8 @@
 namespace hfrt::app {
 
 struct GpuCaseOptions {
-  std::string models_dir;    ///< .hf models (recursively); machine-generated stress tests skipped
-  std::string prospero;      ///< the Prospero model (empty: none)
+  std::string models_dir;  ///< .hf models (recursively); machine-generated stress tests skipped
+  std::string prospero;    ///< the Prospero model (empty: none)
   std::vector<std::string> render_models;  ///< rendered at render_size (paths)
   int eval_points = 65536;
   int render_size = 1024;

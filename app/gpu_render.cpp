@@ -107,7 +107,8 @@ Result<gpu::RenderParams> make_render_params(const render::RenderOptions& opt, d
     return Error{"--device cuda renders one sample per pixel so far (leave out --spp)"};
   }
   render::CameraFrame frame(opt.camera, opt.width, opt.height);
-  std::vector<render::Light> lights = opt.lights.empty() ? render::default_lights(frame) : opt.lights;
+  std::vector<render::Light> lights =
+      opt.lights.empty() ? render::default_lights(frame) : opt.lights;
   if (lights.size() > size_t(gpu::kMaxLights)) {
     return Error{"--device cuda takes up to " + std::to_string(gpu::kMaxLights) + " lights"};
   }
@@ -118,7 +119,8 @@ Result<gpu::RenderParams> make_render_params(const render::RenderOptions& opt, d
   copy3(p.up, frame.up());
   // The half extents of the image plane: CameraFrame::ray at the corner pixel (0, 0).
   const render::Ray corner = frame.ray(0.0f, 0.0f);
-  const render::Vec3 offset = frame.orthographic() ? corner.o - frame.eye() : corner.d - frame.forward();
+  const render::Vec3 offset =
+      frame.orthographic() ? corner.o - frame.eye() : corner.d - frame.forward();
   p.half_w = -hfrt::dot(offset, frame.right());
   p.half_h = hfrt::dot(offset, frame.up());
   p.ortho = frame.orthographic() ? 1 : 0;
@@ -140,9 +142,11 @@ Result<gpu::RenderParams> make_render_params(const render::RenderOptions& opt, d
   for (size_t i = 0; i < lights.size(); ++i) {
     const render::Light& l = lights[i];
     if (l.kind == render::Light::Kind::kSphere) {
-      return Error{"--device cuda has no sphere (area) lights yet: use point or directional lights"};
+      return Error{
+          "--device cuda has no sphere (area) lights yet: use point or directional lights"};
     }
-    p.light_kind[i] = l.kind == render::Light::Kind::kPoint ? gpu::kLightPoint : gpu::kLightDirectional;
+    p.light_kind[i] =
+        l.kind == render::Light::Kind::kPoint ? gpu::kLightPoint : gpu::kLightDirectional;
     copy3(p.light_v[i], l.v);
     copy3(p.light_radiance[i], l.color * l.intensity);
   }

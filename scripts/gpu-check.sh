@@ -36,6 +36,11 @@ case "$cmd" in
       fi
     done
     mkdir -p "$out" || exit 1
+    # The corpus beside this checkout (hfrt gpu-cases reads HFRT_CORPUS_DIR).
+    if [ -z "${HFRT_CORPUS_DIR:-}" ]; then
+      HFRT_CORPUS_DIR="$(cd "$(dirname "$0")/.." && pwd)/../shared/corpus"
+      export HFRT_CORPUS_DIR
+    fi
     "$hfrt" gpu-cases "$out/cases" || {
       echo "gpu-check: $hfrt gpu-cases $out/cases failed" >&2
       exit 1

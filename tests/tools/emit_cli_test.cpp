@@ -186,5 +186,74 @@ TEST_F(EmitCliTest, PovRayAndHfrtSeeTheSameSilhouette) {
   EXPECT_LT(d, 0.01) << "silhouettes differ in " << 100 * d << " % of the pixels";
 }
 
+// --- The GPU path (issue 22) -----------------------------------------------------------
+
+TEST_F(EmitCliTest, PtxHasTheKernelsOfTheAbi) {
+  CliRun r = emit("--ptx sphere.hf -o sphere.ptx --sm sm_80");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_NE(r.err.find("hfrt: wrote sphere.ptx (PTX for sm_80)"), std::string::npos) << r.err;
+  const std::string ptx = slurp(dir_ / "sphere.ptx");
+  EXPECT_NE(ptx.find(".target sm_80"), std::string::npos);
+  EXPECT_NE(ptx.find(".visible .entry hfrt_eval_f32("), std::string::npos);
+  EXPECT_NE(ptx.find(".visible .entry hfrt_render_f32("), std::string::npos);
+  EXPECT_NE(ptx.find("object my_model (3 coordinates, 1 parameters a[])"), std::string::npos);
+  // A model with a loop too (lane masks become branches on the GPU).
+  r = emit("--ptx loop.hf");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_NE(r.out.find(".entry hfrt_eval_f32("), std::string::npos);
+}
+
+TEST_F(EmitCliTest, PtxUsageErrors) {
+  CliRun r = emit("--ptx --pov sphere.hf");
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_NE(r.err.find("hfrt emit: choose one output language: --pov or --ptx"), std::string::npos)
+      << r.err;
+  r = emit("sphere.hf");
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_NE(r.err.find("choose the output language: --pov or --ptx"), std::string::npos) << r.err;
+  r = emit("--ptx sphere.hf --sm 80");
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_NE(r.err.find("--sm expects a GPU architecture such as sm_60, sm_80 or sm_90 (got '80')"),
+            std::string::npos)
+      << r.err;
+  write("mesh.hf",
+        "my_model(x[3], a[1]) { array v[9], t[3]; v = [0,0,0, 1,0,0, 0,1,0]; t = [1, 2, 3]; "
+        "my_model = hfTriangles(x, v, t); }\n");
+  r = emit("--ptx mesh.hf");
+  EXPECT_EQ(r.exit_code, 1);
+  EXPECT_NE(r.err.find("hfrt emit: mesh.hf: mesh and patch leaves (hfMesh, hfTriangles, "
+                       "hfBezier*) are not on the GPU yet"),
+            std::string::npos)
+      << r.err;
+}
+
+TEST_F(EmitCliTest, RenderOnTheDevice) {
+  // Without a driver: the reason and what to do, exit 2.
+  CliRun r = run("HFRT_LIBCUDA=/nonexistent/libcuda.so.1 " HFRT_BINARY_DIR
+                 "/tools/hfrt/hfrt render sphere.hf -o s.png --size 32 --device cuda");
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_NE(r.err.find("hfrt: --device cuda: no CUDA driver: cannot load "
+                       "/nonexistent/libcuda.so.1"),
+            std::string::npos)
+      << r.err;
+  EXPECT_NE(r.err.find("install the NVIDIA driver"), std::string::npos) << r.err;
+  // The kernels compiled for this CPU: an image, and what ran it.
+  r = hfrt("render sphere.hf -o s.exr --size 48 --device cuda-host --stats");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_NE(r.err.find("hfrt: wrote s.exr (48x48, 1 spp, --device cuda-host"), std::string::npos)
+      << r.err;
+  EXPECT_NE(r.err.find("stats: compile"), std::string::npos) << r.err;
+  EXPECT_TRUE(std::filesystem::exists(dir_ / "s.exr"));
+  // Usage errors.
+  r = hfrt("render sphere.hf -o s.png --device gpu");
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_NE(r.err.find("--device expects cpu, cuda or cuda-host (got 'gpu')"), std::string::npos)
+      << r.err;
+  r = hfrt("render sphere.hf -o s.png --device cuda-host --spp 4");
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_NE(r.err.find("one sample per pixel so far (leave out --spp)"), std::string::npos)
+      << r.err;
+}
+
 }  // namespace
 }  // namespace hfrt::tools

@@ -50,8 +50,8 @@ struct EmitCli {
   float max_gradient = 0;    // 0: estimated from hfrt's gradient evaluator
   float accuracy = 0;        // 0: bbox size * 1e-5, hfrt's default root tolerance
   bool transparent = false;  // background with transmit 1 (coverage in alpha with +UA)
-  bool ptx = false;           // --ptx: the GPU kernels (docs/gpu.md)
-  std::string sm = "sm_60";   // --sm: the PTX's GPU architecture
+  bool ptx = false;          // --ptx: the GPU kernels (docs/gpu.md)
+  std::string sm = "sm_60";  // --sm: the PTX's GPU architecture
 };
 
 int usage_error(const std::string& message) {

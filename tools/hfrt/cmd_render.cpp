@@ -372,7 +372,8 @@ CommandRunner register_render(CLI::App& app) {
   return [cli, seq, sub] {
     if (is_scene_file(cli->model.file)) {
       if (cli->device != "cpu") {
-        return usage_error("--device " + cli->device + " renders .hf models; scene files render on the CPU");
+        return usage_error("--device " + cli->device +
+                           " renders .hf models; scene files render on the CPU");
       }
       return run_scene(*cli, *seq, *sub);
     }

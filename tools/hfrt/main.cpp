@@ -48,6 +48,7 @@ int main(int argc, char** argv) {
   add(hfrt::tools::register_repl);
   add(hfrt::tools::register_emit);
   add(hfrt::tools::register_mesh);
+  add(hfrt::tools::register_gpu_cases);
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {

@@ -54,7 +54,7 @@ struct RenderCli {
   std::string background;
   bool no_shadows = false;
   bool stats = false;
-  int max_depth = -1;  ///< scene files only; -1: the scene's value
+  int max_depth = -1;          ///< scene files only; -1: the scene's value
   std::string device = "cpu";  ///< --device (registered by `hfrt render` only)
 };
 
