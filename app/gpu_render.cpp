@@ -286,4 +286,40 @@ Result<DeviceRunInfo> eval_on_device(const Model& model, int64_t n, const float*
   return info;
 }
 
+Result<DeviceRunInfo> slice_on_device(const Model& model, const render::SliceOptions& opt,
+                                      Device device, render::SliceResult* out) {
+  const int64_t n = int64_t(opt.width) * opt.height;
+  const int nin = std::max(model.num_inputs(), 1);
+  std::vector<float> xs(size_t(nin) * size_t(n), 0.0f);
+  const float dx = (opt.x1 - opt.x0) / float(opt.width), dy = (opt.y1 - opt.y0) / float(opt.height);
+  for (int j = 0; j < opt.height; ++j) {
+    for (int i = 0; i < opt.width; ++i) {
+      const size_t k = size_t(j) * size_t(opt.width) + size_t(i);
+      xs[k] = opt.x0 + (float(i) + 0.5f) * dx;
+      if (nin > 1) xs[size_t(n) + k] = opt.y1 - (float(j) + 0.5f) * dy;
+      if (nin > 2) xs[2 * size_t(n) + k] = opt.z;
+      if (nin > 3) xs[3 * size_t(n) + k] = float(model.time());
+    }
+  }
+  std::vector<float> f(static_cast<size_t>(n));
+  auto ran = eval_on_device(model, n, xs.data(), device, f.data());
+  if (!ran.ok()) return ran.error();
+  out->width = opt.width;
+  out->height = opt.height;
+  out->inside.assign(size_t(n), 0);
+  out->stats = render::SliceStats{};
+  for (int64_t k = 0; k < n; ++k) {
+    if (f[size_t(k)] >= 0) {
+      out->inside[size_t(k)] = 1;
+      out->stats.pixels_inside++;
+    } else if (std::isnan(f[size_t(k)])) {
+      out->stats.evals.nan_samples++;
+    }
+  }
+  out->stats.evals.eval_calls = 1;
+  out->stats.evals.eval_points = uint64_t(n);
+  out->stats.seconds = ran.value().kernel_ms / 1000.0;
+  return ran.value();
+}
+
 }  // namespace hfrt::app

@@ -15,6 +15,7 @@
 #include "gpu/kernel_abi.h"
 #include "hfrt/model.h"
 #include "render/renderer.h"
+#include "render/slice.h"
 
 namespace hfrt::app {
 
@@ -71,5 +72,11 @@ DeviceJobResult run_device_render_job(const RenderJob& job, Device device,
 /// x[4] when it has one) on `device`, into out_f.
 Result<DeviceRunInfo> eval_on_device(const Model& model, int64_t n, const float* xs, Device device,
                                      float* out_f);
+
+/// `hfrt slice --device`: F at every pixel centre of `opt` (render/slice.h's pixel mapping,
+/// x[4] the model's time) by the point-evaluator kernel, inside where F >= 0. Every pixel is
+/// evaluated (no interval pruning); stats count the points.
+Result<DeviceRunInfo> slice_on_device(const Model& model, const render::SliceOptions& opt,
+                                      Device device, render::SliceResult* out);
 
 }  // namespace hfrt::app

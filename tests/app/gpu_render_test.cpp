@@ -8,10 +8,12 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdlib>
 #include <string>
 
+#include "app/model_field.h"
 #include "app/render_job.h"
 #include "gpu/cuda_driver.h"
 #include "hfrt/model.h"
@@ -229,6 +231,31 @@ TEST(GpuRender, CudaLaunchesThroughTheDriver) {
   ::unsetenv("HFRT_FAKE_CUDA");
   ::unsetenv("HFRT_LIBCUDA");
   gpu::unload_driver_for_testing();
+}
+
+TEST(GpuRender, SliceOnTheHostKernelsIsTheCpuSlice) {
+  const std::string path =
+      std::string(HFRT_CORPUS_DIR) + "/models/github/pmur002__hyperfun-report/csg.hf";
+  Model model = compile(read(path));
+  ModelField field(model, path);
+  render::SliceOptions opt;
+  opt.width = opt.height = 200;
+  opt.x0 = opt.y0 = -8;  // the corners of the 12-cube outside the sphere of radius 7
+  opt.x1 = opt.y1 = 8;
+  opt.z = 0.5f;
+  opt.use_interval = false;
+  render::SliceResult cpu = render::render_slice(field, opt), dev;
+  auto ran = slice_on_device(model, opt, Device::kCudaHost, &dev);
+  ASSERT_TRUE(ran.ok()) << ran.error().message;
+  ASSERT_EQ(dev.inside.size(), cpu.inside.size());
+  size_t differ = 0;
+  for (size_t i = 0; i < cpu.inside.size(); ++i) differ += cpu.inside[i] != dev.inside[i];
+  // Only where F is within a few ulps of 0 may the device math flip a pixel.
+  EXPECT_LE(differ, cpu.inside.size() / 1000);
+  const auto inside = size_t(std::count(cpu.inside.begin(), cpu.inside.end(), 1));
+  EXPECT_GT(inside, cpu.inside.size() / 50);
+  EXPECT_LT(inside, cpu.inside.size() * 19 / 20);
+  EXPECT_EQ(dev.stats.pixels_inside, std::count(dev.inside.begin(), dev.inside.end(), 1));
 }
 
 }  // namespace

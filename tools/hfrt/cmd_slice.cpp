@@ -16,6 +16,7 @@
 #include <string>
 #include <vector>
 
+#include "app/gpu_render.h"
 #include "app/model_field.h"
 #include "render/image.h"
 #include "render/progress.h"
@@ -37,6 +38,7 @@ struct SliceCli {
   float z = 0;
   int threads = 0;
   bool stats = false;
+  std::string device = "cpu";  ///< --device
 };
 
 int usage_error(const std::string& message) {
@@ -63,9 +65,38 @@ int run_slice(const SliceCli& cli) {
   opt.z = cli.z;
   opt.threads = cli.threads;
 
+  app::Device device = app::Device::kCpu;
+  if (!app::parse_device(cli.device, &device)) {
+    return usage_error("--device expects cpu, cuda or cuda-host (got '" + cli.device + "')");
+  }
+
   int code = 0;
   auto loaded = load_model(cli.model, /*eager_f32=*/true, &code);
   if (!loaded) return code;
+  if (device != app::Device::kCpu) {
+    render::SliceResult res;
+    auto ran = app::slice_on_device(*loaded->model, opt, device, &res);
+    if (!ran.ok()) {
+      std::fprintf(stderr, "hfrt: --device %s: %s\n", app::device_name(device),
+                   ran.error().message.c_str());
+      return 2;
+    }
+    std::vector<float> pixels(res.inside.begin(), res.inside.end());
+    auto written = render::write_pixels(cli.output, res.width, res.height, 1, pixels, false);
+    if (!written.ok()) {
+      std::fprintf(stderr, "hfrt: %s\n", written.error().message.c_str());
+      return 2;
+    }
+    std::fprintf(stderr, "hfrt: wrote %s (%dx%d, z = %g, %.1f%% inside, --device %s: %s)\n",
+                 cli.output.c_str(), res.width, res.height, opt.z,
+                 100.0 * double(res.stats.pixels_inside) / double(res.inside.size()),
+                 app::device_name(device), ran.value().device.c_str());
+    if (cli.stats) {
+      std::fprintf(stderr, "stats: device code %.1f ms, kernel %.3f ms, transfers %.3f ms\n",
+                   ran.value().compile_ms, ran.value().kernel_ms, ran.value().transfer_ms);
+    }
+    return 0;
+  }
   app::ModelField field(*loaded->model, cli.model.file);
   const app::PreparedCode prepared =
       app::prepare_render_code(*loaded->model, field.has_interval(), /*gradient=*/false);
@@ -128,6 +159,9 @@ CommandRunner register_slice(CLI::App& app) {
   sub->add_option("--backend", cli->model.backend, "evaluator: jit (default) or interp")
       ->check(CLI::IsMember({"jit", "interp"}));
   sub->add_flag("--stats", cli->stats, "print time and evaluator calls on stderr");
+  sub->add_option("--device", cli->device,
+                  "cpu (default), cuda (an NVIDIA GPU: the model's generated kernel) or "
+                  "cuda-host (that kernel compiled for this CPU); docs/gpu.md");
   return [cli] { return run_slice(*cli); };
 }
 
