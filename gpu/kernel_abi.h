@@ -16,6 +16,18 @@ namespace hfrt::gpu {
 /// F -> out_f[i], s[k+1] -> out_s[k*n + i] (out_s may be null). 1-D grid of any block size.
 inline constexpr const char* kEvalEntry = "hfrt_eval_f32";
 
+/// The interval evaluator of a model, one box per thread (double precision, as the CPU's):
+///   hfrt_interval_f64(int64 n, const double* xlo, const double* xhi, const double* a,
+///                     double* out_lo, double* out_hi, uint8* out_nan)
+/// Thread i < n encloses F over the box x[k+1] in [xlo[k*n + i], xhi[k*n + i]] (a[k+1] = a[k])
+/// in [out_lo[i], out_hi[i]], out_nan[i] = 1 when F may have no value there. Present only for
+/// models whose interval code calls no host function (no libm-based op, no R-function node:
+/// jit::interval_code_is_self_contained); the ray caster then uses it to skip the empty part
+/// of each ray (kRenderCullSpans pieces of its range, proven F < 0 before any point is
+/// evaluated).
+inline constexpr const char* kIntervalEntry = "hfrt_interval_f64";
+inline constexpr int kRenderCullSpans = 8;
+
 /// The ray caster of a model, one pixel per thread:
 ///   hfrt_render_f32(const RenderParams* p, const float* a, float* out)
 /// Thread i < width * height shades pixel (i % width, i / width) through its centre and

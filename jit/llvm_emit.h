@@ -30,6 +30,14 @@ using namespace ::hfrt::ir;
 llvm::Function* emit_scalar_function(llvm::Module& module, const Function& fn, Precision precision,
                                      int lanes, const std::string& batch_entry);
 
+/// The interval JIT's block function of `fn` (llvm_interval.cpp) in `module` as `name`:
+///   void name(const double* xlo, const double* xhi, i64 stride, const double* a,
+///             double* out_lo, double* out_hi, u8* out_nan, u8* choices (unused), double* scratch)
+/// for one block of `lanes` boxes (x[k+1] of lane i in [xlo[k*stride + i], xhi[...]]);
+/// scratch holds 3 * lanes * *num_homes doubles. Not outlined, no trace.
+llvm::Function* emit_interval_function(llvm::Module& module, const Function& fn, int lanes,
+                                       int loop_limit, const std::string& name, int* num_homes);
+
 /// Slots written (kStoreSlot, kStoreIdx) by the instructions in [begin, end), ascending.
 std::vector<int> written_slots(const Function& fn, size_t begin, size_t end);
 

@@ -53,6 +53,7 @@
 #include "jit/interval.h"
 #include "jit/llvm_emit.h"
 #include "jit/llvm_session.h"
+#include "jit/nvptx.h"
 
 /// apply_interval for one lane, called from JIT code for the libm-based ops. A block that holds
 /// fewer boxes than lanes (one box per call from a bisection, the tail of a batch) repeats its
@@ -997,6 +998,29 @@ class IntervalEmitter : public VectorEmitter {
   std::vector<IfFrame> ifs_;
   std::vector<LoopFrame> loops_;
 };
+
+}  // namespace
+
+bool interval_code_is_self_contained(const Function& fn) {
+  for (const Inst& in : fn.insts) {
+    if (op_lane(in.op) == OpLane::kLibm || op_lane(in.op) == OpLane::kHelper) return false;
+    if (in.op == Op::kSurface) return false;
+  }
+  for (uint8_t k : find_r_functions(fn).kind) {
+    if (k != 0) return false;
+  }
+  return true;
+}
+
+llvm::Function* emit_interval_function(llvm::Module& module, const Function& fn, int lanes,
+                                       int loop_limit, const std::string& name, int* num_homes) {
+  IntervalEmitter emitter(module, fn, lanes, loop_limit, /*trace=*/false, /*outline=*/false);
+  emitter.emit(name);
+  *num_homes = emitter.num_homes();
+  return module.getFunction(name);
+}
+
+namespace {
 
 using BlockFn = void (*)(const double* xlo, const double* xhi, int64_t stride, const double* a,
                          double* out_lo, double* out_hi, uint8_t* out_nan, uint8_t* choices,

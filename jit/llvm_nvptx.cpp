@@ -16,6 +16,7 @@
 
 #include "base/check.h"
 #include "jit/device_math.h"
+#include "jit/interval.h"
 #include "jit/llvm_emit.h"
 #include "jit/llvm_session.h"
 #include "jit/nvptx.h"
@@ -263,6 +264,7 @@ class KernelEmitter {
         target_(target),
         eval_name_(target == Target::kNvptx ? gpu::kEvalEntry : host_prefix + "_eval"),
         render_name_(target == Target::kNvptx ? gpu::kRenderEntry : host_prefix + "_render"),
+        interval_name_(target == Target::kNvptx ? gpu::kIntervalEntry : host_prefix + "_interval"),
         b_(m.getContext()) {
     f32_ = b_.getFloatTy();
     i32_ = b_.getInt32Ty();
@@ -272,10 +274,20 @@ class KernelEmitter {
 
   void emit() {
     body_ = emit_scalar_function(m_, fn_, Precision::kF32, 1, "");
+    if (interval_code_is_self_contained(fn_)) {
+      interval_body_ =
+          emit_interval_function(m_, fn_, 1, kIntervalLoopLimit, "interval_body", &interval_homes_);
+      interval_body_->setLinkage(llvm::GlobalValue::InternalLinkage);
+      // Called from many places of the ray caster: one copy.
+      interval_body_->addFnAttr(llvm::Attribute::NoInline);
+      emit_interval_entry();
+    }
     emit_eval_entry();
     emit_render_entry(emit_pixel());
     define_device_libm(m_);
   }
+
+  bool has_interval() const { return interval_body_ != nullptr; }
 
  private:
   // --- Entries: thread index (NVPTX) or a loop over an index range (host) ----------------
@@ -346,6 +358,29 @@ class KernelEmitter {
           b_.CreateCall(body_, {b_.CreateGEP(f32_, f_->getArg(1), i), n, f_->getArg(2),
                                 b_.CreateGEP(f32_, f_->getArg(3), i), s_ptr, n});
         });
+  }
+
+  /// kIntervalEntry: hfrt_interval_f64(i64 n, ptr xlo, ptr xhi, ptr a, ptr lo, ptr hi, ptr nan).
+  void emit_interval_entry() {
+    emit_entry(
+        interval_name_, {i64_, ptr_, ptr_, ptr_, ptr_, ptr_, ptr_}, [&] { return f_->getArg(0); },
+        [&](llvm::Value* i) {
+          llvm::Type* f64 = b_.getDoubleTy();
+          llvm::Value* scratch = interval_scratch(f_);
+          b_.CreateCall(
+              interval_body_,
+              {b_.CreateGEP(f64, f_->getArg(1), i), b_.CreateGEP(f64, f_->getArg(2), i),
+               f_->getArg(0), f_->getArg(3), b_.CreateGEP(f64, f_->getArg(4), i),
+               b_.CreateGEP(f64, f_->getArg(5), i), b_.CreateGEP(b_.getInt8Ty(), f_->getArg(6), i),
+               llvm::ConstantPointerNull::get(ptr_), scratch});
+        });
+  }
+
+  /// The interval body's scratch (3 doubles per value home), an entry-block alloca of `f`.
+  llvm::Value* interval_scratch(llvm::Function* f) {
+    llvm::IRBuilder<> eb(&f->getEntryBlock(), f->getEntryBlock().begin());
+    return eb.CreateAlloca(llvm::ArrayType::get(b_.getDoubleTy(), 3 * std::max(interval_homes_, 1)),
+                           nullptr, "scratch");
   }
 
   /// kRenderEntry: hfrt_render_f32(ptr params, ptr a, ptr out).
@@ -460,7 +495,7 @@ class KernelEmitter {
   /// i1 "hit". `any_hit`: stop at the first sample inside, without refining.
   llvm::Value* march(V3 o, V3 d, llvm::Value* t0, llvm::Value* t1, llvm::Value* step,
                      llvm::Value* eps, bool any_hit, llvm::AllocaInst* hit_t,
-                     llvm::AllocaInst* at_start) {
+                     llvm::AllocaInst* at_start, llvm::Value* first_k = nullptr) {
     llvm::Type* f64 = b_.getDoubleTy();
     llvm::AllocaInst* hit = var(b_.getInt1Ty(), b_.getFalse(), "hit");
     llvm::BasicBlock* start = block("march.start");
@@ -481,7 +516,10 @@ class KernelEmitter {
         b_.CreateSIToFP(load_i32(params_, offsetof(gpu::RenderParams, max_steps)), f64);
     count = b_.CreateSelect(b_.CreateFCmpOLT(count, max_steps), count, max_steps);
     llvm::Value* last = b_.CreateFPToSI(count, i64_);
-    llvm::AllocaInst* k = var(i64_, b_.getInt64(0), "k");
+    // The first sample: 0, or where interval culling found the first span that may hold the
+    // surface (the samples stay on the grid of t0).
+    if (!first_k) first_k = b_.getInt64(0);
+    llvm::AllocaInst* k = var(i64_, first_k, "k");
     llvm::AllocaInst* prev_t = var(f32_, t0, "prev_t");
     llvm::AllocaInst* prev_f = var(f32_, c(0.0f), "prev_f");
     llvm::AllocaInst* cur_t = var(f32_, t0, "t");
@@ -511,8 +549,10 @@ class KernelEmitter {
 
     b_.SetInsertPoint(inside);
     set(hit, b_.getTrue());
-    llvm::Value* first = b_.CreateICmpEQ(get(k), b_.getInt64(0));
-    set(at_start, first);
+    // Inside at the first sample: no bracket to refine (after culled spans, F < 0 was proven
+    // up to this sample's span, so the root is at it within float resolution).
+    llvm::Value* first = b_.CreateICmpEQ(get(k), first_k);
+    set(at_start, b_.CreateICmpEQ(get(k), b_.getInt64(0)));
     if (any_hit) {
       set(hit_t, get(cur_t));
       b_.CreateBr(done);
@@ -521,7 +561,7 @@ class KernelEmitter {
       llvm::BasicBlock* at_first = block("at_first");
       b_.CreateCondBr(first, at_first, refine);
       b_.SetInsertPoint(at_first);
-      set(hit_t, t0);
+      set(hit_t, get(cur_t));
       b_.CreateBr(done);
       b_.SetInsertPoint(refine);
       set(hit_t, bisect(o, d, get(prev_t), get(prev_f), get(cur_t), get(cur_f), eps));
@@ -579,6 +619,98 @@ class KernelEmitter {
     return b_.CreateSelect(ok, t, bt);
   }
 
+  // --- Interval culling of ray ranges ------------------------------------------------------
+
+  /// i1: F over the box of the segment o + t d, t in [ta, tb], may be >= 0 or have no value
+  /// (the box is widened by the rounding of o + t d in float, so that every sample point the
+  /// march computes in it is inside).
+  llvm::Value* segment_may_hit(V3 o, V3 d, llvm::Value* ta, llvm::Value* tb) {
+    llvm::Type* f64 = b_.getDoubleTy();
+    V3 p0 = add(o, scale(d, ta)), p1 = add(o, scale(d, tb));
+    llvm::Value* tmax = fmax(b_.CreateUnaryIntrinsic(llvm::Intrinsic::fabs, ta),
+                             b_.CreateUnaryIntrinsic(llvm::Intrinsic::fabs, tb));
+    auto fabs = [&](llvm::Value* v) { return b_.CreateUnaryIntrinsic(llvm::Intrinsic::fabs, v); };
+    for (int k = 0; k < 3; ++k) {
+      llvm::Value* w =
+          add(mul(c(4e-7f), add(fabs(comp(o, k)), mul(fabs(comp(d, k)), tmax))), c(1e-30f));
+      llvm::Value* lo = b_.CreateFPExt(sub(fmin(comp(p0, k), comp(p1, k)), w), f64);
+      llvm::Value* hi = b_.CreateFPExt(add(fmax(comp(p0, k), comp(p1, k)), w), f64);
+      b_.CreateStore(lo, b_.CreateConstInBoundsGEP1_64(f64, box_lo_, k));
+      b_.CreateStore(hi, b_.CreateConstInBoundsGEP1_64(f64, box_hi_, k));
+    }
+    llvm::Value* t = b_.CreateFPExt(time_, f64);
+    b_.CreateStore(t, b_.CreateConstInBoundsGEP1_64(f64, box_lo_, 3));
+    b_.CreateStore(t, b_.CreateConstInBoundsGEP1_64(f64, box_hi_, 3));
+    b_.CreateCall(interval_body_, {box_lo_, box_hi_, b_.getInt64(1), a_f64_, iv_lo_, iv_hi_,
+                                   iv_nan_, llvm::ConstantPointerNull::get(ptr_), scratch_});
+    llvm::Value* hi = b_.CreateLoad(f64, iv_hi_);
+    llvm::Value* nan = b_.CreateICmpNE(b_.CreateLoad(b_.getInt8Ty(), iv_nan_), b_.getInt8(0));
+    return b_.CreateOr(nan, b_.CreateNot(b_.CreateFCmpOLT(hi, llvm::ConstantFP::get(f64, 0.0))));
+  }
+
+  /// The march's first sample index on the grid t0 + k step: the start of the first of
+  /// kRenderCullSpans equal pieces of [t0, t1] that may hold the surface; -1 when none does.
+  llvm::Value* first_live_sample(V3 o, V3 d, llvm::Value* t0, llvm::Value* t1, llvm::Value* step) {
+    const int spans = gpu::kRenderCullSpans;
+    llvm::AllocaInst* k = var(i32_, b_.getInt32(0), "span");
+    llvm::BasicBlock* head = block("cull.head");
+    llvm::BasicBlock* body = block("cull.body");
+    llvm::BasicBlock* next = block("cull.next");
+    llvm::BasicBlock* done = block("cull.done");
+    llvm::Value* len = sub(t1, t0);
+    b_.CreateBr(head);
+    b_.SetInsertPoint(head);
+    b_.CreateCondBr(b_.CreateICmpSLT(get(k), b_.getInt32(spans)), body, done);
+    b_.SetInsertPoint(body);
+    llvm::Value* kf = b_.CreateSIToFP(get(k), f32_);
+    llvm::Value* ta = add(t0, div(mul(len, kf), c(float(spans))));
+    llvm::Value* tb = b_.CreateSelect(b_.CreateICmpEQ(get(k), b_.getInt32(spans - 1)), t1,
+                                      add(t0, div(mul(len, add(kf, c(1.0f))), c(float(spans)))));
+    b_.CreateCondBr(segment_may_hit(o, d, ta, tb), done, next);
+    b_.SetInsertPoint(next);
+    set(k, b_.CreateAdd(get(k), b_.getInt32(1)));
+    b_.CreateBr(head);
+    b_.SetInsertPoint(done);
+    llvm::Value* span = get(k);
+    // The grid sample at or before the span's start (the march keeps the CPU's positions).
+    llvm::Type* f64 = b_.getDoubleTy();
+    llvm::Value* start = b_.CreateFAdd(
+        b_.CreateFPExt(t0, f64),
+        b_.CreateFDiv(b_.CreateFMul(b_.CreateFPExt(len, f64), b_.CreateSIToFP(span, f64)),
+                      llvm::ConstantFP::get(f64, spans)));
+    llvm::Value* kk = b_.CreateUnaryIntrinsic(
+        llvm::Intrinsic::floor,
+        b_.CreateFDiv(b_.CreateFSub(start, b_.CreateFPExt(t0, f64)), b_.CreateFPExt(step, f64)));
+    kk = b_.CreateSelect(b_.CreateFCmpOGT(kk, llvm::ConstantFP::get(f64, 0.0)), kk,
+                         llvm::ConstantFP::get(f64, 0.0));
+    // Clamp into i64 range (a zero step is refused by the march itself).
+    kk = b_.CreateSelect(b_.CreateFCmpOLT(kk, llvm::ConstantFP::get(f64, 4.0e18)), kk,
+                         llvm::ConstantFP::get(f64, 4.0e18));
+    return b_.CreateSelect(b_.CreateICmpEQ(span, b_.getInt32(spans)), b_.getInt64(-1),
+                           b_.CreateFPToSI(kk, i64_));
+  }
+
+  /// march() over [t0, t1], preceded by the interval culling when the model has it.
+  llvm::Value* culled_march(V3 o, V3 d, llvm::Value* t0, llvm::Value* t1, llvm::Value* step,
+                            llvm::Value* eps, bool any_hit, llvm::AllocaInst* hit_t,
+                            llvm::AllocaInst* at_start) {
+    if (!interval_body_) return march(o, d, t0, t1, step, eps, any_hit, hit_t, at_start);
+    llvm::AllocaInst* hit = var(b_.getInt1Ty(), b_.getFalse(), "culled_hit");
+    llvm::BasicBlock* search = block("culled.search");
+    llvm::BasicBlock* done = block("culled.done");
+    llvm::Value* valid = b_.CreateFCmpOLE(t0, t1);
+    llvm::BasicBlock* cull = block("culled.cull");
+    b_.CreateCondBr(valid, cull, done);
+    b_.SetInsertPoint(cull);
+    llvm::Value* first = first_live_sample(o, d, t0, t1, step);
+    b_.CreateCondBr(b_.CreateICmpSGE(first, b_.getInt64(0)), search, done);
+    b_.SetInsertPoint(search);
+    set(hit, march(o, d, t0, t1, step, eps, any_hit, hit_t, at_start, first));
+    b_.CreateBr(done);
+    b_.SetInsertPoint(done);
+    return get(hit);
+  }
+
   /// The per-pixel function: void pixel(i64 i, ptr params, ptr a, ptr out).
   llvm::Function* emit_pixel() {
     auto* fty = llvm::FunctionType::get(b_.getVoidTy(), {i64_, ptr_, ptr_, ptr_}, false);
@@ -593,6 +725,22 @@ class KernelEmitter {
                                     b_.CreateMul(i, b_.getInt64(gpu::kRenderFloatsPerPixel)));
     xs_ = b_.CreateAlloca(llvm::ArrayType::get(f32_, 4), nullptr, "xs");
     f_out_ = b_.CreateAlloca(f32_, nullptr, "f");
+    if (interval_body_) {
+      llvm::Type* f64 = b_.getDoubleTy();
+      box_lo_ = b_.CreateAlloca(llvm::ArrayType::get(f64, 4), nullptr, "box_lo");
+      box_hi_ = b_.CreateAlloca(llvm::ArrayType::get(f64, 4), nullptr, "box_hi");
+      iv_lo_ = b_.CreateAlloca(f64, nullptr, "iv_lo");
+      iv_hi_ = b_.CreateAlloca(f64, nullptr, "iv_hi");
+      iv_nan_ = b_.CreateAlloca(b_.getInt8Ty(), nullptr, "iv_nan");
+      scratch_ = interval_scratch(pixel_);
+      // The interval code reads a[] in double.
+      const int np = std::max(fn_.num_params, 1);
+      a_f64_ = b_.CreateAlloca(llvm::ArrayType::get(f64, np), nullptr, "a_f64");
+      for (int k = 0; k < fn_.num_params; ++k) {
+        llvm::Value* v = b_.CreateLoad(f32_, b_.CreateConstInBoundsGEP1_64(f32_, a_, k));
+        b_.CreateStore(b_.CreateFPExt(v, f64), b_.CreateConstInBoundsGEP1_64(f64, a_f64_, k));
+      }
+    }
     const int num_s = static_cast<int>(fn_.s_slots.size());
     llvm::Value* s_buf =
         b_.CreateAlloca(llvm::ArrayType::get(f32_, std::max(num_s, 1)), nullptr, "s");
@@ -655,7 +803,7 @@ class KernelEmitter {
     llvm::AllocaInst* hit_t = var(f32_, c(0.0f), "hit_t");
     llvm::AllocaInst* at_start = var(b_.getInt1Ty(), b_.getFalse(), "at_start");
     llvm::Value* hit =
-        march(o, d, te, tx, div(step_w, dlen), div(eps_w, dlen), false, hit_t, at_start);
+        culled_march(o, d, te, tx, div(step_w, dlen), div(eps_w, dlen), false, hit_t, at_start);
     b_.CreateCondBr(hit, shade, miss);
 
     b_.SetInsertPoint(shade);
@@ -752,7 +900,7 @@ class KernelEmitter {
       b_.SetInsertPoint(shadow_search);
       llvm::AllocaInst* st = var(f32_, c(0.0f), "st");
       llvm::AllocaInst* sst = var(b_.getInt1Ty(), b_.getFalse(), "sst");
-      llvm::Value* occluded = march(so, sl, ste, stx, step_w, eps_w, true, st, sst);
+      llvm::Value* occluded = culled_march(so, sl, ste, stx, step_w, eps_w, true, st, sst);
       b_.CreateCondBr(occluded, next, add_light);
 
       b_.SetInsertPoint(add_light);
@@ -786,7 +934,7 @@ class KernelEmitter {
   llvm::LLVMContext& ctx_;
   const Function& fn_;
   const Target target_;
-  const std::string eval_name_, render_name_;
+  const std::string eval_name_, render_name_, interval_name_;
   llvm::IRBuilder<> b_;
   llvm::Type* f32_;
   llvm::IntegerType* i32_;
@@ -802,6 +950,11 @@ class KernelEmitter {
   llvm::Value* f_out_ = nullptr;
   llvm::Value* time_ = nullptr;
   V3 lo_{}, hi_{};
+  // The interval culling (when interval_body_ is set).
+  llvm::Function* interval_body_ = nullptr;
+  int interval_homes_ = 0;
+  llvm::Value *box_lo_ = nullptr, *box_hi_ = nullptr, *iv_lo_ = nullptr, *iv_hi_ = nullptr,
+              *iv_nan_ = nullptr, *scratch_ = nullptr, *a_f64_ = nullptr;
 };
 
 /// Emits the host's dispatcher of the device math functions:
@@ -935,6 +1088,8 @@ Result<std::string> emit_ptx(const Function& fn, const PtxOptions& options) {
 namespace {
 using HostEvalFn = void (*)(int64_t, const float*, const float*, float*, float*, int64_t, int64_t);
 using HostRenderFn = void (*)(const gpu::RenderParams*, const float*, float*, int64_t, int64_t);
+using HostIntervalFn = void (*)(int64_t, const double*, const double*, const double*, double*,
+                                double*, uint8_t*, int64_t, int64_t);
 using HostLibmFn = float (*)(int32_t, float, float);
 
 /// Compiles the kernels (or, without `fn`, the libm dispatcher) for the host; `which` is the
@@ -957,9 +1112,10 @@ Result<std::unique_ptr<CompiledCode>> compile_for_host(const Function* fn, const
 }  // namespace
 
 struct HostKernels::Impl {
-  std::unique_ptr<CompiledCode> eval_code, render_code;
+  std::unique_ptr<CompiledCode> eval_code, render_code, interval_code;
   HostEvalFn eval = nullptr;
   HostRenderFn render = nullptr;
+  HostIntervalFn interval = nullptr;
 };
 
 HostKernels::HostKernels(std::unique_ptr<Impl> impl) : impl_(std::move(impl)) {}
@@ -976,12 +1132,28 @@ Result<std::unique_ptr<HostKernels>> HostKernels::compile(const Function& fn) {
   impl->render_code = std::move(render.value());
   impl->eval = reinterpret_cast<HostEvalFn>(impl->eval_code->entry());
   impl->render = reinterpret_cast<HostRenderFn>(impl->render_code->entry());
+  if (interval_code_is_self_contained(fn)) {
+    auto interval = compile_for_host(&fn, "interval");
+    if (!interval.ok()) return interval.error();
+    impl->interval_code = std::move(interval.value());
+    impl->interval = reinterpret_cast<HostIntervalFn>(impl->interval_code->entry());
+  }
   return std::unique_ptr<HostKernels>(new HostKernels(std::move(impl)));
 }
 
 void HostKernels::eval(int64_t n, const float* xs, const float* a, float* out_f,
                        float* out_s) const {
   impl_->eval(n, xs, a, out_f, out_s, 0, n);
+}
+
+bool HostKernels::has_interval() const {
+  return impl_->interval != nullptr;
+}
+
+void HostKernels::interval(int64_t n, const double* xlo, const double* xhi, const double* a,
+                           double* out_lo, double* out_hi, uint8_t* out_nan) const {
+  HFRT_CHECK(impl_->interval);
+  impl_->interval(n, xlo, xhi, a, out_lo, out_hi, out_nan, 0, n);
 }
 
 void HostKernels::render(const gpu::RenderParams& params, const float* a, float* out, int64_t begin,

@@ -28,6 +28,11 @@ struct PtxOptions {
 /// host memory and are not on the device yet.
 std::string device_unsupported_reason(const ir::Function& fn);
 
+/// Whether the interval JIT's code of `fn` (llvm_interval.cpp) calls no host function (no
+/// libm-based op, no R-function node, no mesh or patch leaf): then it runs on the GPU too, and
+/// the kernels include kIntervalEntry.
+bool interval_code_is_self_contained(const ir::Function& fn);
+
 /// PTX text with the kernels kEvalEntry and kRenderEntry for `fn` (float precision).
 /// Fails for a model device_unsupported_reason names, or when LLVM lacks the NVPTX target.
 Result<std::string> emit_ptx(const ir::Function& fn, const PtxOptions& options = {});
@@ -47,6 +52,11 @@ class HostKernels {
 
   /// kEvalEntry's threads 0..n-1.
   void eval(int64_t n, const float* xs, const float* a, float* out_f, float* out_s) const;
+  /// Whether the kernels include kIntervalEntry (interval_code_is_self_contained: the ray
+  /// caster then culls), and its threads 0..n-1.
+  bool has_interval() const;
+  void interval(int64_t n, const double* xlo, const double* xhi, const double* a, double* out_lo,
+                double* out_hi, uint8_t* out_nan) const;
   /// kRenderEntry's threads [begin, end) (pixels in row-major order).
   void render(const gpu::RenderParams& params, const float* a, float* out, int64_t begin,
               int64_t end) const;

@@ -20,6 +20,7 @@
 #include <vector>
 
 #include "jit/device_math.h"
+#include "jit/interval.h"
 #include "jit/llvm_jit.h"
 #include "tests/jit/compile_util.h"
 
@@ -294,6 +295,118 @@ TEST(HostKernels, EvalAgreesWithTheF32JitOnEveryCorpusModel) {
   }
   EXPECT_GE(models, 25);
   EXPECT_GE(points, 25 * 512);
+}
+
+TEST(HostKernels, IntervalEntryIsTheIntervalJitWhereTheModelNeedsNoHost) {
+  // Prospero-like CSG of the IR's own arithmetic (no libm, no R-function nodes): the kernels
+  // carry kIntervalEntry, and it computes what the CPU's interval JIT computes, bit for bit
+  // (the same emitter, one lane); a model with sin has no interval entry.
+  const std::string csg = R"(
+my_model(x[3], a[1]) {
+  sp = 9 - x[1]*x[1] - x[2]*x[2] - x[3]*x[3];
+  b = min(min(4 - abs(x[1]), 4 - abs(x[2])), 4 - abs(x[3]));
+  h = sqrt(x[1]*x[1] + x[2]*x[2]) - 1.5;
+  my_model = max(min(sp, b), -max(h, -10)) * (1 + a[1]);
+})";
+  testutil::Compiled c = testutil::compile(csg);
+  ASSERT_TRUE(c.ok) << c.diagnostics;
+  ASSERT_TRUE(interval_code_is_self_contained(c.fn));
+  auto kernels = HostKernels::compile(c.fn);
+  ASSERT_TRUE(kernels.ok()) << kernels.error().message;
+  ASSERT_TRUE(kernels.value()->has_interval());
+  IntervalJit::Options io;
+  io.trace = false;
+  auto jit = IntervalJit::compile(c.fn, io);
+  ASSERT_TRUE(jit.ok());
+  const int64_t n = 1000;
+  std::mt19937 rng(3);
+  std::uniform_real_distribution<double> u(-6, 6), w(0, 3);
+  std::vector<double> lo(3 * n), hi(3 * n), a{0.25};
+  for (int64_t i = 0; i < 3 * n; ++i) {
+    lo[i] = u(rng);
+    hi[i] = lo[i] + (i % 7 == 0 ? 0.0 : w(rng));
+  }
+  std::vector<double> want_lo(n), want_hi(n), got_lo(n), got_hi(n);
+  std::vector<uint8_t> want_nan(n), got_nan(n);
+  jit.value()->eval(n, lo.data(), hi.data(), a, want_lo.data(), want_hi.data(), want_nan.data());
+  kernels.value()->interval(n, lo.data(), hi.data(), a.data(), got_lo.data(), got_hi.data(),
+                            got_nan.data());
+  int proven_empty = 0;
+  for (int64_t i = 0; i < n; ++i) {
+    ASSERT_EQ(got_lo[i], want_lo[i]) << i;
+    ASSERT_EQ(got_hi[i], want_hi[i]) << i;
+    ASSERT_EQ(got_nan[i], want_nan[i]) << i;
+    proven_empty += want_hi[i] < 0;
+  }
+  EXPECT_GT(proven_empty, 10);  // the culling has something to cull
+  Result<std::string> ptx = emit_ptx(c.fn);
+  ASSERT_TRUE(ptx.ok());
+  EXPECT_EQ(entry_params(ptx.value(), gpu::kIntervalEntry), 7);
+
+  testutil::Compiled wavy = testutil::compile("my_model(x[3], a[1]) { my_model = sin(x[1]); }");
+  ASSERT_TRUE(wavy.ok);
+  EXPECT_FALSE(interval_code_is_self_contained(wavy.fn));
+  Result<std::string> ptx2 = emit_ptx(wavy.fn);
+  ASSERT_TRUE(ptx2.ok());
+  EXPECT_EQ(entry_params(ptx2.value(), gpu::kIntervalEntry), -1);
+}
+
+TEST(HostKernels, CulledRenderFindsTheSameSurfaceAsThePlainMarch) {
+  // The ray caster of a self-contained model culls empty ray pieces by intervals before it
+  // marches; a model with sin marches everything. x -> sin(asin(x)) keeps the same surface,
+  // so the two renders of the same sphere must agree pixel for pixel in coverage.
+  auto render = [](const std::string& text, std::vector<float>* out) {
+    testutil::Compiled c = testutil::compile(text);
+    ASSERT_TRUE(c.ok) << c.diagnostics;
+    auto kernels = HostKernels::compile(c.fn);
+    ASSERT_TRUE(kernels.ok()) << kernels.error().message;
+    gpu::RenderParams p{};
+    const float eye[3] = {0, 0, 20}, fwd[3] = {0, 0, -1}, right[3] = {1, 0, 0}, up[3] = {0, 1, 0};
+    std::copy(eye, eye + 3, p.eye);
+    std::copy(fwd, fwd + 3, p.forward);
+    std::copy(right, right + 3, p.right);
+    std::copy(up, up + 3, p.up);
+    p.half_w = p.half_h = 0.3f;
+    p.width = p.height = 64;
+    for (int k = 0; k < 3; ++k) p.box_lo[k] = -10, p.box_hi[k] = 10;
+    p.step = 20.0f / 512;
+    p.eps = 20e-5f;
+    p.shadow_bias = 0.02f;
+    p.max_steps = 1 << 26;
+    p.albedo[0] = p.albedo[1] = p.albedo[2] = 0.8f;
+    p.ambient = 0.12f;
+    p.specular = 0.25f;
+    p.shininess = 48;
+    p.shadows = 1;
+    p.num_lights = 1;
+    p.light_kind[0] = gpu::kLightDirectional;
+    p.light_v[0][1] = 1;
+    p.light_v[0][2] = 1;
+    p.light_radiance[0][0] = p.light_radiance[0][1] = p.light_radiance[0][2] = 1;
+    std::vector<float> a{0};
+    out->assign(64 * 64 * gpu::kRenderFloatsPerPixel, 0);
+    kernels.value()->render(p, a.data(), out->data(), 0, 64 * 64);
+  };
+  std::vector<float> culled, plain;
+  render("my_model(x[3], a[1]) { my_model = 16 - x[1]*x[1] - x[2]*x[2] - x[3]*x[3]; }", &culled);
+  render(
+      "my_model(x[3], a[1]) { my_model = 16 - x[1]*x[1] - x[2]*x[2] - sin(asin(x[3]/10))*x[3]*10; "
+      "}",
+      &plain);
+  int covered = 0, differ = 0;
+  for (int i = 0; i < 64 * 64; ++i) {
+    const float ca = culled[size_t(i) * gpu::kRenderFloatsPerPixel + 3];
+    const float cb = plain[size_t(i) * gpu::kRenderFloatsPerPixel + 3];
+    covered += ca > 0.5f;
+    differ += (ca > 0.5f) != (cb > 0.5f);
+    if (ca > 0.5f && cb > 0.5f) {
+      EXPECT_NEAR(culled[size_t(i) * gpu::kRenderFloatsPerPixel + 4],
+                  plain[size_t(i) * gpu::kRenderFloatsPerPixel + 4], 1e-3f)
+          << i;
+    }
+  }
+  EXPECT_GT(covered, 1000);
+  EXPECT_LE(differ, 8);  // pixels on the rim, where the two F differ in the last bits
 }
 
 }  // namespace
