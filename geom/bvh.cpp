@@ -1,14 +1,11 @@
 #include "geom/bvh.h"
 
-#include <tbb/blocked_range.h>
-#include <tbb/parallel_invoke.h>
-#include <tbb/parallel_reduce.h>
-
 #include <algorithm>
 #include <atomic>
 #include <cmath>
 
 #include "base/check.h"
+#include "base/parallel.h"
 
 namespace hfrt::geom {
 namespace {
@@ -50,8 +47,8 @@ class Builder {
   };
 
   RangeInfo range_info(uint32_t begin, uint32_t end) const {
-    auto body = [&](const tbb::blocked_range<uint32_t>& r, RangeInfo acc) {
-      for (uint32_t i = r.begin(); i != r.end(); ++i) {
+    auto body = [&](size_t lo, size_t hi, RangeInfo acc) {
+      for (size_t i = lo; i != hi; ++i) {
         uint32_t p = out_->prim_order[i];
         acc.bounds.extend(boxes_[p]);
         acc.centroid_bounds.extend(centroids_[p]);
@@ -64,9 +61,8 @@ class Builder {
       return a;
     };
     if (opt_.parallel && end - begin >= 65536)
-      return tbb::parallel_reduce(tbb::blocked_range<uint32_t>(begin, end, 8192), RangeInfo{}, body,
-                                  join);
-    return body(tbb::blocked_range<uint32_t>(begin, end), RangeInfo{});
+      return par::parallel_reduce(begin, end, 8192, RangeInfo{}, body, join);
+    return body(begin, end, RangeInfo{});
   }
 
   // Clamped in float before the conversion: converting a NaN or an out-of-range float to int is
@@ -87,8 +83,8 @@ class Builder {
       const float s = ext > 0 ? nbins / ext : 0;
       scale[a] = std::isfinite(s) ? s : 0;
     }
-    auto body = [&](const tbb::blocked_range<uint32_t>& r, BinSet acc) {
-      for (uint32_t i = r.begin(); i != r.end(); ++i) {
+    auto body = [&](size_t lo, size_t hi, BinSet acc) {
+      for (size_t i = lo; i != hi; ++i) {
         uint32_t p = out_->prim_order[i];
         for (int a = 0; a < 3; ++a) {
           Bin& bin = acc.bins[a][bin_of(centroids_[p][a], cb.lo[a], scale[a], nbins)];
@@ -107,10 +103,9 @@ class Builder {
       return a;
     };
     if (opt_.parallel && end - begin >= 65536)
-      *set = tbb::parallel_reduce(tbb::blocked_range<uint32_t>(begin, end, 8192), BinSet{}, body,
-                                  join);
+      *set = par::parallel_reduce(begin, end, 8192, BinSet{}, body, join);
     else
-      *set = body(tbb::blocked_range<uint32_t>(begin, end), BinSet{});
+      *set = body(begin, end, BinSet{});
   }
 
   void make_leaf(BvhNode& node, uint32_t begin, uint32_t end) {
@@ -197,7 +192,7 @@ class Builder {
     node.count = 0;
     int dl = 0, dr = 0;
     if (opt_.parallel && n >= opt_.parallel_threshold) {
-      tbb::parallel_invoke([&] { dl = build_node(child, begin, mid); },
+      par::parallel_invoke([&] { dl = build_node(child, begin, mid); },
                            [&] { dr = build_node(child + 1, mid, end); });
     } else {
       dl = build_node(child, begin, mid);

@@ -1,12 +1,5 @@
 #include "mesher/mesher.h"
 
-#include <tbb/blocked_range.h>
-#include <tbb/global_control.h>
-#include <tbb/info.h>
-#include <tbb/parallel_for.h>
-#include <tbb/parallel_sort.h>
-#include <tbb/task_arena.h>
-
 #include <algorithm>
 #include <atomic>
 #include <bit>
@@ -15,6 +8,7 @@
 #include <numeric>
 
 #include "base/check.h"
+#include "base/parallel.h"
 #include "base/timer.h"
 
 namespace hfrt::mesher {
@@ -339,14 +333,7 @@ Vec3 solve_qef(const Vec3* p, const Vec3* nrm, int k, int* rank) {
 
 template <typename F>
 void parallel_chunks(size_t n, size_t grain, F&& body) {
-  if (n == 0) return;
-  const size_t chunks = (n + grain - 1) / grain;
-  tbb::parallel_for(tbb::blocked_range<size_t>(0, chunks, 1),
-                    [&](const tbb::blocked_range<size_t>& r) {
-                      for (size_t c = r.begin(); c != r.end(); ++c) {
-                        body(c * grain, std::min(n, (c + 1) * grain));
-                      }
-                    });
+  par::parallel_for(n, grain, body);
 }
 
 struct CellRec {
@@ -411,7 +398,8 @@ struct Neighbours {
 
 Neighbours find_neighbours(const std::vector<CellRec>& cells) {
   Neighbours nb;
-  tbb::parallel_for(0, 12, [&](int o) {
+  par::parallel_for(12, 1, [&](size_t lo, size_t) {
+    const int o = int(lo);
     std::vector<uint32_t>& out = nb.at[o];
     out.assign(cells.size(), kNone);
     size_t j = 0;
@@ -464,13 +452,10 @@ TriMesh mesh_field(const render::Field& field, const MeshOptions& options, MeshS
   const Capped capped(field, options.box);
   const CubeTable& table = cube_table();
 
-  const int threads = options.threads > 0 ? options.threads : tbb::info::default_concurrency();
+  const int threads = options.threads > 0 ? options.threads : par::default_concurrency();
   stats.threads = threads;
-  tbb::global_control allow(tbb::global_control::max_allowed_parallelism,
-                            std::max<size_t>(threads, tbb::info::default_concurrency()));
-  tbb::task_arena arena(threads);
   TriMesh mesh;
-  arena.execute([&] {
+  par::with_threads(threads, [&] {
     // --- 1. The octree over blocks, level by level. ------------------------------------------
     Timer timer;
     int nb[3];
@@ -556,7 +541,7 @@ TriMesh mesh_field(const render::Field& field, const MeshOptions& options, MeshS
       }
       for (size_t n : block_nans) stats.nan_samples += n;
     }
-    tbb::parallel_sort(cells.begin(), cells.end());
+    par::parallel_sort(cells.begin(), cells.end());
 
     // Closure: every crossing edge needs its four cells. A cell can be missing only where the
     // interval and point evaluators disagree about a node on a pruned block's face.

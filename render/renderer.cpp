@@ -1,7 +1,5 @@
 #include "render/renderer.h"
 
-#include <tbb/enumerable_thread_specific.h>
-
 #include <algorithm>
 #include <atomic>
 #include <chrono>
@@ -10,6 +8,7 @@
 #include <mutex>
 
 #include "base/check.h"
+#include "base/parallel.h"
 #include "render/sampling.h"
 #include "render/tiles.h"
 
@@ -665,7 +664,7 @@ void render_into(const Field& field, const RenderOptions& options, RenderResult*
   size_t nan_tile = std::numeric_limits<size_t>::max();
   Vec3 nan_point;
 
-  tbb::enumerable_thread_specific<ThreadState> states([&] { return ThreadState(field); });
+  par::ThreadLocal<ThreadState> states([&] { return ThreadState(field); });
   TileLoop loop = for_each_tile(options.width, options.height, options.tile_size, options.threads,
                                 options.progress, options.cancel, [&](const Tile& t) {
                                   ThreadState& st = states.local();
@@ -687,7 +686,7 @@ void render_into(const Field& field, const RenderOptions& options, RenderResult*
   s.tiles = loop.tiles;
   s.threads = loop.threads;
   s.cancelled = loop.cancelled;
-  for (ThreadState& st : states) {
+  states.for_each([&](ThreadState& st) {
     s.evals += st.searcher.counters();
     s.primary_rays += st.primary_rays;
     s.shadow_rays += st.shadow_rays;
@@ -696,7 +695,7 @@ void render_into(const Field& field, const RenderOptions& options, RenderResult*
     s.cull_seconds += st.cull_seconds;
     s.search_seconds += st.search_seconds;
     s.shade_seconds += st.shade_seconds;
-  }
+  });
   if (nan_tile != std::numeric_limits<size_t>::max()) {
     s.has_nan_point = true;
     s.nan_point = nan_point;

@@ -1,12 +1,5 @@
 #include "render/slice.h"
 
-#include <tbb/blocked_range.h>
-#include <tbb/enumerable_thread_specific.h>
-#include <tbb/global_control.h>
-#include <tbb/info.h>
-#include <tbb/parallel_for.h>
-#include <tbb/task_arena.h>
-
 #include <algorithm>
 #include <atomic>
 #include <chrono>
@@ -15,6 +8,7 @@
 #include <mutex>
 
 #include "base/check.h"
+#include "base/parallel.h"
 
 namespace hfrt::render {
 
@@ -133,37 +127,33 @@ SliceResult render_slice(const Field& field, const SliceOptions& options) {
   std::mutex nan_mutex;
   size_t nan_tile = std::numeric_limits<size_t>::max();
   Vec3 nan_point;
-  tbb::enumerable_thread_specific<SliceThread> states;
-  int threads = options.threads > 0 ? options.threads : tbb::info::default_concurrency();
-  tbb::global_control allow(tbb::global_control::max_allowed_parallelism,
-                            std::max<size_t>(threads, tbb::info::default_concurrency()));
-  tbb::task_arena arena(threads);
-  arena.execute([&] {
-    tbb::parallel_for(tbb::blocked_range<size_t>(0, ntiles, 1),
-                      [&](const tbb::blocked_range<size_t>& r) {
-                        SliceThread& st = states.local();
-                        for (size_t ti = r.begin(); ti != r.end(); ++ti) {
-                          int tx = int(ti % ntx), ty = int(ti / ntx);
-                          int i0 = tx * ts, j0 = ty * ts;
-                          st.has_nan = false;
-                          renderer.block(i0, j0, std::min(options.width, i0 + ts),
-                                         std::min(options.height, j0 + ts), st);
-                          if (st.has_nan) {
-                            std::lock_guard<std::mutex> lock(nan_mutex);
-                            if (ti < nan_tile) nan_tile = ti, nan_point = st.nan_point;
-                          }
-                          size_t d = ++done;
-                          if (options.progress) options.progress(d, ntiles);
-                        }
-                      });
+  par::ThreadLocal<SliceThread> states;
+  int threads = options.threads > 0 ? options.threads : par::default_concurrency();
+  par::with_threads(threads, [&] {
+    par::parallel_for(ntiles, 1, [&](size_t begin, size_t end) {
+      SliceThread& st = states.local();
+      for (size_t ti = begin; ti != end; ++ti) {
+        int tx = int(ti % ntx), ty = int(ti / ntx);
+        int i0 = tx * ts, j0 = ty * ts;
+        st.has_nan = false;
+        renderer.block(i0, j0, std::min(options.width, i0 + ts), std::min(options.height, j0 + ts),
+                       st);
+        if (st.has_nan) {
+          std::lock_guard<std::mutex> lock(nan_mutex);
+          if (ti < nan_tile) nan_tile = ti, nan_point = st.nan_point;
+        }
+        size_t d = ++done;
+        if (options.progress) options.progress(d, ntiles);
+      }
+    });
   });
   SliceStats& s = result.stats;
   s.threads = threads;
-  for (SliceThread& st : states) {
+  states.for_each([&](SliceThread& st) {
     s.evals += st.counters;
     s.pixels_by_interval += st.by_interval;
     s.pixels_inside += st.inside;
-  }
+  });
   if (nan_tile != std::numeric_limits<size_t>::max()) {
     s.has_nan_point = true;
     s.nan_point = nan_point;

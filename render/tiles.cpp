@@ -1,14 +1,9 @@
 #include "render/tiles.h"
 
-#include <tbb/blocked_range.h>
-#include <tbb/global_control.h>
-#include <tbb/info.h>
-#include <tbb/parallel_for.h>
-#include <tbb/task_arena.h>
-
 #include <algorithm>
 
 #include "base/check.h"
+#include "base/parallel.h"
 
 namespace hfrt::render {
 
@@ -46,28 +41,23 @@ TileLoop for_each_tile(int width, int height, int tile_size, int threads,
   const size_t all = tile_count(width, height, tile_size);
   TileLoop loop;
   loop.tiles = only ? only->size() : all;
-  loop.threads = threads > 0 ? threads : tbb::info::default_concurrency();
+  loop.threads = threads > 0 ? threads : par::default_concurrency();
   std::atomic<size_t> done{0};
   std::atomic<bool> cancelled{false};
-  // TBB caps workers at the core count unless told otherwise; --threads N means N.
-  tbb::global_control allow(tbb::global_control::max_allowed_parallelism,
-                            std::max<size_t>(loop.threads, tbb::info::default_concurrency()));
-  tbb::task_arena arena(loop.threads);
-  arena.execute([&] {
-    tbb::parallel_for(tbb::blocked_range<size_t>(0, loop.tiles, 1),
-                      [&](const tbb::blocked_range<size_t>& r) {
-                        for (size_t k = r.begin(); k != r.end(); ++k) {
-                          if (cancel && cancel->load(std::memory_order_relaxed)) {
-                            cancelled.store(true, std::memory_order_relaxed);
-                            return;
-                          }
-                          const size_t ti = only ? (*only)[k] : k;
-                          HFRT_CHECK(ti < all);
-                          fn(tile_at(width, height, tile_size, ti));
-                          size_t d = ++done;
-                          if (progress) progress(d, loop.tiles);
-                        }
-                      });
+  par::with_threads(loop.threads, [&] {
+    par::parallel_for(loop.tiles, 1, [&](size_t begin, size_t end) {
+      for (size_t k = begin; k != end; ++k) {
+        if (cancel && cancel->load(std::memory_order_relaxed)) {
+          cancelled.store(true, std::memory_order_relaxed);
+          return;
+        }
+        const size_t ti = only ? (*only)[k] : k;
+        HFRT_CHECK(ti < all);
+        fn(tile_at(width, height, tile_size, ti));
+        size_t d = ++done;
+        if (progress) progress(d, loop.tiles);
+      }
+    });
   });
   loop.cancelled = cancelled.load();
   return loop;

@@ -1,7 +1,5 @@
 #include "render/tracer.h"
 
-#include <tbb/enumerable_thread_specific.h>
-
 #include <algorithm>
 #include <atomic>
 #include <chrono>
@@ -11,6 +9,7 @@
 #include <numeric>
 
 #include "base/check.h"
+#include "base/parallel.h"
 #include "render/sampling.h"
 #include "render/texture.h"
 #include "render/tiles.h"
@@ -970,7 +969,7 @@ void trace_into(const std::vector<SceneObject>& objects, const std::vector<Mater
     std::unique_ptr<SceneTracer> tracer;
     ThreadState state;
   };
-  tbb::enumerable_thread_specific<Worker> workers([&] {
+  par::ThreadLocal<Worker> workers([&] {
     Worker w;
     w.tracer = std::make_unique<SceneTracer>(objects, materials, options, image);
     w.state = w.tracer->make_state();
@@ -990,7 +989,7 @@ void trace_into(const std::vector<SceneObject>& objects, const std::vector<Mater
   s.threads = loop.threads;
   s.cancelled = loop.cancelled;
   for (const SceneObject& o : objects) s.root_used.push_back(resolved_root(o));
-  for (Worker& w : workers) {
+  workers.for_each([&](Worker& w) {
     for (auto& rs : w.state.searchers) s.evals += rs->counters();
     for (auto& rs : w.state.negated) s.evals += rs->counters();
     s.camera_rays += w.state.camera_rays;
@@ -1000,7 +999,7 @@ void trace_into(const std::vector<SceneObject>& objects, const std::vector<Mater
     s.refined_pixels += w.state.refined;
     s.search_seconds += w.state.search_seconds;
     s.shade_seconds += w.state.shade_seconds;
-  }
+  });
   s.seconds = seconds_since(start);
 }
 
