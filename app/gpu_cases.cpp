@@ -9,6 +9,7 @@
 
 #include "app/gpu_render.h"
 #include "app/render_job.h"
+#include "gpu/check_grid.h"
 #include "hfrt/model.h"
 #include "jit/nvptx.h"
 
@@ -52,9 +53,12 @@ std::vector<std::string> model_files(const std::string& dir) {
 
 /// The eval case of `model` at the points `xs` (num_inputs coordinates, structure of arrays).
 Result<bool> write_eval_case(const fs::path& dir, const std::string& name, const Model& model,
-                             const std::vector<float>& xs, int64_t n, const std::string& sm) {
+                             const std::vector<float>& xs, int64_t n, const std::string& sm,
+                             const std::string& grid = "") {
   std::string ptx, error;
-  if (!model.device_ptx(&ptx, &error, sm)) return Error{error};
+  // The point evaluator alone: the ray caster and the interval kernel would only make the
+  // carried PTX larger (Prospero's: 6.8 MB with them).
+  if (!model.device_ptx(&ptx, &error, sm, /*eval_only=*/true)) return Error{error};
   auto kernels = model.device_kernels_on_host(&error);
   if (!kernels) return Error{error};
   const std::vector<float> a = model.code_params_f32();
@@ -65,10 +69,12 @@ Result<bool> write_eval_case(const fs::path& dir, const std::string& name, const
   std::ofstream meta(dir / "case.txt");
   meta << "kind=eval\nname=" << name << "\nn=" << n << "\nnum_inputs=" << model.num_inputs()
        << "\nnum_params=" << a.size() << "\nnum_s=0\n";
-  const bool ok = bool(meta) && write_bytes(dir / "kernel.ptx", ptx.data(), ptx.size()) &&
-                  write_floats(dir / "a.f32", a) && write_floats(dir / "xs.f32", xs) &&
-                  write_floats(dir / "expect_jit.f32", jit) &&
-                  write_floats(dir / "expect_host.f32", host);
+  // A grid's points are made by the runner (gpu::grid_points), not carried.
+  if (!grid.empty()) meta << "grid=" << grid << "\n";
+  const bool ok =
+      bool(meta) && write_bytes(dir / "kernel.ptx", ptx.data(), ptx.size()) &&
+      write_floats(dir / "a.f32", a) && (!grid.empty() || write_floats(dir / "xs.f32", xs)) &&
+      write_floats(dir / "expect_jit.f32", jit) && write_floats(dir / "expect_host.f32", host);
   if (!ok) return Error{"cannot write " + dir.string()};
   return true;
 }
@@ -94,6 +100,7 @@ Result<bool> write_render_case(const fs::path& dir, const std::string& name, con
   const int64_t pixels = int64_t(size) * size;
   const int k = gpu::kRenderFloatsPerPixel;
   std::vector<float> host(size_t(pixels) * k), want(size_t(pixels) * k);
+  std::vector<uint8_t> host8(size_t(pixels) * 4), want8(size_t(pixels) * 4);
   kernels->render(params.value(), a.data(), host.data(), 0, pixels);
   for (int64_t i = 0; i < pixels; ++i) {
     float* px = &want[size_t(i) * k];
@@ -101,16 +108,19 @@ Result<bool> write_render_case(const fs::path& dir, const std::string& name, con
     px[3] = cpu.image.alpha[i];
     px[4] = cpu.image.alpha[i] > 0 ? cpu.image.depth[i] : 0.0f;
     for (int c = 0; c < 3; ++c) px[5 + c] = cpu.image.normal[3 * i + c];
+    gpu::quantize_rgba8(px, &want8[size_t(i) * 4]);
+    gpu::quantize_rgba8(&host[size_t(i) * k], &host8[size_t(i) * 4]);
   }
   fs::create_directories(dir);
   std::ofstream meta(dir / "case.txt");
   meta << "kind=render\nname=" << name << "\nwidth=" << size << "\nheight=" << size
-       << "\nnum_params=" << a.size() << "\n";
+       << "\nnum_params=" << a.size() << "\nformat=rgba8\n";
+  // 8-bit expectations: 4 MB for 1024x1024 instead of 32 (the check travels to the GPU).
   const bool ok = bool(meta) && write_bytes(dir / "kernel.ptx", ptx.data(), ptx.size()) &&
                   write_floats(dir / "a.f32", a) &&
                   write_bytes(dir / "params.bin", &params.value(), sizeof(gpu::RenderParams)) &&
-                  write_floats(dir / "expect_host.f32", host) &&
-                  write_floats(dir / "expect_cpu.f32", want);
+                  write_bytes(dir / "expect_host.rgba8", host8.data(), host8.size()) &&
+                  write_bytes(dir / "expect_cpu.rgba8", want8.data(), want8.size());
   if (!ok) return Error{"cannot write " + dir.string()};
   return true;
 }
@@ -156,16 +166,10 @@ Result<int> write_gpu_cases(const std::string& out_dir, const GpuCaseOptions& op
     if (std::optional<Model> model = compile(options.prospero)) {
       const int side = 1024;
       const int64_t n = int64_t(side) * side;
-      std::vector<float> xs(size_t(std::max(model->num_inputs(), 1)) * size_t(n), 0.0f);
-      for (int y = 0; y < side; ++y) {
-        for (int x = 0; x < side; ++x) {
-          const size_t i = size_t(y) * side + x;
-          xs[i] = -1.0f + 2.0f * (x + 0.5f) / side;
-          xs[size_t(n) + i] = 1.0f - 2.0f * (y + 0.5f) / side;
-        }
-      }
+      const std::vector<float> xs =
+          gpu::grid_points(side, side, -1, 1, -1, 1, 0, std::max(model->num_inputs(), 1));
       auto ok = write_eval_case(fs::path(out_dir) / "prospero_1024", "prospero_1024", *model, xs, n,
-                                options.sm);
+                                options.sm, "1024,1024,-1,1,-1,1,0");
       if (!ok.ok()) return Error{"prospero: " + ok.error().message};
       log("eval case prospero_1024 (1024x1024 points)");
       ++written;

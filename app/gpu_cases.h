@@ -18,7 +18,7 @@ struct GpuCaseOptions {
   std::string models_dir;  ///< .hf models (recursively); machine-generated stress tests skipped
   std::string prospero;    ///< the Prospero model (empty: none)
   std::vector<std::string> render_models;  ///< rendered at render_size (paths)
-  int eval_points = 65536;
+  int eval_points = 16384;
   int render_size = 1024;
   std::string sm = "sm_60";
 };

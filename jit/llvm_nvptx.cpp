@@ -272,8 +272,14 @@ class KernelEmitter {
     ptr_ = b_.getPtrTy();
   }
 
-  void emit() {
+  /// All kernels, or (eval_only) the point evaluator alone.
+  void emit(bool eval_only = false) {
     body_ = emit_scalar_function(m_, fn_, Precision::kF32, 1, "");
+    if (eval_only) {
+      emit_eval_entry();
+      define_device_libm(m_);
+      return;
+    }
     if (interval_code_is_self_contained(fn_)) {
       interval_body_ =
           emit_interval_function(m_, fn_, 1, kIntervalLoopLimit, "interval_body", &interval_homes_);
@@ -1070,7 +1076,7 @@ Result<std::string> emit_ptx(const Function& fn, const PtxOptions& options) {
   llvm::Module m("hfrt_device", ctx);
   m.setTargetTriple("nvptx64-nvidia-cuda");
   m.setDataLayout(tm.value()->createDataLayout());
-  KernelEmitter(m, fn, Target::kNvptx).emit();
+  KernelEmitter(m, fn, Target::kNvptx).emit(options.eval_only);
   verify(m);
   optimize(m, tm.value().get(), options.opt_level);
   llvm::SmallString<0> ptx;

@@ -516,9 +516,11 @@ bool Model::prepare_polynomial(std::string* error) const {
   return false;
 }
 
-bool Model::device_ptx(std::string* ptx, std::string* error, const std::string& sm) const {
+bool Model::device_ptx(std::string* ptx, std::string* error, const std::string& sm,
+                       bool eval_only) const {
   jit::PtxOptions o;
   o.sm = sm;
+  o.eval_only = eval_only;
   Result<std::string> r = jit::emit_ptx(impl_->compiled->fn, o);
   if (!r.ok()) {
     if (error) *error = r.error().message;

@@ -22,6 +22,8 @@ struct PtxOptions {
   /// The GPU architecture the PTX targets; the driver JIT-compiles it for newer GPUs too.
   std::string sm = "sm_60";
   int opt_level = 2;
+  /// Only kEvalEntry (no ray caster, no interval kernel).
+  bool eval_only = false;
 };
 
 /// Why `fn` cannot run on the GPU ("" when it can): mesh and patch leaves (kSurface) read

@@ -11,6 +11,7 @@
 #include <string>
 #include <vector>
 
+#include "gpu/check_grid.h"
 #include "gpu/kernel_abi.h"
 #include "tests/tools/cli_fixture.h"
 
@@ -115,7 +116,7 @@ TEST_F(GpuRunnerTest, RunsEvalAndRenderCasesAndReportsEveryKey) {
 
   const std::string rd = line_starting(r.out, "case=rd ");
   EXPECT_TRUE(std::regex_match(
-      rd, std::regex("case=rd kind=render status=ok width=4 height=2 covered_gpu=0 "
+      rd, std::regex("case=rd kind=render status=ok width=4 height=2 format=f32 covered_gpu=0 "
                      "cover_diff_host=0 both_host=0 max_rgb_host=0 mean_rgb_host=0 "
                      "cover_diff_cpu=0.25 both_cpu=0 max_rgb_cpu=0 mean_rgb_cpu=0 "
                      "nan_mismatch_host=0 ms_min=[0-9.e+-]+ ms_median=[0-9.e+-]+ "
@@ -128,6 +129,72 @@ TEST_F(GpuRunnerTest, RunsEvalAndRenderCasesAndReportsEveryKey) {
   // The image: binary PPM, all background (black: the fake writes nothing).
   const std::string ppm = slurp(dir_ / "results" / "rd.ppm");
   EXPECT_EQ(ppm, "P6\n4 2\n255\n" + std::string(4 * 2 * 3, '\0'));
+}
+
+TEST_F(GpuRunnerTest, CompactCasesGridPointsAndRgba8Images) {
+  // An eval case whose points are a grid the runner makes (no xs.f32), and a render case with
+  // 8-bit expectations: the GPU's (untouched, zero) output quantizes to black misses, so it
+  // matches expect_host (all zero) and differs from expect_cpu in the 2 covered pixels.
+  const fs::path e = fs::path("cases") / "g";
+  write_file(e / "case.txt",
+             "kind=eval\nname=grid\nn=6\nnum_inputs=3\nnum_params=0\nnum_s=0\n"
+             "grid=3,2,-1,1,-1,1,0.5\n");
+  write_file(e / "kernel.ptx", ptx_with(kEvalEntry));
+  write_file(e / "a.f32", "");
+  write_file(e / "expect_jit.f32", bytes_of(std::vector<float>(6, 0.0f)));
+  write_file(e / "expect_host.f32", bytes_of(std::vector<float>(6, 0.0f)));
+  const fs::path r = fs::path("cases") / "r";
+  write_file(r / "case.txt",
+             "kind=render\nname=small\nwidth=4\nheight=2\nnum_params=0\nformat=rgba8\n");
+  write_file(r / "kernel.ptx", ptx_with(kRenderEntry));
+  write_file(r / "a.f32", "");
+  RenderParams p{};
+  p.width = 4;
+  p.height = 2;
+  write_file(r / "params.bin", std::string(reinterpret_cast<const char*>(&p), sizeof p));
+  write_file(r / "expect_host.rgba8", std::string(4 * 2 * 4, '\0'));
+  std::string cpu(4 * 2 * 4, '\0');
+  for (int px : {1, 6}) cpu[size_t(px) * 4 + 3] = char(255);
+  write_file(r / "expect_cpu.rgba8", cpu);
+  CliRun run = runner("cases");
+  EXPECT_EQ(run.exit_code, 0) << run.out << run.err;
+  EXPECT_TRUE(std::regex_search(line_starting(run.out, "case=grid "),
+                                std::regex("status=ok n=6 max_ulp_jit=0 max_ulp_host=0")))
+      << run.out;
+  EXPECT_TRUE(std::regex_search(line_starting(run.out, "case=small "),
+                                std::regex("status=ok width=4 height=2 format=rgba8 covered_gpu=0 "
+                                           "cover_diff_host=0 .* cover_diff_cpu=0.25 ")))
+      << run.out;
+  // A grid that does not match n, and an unknown format, are case errors.
+  write_file(
+      e / "case.txt",
+      "kind=eval\nname=grid\nn=6\nnum_inputs=3\nnum_params=0\nnum_s=0\ngrid=4,2,-1,1,-1,1,0\n");
+  write_file(r / "case.txt",
+             "kind=render\nname=small\nwidth=4\nheight=2\nnum_params=0\nformat=png\n");
+  run = runner("cases");
+  EXPECT_EQ(run.exit_code, 1);
+  EXPECT_NE(run.out.find("error=case.txt: grid=4,2,-1,1,-1,1,0 (W,H,X0,X1,Y0,Y1,Z with W*H = n)"),
+            std::string::npos)
+      << run.out;
+  EXPECT_NE(run.out.find("error=case.txt: format=png (f32 or rgba8)"), std::string::npos)
+      << run.out;
+}
+
+TEST(GpuCheckGrid, PointsAreThePixelCentresRowZeroAtTheTop) {
+  const std::vector<float> xs = grid_points(2, 2, -1, 1, -1, 1, 0.25f, 3);
+  ASSERT_EQ(xs.size(), 12u);
+  EXPECT_EQ(xs[0], -0.5f);
+  EXPECT_EQ(xs[1], 0.5f);
+  EXPECT_EQ(xs[4 + 0], 0.5f);  // y of row 0
+  EXPECT_EQ(xs[4 + 2], -0.5f);
+  EXPECT_EQ(xs[8 + 3], 0.25f);
+  uint8_t q[4];
+  const float px[4] = {1.0f, 0.0f, 0.5f, 1.0f};
+  quantize_rgba8(px, q);
+  EXPECT_EQ(q[0], 255);
+  EXPECT_EQ(q[1], 0);
+  EXPECT_EQ(q[2], 188);  // sRGB of 0.5
+  EXPECT_EQ(q[3], 255);
 }
 
 TEST_F(GpuRunnerTest, WithoutOutNoImagesAreWritten) {

@@ -250,6 +250,22 @@ my_model(x[3], a[1]) {
   EXPECT_NE(ptx.value().find(".f64"), std::string::npos);
 }
 
+TEST(Nvptx, EvalOnlyPtxHasThePointEvaluatorAlone) {
+  testutil::Compiled c =
+      testutil::compile("my_model(x[3], a[1]) { my_model = 1 - x[1]*x[1] - x[2]*x[2]; }");
+  ASSERT_TRUE(c.ok);
+  PtxOptions o;
+  o.eval_only = true;
+  Result<std::string> ptx = emit_ptx(c.fn, o);
+  ASSERT_TRUE(ptx.ok());
+  EXPECT_EQ(entry_params(ptx.value(), gpu::kEvalEntry), 5);
+  EXPECT_EQ(entry_params(ptx.value(), gpu::kRenderEntry), -1);
+  EXPECT_EQ(entry_params(ptx.value(), gpu::kIntervalEntry), -1);
+  Result<std::string> all = emit_ptx(c.fn);
+  ASSERT_TRUE(all.ok());
+  EXPECT_LT(ptx.value().size(), all.value().size() / 2);
+}
+
 TEST(Nvptx, MeshLeavesAreRefusedWithTheReason) {
   Function fn;
   fn.surfaces.emplace_back();

@@ -15,6 +15,7 @@
 #include <vector>
 
 #include "base/file.h"
+#include "gpu/check_grid.h"
 #include "gpu/kernel_abi.h"
 
 namespace hfrt::gpu_runner {
@@ -205,12 +206,6 @@ Result<Timing> time_launches(gpu::CudaModule& module, const char* entry, int64_t
   return Timing{ms.front(), ms.size() % 2 ? ms[k] : 0.5 * (ms[k - 1] + ms[k])};
 }
 
-float linear_to_srgb(float v) {
-  if (!(v > 0)) return 0;  // also NaN
-  if (v >= 1) return 1;
-  return v <= 0.0031308f ? 12.92f * v : 1.055f * std::pow(v, 1.0f / 2.4f) - 0.055f;
-}
-
 /// Binary PPM (P6) of the r, g, b of each pixel, sRGB-encoded and clamped.
 Result<bool> write_ppm(const fs::path& path, const std::vector<float>& image, int width,
                        int height) {
@@ -223,7 +218,7 @@ Result<bool> write_ppm(const fs::path& path, const std::vector<float>& image, in
       const float* px = &image[(static_cast<size_t>(y) * width + x) * gpu::kRenderFloatsPerPixel];
       for (int c = 0; c < 3; ++c) {
         row[static_cast<size_t>(x) * 3 + c] =
-            static_cast<unsigned char>(std::lround(linear_to_srgb(px[c]) * 255.0f));
+            static_cast<unsigned char>(std::lround(gpu::linear_to_srgb(px[c]) * 255.0f));
       }
     }
     out.write(reinterpret_cast<const char*>(row.data()), static_cast<std::streamsize>(row.size()));
@@ -248,7 +243,20 @@ Result<Report> run_eval(gpu::CudaDevice& device, gpu::CudaModule& module, const 
   for (const auto* r : {&n, &num_inputs, &num_params, &num_s}) {
     if (!*r) return r->error();
   }
-  auto xs = read_floats(dir, "xs.f32", *num_inputs * *n);
+  // The points: xs.f32, or `grid=W,H,X0,X1,Y0,Y1,Z` (gpu/check_grid.h).
+  Result<std::vector<float>> xs = std::vector<float>{};
+  if (auto g = c.values.find("grid"); g != c.values.end()) {
+    double v[7];
+    if (std::sscanf(g->second.c_str(), "%lf,%lf,%lf,%lf,%lf,%lf,%lf", &v[0], &v[1], &v[2], &v[3],
+                    &v[4], &v[5], &v[6]) != 7 ||
+        !(v[0] >= 1) || !(v[1] >= 1) || v[0] * v[1] != double(*n)) {
+      return Error{"case.txt: grid=" + g->second + " (W,H,X0,X1,Y0,Y1,Z with W*H = n)"};
+    }
+    xs = gpu::grid_points(int(v[0]), int(v[1]), float(v[2]), float(v[3]), float(v[4]), float(v[5]),
+                          float(v[6]), int(*num_inputs));
+  } else {
+    xs = read_floats(dir, "xs.f32", *num_inputs * *n);
+  }
   if (!xs) return xs.error();
   auto a = read_floats(dir, "a.f32", *num_params);
   if (!a) return a.error();
@@ -318,9 +326,37 @@ Result<Report> run_render(gpu::CudaDevice& device, gpu::CudaModule& module, cons
   const int64_t floats = pixels * gpu::kRenderFloatsPerPixel;
   auto a = read_floats(dir, "a.f32", *num_params);
   if (!a) return a.error();
-  auto expect_host = read_floats(dir, "expect_host.f32", floats);
+  // The expectations: kRenderFloatsPerPixel floats a pixel (format=f32, the default), or
+  // 8-bit sRGB + coverage (format=rgba8, gpu::quantize_rgba8), which the GPU's output is
+  // then quantized to before comparing.
+  std::string format = "f32";
+  if (auto f = c.values.find("format"); f != c.values.end()) format = f->second;
+  if (format != "f32" && format != "rgba8") {
+    return Error{"case.txt: format=" + format + " (f32 or rgba8)"};
+  }
+  const bool rgba8 = format == "rgba8";
+  auto read_rgba8 = [&](const char* file) -> Result<std::vector<float>> {
+    auto bytes = read_file((dir / file).string());
+    if (!bytes) return bytes.error();
+    if (bytes->size() != size_t(pixels) * 4) {
+      return Error{std::string(file) + " has " + std::to_string(bytes->size()) +
+                   " bytes, expected " + std::to_string(size_t(pixels) * 4) + " (rgba8)"};
+    }
+    // As kernel-output-shaped floats in 8-bit units / 255, for compare_images.
+    std::vector<float> v(size_t(pixels) * gpu::kRenderFloatsPerPixel, 0.0f);
+    for (int64_t p = 0; p < pixels; ++p) {
+      for (int ch = 0; ch < 4; ++ch) {
+        v[size_t(p) * gpu::kRenderFloatsPerPixel + ch] =
+            float(static_cast<unsigned char>((*bytes)[size_t(p) * 4 + ch])) / 255.0f;
+      }
+    }
+    return v;
+  };
+  auto expect_host =
+      rgba8 ? read_rgba8("expect_host.rgba8") : read_floats(dir, "expect_host.f32", floats);
   if (!expect_host) return expect_host.error();
-  auto expect_cpu = read_floats(dir, "expect_cpu.f32", floats);
+  auto expect_cpu =
+      rgba8 ? read_rgba8("expect_cpu.rgba8") : read_floats(dir, "expect_cpu.f32", floats);
   if (!expect_cpu) return expect_cpu.error();
 
   auto p_buf = upload(device, &rp, sizeof rp, "params");
@@ -338,8 +374,18 @@ Result<Report> run_render(gpu::CudaDevice& device, gpu::CudaModule& module, cons
     return Error{"out: " + r.error().message};
   }
 
-  const ImageStats host = compare_images(out, *expect_host, pixels);
-  const ImageStats cpu = compare_images(out, *expect_cpu, pixels);
+  std::vector<float> compared = out;
+  if (rgba8) {
+    for (int64_t p = 0; p < pixels; ++p) {
+      float* px = &compared[size_t(p) * gpu::kRenderFloatsPerPixel];
+      uint8_t q[4];
+      gpu::quantize_rgba8(px, q);
+      for (int ch = 0; ch < gpu::kRenderFloatsPerPixel; ++ch)
+        px[ch] = ch < 4 ? float(q[ch]) / 255.0f : 0.0f;
+    }
+  }
+  const ImageStats host = compare_images(compared, *expect_host, pixels);
+  const ImageStats cpu = compare_images(compared, *expect_cpu, pixels);
   int64_t covered_gpu = 0;
   for (int64_t p = 0; p < pixels; ++p) {
     covered_gpu += covered(&out[static_cast<size_t>(p * gpu::kRenderFloatsPerPixel)]);
@@ -353,8 +399,9 @@ Result<Report> run_render(gpu::CudaDevice& device, gpu::CudaModule& module, cons
            t + "=" + fmt_float(s.mean_rgb);
   };
   rep.fields = " width=" + std::to_string(*width) + " height=" + std::to_string(*height) +
-               " covered_gpu=" + std::to_string(covered_gpu) + stats(host, "host") +
-               stats(cpu, "cpu") + " nan_mismatch_host=" + std::to_string(host.nan_mismatch) +
+               " format=" + format + " covered_gpu=" + std::to_string(covered_gpu) +
+               stats(host, "host") + stats(cpu, "cpu") +
+               " nan_mismatch_host=" + std::to_string(host.nan_mismatch) +
                " ms_min=" + fmt_ms(timing->min) + " ms_median=" + fmt_ms(timing->median);
   if (!options.out_dir.empty()) {
     const fs::path image = options.out_dir / (name + ".ppm");

@@ -19,7 +19,7 @@ struct GpuCasesCli {
   std::string out;
   std::string corpus;  ///< --corpus, else $HFRT_CORPUS_DIR, else ../shared/corpus
   std::vector<std::string> render;
-  int points = 65536;
+  int points = 16384;
   int size = 1024;
   std::string sm = "sm_60";
 };
@@ -64,7 +64,7 @@ CommandRunner register_gpu_cases(CLI::App& app) {
   sub->add_option("--corpus", cli->corpus,
                   "the corpus folder (default $HFRT_CORPUS_DIR, else ../shared/corpus)");
   sub->add_option("--render", cli->render, "models to make render cases of");
-  sub->add_option("--points", cli->points, "points per eval case (default 65536)");
+  sub->add_option("--points", cli->points, "points per eval case (default 16384)");
   sub->add_option("--size", cli->size, "render case size (default 1024)");
   sub->add_option("--sm", cli->sm, "GPU architecture of the PTX (default sm_60)");
   return [cli] { return run_gpu_cases(*cli); };

@@ -333,7 +333,9 @@ class Model {
   /// compiles it for newer ones), made by LLVM's NVPTX back end from the same IR as the CPU
   /// code. False with `error` when the object cannot run on the GPU (mesh and patch leaves)
   /// or LLVM lacks the NVPTX back end.
-  bool device_ptx(std::string* ptx, std::string* error, const std::string& sm = "sm_60") const;
+  /// With `eval_only`, only the point evaluator (kEvalEntry): smaller PTX, a quicker build.
+  bool device_ptx(std::string* ptx, std::string* error, const std::string& sm = "sm_60",
+                  bool eval_only = false) const;
   /// The same kernels (the same LLVM code) compiled for this CPU: what the GPU computes,
   /// without a GPU (tests, the device check's expectations, `--device cuda-host`). Null with
   /// `error` as for device_ptx. Each call compiles anew.
