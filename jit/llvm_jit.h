@@ -49,6 +49,7 @@ struct JitStats {
   int lanes = 0;
   size_t llvm_insts_before = 0;  ///< LLVM instructions before / after optimisation
   size_t llvm_insts_after = 0;
+  bool from_cache = false;  ///< the code came from the compile cache (hfrt/compile_cache.h)
   double total_ms() const { return emit_ms + optimize_ms + codegen_ms; }
 };
 

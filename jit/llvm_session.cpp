@@ -2,8 +2,11 @@
 
 #include "jit/llvm_session.h"
 
+#include <llvm/Bitcode/BitcodeWriter.h>
 #include <llvm/ExecutionEngine/Orc/CompileUtils.h>
+#include <llvm/IR/Operator.h>
 #include <llvm/Passes/StandardInstrumentations.h>
+#include <llvm/Support/BLAKE3.h>
 #include <llvm/Support/MemoryBuffer.h>
 #include <llvm/Support/Timer.h>
 #include <llvm/Transforms/Scalar/DCE.h>
@@ -18,6 +21,8 @@
 
 #include "base/check.h"
 #include "base/timer.h"
+#include "hfrt/compile_cache.h"
+#include "jit/compile_cache.h"
 #include "jit/surface_ops.h"
 
 namespace hfrt::jit {
@@ -98,10 +103,37 @@ PipelineOptions domain_pipeline(int opt_level) {
 }
 
 CompiledCode::~CompiledCode() {
-  if (tracker_) {
-    if (auto err = tracker_->remove()) llvm::consumeError(std::move(err));
+  if (dylib_) {
+    if (auto err = session_->removeJITDylib(*dylib_)) llvm::consumeError(std::move(err));
   }
 }
+
+namespace {
+
+/// The name every compile's entry gets in its own JITDylib.
+constexpr const char* kEntryName = "hfrt_entry";
+/// Bumped whenever something that shapes the machine code but not the IR changes (the
+/// session's codegen options, the pipelines): old entries then stop matching.
+constexpr int kCacheFormat = 1;
+
+/// Whether `module` holds an address of this process (an integer turned into a pointer: the
+/// mesh and patch leaves' surfaces): such code must not be cached.
+bool holds_process_addresses(const llvm::Module& module) {
+  for (const llvm::Function& f : module) {
+    for (const llvm::BasicBlock& bb : f) {
+      for (const llvm::Instruction& inst : bb) {
+        for (const llvm::Use& op : inst.operands()) {
+          if (auto* ce = llvm::dyn_cast<llvm::ConstantExpr>(op.get())) {
+            if (ce->getOpcode() == llvm::Instruction::IntToPtr) return true;
+          }
+        }
+      }
+    }
+  }
+  return false;
+}
+
+}  // namespace
 
 Result<LlvmSession*> LlvmSession::get() {
   static Result<LlvmSession*> session = create();
@@ -201,81 +233,152 @@ Result<std::unique_ptr<CompiledCode>> LlvmSession::compile(ModuleUnit unit,
     llvm::raw_string_ostream os(msg);
     HFRT_CHECK_MSG(!llvm::verifyModule(module, &os), "invalid LLVM IR emitted: " << os.str());
   }
-  auto tm_or = jtmb_.createTargetMachine();
-  if (!tm_or) {
-    return Error{"cannot create the target machine: " + llvm_error_text(tm_or.takeError())};
+  // Names that do not depend on the session: the entry's is fixed (each compile links into a
+  // JITDylib of its own), the other external functions become internal and nameless.
+  llvm::Function* entry_fn = module.getFunction(entry);
+  HFRT_CHECK_MSG(entry_fn && !entry_fn->isDeclaration(), "no function " << entry << " to compile");
+  std::vector<llvm::Function*> fast;
+  for (const std::string& name : options.fast_codegen) {
+    if (llvm::Function* f = module.getFunction(name)) fast.push_back(f);
   }
-  std::unique_ptr<llvm::TargetMachine> tm = std::move(*tm_or);
-  tm->setOptLevel(options.codegen);
+  entry_fn->setName(kEntryName);
+  module.setModuleIdentifier("hfrt");
+  module.setSourceFileName("hfrt");
+  for (llvm::Function& f : module) {
+    if (&f != entry_fn && !f.isDeclaration() && !f.hasLocalLinkage()) {
+      f.setLinkage(llvm::GlobalValue::InternalLinkage);
+      f.setName("");
+    }
+  }
   if (stats) stats->llvm_insts_before = count_insts(module);
 
-  // --- Optimisation (new pass manager).
-  auto t0 = std::chrono::steady_clock::now();
-  {
-    llvm::LoopAnalysisManager lam;
-    llvm::FunctionAnalysisManager fam;
-    llvm::CGSCCAnalysisManager cgam;
-    llvm::ModuleAnalysisManager mam;
-    // Standard instrumentation makes -time-passes and -print-after-all (HFRT_LLVM_ARGS) work.
-    llvm::PassInstrumentationCallbacks pic;
-    llvm::StandardInstrumentations si(*unit.ctx, /*DebugLogging=*/false);
-    si.registerCallbacks(pic, &mam);
-    llvm::PassBuilder pb(tm.get(), llvm::PipelineTuningOptions(), std::nullopt, &pic);
-    pb.registerModuleAnalyses(mam);
-    pb.registerCGSCCAnalyses(cgam);
-    pb.registerFunctionAnalyses(fam);
-    pb.registerLoopAnalyses(lam);
-    pb.crossRegisterProxies(lam, fam, cgam, mam);
-    llvm::ModulePassManager mpm;
-    if (options.light) {
-      // Promote slots to registers and share common subexpressions, but keep the emitter's
-      // basic blocks (no SimplifyCFG, no instcombine).
-      llvm::FunctionPassManager fpm;
-      fpm.addPass(llvm::SROAPass(llvm::SROAOptions::PreserveCFG));
-      fpm.addPass(llvm::EarlyCSEPass());
-      fpm.addPass(llvm::DCEPass());
-      mpm.addPass(llvm::createModuleToFunctionPassAdaptor(std::move(fpm)));
-    } else if (options.opt_level <= 0) {
-      mpm = pb.buildO0DefaultPipeline(llvm::OptimizationLevel::O0);
+  // The compile cache: the key is the IR before optimisation and everything else that shapes
+  // the machine code.
+  std::string key;
+  std::unique_ptr<llvm::MemoryBuffer> object;
+  if (compile_cache_enabled()) {
+    if (holds_process_addresses(module)) {
+      compile_cache_bypass();
     } else {
-      llvm::OptimizationLevel level = options.opt_level == 1   ? llvm::OptimizationLevel::O1
-                                      : options.opt_level == 2 ? llvm::OptimizationLevel::O2
-                                                               : llvm::OptimizationLevel::O3;
-      mpm = pb.buildPerModuleDefaultPipeline(level);
+      llvm::SmallVector<char, 0> bitcode;
+      llvm::raw_svector_ostream bos(bitcode);
+      llvm::WriteBitcodeToFile(module, bos);
+      std::string ctx = "format " + std::to_string(kCacheFormat) + "\nllvm " LLVM_VERSION_STRING +
+                        "\ncpu " + cpu_ + "\ntriple " + triple_ + "\nlayout " + data_layout_ +
+                        "\nopt " + std::to_string(options.opt_level) +
+                        (options.light ? " light" : "") + " codegen " +
+                        std::to_string(static_cast<int>(options.codegen)) + "\nfast";
+      for (llvm::Function* f : fast) ctx += " " + std::to_string(f == entry_fn ? 0 : 1);
+      for (const std::string& feature : jtmb_.getFeatures().getFeatures()) ctx += "\n" + feature;
+      llvm::BLAKE3 hash;
+      hash.update(llvm::ArrayRef<uint8_t>(reinterpret_cast<const uint8_t*>(bitcode.data()),
+                                          bitcode.size()));
+      hash.update(ctx);
+      const auto digest = hash.final();
+      static const char* kHex = "0123456789abcdef";
+      for (uint8_t b : digest) {
+        key.push_back(kHex[b >> 4]);
+        key.push_back(kHex[b & 15]);
+      }
+      if (std::optional<std::string> cached = compile_cache_load(key)) {
+        object = llvm::MemoryBuffer::getMemBufferCopy(*cached, key);
+        if (stats) stats->from_cache = true;
+        if (options.keep_ir && ir_text) {
+          ir_text->assign("; from hfrt's compile cache: the IR before optimisation\n");
+          llvm::raw_string_ostream os(*ir_text);
+          module.print(os, nullptr);
+        }
+      }
     }
-    mpm.run(module, mam);
   }
-  for (const std::string& name : options.fast_codegen) {
-    if (llvm::Function* f = module.getFunction(name)) {
+
+  auto t0 = std::chrono::steady_clock::now();
+  if (!object) {
+    auto tm_or = jtmb_.createTargetMachine();
+    if (!tm_or) {
+      return Error{"cannot create the target machine: " + llvm_error_text(tm_or.takeError())};
+    }
+    std::unique_ptr<llvm::TargetMachine> tm = std::move(*tm_or);
+    tm->setOptLevel(options.codegen);
+
+    // --- Optimisation (new pass manager).
+    {
+      llvm::LoopAnalysisManager lam;
+      llvm::FunctionAnalysisManager fam;
+      llvm::CGSCCAnalysisManager cgam;
+      llvm::ModuleAnalysisManager mam;
+      // Standard instrumentation makes -time-passes and -print-after-all (HFRT_LLVM_ARGS) work.
+      llvm::PassInstrumentationCallbacks pic;
+      llvm::StandardInstrumentations si(*unit.ctx, /*DebugLogging=*/false);
+      si.registerCallbacks(pic, &mam);
+      llvm::PassBuilder pb(tm.get(), llvm::PipelineTuningOptions(), std::nullopt, &pic);
+      pb.registerModuleAnalyses(mam);
+      pb.registerCGSCCAnalyses(cgam);
+      pb.registerFunctionAnalyses(fam);
+      pb.registerLoopAnalyses(lam);
+      pb.crossRegisterProxies(lam, fam, cgam, mam);
+      llvm::ModulePassManager mpm;
+      if (options.light) {
+        // Promote slots to registers and share common subexpressions, but keep the emitter's
+        // basic blocks (no SimplifyCFG, no instcombine).
+        llvm::FunctionPassManager fpm;
+        fpm.addPass(llvm::SROAPass(llvm::SROAOptions::PreserveCFG));
+        fpm.addPass(llvm::EarlyCSEPass());
+        fpm.addPass(llvm::DCEPass());
+        mpm.addPass(llvm::createModuleToFunctionPassAdaptor(std::move(fpm)));
+      } else if (options.opt_level <= 0) {
+        mpm = pb.buildO0DefaultPipeline(llvm::OptimizationLevel::O0);
+      } else {
+        llvm::OptimizationLevel level = options.opt_level == 1   ? llvm::OptimizationLevel::O1
+                                        : options.opt_level == 2 ? llvm::OptimizationLevel::O2
+                                                                 : llvm::OptimizationLevel::O3;
+        mpm = pb.buildPerModuleDefaultPipeline(level);
+      }
+      mpm.run(module, mam);
+    }
+    for (llvm::Function* f : fast) {
       f->addFnAttr(llvm::Attribute::NoInline);
       f->addFnAttr(llvm::Attribute::OptimizeNone);
     }
-  }
-  if (stats) {
-    stats->optimize_ms = ms_since(t0);
-    stats->llvm_insts_after = count_insts(module);
-  }
-  if (options.keep_ir && ir_text) {
-    ir_text->clear();
-    llvm::raw_string_ostream os(*ir_text);
-    module.print(os, nullptr);
+    if (stats) {
+      stats->optimize_ms = ms_since(t0);
+      stats->llvm_insts_after = count_insts(module);
+    }
+    if (options.keep_ir && ir_text) {
+      ir_text->clear();
+      llvm::raw_string_ostream os(*ir_text);
+      module.print(os, nullptr);
+    }
+
+    // --- Code generation (here rather than lazily in ORC, at the level asked for).
+    t0 = std::chrono::steady_clock::now();
+    llvm::orc::SimpleCompiler compiler(*tm);
+    auto compiled = compiler(module);
+    if (!compiled) {
+      return Error{"cannot compile " + entry + ": " + llvm_error_text(compiled.takeError())};
+    }
+    object = std::move(*compiled);
+    if (!key.empty()) compile_cache_store(key, object->getBuffer());
   }
 
-  // --- Code generation (here rather than lazily in ORC, at the level asked for) and linking.
-  t0 = std::chrono::steady_clock::now();
-  llvm::orc::SimpleCompiler compiler(*tm);
-  auto object = compiler(module);
-  if (!object) return Error{"cannot compile " + entry + ": " + llvm_error_text(object.takeError())};
-  auto tracker = jit_->getMainJITDylib().createResourceTracker();
-  if (auto err = jit_->addObjectFile(tracker, std::move(*object))) {
-    return Error{"cannot add the object to the JIT: " + llvm_error_text(std::move(err))};
+  // --- Linking, into a JITDylib of its own (which sees the host symbols of the main one).
+  auto dylib = jit_->createJITDylib(unit.name);
+  if (!dylib) return Error{"cannot create a JITDylib: " + llvm_error_text(dylib.takeError())};
+  llvm::orc::JITDylib& jd = *dylib;
+  jd.addToLinkOrder(jit_->getMainJITDylib());  // libm and hfrt's helpers
+  auto drop = [&](std::string message) -> Error {
+    if (auto err = jit_->getExecutionSession().removeJITDylib(jd)) {
+      llvm::consumeError(std::move(err));
+    }
+    return Error{std::move(message)};
+  };
+  if (auto err = jit_->addObjectFile(jd, std::move(object))) {
+    return drop("cannot add the object to the JIT: " + llvm_error_text(std::move(err)));
   }
-  auto sym = jit_->lookup(entry);
-  if (!sym) {
-    if (auto err = tracker->remove()) llvm::consumeError(std::move(err));
-    return Error{"cannot link " + entry + ": " + llvm_error_text(sym.takeError())};
-  }
-  auto code = std::make_unique<CompiledCode>(tracker, sym->toPtr<void*>());
+  auto sym = jit_->lookup(jd, kEntryName);
+  if (!sym) return drop("cannot link " + entry + ": " + llvm_error_text(sym.takeError()));
+  auto code =
+      std::make_unique<CompiledCode>(&jit_->getExecutionSession(), &jd, sym->toPtr<void*>());
   if (stats) stats->codegen_ms = ms_since(t0);
   // The context and module die here: the object code no longer needs them.
   return code;

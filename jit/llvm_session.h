@@ -76,11 +76,12 @@ struct ModuleUnit {
   std::string name;  ///< unique in the session: use it as the entry function's name
 };
 
-/// Machine code owned through a ResourceTracker: freed when this is destroyed.
+/// Machine code in its own JITDylib (so that every compile's entry has the same name, and equal
+/// code has equal IR for the compile cache): freed, with the JITDylib, when this is destroyed.
 class CompiledCode {
  public:
-  CompiledCode(llvm::orc::ResourceTrackerSP tracker, void* entry)
-      : tracker_(std::move(tracker)), entry_(entry) {}
+  CompiledCode(llvm::orc::ExecutionSession* session, llvm::orc::JITDylib* dylib, void* entry)
+      : session_(session), dylib_(dylib), entry_(entry) {}
   ~CompiledCode();
   CompiledCode(const CompiledCode&) = delete;
   CompiledCode& operator=(const CompiledCode&) = delete;
@@ -88,7 +89,8 @@ class CompiledCode {
   void* entry() const { return entry_; }
 
  private:
-  llvm::orc::ResourceTrackerSP tracker_;
+  llvm::orc::ExecutionSession* session_;
+  llvm::orc::JITDylib* dylib_;
   void* entry_;
 };
 
@@ -108,9 +110,13 @@ class LlvmSession {
   ModuleUnit new_module(std::string_view prefix);
 
   /// Verifies (HFRT_CHECK: the emitters' output must be valid), optimises and compiles
-  /// `unit`, links it under a fresh ResourceTracker and returns the address of the function
-  /// named `entry`. Fills optimize_ms, codegen_ms and the instruction counts of `stats`
-  /// (emit_ms and lanes are the caller's), and `*ir_text` when options.keep_ir.
+  /// `unit`, links it into a JITDylib of its own and returns the address of the function
+  /// named `entry` (renamed there; the module's other external functions become internal:
+  /// only the entry is looked up). Code equal to an earlier compile's (of this or another
+  /// process) comes from the compile cache (hfrt/compile_cache.h) instead, unless it holds
+  /// addresses of this process. Fills optimize_ms, codegen_ms, from_cache and the
+  /// instruction counts of `stats` (emit_ms and lanes are the caller's), and `*ir_text` when
+  /// options.keep_ir (the IR before optimisation when the code came from the cache).
   Result<std::unique_ptr<CompiledCode>> compile(ModuleUnit unit, const std::string& entry,
                                                 const PipelineOptions& options, JitStats* stats,
                                                 std::string* ir_text = nullptr);

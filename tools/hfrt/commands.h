@@ -25,6 +25,7 @@ CommandRunner register_repl(CLI::App& app);
 CommandRunner register_emit(CLI::App& app);
 CommandRunner register_mesh(CLI::App& app);
 CommandRunner register_gpu_cases(CLI::App& app);
+CommandRunner register_cache(CLI::App& app);
 
 /// True when the stream is a terminal and colour is not disabled (NO_COLOR, TERM=dumb).
 bool use_color(int fd);

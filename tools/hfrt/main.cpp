@@ -7,6 +7,7 @@
 #include <utility>
 #include <vector>
 
+#include "hfrt/compile_cache.h"
 #include "jit/driver.h"
 #include "lang/diagnostics.h"
 #include "tools/hfrt/commands.h"
@@ -33,12 +34,19 @@ bool report_no_object(const jit::LoweredSource& lowered, const std::string& file
 int main(int argc, char** argv) {
   CLI::App app{"hfrt: a compiler and ray tracer for the HyperFun FRep modelling language"};
   app.require_subcommand(1);
+  bool no_cache = false;
+  app.add_flag("--no-cache", no_cache,
+               "compile without the compile cache on disk (also HFRT_NO_CACHE=1; `hfrt cache`)");
   std::vector<std::pair<CLI::App*, hfrt::tools::CommandRunner>> commands;
   auto add = [&](hfrt::tools::CommandRunner (*reg)(CLI::App&)) {
     size_t before = app.get_subcommands({}).size();
     auto runner = reg(app);
     auto subs = app.get_subcommands({});
-    if (subs.size() > before) commands.emplace_back(subs.back(), std::move(runner));
+    if (subs.size() > before) {
+      // `hfrt render ... --no-cache`: the subcommands pass the main options up.
+      subs.back()->fallthrough();
+      commands.emplace_back(subs.back(), std::move(runner));
+    }
   };
   add(hfrt::tools::register_check);
   add(hfrt::tools::register_ir);
@@ -49,6 +57,7 @@ int main(int argc, char** argv) {
   add(hfrt::tools::register_emit);
   add(hfrt::tools::register_mesh);
   add(hfrt::tools::register_gpu_cases);
+  add(hfrt::tools::register_cache);
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
@@ -57,6 +66,7 @@ int main(int argc, char** argv) {
     const int code = app.exit(e);
     return code == 0 ? 0 : 2;
   }
+  if (no_cache) hfrt::configure_compile_cache(false);
   for (auto& [sub, run] : commands) {
     if (sub->parsed()) return run();
   }
