@@ -8,7 +8,7 @@ set -euo pipefail
 packages=(
   build-essential cmake ninja-build pkg-config
   python3  # scripts/check-layers.py (a test of make test)
-  povray   # the independent reference of the `hfrt emit --pov` tests
+  povray   # the independent reference of the `hfrt emit --pov` and example silhouette tests
   llvm-19-dev
   libcli11-dev
   libopenimageio-dev openimageio-tools libopencv-core-dev
@@ -20,7 +20,7 @@ packages=(
   libassimp-dev
   zlib1g-dev libzstd-dev
   libtomlplusplus-dev                                   # scene files (render/scene)
-  pybind11-dev python3-dev python3-numpy python3-pytest  # the Python module and its tests
+  pybind11-dev python3-dev python3-numpy python3-pytest  # the Python module, its tests, the numpy ray-cast reference
   python3-skimage                                       # the marching-cubes peer of the mesher tests/bench
   libopenmpi-dev openmpi-bin                            # rendering across processes (cluster/, mpirun tests)
   ffmpeg                                                # `hfrt render --video` and its test

@@ -238,6 +238,15 @@ TEST(ProbeValuesFile, LanguageProbesAreFound) {
   bool has_math = false;
   for (const auto& p : probes) has_math |= p.find("math_builtins") != std::string::npos;
   EXPECT_TRUE(has_math);
+  // language_probes() passes over a file it cannot read: none may be unreadable.
+  int files = 0;
+  for (const std::string& path : probe::list_probe_value_files(kCorpus)) {
+    probe::ProbeValues v;
+    std::string err;
+    EXPECT_TRUE(probe::read_probe_values(path, &v, &err)) << path << ": " << err;
+    ++files;
+  }
+  EXPECT_GE(files, 63);  // the corpus's probe-value files (2026-12)
 }
 
 TEST(ProbeValuesFile, ReaderParsesHeaderPointsAndAttributes) {

@@ -3,9 +3,11 @@
 // reports a run-time error) and with the reference interpreter; on every corpus model it
 // must agree with the interpreter on a grid.
 //
-// A file whose lowering is not possible yet (a library function still missing) would abort
-// in the lowering; each file is therefore first lowered in a forked child, and skipped (with
-// the reason) when the child does not finish cleanly.
+// Every corpus file must lower: each is first compiled in a forked child, so that an abort
+// (HFRT_CHECK) in the lowering fails that file's test with the reason instead of ending the
+// whole run; a file that does not compile or aborts is a failure, never a skip. The number of
+// files compared is asserted, so that a corpus that moved or shrank cannot pass by comparing
+// nothing.
 
 #include <fcntl.h>
 #include <gtest/gtest.h>
@@ -72,9 +74,8 @@ TEST_P(ProbeConformance, JitAgreesWithOriginalAndInterpreter) {
   std::string err;
   ASSERT_TRUE(probe::read_probe_values(GetParam(), &ref, &err)) << err;
   const std::string model_path = probe::probe_model_path(HFRT_CORPUS_DIR, ref);
-  if (!compiles_in_child(model_path, ref.selected)) {
-    GTEST_SKIP() << model_path << " does not lower yet (library function missing?)";
-  }
+  ASSERT_TRUE(compiles_in_child(model_path, ref.selected))
+      << model_path << " does not compile, or aborts in the lowering (see `hfrt ir` on it)";
   ModelOptions mo;
   mo.object = ref.selected;
   CompileResult jit = Model::compile_file(model_path, mo);
@@ -84,6 +85,7 @@ TEST_P(ProbeConformance, JitAgreesWithOriginalAndInterpreter) {
   ASSERT_TRUE(interp.ok()) << interp.rendered;
 
   const size_t n = ref.points.size();
+  ASSERT_GT(n, 0u) << GetParam() << " has no probe points";
   const int nx = jit.model->num_inputs();
   const int ns = jit.model->num_attributes();
   std::vector<double> xs(static_cast<size_t>(nx) * n, 0.0), f(n), s(static_cast<size_t>(ns) * n);
@@ -159,7 +161,8 @@ class ModelConformance : public ::testing::TestWithParam<std::string> {};
 
 TEST_P(ModelConformance, JitAgreesWithInterpreter) {
   const std::string path = GetParam();
-  if (!compiles_in_child(path, "")) GTEST_SKIP() << path << " does not compile/lower yet";
+  ASSERT_TRUE(compiles_in_child(path, ""))
+      << path << " does not compile, or aborts in the lowering (see `hfrt ir` on it)";
   ModelOptions mo;
   CompileResult jit = Model::compile_file(path, mo);
   ASSERT_TRUE(jit.ok()) << jit.error << jit.rendered;
@@ -198,6 +201,15 @@ TEST_P(ModelConformance, JitAgreesWithInterpreter) {
 
 INSTANTIATE_TEST_SUITE_P(Corpus, ModelConformance, ::testing::ValuesIn(model_files()),
                          model_test_name);
+
+// --- How many ---------------------------------------------------------------------------
+
+TEST(CorpusConformance, ComparesEveryProbeFileAndModel) {
+  // ../shared/corpus holds 63 probe-value files and 34 models (2026-12); each is one test
+  // above. Fewer means the corpus moved or a listing lost files.
+  EXPECT_GE(probe_files().size(), 63u) << "probe values under " << HFRT_CORPUS_DIR;
+  EXPECT_GE(model_files().size(), 34u) << "models under " << HFRT_CORPUS_DIR;
+}
 
 }  // namespace
 }  // namespace hfrt

@@ -398,6 +398,7 @@ TEST(PovEmit, CorpusProbesWithoutLoopsMatchTheInterpreter) {
     ss << f.rdbuf();
     const std::string text = ss.str();
     testutil::Compiled c = compile(text);
+    EXPECT_TRUE(c.ok) << entry.path() << " does not lower";
     if (!c.ok) continue;
     lang::DiagnosticSink diags(
         std::make_shared<const lang::SourceFile>(entry.path().string(), text));
@@ -418,6 +419,8 @@ TEST(PovEmit, CorpusProbesWithoutLoopsMatchTheInterpreter) {
     ++written;
     points += expect_same_values(text, entry.path().filename().string(), {}, 4);
   }
+  // The corpus's 63 probes (2026-12), each written or rejected.
+  EXPECT_GE(written + rejected, 63);
   EXPECT_GT(written, 20) << "rejected " << rejected;
   EXPECT_GT(points, 800);
 }

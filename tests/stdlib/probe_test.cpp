@@ -176,5 +176,12 @@ INSTANTIATE_TEST_SUITE_P(Corpus, ModelTest, ::testing::ValuesIn(all_models()),
                            return n;
                          });
 
+TEST(CorpusCount, EveryProbeFileOnBothBackendsAndEveryModel) {
+  // ../shared/corpus: 63 probe-value files (each on the interpreter and the JIT) and 34 models
+  // (2026-12), one test each above; fewer means the corpus moved or a listing lost files.
+  EXPECT_GE(all_cases().size(), 2u * 63u) << "probe values under " << corpus();
+  EXPECT_GE(all_models().size(), 34u) << "models under " << corpus();
+}
+
 }  // namespace
 }  // namespace hfrt

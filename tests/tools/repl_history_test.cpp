@@ -156,13 +156,12 @@ TEST(ReplTerminal, CtrlCClearsThePromptLineAndCancelsARender) {
   repl.send("ball(x[3], a[1]) { ball = 1 - x[1]*x[1] - x[2]*x[2] - x[3]*x[3]; }\n");
   ASSERT_TRUE(repl.wait_for("defined ball", 1)) << repl.all;
   ASSERT_TRUE(repl.wait_for("hfrt> ", 4)) << repl.all;
-  // A render of about a billion rays (minutes), cancelled by Ctrl-C.
-  auto t0 = std::chrono::steady_clock::now();
+  // A render of about a billion rays (minutes), cancelled by Ctrl-C: the message comes while
+  // the reader still waits (read_until), far sooner than the render could finish.
   repl.send(":render " + (dir / "long.png").string() + " --size 4096x4096 --spp 64 --root sign\n");
   std::this_thread::sleep_for(std::chrono::milliseconds(800));
   repl.send("\x03");
   ASSERT_TRUE(repl.wait_for("render cancelled", 1)) << repl.all;
-  EXPECT_LT(std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count(), 15.0);
   ASSERT_TRUE(repl.wait_for("hfrt> ", 5)) << repl.all;
   // The session is intact: the Ctrl-C at the prompt did not leave a pending definition.
   repl.send(":eval 0.5 0 0\n");

@@ -525,6 +525,18 @@ TEST(ReplCancel, RendererStopsWhenTheFlagIsSet) {
   r = render::render(ball, opt);
   EXPECT_FALSE(r.stats.cancelled);
   EXPECT_EQ(r.stats.primary_rays, 64u * 64u);
+  // Set from a worker thread in the middle of the render (after the third finished tile):
+  // the tiles already started finish, no other starts. Counted in rays, not timed.
+  cancel = false;
+  opt.width = opt.height = 256;  // 256 tiles of 16x16
+  opt.threads = 2;
+  opt.progress = [&cancel](size_t done, size_t) {
+    if (done >= 3) cancel.store(true);
+  };
+  r = render::render(ball, opt);
+  EXPECT_TRUE(r.stats.cancelled);
+  EXPECT_GE(r.stats.primary_rays, 3u * 16 * 16);
+  EXPECT_LE(r.stats.primary_rays, (3u + 2) * 16 * 16);  // at most one tile more per thread
 }
 
 TEST(ReplCancel, FlagSetBeforeTheRenderCancelsItAndIsCleared) {
@@ -553,20 +565,18 @@ TEST(ReplCancel, FlagSetFromAnotherThreadStopsALongRender) {
   Session s;
   fs::path dir = temp_dir();
   ASSERT_TRUE(s.run("ball(x[3], a[1]) { ball = 1 - x[1]*x[1] - x[2]*x[2] - x[3]*x[3]; }").ok);
-  // About a billion primary rays: minutes when not cancelled.
+  // About a billion primary rays: far longer than the test's time limit when not cancelled.
+  // (How many rays a cancel lets through is counted in RendererStopsWhenTheFlagIsSet.)
   const std::string cmd = ":render " + (dir / "long.png").string() +
                           " --size 4096x4096 --spp 64 --bbox -2,-2,-2,2,2,2 --root sign";
-  auto t0 = std::chrono::steady_clock::now();
   std::thread canceller([&s] {
     std::this_thread::sleep_for(std::chrono::milliseconds(300));
     s.cancel_flag().store(true);
   });
   SessionResult r = s.run(cmd);
   canceller.join();
-  double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   EXPECT_FALSE(r.ok);
   EXPECT_NE(r.err.find("render cancelled"), std::string::npos) << r.err;
-  EXPECT_LT(seconds, 10.0);
   EXPECT_FALSE(fs::exists(dir / "long.png"));
   fs::remove_all(dir);
 }
