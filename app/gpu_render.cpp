@@ -3,11 +3,10 @@
 #include "app/gpu_render.h"
 
 #include <algorithm>
-#include <atomic>
 #include <chrono>
 #include <cmath>
-#include <thread>
 
+#include "base/parallel.h"
 #include "base/timer.h"
 #include "gpu/cuda_driver.h"
 #include "jit/nvptx.h"
@@ -25,23 +24,16 @@ void copy3(float* dst, render::Vec3 v) {
   dst[0] = v.x, dst[1] = v.y, dst[2] = v.z;
 }
 
-/// Runs f(begin, end) over [0, n) in chunks on every core.
-template <typename F>
-void parallel_chunks(int64_t n, int threads, F f) {
-  const int64_t chunk = 256;
-  std::atomic<int64_t> next{0};
-  auto work = [&] {
-    for (int64_t b = next.fetch_add(chunk); b < n; b = next.fetch_add(chunk))
-      f(b, std::min(n, b + chunk));
-  };
-  std::vector<std::thread> pool;
-  for (int i = 1; i < threads; ++i) pool.emplace_back(work);
-  work();
-  for (std::thread& t : pool) t.join();
-}
-
-int thread_count(int asked) {
-  return asked > 0 ? asked : std::max(1, int(std::thread::hardware_concurrency()));
+/// The kernels compiled for this CPU, with the time it took in `info`.
+Result<std::shared_ptr<const jit::HostKernels>> host_kernels(const Model& model,
+                                                             DeviceRunInfo* info) {
+  const auto t0 = std::chrono::steady_clock::now();
+  std::string error;
+  auto kernels = model.device_kernels_on_host(&error);
+  if (!kernels) return Error{error};
+  info->compile_ms = ms_since(t0);
+  info->device = "this CPU (the CUDA kernels compiled for it)";
+  return kernels;
 }
 
 /// The driver, a device and the model's module, loaded.
@@ -177,15 +169,13 @@ Result<DeviceRunInfo> render_on_device(const Model& model, const render::RenderO
   std::vector<float> result(size_t(pixels) * gpu::kRenderFloatsPerPixel);
   DeviceRunInfo info;
   if (device == Device::kCudaHost) {
-    const auto t0 = std::chrono::steady_clock::now();
-    std::string error;
-    auto kernels = model.device_kernels_on_host(&error);
-    if (!kernels) return Error{error};
-    info.compile_ms = ms_since(t0);
-    info.device = "this CPU (the CUDA kernels compiled for it)";
+    auto kernels = host_kernels(model, &info);
+    if (!kernels.ok()) return kernels.error();
     const auto t1 = std::chrono::steady_clock::now();
-    parallel_chunks(pixels, thread_count(opt.threads), [&](int64_t b, int64_t e) {
-      kernels->render(p, a.data(), result.data(), b, e);
+    par::with_threads(opt.threads, [&] {
+      par::parallel_for(size_t(pixels), 256, [&](size_t b, size_t e) {
+        kernels.value()->render(p, a.data(), result.data(), int64_t(b), int64_t(e));
+      });
     });
     info.kernel_ms = ms_since(t1);
   } else {
@@ -250,14 +240,10 @@ Result<DeviceRunInfo> eval_on_device(const Model& model, int64_t n, const float*
   const std::vector<float> a = model.code_params_f32();
   DeviceRunInfo info;
   if (device == Device::kCudaHost) {
-    const auto t0 = std::chrono::steady_clock::now();
-    std::string error;
-    auto kernels = model.device_kernels_on_host(&error);
-    if (!kernels) return Error{error};
-    info.compile_ms = ms_since(t0);
-    info.device = "this CPU (the CUDA kernels compiled for it)";
+    auto kernels = host_kernels(model, &info);
+    if (!kernels.ok()) return kernels.error();
     const auto t1 = std::chrono::steady_clock::now();
-    kernels->eval(n, xs, a.data(), out_f, nullptr);
+    kernels.value()->eval(n, xs, a.data(), out_f, nullptr);
     info.kernel_ms = ms_since(t1);
     return info;
   }
