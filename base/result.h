@@ -12,6 +12,7 @@ namespace hfrt {
 
 struct Error {
   std::string message;
+  std::string hint = {};  ///< how to fix it, when the failure can say (e.g. a limit's option)
 };
 
 template <typename T>

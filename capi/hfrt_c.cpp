@@ -3,6 +3,7 @@
 // failures in the calling thread's LastError.
 
 #include <cmath>
+#include <cstddef>
 #include <cstring>
 #include <exception>
 #include <limits>
@@ -117,7 +118,8 @@ hfrt_status compile(const char* function, const std::string& source_or_path, boo
   hfrt::ModelOptions mo;
   std::vector<double> params;
   if (options != nullptr) {
-    if (options->struct_size < sizeof(hfrt_compile_options)) {
+    // The fields up to `backend` are the first version's; the limits came later.
+    if (options->struct_size < offsetof(hfrt_compile_options, max_loop_iterations)) {
       return bad_arg(function,
                      "options->struct_size is wrong (initialise with hfrt_compile_options_init)");
     }
@@ -137,6 +139,18 @@ hfrt_status compile(const char* function, const std::string& source_or_path, boo
     }
     mo.backend =
         options->backend == HFRT_BACKEND_INTERP ? hfrt::Backend::kInterp : hfrt::Backend::kJit;
+    if (options->struct_size >= sizeof(hfrt_compile_options)) {
+      hfrt::ModelLimits& l = mo.limits;
+      l.max_loop_iterations = options->max_loop_iterations;
+      l.max_array_size = options->max_array_size;
+      l.max_slots = options->max_slots;
+      l.max_model_size = options->max_model_size;
+      l.max_source_bytes = options->max_source_bytes;
+      l.max_mesh_bytes = options->max_mesh_bytes;
+      l.max_mesh_triangles = options->max_mesh_triangles;
+      const std::string bad = hfrt::check_model_limits(l);
+      if (!bad.empty()) return bad_arg(function, "options->" + bad);
+    }
   }
   hfrt::CompileResult r =
       is_file ? hfrt::Model::compile_file(source_or_path, mo)
@@ -272,6 +286,14 @@ void hfrt_compile_options_init(hfrt_compile_options* options) {
   options->struct_size = sizeof *options;
   options->precision = HFRT_PRECISION_F64;
   options->backend = HFRT_BACKEND_JIT;
+  const hfrt::ModelLimits d;
+  options->max_loop_iterations = d.max_loop_iterations;
+  options->max_array_size = d.max_array_size;
+  options->max_slots = d.max_slots;
+  options->max_model_size = d.max_model_size;
+  options->max_source_bytes = d.max_source_bytes;
+  options->max_mesh_bytes = d.max_mesh_bytes;
+  options->max_mesh_triangles = d.max_mesh_triangles;
 }
 
 hfrt_status hfrt_model_compile_source(const char* source, const char* name,

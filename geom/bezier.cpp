@@ -210,9 +210,10 @@ Result<PatchSet> parse_bpt(const std::string& text, const std::string& name) {
   return set;
 }
 
-Result<PatchSet> load_bpt(const std::string& path) {
-  Result<std::string> text = read_file(path);
-  if (!text) return Error{path + ": cannot read: " + text.error().message};
+Result<PatchSet> load_bpt(const std::string& path, const Limits& limits) {
+  Result<std::string> text =
+      read_file_limited(path, limits.max_mesh_bytes, /*regular_only=*/true, "max_mesh_bytes");
+  if (!text) return file_error(path, text.error());
   return parse_bpt(*text, path);
 }
 

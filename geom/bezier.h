@@ -14,6 +14,7 @@
 #include <string>
 #include <vector>
 
+#include "base/limits.h"
 #include "base/result.h"
 #include "geom/mesh.h"
 #include "geom/vec.h"
@@ -67,8 +68,10 @@ struct PatchSet {
 /// zero patches.
 Result<PatchSet> parse_bpt(const std::string& text, const std::string& name);
 
-/// Reads a BPT file (missing or unreadable files are errors naming the path).
-Result<PatchSet> load_bpt(const std::string& path);
+/// Reads a BPT file (missing or unreadable files are errors naming the path). Like load_mesh,
+/// refuses what is not a regular file and a file of more than limits.max_mesh_bytes bytes
+/// before reading it.
+Result<PatchSet> load_bpt(const std::string& path, const Limits& limits = {});
 
 /// Inline bicubic patches as hfBezierPatches(x, P) passes them: 48 numbers (16 control points,
 /// row by row) per patch.

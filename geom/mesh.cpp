@@ -407,12 +407,18 @@ Result<TriangleMesh> finish_mesh(TriangleMesh mesh) {
   return mesh;
 }
 
-Result<TriangleMesh> load_mesh(const std::string& path) {
+Error file_error(const std::string& path, const Error& read_error) {
+  if (read_error.message.rfind(path + ": is ", 0) == 0) return read_error;
+  return Error{path + ": cannot read: " + read_error.message};
+}
+
+Result<TriangleMesh> load_mesh(const std::string& path, const Limits& limits) {
   std::error_code ec;
   if (!std::filesystem::exists(path, ec)) return Error{path + ": no such file"};
   if (std::filesystem::is_directory(path, ec)) return Error{path + ": is a directory"};
-  Result<std::string> text = read_file(path);
-  if (!text) return Error{path + ": cannot read: " + text.error().message};
+  Result<std::string> text =
+      read_file_limited(path, limits.max_mesh_bytes, /*regular_only=*/true, "max_mesh_bytes");
+  if (!text) return file_error(path, text.error());
   const std::string ext = lower_extension(path);
   if (ext != ".off" && ext != ".obj" && ext != ".ply" && ext != ".stl")
     return Error{path + ": unknown mesh format '" + ext + "' (expected .off, .obj, .ply or .stl)"};
@@ -441,6 +447,19 @@ Result<TriangleMesh> load_mesh(const std::string& path) {
 
   TriangleMesh mesh;
   mesh.source = path;
+  uint64_t num_vertices = 0, num_faces = 0;
+  for (unsigned m = 0; m < scene->mNumMeshes; ++m) {
+    num_vertices += scene->mMeshes[m]->mNumVertices;
+    num_faces += scene->mMeshes[m]->mNumFaces;
+  }
+  const uint64_t max = static_cast<uint64_t>(limits.max_mesh_triangles);
+  if (num_faces > max || num_vertices > max) {
+    const bool faces = num_faces > max;
+    return Error{path + ": " + std::to_string(faces ? num_faces : num_vertices) +
+                     (faces ? " triangles" : " vertices") + ", more than the limit of " +
+                     std::to_string(max),
+                 limit_hint("max_mesh_triangles")};
+  }
   for (unsigned m = 0; m < scene->mNumMeshes; ++m) {
     const aiMesh* am = scene->mMeshes[m];
     const uint32_t base = static_cast<uint32_t>(mesh.vertices.size());

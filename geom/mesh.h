@@ -11,6 +11,7 @@
 #include <string>
 #include <vector>
 
+#include "base/limits.h"
 #include "base/result.h"
 #include "geom/vec.h"
 
@@ -35,8 +36,15 @@ struct TriangleMesh {
 /// vertices joined). Text OFF and OBJ files are first checked line by line so that a malformed
 /// number, a non-finite coordinate or an out-of-range index is reported with its line, which
 /// Assimp does not do (it silently clamps or drops some of them). Fails on: a missing or
-/// unreadable file, a malformed file, a mesh with no (non-degenerate) triangle.
-Result<TriangleMesh> load_mesh(const std::string& path);
+/// unreadable file, a malformed file, a mesh with no (non-degenerate) triangle; and, before
+/// reading, on what is not a regular file (a device such as /dev/zero, a pipe) and on a file
+/// of more than limits.max_mesh_bytes bytes; after reading, on more than
+/// limits.max_mesh_triangles triangles or vertices (the Error's hint names the limit).
+Result<TriangleMesh> load_mesh(const std::string& path, const Limits& limits = {});
+
+/// The error of a file that read_file_limited refused: its own when it names the path
+/// ("PATH: is ..."), else "PATH: cannot read: ...".
+Error file_error(const std::string& path, const Error& read_error);
 
 /// Builds a mesh from inline arrays as hfTriangles(x, V, T) passes them: `v` holds 3
 /// coordinates per vertex, `t` three ONE-based vertex indices per triangle (stored as reals,

@@ -8,10 +8,10 @@
 namespace hfrt::jit {
 
 bool lower_into(const lang::Program& program, int object, lang::DiagnosticSink& sink,
-                LoweredSource* out) {
+                LoweredSource* out, const Limits& limits) {
   const auto t0 = Clock::now();
   out->object = object;
-  out->fn = lower_object(program, object, &sink);
+  out->fn = lower_object(program, object, &sink, limits);
   out->lower_ms = ms_since(t0);
   // Errors found while lowering: a mesh or patch file that does not load (the surfaces are
   // built at compile time). No model then, like a front-end error.
@@ -19,16 +19,17 @@ bool lower_into(const lang::Program& program, int object, lang::DiagnosticSink& 
   return out->lowered;
 }
 
-LoweredSource compile_source(lang::DiagnosticSink& sink, std::string_view object) {
+LoweredSource compile_source(lang::DiagnosticSink& sink, std::string_view object,
+                             const Limits& limits) {
   LoweredSource out;
   const auto t0 = Clock::now();
-  out.program = lang::compile_source(sink.file(), sink);
+  out.program = lang::compile_source(sink.file(), sink, limits);
   out.frontend_ms = ms_since(t0);
   out.frontend_diagnostics = sink.diagnostics().size();
   if (!out.program) return out;
   const int index = out.program->select_object(object, &out.no_object, &out.no_object_hint);
   if (index < 0) return out;
-  lower_into(*out.program, index, sink, &out);
+  lower_into(*out.program, index, sink, &out, limits);
   return out;
 }
 

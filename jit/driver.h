@@ -8,9 +8,16 @@
 #include <string>
 #include <string_view>
 
+#include "base/limits.h"
 #include "ir/ir.h"
 #include "lang/ast.h"
 #include "lang/diagnostics.h"
+
+namespace hfrt {
+struct ModelLimits;  // hfrt/model.h
+/// The embedding API's limits as the layers below take them (defined in jit/model.cpp).
+Limits to_limits(const ModelLimits& limits);
+}  // namespace hfrt
 
 namespace hfrt::jit {
 
@@ -34,11 +41,13 @@ struct LoweredSource {
 /// Parses and checks `sink.file()`, chooses `object` (empty: `my_model`, else the first) and
 /// lowers it. Every diagnostic (errors and warnings of the front end and of the lowering) goes
 /// to `sink`; the result says how far it got.
-LoweredSource compile_source(lang::DiagnosticSink& sink, std::string_view object);
+/// `limits` bound array sizes (front end) and the lowered model (lower_object).
+LoweredSource compile_source(lang::DiagnosticSink& sink, std::string_view object,
+                             const Limits& limits = {});
 
 /// Lowers another object of an already checked program (Model::select_object), timing it.
 /// Lowering diagnostics go to `sink`; false when they include errors.
 bool lower_into(const lang::Program& program, int object, lang::DiagnosticSink& sink,
-                LoweredSource* out);
+                LoweredSource* out, const Limits& limits = {});
 
 }  // namespace hfrt::jit

@@ -139,10 +139,45 @@ class Emitter : public VectorEmitter {
     for (int s = 0; s < fn_.num_slots; ++s) {
       if (!slot_ptr_[s]) slot_ptr_[s] = entry.CreateAlloca(vt_, nullptr, "slot");
     }
-    for (int s = 0; s < fn_.num_slots; ++s) {
-      double init = s < static_cast<int>(fn_.slot_init.size()) ? fn_.slot_init[s] : std::nan("");
-      entry.CreateStore(splat(init), slot_ptr_[s]);
+    auto init_of = [&](int s) {
+      return s < static_cast<int>(fn_.slot_init.size()) ? fn_.slot_init[s] : std::nan("");
+    };
+    std::vector<char> done(fn_.num_slots, 0);
+    // A memory array whose slots all start equal (NaN values, 0 flags) is filled by a loop:
+    // one store per element made the optimised code, and LLVM's time, grow with the square
+    // of the array size (2048 elements: 4 s).
+    for (const Group& grp : groups_) {
+      if (!grp.mem) continue;
+      const double first = init_of(grp.base);
+      bool uniform = true;
+      for (int j = 1; j < grp.size && uniform; ++j) {
+        const double v = init_of(grp.base + j);
+        uniform = v == first || (std::isnan(v) && std::isnan(first));
+      }
+      if (!uniform) continue;
+      fill_array(entry, grp, first);
+      for (int j = 0; j < grp.size; ++j) done[grp.base + j] = 1;
     }
+    for (int s = 0; s < fn_.num_slots; ++s) {
+      if (!done[s]) entry.CreateStore(splat(init_of(s)), slot_ptr_[s]);
+    }
+  }
+
+  // Stores `init` in every element of a memory group, by a loop; leaves `b` after it.
+  void fill_array(llvm::IRBuilder<>& b, const Group& grp, double init) {
+    llvm::Type* at = llvm::ArrayType::get(vt_, grp.size);
+    llvm::BasicBlock* before = b.GetInsertBlock();
+    llvm::BasicBlock* loop = llvm::BasicBlock::Create(ctx_, "fill", f_);
+    llvm::BasicBlock* after = llvm::BasicBlock::Create(ctx_, "fill.done", f_);
+    b.CreateBr(loop);
+    b.SetInsertPoint(loop);
+    llvm::PHINode* j = b.CreatePHI(i64_, 2, "j");
+    j->addIncoming(b.getInt64(0), before);
+    b.CreateStore(splat(init), b.CreateInBoundsGEP(at, grp.mem, {b.getInt64(0), j}));
+    llvm::Value* next = b.CreateAdd(j, b.getInt64(1));
+    j->addIncoming(next, loop);
+    b.CreateCondBr(b.CreateICmpULT(next, b.getInt64(grp.size)), loop, after);
+    b.SetInsertPoint(after);
   }
 
   llvm::Value* load_slot(int s) { return b_.CreateLoad(vt_, slot_ptr_[s]); }
@@ -231,8 +266,9 @@ class Emitter : public VectorEmitter {
 
     llvm::BasicBlock* entry = llvm::BasicBlock::Create(ctx_, "entry", body_);
     b_.SetInsertPoint(entry);
-    plan_slots(b_);
+    // In the entry block (plan_slots may leave the builder after a loop).
     err_ = b_.CreateAlloca(mt_, nullptr, "err");
+    plan_slots(b_);
     b_.CreateStore(llvm::ConstantInt::getFalse(mt_), err_);
 
     values_.assign(fn_.insts.size(), nullptr);

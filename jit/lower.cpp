@@ -78,8 +78,8 @@ struct Frame {
 
 class Lowerer {
  public:
-  Lowerer(const Program& program, lang::DiagnosticSink* warnings)
-      : prog_(program), warnings_(warnings), b_(fn_) {
+  Lowerer(const Program& program, lang::DiagnosticSink* warnings, const Limits& limits)
+      : prog_(program), warnings_(warnings), limits_(limits), b_(fn_) {
     fn_.source = program.source;
   }
 
@@ -249,20 +249,24 @@ class Lowerer {
 
   void lower_while(Frame& f, const Stmt& s) {
     b_.set_loc(s.range.begin);
-    const int counter = b_.new_slot(0);
-    b_.store(counter, b_.constant(0));  // the loop may be entered many times per evaluation
+    // One counter for every loop of the evaluation (inlined objects' too): it starts at 0 with
+    // each point, and nested or repeated loops add up, so the bound is per point.
+    if (loop_counter_ < 0) loop_counter_ = b_.new_slot(0);
+    const int counter = loop_counter_;
     const Assigned before = f.assigned;
     b_.begin_loop();
     ValueId c = lower_expr(f, *s.cond);
     b_.set_loc(s.range.begin);
     ValueId t = b_.unary(Op::kTruth, c);
     ValueId n = b_.load(counter);
-    ValueId limit = b_.constant(kLoopIterationLimit);
+    ValueId limit = b_.constant(static_cast<double>(limits_.max_loop_iterations));
     b_.check(b_.binary(Op::kAnd, t, b_.ge(n, limit)), ErrorKind::kLoopLimit);
     b_.loop_test(b_.binary(Op::kAnd, t, b_.lt(n, limit)));
+    // Counted as the iteration starts, so that the limit is the number of iterations run
+    // (nested loops' included), whichever loop runs the last one.
+    b_.store(counter, b_.add(b_.load(counter), b_.constant(1)));
     lower_block(f, s.then_body);
     b_.set_loc(s.range.begin);
-    b_.store(counter, b_.add(b_.load(counter), b_.constant(1)));
     b_.end_loop();
     f.assigned = before;  // the body may run zero times
   }
@@ -577,7 +581,7 @@ class Lowerer {
       }
     }
     b_.set_loc(e.name_range.begin);
-    stdlib::LibContext ctx{b_, warnings_, e.range, lib_state_};
+    stdlib::LibContext ctx{b_, warnings_, e.range, lib_state_, &limits_};
     ValueId v = stdlib::lower_library_call(which, ctx, args);
     HFRT_CHECK(v != kNoValue);
     return v;
@@ -616,16 +620,175 @@ class Lowerer {
 
   const Program& prog_;
   lang::DiagnosticSink* warnings_;
+  const Limits& limits_;
   Function fn_;
   IrBuilder b_;
   stdlib::LibState lib_state_;
+  int loop_counter_ = -1;  ///< the slot counting loop iterations (-1: no loop yet)
 };
+
+// ---- the size of an object once its calls are inlined -------------------------------------
+// Counted on the AST before lowering, so that a model whose inlined size explodes (objects
+// that call the previous one twice, 30 deep: 2^30 copies) is refused at once instead of after
+// hours of lowering, and one whose variables need more slots than evaluators can hold (the
+// JIT keeps them on the stack) never reaches them.
+
+constexpr int64_t kSaturated = std::numeric_limits<int64_t>::max() / 4;
+
+int64_t sat_add(int64_t a, int64_t b) {
+  return a >= kSaturated - b ? kSaturated : a + b;
+}
+
+/// What inlining one object costs: lowered nodes (expressions, statements, array elements
+/// copied or reset) and slots (variables, array elements, their "assigned" flags).
+struct Expanded {
+  int64_t nodes = 0;
+  int64_t slots = 0;
+};
+
+/// The largest single contributor of the top object, where a limit error is located.
+struct Contributor {
+  int64_t amount = -1;
+  lang::SourceRange range;
+  void offer(int64_t a, lang::SourceRange r) {
+    if (a > amount) {
+      amount = a;
+      range = r;
+    }
+  }
+};
+
+class SizeCounter {
+ public:
+  explicit SizeCounter(const Program& program) : prog_(program), memo_(program.objects.size()) {}
+
+  /// Expanded size of object i as an inlined call (its own x/a/s copies not included).
+  /// `nodes_at` / `slots_at`, when non-null, receive the largest call or array of the object.
+  Expanded body(int i, Contributor* nodes_at = nullptr, Contributor* slots_at = nullptr) {
+    if (memo_[i] && !nodes_at) return *memo_[i];
+    const Object& obj = prog_.objects[i];
+    Expanded e;
+    e.slots = sat_add(e.slots, 2 * static_cast<int64_t>(obj.scalars.size()));
+    for (const lang::ArrayDecl& d : obj.arrays) {
+      e.slots = sat_add(e.slots, 2 * static_cast<int64_t>(d.size));
+      if (slots_at) slots_at->offer(2 * static_cast<int64_t>(d.size), d.range);
+    }
+    Walk w{this, &e, nodes_at, slots_at};
+    for (const lang::StmtPtr& st : obj.body) w.stmt(*st);
+    if (obj.result) w.expr(*obj.result);
+    memo_[i] = e;
+    return e;
+  }
+
+  /// One call of object i: copies of x and a (and s), the reset of its locals' flags, its body.
+  Expanded call(int i) {
+    const Object& c = prog_.objects[i];
+    Expanded e = body(i);
+    int64_t copies = static_cast<int64_t>(c.x_size) + c.a_size + (c.has_s ? c.s_size : 0);
+    int64_t resets = static_cast<int64_t>(c.scalars.size());
+    for (const lang::ArrayDecl& d : c.arrays) resets += d.size;
+    e.slots = sat_add(e.slots, copies);
+    e.nodes = sat_add(e.nodes, sat_add(copies, resets));
+    return e;
+  }
+
+ private:
+  struct Walk {
+    SizeCounter* self;
+    Expanded* acc;
+    Contributor* nodes_at;
+    Contributor* slots_at;
+
+    void stmt(const Stmt& s) {
+      acc->nodes = sat_add(acc->nodes, 1 + static_cast<int64_t>(s.literal.size()));
+      if (s.index) expr(*s.index);
+      if (s.value) expr(*s.value);
+      if (s.cond) expr(*s.cond);
+      for (const lang::StmtPtr& t : s.then_body) stmt(*t);
+      for (const lang::StmtPtr& t : s.else_body) stmt(*t);
+    }
+    void expr(const Expr& e) {
+      acc->nodes = sat_add(acc->nodes, 1);
+      for (const lang::ExprPtr& a : e.args) {
+        if (a) expr(*a);
+      }
+      if (e.kind == ExprKind::kCall && e.symbol.kind == SymbolKind::kObject) {
+        const Expanded c = self->call(e.symbol.index);
+        acc->nodes = sat_add(acc->nodes, c.nodes);
+        acc->slots = sat_add(acc->slots, c.slots);
+        if (nodes_at) nodes_at->offer(c.nodes, e.name_range);
+        if (slots_at) slots_at->offer(c.slots, e.name_range);
+      }
+    }
+  };
+
+  const Program& prog_;
+  std::vector<std::optional<Expanded>> memo_;
+};
+
+// Reports (to `sink`, when not null) the first limit the object passes; false when it does.
+bool check_expanded_size(const Program& program, int object_index, const Limits& limits,
+                         lang::DiagnosticSink* sink) {
+  const Object& obj = program.objects[object_index];
+  SizeCounter counter(program);
+  Contributor nodes_at, slots_at;
+  Expanded e = counter.body(object_index, &nodes_at, &slots_at);
+  // The top object's own x, a and s slots, and the loop counter.
+  e.slots = sat_add(
+      e.slots, static_cast<int64_t>(obj.x_size) + obj.a_size + (obj.has_s ? obj.s_size : 1) + 1);
+  auto amount = [](int64_t v) {
+    return v >= kSaturated ? std::string("more than 10^18") : std::to_string(v);
+  };
+  if (e.nodes > limits.max_model_size) {
+    if (sink) {
+      sink->error(nodes_at.amount >= 0 ? nodes_at.range : obj.name_range,
+                  "object '" + obj.name + "' is too large once its object calls are inlined: " +
+                      amount(e.nodes) + " operations, more than the limit of " +
+                      std::to_string(limits.max_model_size),
+                  "each call inlines a copy of the called object (a call of an object that "
+                  "calls another twice copies it twice); " +
+                      limit_hint("max_model_size"));
+    }
+    return false;
+  }
+  if (e.slots > limits.max_slots) {
+    if (sink) {
+      sink->error(slots_at.amount >= 0 ? slots_at.range : obj.name_range,
+                  "object '" + obj.name + "' needs " + amount(e.slots) +
+                      " slots for its variables and array elements (their 'assigned' flags and "
+                      "the objects it calls included), more than the limit of " +
+                      std::to_string(limits.max_slots),
+                  "use smaller arrays or fewer object calls; " + limit_hint("max_slots"));
+    }
+    return false;
+  }
+  return true;
+}
+
+// What lower_object returns for an object it refused: NaN everywhere, one s of NaN.
+Function stub_function(const Program& program, int object_index) {
+  const Object& obj = program.objects[object_index];
+  Function fn;
+  fn.source = program.source;
+  fn.name = obj.name;
+  fn.num_inputs = obj.x_size;
+  fn.num_params = obj.a_size;
+  IrBuilder b(fn);
+  b.set_loc(obj.name_range.begin);
+  fn.s_slots.push_back(b.new_slot(kNaN));
+  b.finish(b.constant(kNaN));
+  return fn;
+}
 
 }  // namespace
 
 Function lower_object(const lang::Program& program, int object_index,
-                      lang::DiagnosticSink* warnings) {
-  Lowerer lowerer(program, warnings);
+                      lang::DiagnosticSink* warnings, const Limits& limits) {
+  HFRT_CHECK(object_index >= 0 && object_index < static_cast<int>(program.objects.size()));
+  if (!check_expanded_size(program, object_index, limits, warnings)) {
+    return stub_function(program, object_index);
+  }
+  Lowerer lowerer(program, warnings, limits);
   return lowerer.run(object_index);
 }
 

@@ -13,6 +13,7 @@
 //   - after those: locals, local arrays, copies made for object calls, "defined" flags,
 //     loop counters (layout not part of the contract).
 
+#include "base/limits.h"
 #include "ir/ir.h"
 #include "lang/ast.h"
 #include "lang/diagnostics.h"
@@ -22,14 +23,20 @@ namespace hfrt::jit {
 // jit/ evaluates the IR: its types and ops are used unqualified here.
 using namespace ::hfrt::ir;
 
-/// Maximum number of iterations of one `while` loop per entry; the loop then stops with a
-/// LoopLimit run-time error, so no evaluator can hang on a model.
-inline constexpr double kLoopIterationLimit = 1e6;
-
 /// Lowers `program.objects[object_index]` of a CHECKED program (every Symbol resolved).
 /// Located warnings found while lowering (e.g. library array-size mismatches, reads of
-/// possibly uninitialised variables) go to `warnings` when it is not null.
+/// possibly uninitialised variables) go to `warnings` when it is not null, and so do the
+/// lowering's errors (a mesh file that does not load, a limit below): the caller tests
+/// `warnings->has_errors()`.
+///
+/// Limits (base/limits.h, docs/limits.md): before lowering, the object's size once every
+/// object call is inlined (limits.max_model_size) and its slots (limits.max_slots) are
+/// counted; beyond either the error is located at the largest call or array of the object and
+/// the result is a stub (NaN everywhere). Every `while` loop counts its iterations in one
+/// counter per evaluation; beyond limits.max_loop_iterations the loop stops with a LoopLimit
+/// run-time error, so no evaluator can hang on a model. Mesh and patch files are read within
+/// limits.max_mesh_bytes and limits.max_mesh_triangles.
 Function lower_object(const lang::Program& program, int object_index,
-                      lang::DiagnosticSink* warnings);
+                      lang::DiagnosticSink* warnings, const Limits& limits = {});
 
 }  // namespace hfrt::jit

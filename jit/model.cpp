@@ -12,6 +12,7 @@
 
 #include "base/check.h"
 #include "base/file.h"
+#include "base/limits.h"
 #include "base/result.h"
 #include "base/timer.h"
 #include "geom/surface.h"
@@ -28,7 +29,33 @@
 #include "jit/poly.h"
 
 namespace hfrt {
+
+Limits to_limits(const ModelLimits& m) {
+  Limits l;
+  l.max_loop_iterations = m.max_loop_iterations;
+  l.max_array_size = m.max_array_size;
+  l.max_slots = m.max_slots;
+  l.max_model_size = m.max_model_size;
+  l.max_source_bytes = m.max_source_bytes;
+  l.max_mesh_bytes = m.max_mesh_bytes;
+  l.max_mesh_triangles = m.max_mesh_triangles;
+  return l;
+}
+
+std::string check_model_limits(const ModelLimits& limits) {
+  return check_limits(to_limits(limits));
+}
+
 namespace {
+
+// The public defaults are the internal ones (base/limits.h keeps them for the layers below).
+static_assert(ModelLimits{}.max_loop_iterations == Limits{}.max_loop_iterations);
+static_assert(ModelLimits{}.max_array_size == Limits{}.max_array_size);
+static_assert(ModelLimits{}.max_slots == Limits{}.max_slots);
+static_assert(ModelLimits{}.max_model_size == Limits{}.max_model_size);
+static_assert(ModelLimits{}.max_source_bytes == Limits{}.max_source_bytes);
+static_assert(ModelLimits{}.max_mesh_bytes == Limits{}.max_mesh_bytes);
+static_assert(ModelLimits{}.max_mesh_triangles == Limits{}.max_mesh_triangles);
 
 SourceDiagnostic convert(const lang::Diagnostic& d, const std::string& file) {
   SourceDiagnostic out;
@@ -167,11 +194,17 @@ Model::~Model() = default;
 CompileResult Model::compile(std::string_view source, const ModelOptions& options,
                              std::string name) {
   CompileResult result;
+  const Limits limits = to_limits(options.limits);
+  if (std::string bad = check_limits(limits); !bad.empty()) {
+    // Invalid options: an argument error, with no diagnostics.
+    result.error = "ModelLimits::" + bad;
+    return result;
+  }
   auto impl = std::make_unique<Impl>();
   impl->options = options;
   impl->file = std::make_shared<const lang::SourceFile>(std::move(name), std::string(source));
   lang::DiagnosticSink sink(impl->file);
-  jit::LoweredSource lowered = jit::compile_source(sink, options.object);
+  jit::LoweredSource lowered = jit::compile_source(sink, options.object, limits);
   impl->stats.frontend_ms = lowered.frontend_ms;
   for (const lang::Diagnostic& d : sink.diagnostics()) {
     result.diagnostics.push_back(convert(d, impl->file->name()));
@@ -202,10 +235,13 @@ CompileResult Model::compile(std::string_view source, const ModelOptions& option
 }
 
 CompileResult Model::compile_file(const std::string& path, const ModelOptions& options) {
-  Result<std::string> text = read_file(path);
+  // A pipe or a device is read too (a model may come from a process), up to the limit.
+  Result<std::string> text = read_file_limited(path, options.limits.max_source_bytes,
+                                               /*regular_only=*/false, "max_source_bytes");
   if (!text.ok()) {
     CompileResult r;
     r.error = text.error().message;
+    if (!text.error().hint.empty()) r.error += " (" + text.error().hint + ")";
     return r;
   }
   return compile(text.value(), options, path);
@@ -232,7 +268,7 @@ bool Model::select_object(std::string_view name, std::string* error) {
   std::vector<double> constants;
   lang::DiagnosticSink sink(impl_->file);
   jit::LoweredSource lowered;
-  if (!jit::lower_into(*impl_->program, index, sink, &lowered)) {
+  if (!jit::lower_into(*impl_->program, index, sink, &lowered, to_limits(impl_->options.limits))) {
     if (error) *error = sink.render(false);
     return false;
   }

@@ -118,9 +118,11 @@ BinaryOp binary_op(TokenKind k) {
 
 class Parser {
  public:
-  Parser(std::shared_ptr<const SourceFile> file, DiagnosticSink& sink)
+  Parser(std::shared_ptr<const SourceFile> file, DiagnosticSink& sink, const Limits& limits)
       : file_(std::move(file)),
         sink_(sink),
+        // Sizes are ints: a larger limit would not fit (and could never be met anyway).
+        max_array_size_(static_cast<int>(std::min<int64_t>(limits.max_array_size, 1 << 30))),
         lexer_(*file_, [this](SourceRange r, std::string m, std::string h) {
           if (!lex_quiet_) report({Severity::kError, r, std::move(m), std::move(h)});
         }) {}
@@ -324,6 +326,7 @@ class Parser {
 
   std::shared_ptr<const SourceFile> file_;
   DiagnosticSink& sink_;
+  int max_array_size_;  ///< Limits::max_array_size
   Lexer lexer_;
   Token tok_, prev_;
   bool panic_ = false;
@@ -426,10 +429,17 @@ bool Parser::parse_size(int& size, std::string_view context) {
     return false;
   }
   double v = tok_.number;
-  if (!(v >= 1 && v <= kMaxArraySize && v == std::floor(v))) {
-    syntax_error("array size must be a whole number from 1 to " + std::to_string(kMaxArraySize) +
+  if (!(v >= 1 && v == std::floor(v))) {
+    syntax_error("array size must be a whole number from 1 to " + std::to_string(max_array_size_) +
                      ", found " + describe(tok_),
                  "sizes are whole numbers, like x[3]");
+    advance();
+    return false;
+  }
+  if (v > max_array_size_) {
+    syntax_error("array size " + std::string(text(tok_)) + " is more than the limit of " +
+                     std::to_string(max_array_size_) + " elements",
+                 limit_hint("max_array_size"));
     advance();
     return false;
   }
@@ -953,15 +963,15 @@ Node Parser::parse_primary() {
 }  // namespace
 
 std::unique_ptr<Program> parse_program(std::shared_ptr<const SourceFile> file,
-                                       DiagnosticSink& diags) {
+                                       DiagnosticSink& diags, const Limits& limits) {
   HFRT_CHECK(file != nullptr);
-  Parser parser(std::move(file), diags);
+  Parser parser(std::move(file), diags, limits);
   return parser.run();
 }
 
 std::unique_ptr<Program> compile_source(std::shared_ptr<const SourceFile> file,
-                                        DiagnosticSink& diags) {
-  std::unique_ptr<Program> prog = parse_program(std::move(file), diags);
+                                        DiagnosticSink& diags, const Limits& limits) {
+  std::unique_ptr<Program> prog = parse_program(std::move(file), diags, limits);
   bool ok = check_program(*prog, diags);
   if (!ok || diags.has_errors()) return nullptr;
   return prog;

@@ -17,7 +17,7 @@ inline constexpr int kMaxNesting = 256;
 /// kMaxExprDepth + kMaxNesting nodes, and no statement list nests deeper than kMaxNesting.
 inline constexpr int kMaxExprDepth = 1000;
 
-/// Largest array size in a header or an `array` declaration.
-inline constexpr int kMaxArraySize = 1 << 20;
+// The largest array size is not fixed: Limits::max_array_size (base/limits.h), an argument of
+// parse_program.
 
 }  // namespace hfrt::lang

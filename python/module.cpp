@@ -14,6 +14,7 @@
 
 #include <array>
 #include <filesystem>
+#include <map>
 #include <memory>
 #include <mutex>
 #include <optional>
@@ -69,9 +70,24 @@ py::dict diagnostic_dict(const SourceDiagnostic& d) {
 
 std::shared_ptr<PyModel> compile(const std::string& text, bool is_file, const std::string& name,
                                  const std::string& object, const std::vector<double>& params,
-                                 const std::string& backend, const std::string& precision) {
+                                 const std::string& backend, const std::string& precision,
+                                 const std::map<std::string, int64_t>& limits) {
   ModelOptions mo;
   mo.object = object;
+  // The limits on hostile input (docs/limits.md), by the names of ModelLimits' fields.
+  const std::map<std::string, int64_t ModelLimits::*> fields = {
+      {"max_loop_iterations", &ModelLimits::max_loop_iterations},
+      {"max_array_size", &ModelLimits::max_array_size},
+      {"max_slots", &ModelLimits::max_slots},
+      {"max_model_size", &ModelLimits::max_model_size},
+      {"max_source_bytes", &ModelLimits::max_source_bytes},
+      {"max_mesh_bytes", &ModelLimits::max_mesh_bytes},
+      {"max_mesh_triangles", &ModelLimits::max_mesh_triangles}};
+  for (const auto& [key, value] : limits) {
+    auto it = fields.find(key);
+    if (it == fields.end()) throw py::type_error("unknown limit '" + key + "'");
+    mo.limits.*(it->second) = value;
+  }
   if (backend == "jit") {
     mo.backend = Backend::kJit;
   } else if (backend == "interp") {
@@ -94,6 +110,7 @@ std::shared_ptr<PyModel> compile(const std::string& text, bool is_file, const st
   }
   if (!r.ok()) {
     if (!r.error.empty()) {
+      if (r.error.rfind("ModelLimits::", 0) == 0) throw py::value_error(r.error);
       if (is_file && r.diagnostics.empty()) {
         PyErr_SetString(PyExc_FileNotFoundError, r.error.c_str());
         throw py::error_already_set();
@@ -461,7 +478,8 @@ PYBIND11_MODULE(_hfrt, mod) {
   mod.doc() = "hfrt: compile and evaluate HyperFun FRep models (use the hfrt package)";
   mod.def("_set_compile_error", [](py::object type) { g_compile_error = std::move(type); });
   mod.def("_compile", &compile, py::arg("text"), py::arg("is_file"), py::arg("name"),
-          py::arg("object"), py::arg("params"), py::arg("backend"), py::arg("precision"));
+          py::arg("object"), py::arg("params"), py::arg("backend"), py::arg("precision"),
+          py::arg("limits"));
 
   py::class_<PyModel, std::shared_ptr<PyModel>>(mod, "_Model")
       .def_property_readonly("num_inputs", [](const PyModel& p) { return p.m().num_inputs(); })

@@ -194,6 +194,10 @@ class Call {
   LibraryFn fn() const { return fn_; }
   IrBuilder& builder() { return ctx_.b; }
   LibState& state() { return ctx_.state; }
+  const Limits& limits() const {
+    static const Limits kDefaults;
+    return ctx_.limits ? *ctx_.limits : kDefaults;
+  }
   std::string_view name() const;
 
   V k(double c) { return cst(&ctx_.b, c); }

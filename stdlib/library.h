@@ -5,6 +5,7 @@
 #include <span>
 #include <string>
 
+#include "base/limits.h"
 #include "ir/builder.h"
 #include "ir/ir.h"
 #include "lang/diagnostics.h"
@@ -42,6 +43,8 @@ struct LibContext {
   lang::DiagnosticSink* diags = nullptr;
   lang::SourceRange call_range;
   LibState& state;
+  /// The limits on mesh and patch files (base/limits.h); null: the defaults.
+  const Limits* limits = nullptr;
 };
 
 /// Emits the IR of one library call and returns its value. Array arguments are read and

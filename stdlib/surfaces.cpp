@@ -12,6 +12,7 @@
 #include <map>
 #include <memory>
 #include <mutex>
+#include <optional>
 #include <sstream>
 #include <vector>
 
@@ -117,9 +118,24 @@ bool constant_array(Call& c, int i, const char* what, std::vector<double>* out) 
   return true;
 }
 
+/// An error when the field's tessellation of the patches (PatchSurface) would have more
+/// triangles than limits.max_mesh_triangles.
+std::optional<Error> check_patch_count(const geom::PatchSet& set, const Limits& limits) {
+  const int64_t n = geom::PatchSurface::Options{}.field_tessellation;
+  const int64_t per_patch = 2 * n * n;
+  const int64_t patches = static_cast<int64_t>(set.patches.size());
+  if (patches <= limits.max_mesh_triangles / per_patch) return std::nullopt;
+  return Error{set.source + ": " + std::to_string(patches) + " patches tessellate into " +
+                   std::to_string(patches * per_patch) + " triangles (" +
+                   std::to_string(per_patch) + " per patch), more than the limit of " +
+                   std::to_string(limits.max_mesh_triangles),
+               limit_hint("max_mesh_triangles")};
+}
+
 }  // namespace
 
 V lower_surface(Call& c) {
+  const Limits& limits = c.limits();
   const lang::SourceFile* source = c.builder().function().source.get();
   const std::string name(c.name());
   if (c.size(0) < 3) {
@@ -143,14 +159,19 @@ V lower_surface(Call& c) {
                         (folder.empty() ? std::string() : " ('" + folder.string() + "')")
                   : std::string("; a relative path starts at the current directory (the source "
                                 "is not a file)"));
-      surface = cache().get(file_key(mesh ? "mesh" : "bpt", path), [&]() -> Built {
+      // The limits are part of the key: a file loaded under larger ones is not reused.
+      const std::string key = file_key(mesh ? "mesh" : "bpt", path) + ':' +
+                              std::to_string(limits.max_mesh_bytes) + ':' +
+                              std::to_string(limits.max_mesh_triangles);
+      surface = cache().get(key, [&]() -> Built {
         if (mesh) {
-          Result<geom::TriangleMesh> m = geom::load_mesh(path.string());
+          Result<geom::TriangleMesh> m = geom::load_mesh(path.string(), limits);
           if (!m.ok()) return m.error();
           return std::shared_ptr<const geom::Surface>(geom::MeshSurface::build(m.value()));
         }
-        Result<geom::PatchSet> p = geom::load_bpt(path.string());
+        Result<geom::PatchSet> p = geom::load_bpt(path.string(), limits);
         if (!p.ok()) return p.error();
+        if (auto e = check_patch_count(p.value(), limits)) return *e;
         return std::shared_ptr<const geom::Surface>(geom::PatchSurface::build(p.value()));
       });
       break;
@@ -175,6 +196,7 @@ V lower_surface(Call& c) {
       surface = cache().get(data_key("patches", p, {}), [&]() -> Built {
         Result<geom::PatchSet> set = geom::patches_from_array(p, name);
         if (!set.ok()) return set.error();
+        if (auto e = check_patch_count(set.value(), limits)) return *e;
         return std::shared_ptr<const geom::Surface>(geom::PatchSurface::build(set.value()));
       });
       break;
@@ -184,6 +206,7 @@ V lower_surface(Call& c) {
   }
   if (!surface.ok()) {
     std::string message = surface.error().message;
+    if (!surface.error().hint.empty()) hint = surface.error().hint;
     // Inline data messages already start with the function's name.
     if (message.rfind(name, 0) != 0) message = name + ": " + message;
     c.error(-1, message, hint);

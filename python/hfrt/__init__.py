@@ -15,7 +15,7 @@ import pathlib as _pathlib
 
 from . import _hfrt
 
-__all__ = ["Model", "CompileError", "Diagnostic", "render", "write_image", "__version__"]
+__all__ = ["Model", "LIMITS", "CompileError", "Diagnostic", "render", "write_image", "__version__"]
 __version__ = "0.1.0"
 
 
@@ -63,20 +63,29 @@ def _looks_like_path(text):
     return "\n" not in text and "{" not in text and text.strip().lower().endswith(".hf")
 
 
+#: The names of the limits on hostile input that Model() takes as keyword arguments
+#: (docs/limits.md; hfrt::ModelLimits).
+LIMITS = ("max_loop_iterations", "max_array_size", "max_slots", "max_model_size",
+          "max_source_bytes", "max_mesh_bytes", "max_mesh_triangles")
+
+
 class Model:
     """A compiled HyperFun object.
 
     Model(path_or_source, object=None, params=None, *, backend="jit", precision="f64",
-          name="<input>")
+          name="<input>", **limits)
 
     `path_or_source` is a file (a path-like, or a string naming an existing file or ending
     in .hf) or HyperFun source text. Raises CompileError (with located diagnostics) on source
     errors, FileNotFoundError when the file cannot be read, ValueError on bad arguments.
+    `limits` are the limits on hostile input (docs/limits.md), by name: max_loop_iterations,
+    max_array_size, max_slots, max_model_size, max_source_bytes, max_mesh_bytes,
+    max_mesh_triangles (positive integers), e.g. Model(src, max_loop_iterations=1000).
     Evaluation is thread-safe; set_params may run concurrently (it waits for evaluations).
     """
 
     def __init__(self, path_or_source, object=None, params=None, *, backend="jit",
-                 precision="f64", name="<input>"):
+                 precision="f64", name="<input>", **limits):
         if isinstance(path_or_source, _os.PathLike):
             text, is_file = _os.fspath(path_or_source), True
         elif isinstance(path_or_source, str):
@@ -85,7 +94,16 @@ class Model:
         else:
             raise TypeError("Model() expects a path or HyperFun source text")
         params = [] if params is None else [float(v) for v in params]
-        self._m = _hfrt._compile(text, is_file, name, object or "", params, backend, precision)
+        for key, value in limits.items():
+            if key not in LIMITS:
+                raise TypeError(f"Model() got an unexpected keyword argument '{key}' (the limits "
+                                f"are {', '.join(LIMITS)})")
+            if isinstance(value, bool) or not isinstance(value, int):
+                raise TypeError(f"{key} must be an int (got {value!r})")
+            if value < 1:
+                raise ValueError(f"{key} must be at least 1 (got {value})")
+        self._m = _hfrt._compile(text, is_file, name, object or "", params, backend, precision,
+                                 {k: int(v) for k, v in limits.items()})
 
     # -- shape ---------------------------------------------------------------------------
     @property

@@ -8,6 +8,7 @@
 
 #include <atomic>
 #include <cmath>
+#include <cstddef>
 #include <cstdio>
 #include <fstream>
 #include <random>
@@ -572,3 +573,62 @@ TEST(CApi, RenderSceneFile) {
   std::remove(scene.c_str());
   std::remove(bad.c_str());
 }
+
+namespace limits_test {
+
+const char* kEndless =
+    "my_model(x[3], a[1])\n{\n  i = 0;\n  while x[1] > 0 loop i = i + 1; endloop;\n"
+    "  my_model = i;\n}\n";
+
+TEST(CApi, LimitsAreOptionsWithTheirDefaults) {
+  hfrt_compile_options opt;
+  hfrt_compile_options_init(&opt);
+  EXPECT_EQ(opt.max_loop_iterations, 1000000);
+  EXPECT_EQ(opt.max_array_size, 8192);
+  EXPECT_EQ(opt.max_mesh_bytes, int64_t{256} << 20);
+  opt.max_loop_iterations = 10;
+  hfrt_model* m = nullptr;
+  ASSERT_EQ(hfrt_model_compile_source(kEndless, "endless.hf", &opt, &m), HFRT_OK)
+      << hfrt_last_error_message();
+  double xs[3] = {1, 0, 0}, f = 0;
+  ASSERT_EQ(hfrt_model_eval_f64(m, 1, xs, 3, &f, 1, nullptr, 0), HFRT_OK);
+  EXPECT_TRUE(std::isnan(f));
+  xs[0] = -1;
+  ASSERT_EQ(hfrt_model_eval_f64(m, 1, xs, 3, &f, 1, nullptr, 0), HFRT_OK);
+  EXPECT_EQ(f, 0);
+  hfrt_model_free(m);
+
+  // A located compile error for an array over the limit.
+  hfrt_compile_options_init(&opt);
+  opt.max_array_size = 2;
+  m = nullptr;
+  EXPECT_EQ(hfrt_model_compile_source("m(x[3], a[1]) { m = 1; }", "arr.hf", &opt, &m),
+            HFRT_ERROR_COMPILE);
+  const char* file = nullptr;
+  int32_t line = 0, col = 0;
+  hfrt_last_error_location(&file, &line, &col);
+  EXPECT_EQ(line, 1);
+  EXPECT_EQ(col, 5);
+  EXPECT_NE(std::string(hfrt_last_error_message()).find("array size 3 is more than the limit of 2"),
+            std::string::npos)
+      << hfrt_last_error_message();
+}
+
+TEST(CApi, BadLimitsAndOldOptionStructs) {
+  hfrt_compile_options opt;
+  hfrt_compile_options_init(&opt);
+  opt.max_slots = 0;
+  hfrt_model* m = nullptr;
+  EXPECT_EQ(hfrt_model_compile_source(kBall, nullptr, &opt, &m), HFRT_ERROR_INVALID_ARGUMENT);
+  EXPECT_EQ(std::string(hfrt_last_error_message()),
+            "hfrt_model_compile_source: options->max_slots must be at least 1 (got 0)");
+  // A caller built against the first header (no limits) gets the defaults.
+  hfrt_compile_options_init(&opt);
+  opt.struct_size = offsetof(hfrt_compile_options, max_loop_iterations);
+  opt.max_slots = 0;  // beyond its struct: not read
+  ASSERT_EQ(hfrt_model_compile_source(kBall, nullptr, &opt, &m), HFRT_OK)
+      << hfrt_last_error_message();
+  hfrt_model_free(m);
+}
+
+}  // namespace limits_test

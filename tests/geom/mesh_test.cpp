@@ -9,6 +9,7 @@
 #include <filesystem>
 #include <fstream>
 
+#include "geom/bezier.h"
 #include "test_meshes.h"
 
 namespace hfrt::geom {
@@ -268,6 +269,49 @@ TEST_F(MeshFiles, HugeOffFaceSizeIsMalformed) {
   const std::string i =
       error_of("idx.off", "OFF\n3 1 0\n0 0 0\n1 0 0\n0 1 0\n3 0 1 99999999999999999999\n");
   EXPECT_NE(i.find("idx.off:6: malformed vertex index"), std::string::npos) << i;
+}
+
+}  // namespace
+}  // namespace hfrt::geom
+
+namespace hfrt::geom {
+namespace {
+
+// ---- limits (base/limits.h): endless and huge inputs cost nothing to refuse -----------------
+
+TEST_F(MeshFiles, DevZeroIsRefusedBeforeReading) {
+  Result<TriangleMesh> m = load_mesh("/dev/zero");
+  ASSERT_FALSE(m.ok());
+  EXPECT_EQ(m.error().message,
+            "/dev/zero: is not a regular file (a device, a pipe or a socket, which may never end)");
+  Result<PatchSet> p = load_bpt("/dev/zero");
+  ASSERT_FALSE(p.ok());
+  EXPECT_EQ(p.error().message,
+            "/dev/zero: is not a regular file (a device, a pipe or a socket, which may never end)");
+}
+
+TEST_F(MeshFiles, FileOverTheByteLimitIsRefusedWithTheOption) {
+  const std::string path = write("limit.off", kTetraOff);
+  Limits limits;
+  ASSERT_TRUE(load_mesh(path, limits).ok());
+  limits.max_mesh_bytes = 16;
+  Result<TriangleMesh> m = load_mesh(path, limits);
+  ASSERT_FALSE(m.ok());
+  EXPECT_EQ(m.error().message, path + ": is " + std::to_string(std::string(kTetraOff).size()) +
+                                   " bytes, more than the limit of 16 bytes");
+  EXPECT_NE(m.error().hint.find("--max-mesh-bytes N"), std::string::npos);
+}
+
+TEST_F(MeshFiles, TriangleCountHasALimit) {
+  const std::string path = write("count.off", kTetraOff);
+  Limits limits;
+  limits.max_mesh_triangles = 4;
+  ASSERT_TRUE(load_mesh(path, limits).ok());
+  limits.max_mesh_triangles = 3;
+  Result<TriangleMesh> m = load_mesh(path, limits);
+  ASSERT_FALSE(m.ok());
+  EXPECT_EQ(m.error().message, path + ": 4 triangles, more than the limit of 3");
+  EXPECT_NE(m.error().hint.find("--max-mesh-triangles N"), std::string::npos);
 }
 
 }  // namespace

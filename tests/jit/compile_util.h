@@ -25,17 +25,19 @@ struct Compiled {
   bool ok = false;
 };
 
-/// Compiles `text` and lowers object `object` (default: the model by the spec's rule).
+/// Compiles `text` and lowers object `object` (default: the model by the spec's rule) within
+/// `limits`. `ok` says that the front end passed and the object was lowered (the lowering's
+/// own errors, such as a limit, are in `diagnostics`).
 inline Compiled compile(const std::string& text, const std::string& object = "",
-                        const std::string& name = "test.hf") {
+                        const std::string& name = "test.hf", const Limits& limits = {}) {
   Compiled c;
   auto file = std::make_shared<const lang::SourceFile>(name, text);
   lang::DiagnosticSink diags(file);
-  c.program = lang::compile_source(file, diags);
+  c.program = lang::compile_source(file, diags, limits);
   if (c.program) {
     int index = object.empty() ? c.program->default_object() : c.program->find_object(object);
     if (index >= 0) {
-      c.fn = lower_object(*c.program, index, &diags);
+      c.fn = lower_object(*c.program, index, &diags, limits);
       c.ok = true;
     }
   }

@@ -3,10 +3,12 @@
 // gradient domains (soundness on sampled points, central differences, engines, laziness).
 
 #include <gtest/gtest.h>
+#include <unistd.h>
 
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <cstring>
 #include <random>
 #include <string>
 #include <thread>
@@ -446,4 +448,151 @@ TEST(JitModelTest, ManyThreadsEvaluateDomainsAtOnce) {
 }
 
 }  // namespace
+}  // namespace hfrt
+
+namespace hfrt {
+// ---- limits on hostile input (docs/limits.md) ------------------------------------------------
+
+namespace limits_test {
+
+// x[1] > 0: a loop that never ends; else no loop at all.
+const char* kEndless =
+    "my_model(x[3], a[1])\n"
+    "{\n"
+    "  i = 0;\n"
+    "  while x[1] > 0 loop i = i + 1; endloop;\n"
+    "  my_model = i - x[2];\n"
+    "}\n";
+
+// An endless loop gives NaN and the located LoopLimit error in every engine of every domain,
+// quickly (the default limit, 10^6 iterations per point); points without the loop keep values.
+TEST(JitModelTest, EndlessLoopIsNaNInEveryDomainAndEngine) {
+  for (Backend backend : {Backend::kJit, Backend::kInterp}) {
+    ModelOptions mo;
+    mo.backend = backend;
+    mo.eager_f32 = true;
+    mo.interval_jit_max_insts = -1;  // the domain JITs, whatever the size
+    mo.gradient_jit_max_insts = -1;
+    CompileResult r = Model::compile(kEndless, mo, "endless.hf");
+    ASSERT_TRUE(r.ok()) << r.rendered;
+    const Model& m = *r.model;
+    const DomainEngine engine =
+        backend == Backend::kJit ? DomainEngine::kJit : DomainEngine::kInterp;
+    ASSERT_EQ(m.interval_engine(), engine);
+    ASSERT_EQ(m.gradient_engine(Precision::kF64), engine);
+    ASSERT_EQ(m.gradient_engine(Precision::kF32), engine);
+
+    PointValue v = m.eval({1, 0, 0});
+    EXPECT_TRUE(std::isnan(v.f));
+    EXPECT_EQ(v.error, "Loop iteration limit exceeded");
+    EXPECT_EQ(v.error_line, 4);
+    EXPECT_EQ(v.error_col, 3);
+    EXPECT_EQ(m.eval({-1, 2, 0}).f, -2);
+
+    const double xs64[6] = {1, -1, 0, 2, 0, 0};  // points (1, 0, 0) and (-1, 2, 0)
+    double f64[2];
+    m.eval_batch(2, xs64, f64);
+    EXPECT_TRUE(std::isnan(f64[0]));
+    EXPECT_EQ(f64[1], -2);
+    const float xs32[6] = {1, -1, 0, 2, 0, 0};
+    float f32[2];
+    m.eval_batch(2, xs32, f32);
+    EXPECT_TRUE(std::isnan(f32[0]));
+    EXPECT_EQ(f32[1], -2);
+
+    // Sound: a box with points that loop forever may have no value.
+    IntervalValue iv = m.eval_interval({0.5, 0, 0}, {1, 1, 1});
+    EXPECT_TRUE(iv.maybe_nan);
+    EXPECT_TRUE(iv.contains(std::nan("")));
+    IntervalValue mixed = m.eval_interval({-1, 0, 0}, {1, 1, 1});
+    EXPECT_TRUE(mixed.maybe_nan);
+    EXPECT_TRUE(mixed.contains(-1));
+    IntervalValue none = m.eval_interval({-2, 0, 0}, {-1, 1, 1});
+    EXPECT_FALSE(none.maybe_nan);
+
+    GradientValue g = m.eval_gradient({1, 0, 0});
+    EXPECT_TRUE(std::isnan(g.f));
+    EXPECT_TRUE(std::isnan(g.d[0]));
+    float gout[8];
+    m.eval_gradient_batch(2, xs32, gout);
+    EXPECT_TRUE(std::isnan(gout[0]));
+    EXPECT_EQ(gout[1], -2);
+    EXPECT_EQ(gout[2 * 2 + 1], -1);  // dF/dx[2] of the second point
+  }
+}
+
+TEST(JitModelTest, LoopLimitIsAnOptionAndAtTheLimitStillWorks) {
+  const char* counted =
+      "my_model(x[3], a[1]) { i = 0; while i < x[1] loop i = i + 1; endloop; my_model = i; }";
+  ModelOptions mo;
+  mo.eager_f32 = true;
+  mo.limits.max_loop_iterations = 50;
+  CompileResult r = Model::compile(counted, mo);
+  ASSERT_TRUE(r.ok()) << r.rendered;
+  EXPECT_EQ(r.model->eval({50, 0, 0}).f, 50);
+  EXPECT_EQ(r.model->eval({51, 0, 0}).error, "Loop iteration limit exceeded");
+  const float xs[2] = {50, 51};
+  float f[2];
+  r.model->eval_batch(2, xs, f);
+  EXPECT_EQ(f[0], 50);
+  EXPECT_TRUE(std::isnan(f[1]));
+  // The largest limit: single precision still counts every iteration.
+  mo.limits.max_loop_iterations = 1 << 24;
+  CompileResult big = Model::compile(counted, mo);
+  ASSERT_TRUE(big.ok()) << big.rendered;
+  EXPECT_EQ(big.model->eval({1000, 0, 0}).f, 1000);
+}
+
+TEST(JitModelTest, InvalidLimitsAreAnErrorWithoutAModel) {
+  ModelOptions mo;
+  mo.limits.max_loop_iterations = 0;
+  CompileResult r = Model::compile("m(x[3], a[1]) { m = 1; }", mo);
+  EXPECT_FALSE(r.ok());
+  EXPECT_EQ(r.error, "ModelLimits::max_loop_iterations must be from 1 to 16777216 (got 0)");
+  mo.limits = {};
+  mo.limits.max_slots = -1;
+  EXPECT_EQ(Model::compile("m(x[3], a[1]) { m = 1; }", mo).error,
+            "ModelLimits::max_slots must be at least 1 (got -1)");
+  EXPECT_EQ(check_model_limits(ModelLimits{}), "");
+}
+
+TEST(JitModelTest, ArrayAndSourceLimitsAreOptions) {
+  const char* arrays = "m(x[3], a[1]) { array v[100]; v[1] = x[1]; m = v[1]; }";
+  ModelOptions mo;
+  EXPECT_TRUE(Model::compile(arrays, mo).ok());
+  mo.limits.max_array_size = 99;
+  CompileResult r = Model::compile(arrays, mo, "arrays.hf");
+  ASSERT_FALSE(r.ok());
+  ASSERT_FALSE(r.diagnostics.empty());
+  EXPECT_EQ(r.diagnostics[0].message, "array size 100 is more than the limit of 99 elements");
+  EXPECT_EQ(r.diagnostics[0].line, 1);
+  EXPECT_EQ(r.diagnostics[0].col, 25);
+
+  // A source file over the limit, and an endless one, are refused without reading them whole.
+  const std::string path =
+      ::testing::TempDir() + "hfrt_limits_source_" + std::to_string(::getpid()) + ".hf";
+  std::FILE* f = std::fopen(path.c_str(), "wb");
+  ASSERT_NE(f, nullptr);
+  std::fputs(arrays, f);
+  std::fclose(f);
+  ModelOptions small;
+  EXPECT_TRUE(Model::compile_file(path, small).ok());
+  small.limits.max_source_bytes = 10;
+  CompileResult big = Model::compile_file(path, small);
+  EXPECT_FALSE(big.ok());
+  EXPECT_EQ(big.error.rfind(path + ": is " + std::to_string(std::strlen(arrays)) +
+                                " bytes, more than the limit of 10 bytes (raise the limit with "
+                                "--max-source-bytes N",
+                            0),
+            0u)
+      << big.error;
+  std::remove(path.c_str());
+  small.limits.max_source_bytes = 1 << 20;
+  CompileResult zero = Model::compile_file("/dev/zero", small);
+  EXPECT_EQ(zero.error.rfind("/dev/zero: is more than the limit of 1048576 bytes", 0), 0u)
+      << zero.error;
+}
+
+}  // namespace limits_test
+
 }  // namespace hfrt

@@ -305,3 +305,115 @@ TEST(Lower, InstructionsCarrySourceLocations) {
 
 }  // namespace
 }  // namespace hfrt::jit
+
+namespace hfrt::jit {
+namespace {
+
+using testutil::compile;
+
+// ---- limits on hostile input (base/limits.h) ------------------------------------------------
+
+Limits loop_limit(int64_t n) {
+  Limits l;
+  l.max_loop_iterations = n;
+  return l;
+}
+
+ErrorKind error_of(const testutil::Compiled& c) {
+  EvalResult r = Interpreter(c.fn).eval(std::vector<double>{0, 0, 0}, {});
+  return r.error ? r.error->kind : ErrorKind::kDivisionByZero;
+}
+
+TEST(Lower, LoopJustUnderTheLimitRunsAndOneMoreStops) {
+  const char* src =
+      "m(x[3], a[1])\n{\n i = 0;\n while i < 1000 loop i = i + 1; endloop;\n m = i;\n}\n";
+  auto at = compile(src, "", "test.hf", loop_limit(1000));
+  ASSERT_TRUE(at.ok) << at.diagnostics;
+  EvalResult r = Interpreter(at.fn).eval(std::vector<double>{0, 0, 0}, {});
+  EXPECT_FALSE(r.error);
+  EXPECT_EQ(r.value, 1000);
+  auto under = compile(src, "", "test.hf", loop_limit(999));
+  EvalResult e = Interpreter(under.fn).eval(std::vector<double>{0, 0, 0}, {});
+  ASSERT_TRUE(e.error);
+  EXPECT_EQ(e.error->kind, ErrorKind::kLoopLimit);
+  EXPECT_TRUE(std::isnan(e.value));
+  EXPECT_EQ(describe_runtime_error(*e.error, under.fn),
+            "test.hf:4:2: Loop iteration limit exceeded");
+}
+
+TEST(Lower, LoopLimitCountsEveryLoopOfTheEvaluation) {
+  // 10 outer iterations + 10 x 10 inner ones = 110, in the object and an inlined call.
+  const char* src =
+      "inner(x[3], a[1])\n{\n n = 0;\n j = 0;\n while j < 10 loop n = n + 1; j = j + 1; endloop;\n"
+      " inner = n;\n}\n"
+      "m(x[3], a[1])\n{\n t = 0;\n i = 0;\n while i < 10 loop t = t + inner(x, a); i = i + 1; "
+      "endloop;\n m = t;\n}\n";
+  auto fits = compile(src, "m", "test.hf", loop_limit(110));
+  ASSERT_TRUE(fits.ok) << fits.diagnostics;
+  EvalResult r = Interpreter(fits.fn).eval(std::vector<double>{0, 0, 0}, {});
+  EXPECT_FALSE(r.error);
+  EXPECT_EQ(r.value, 100);
+  auto over = compile(src, "m", "test.hf", loop_limit(109));
+  EvalResult e = Interpreter(over.fn).eval(std::vector<double>{0, 0, 0}, {});
+  ASSERT_TRUE(e.error);
+  EXPECT_EQ(e.error->kind, ErrorKind::kLoopLimit);
+  EXPECT_EQ(e.error->loc.line, 5u);  // the inner loop's 110th iteration
+  // The counter starts again with each point.
+  EXPECT_FALSE(Interpreter(fits.fn).eval(std::vector<double>{1, 0, 0}, {}).error);
+}
+
+TEST(Lower, EndlessLoopWithTheDefaultLimitStopsQuickly) {
+  const char* src = "m(x[3], a[1]) { i = 0; while 1 loop i = i + 1; endloop; m = i; }";
+  auto c = compile(src);
+  ASSERT_TRUE(c.ok) << c.diagnostics;
+  EXPECT_EQ(error_of(c), ErrorKind::kLoopLimit);
+}
+
+// Objects that call the previous one twice: the inlined size doubles at each level.
+std::string doubling_chain(int levels) {
+  std::string s = "o0(x[3], a[1]) { o0 = x[1] * x[2]; }\n";
+  for (int i = 1; i <= levels; ++i) {
+    const std::string p = "o" + std::to_string(i - 1), o = "o" + std::to_string(i);
+    s += o + "(x[3], a[1]) { " + o + " = " + p + "(x, a) + " + p + "(x, a); }\n";
+  }
+  return s;
+}
+
+TEST(Lower, ExponentialInliningIsALocatedErrorBeforeLowering) {
+  // 2^40 copies: counted on the AST, refused at once.
+  const std::string src = doubling_chain(40);
+  auto c = compile(src, "o40");
+  ASSERT_TRUE(c.ok);
+  EXPECT_NE(c.diagnostics.find("test.hf:41:25: error: object 'o40' is too large once its object "
+                               "calls are inlined: "),
+            std::string::npos)
+      << c.diagnostics;
+  EXPECT_NE(c.diagnostics.find("more than the limit of 4000000"), std::string::npos);
+  EXPECT_NE(c.diagnostics.find("--max-model-size N"), std::string::npos);
+  // The stub has no value anywhere.
+  EXPECT_TRUE(std::isnan(Interpreter(c.fn).eval(std::vector<double>{1, 2, 3}, {}).value));
+  // Ten levels fit the default; a small limit refuses them.
+  EXPECT_EQ(compile(doubling_chain(10), "o10").diagnostics, "");
+  Limits small;
+  small.max_model_size = 1000;
+  EXPECT_NE(compile(doubling_chain(10), "o10", "test.hf", small)
+                .diagnostics.find("more than the limit of 1000"),
+            std::string::npos);
+}
+
+TEST(Lower, SlotLimitIsLocatedAtTheLargestArray) {
+  const char* src =
+      "m(x[3], a[1])\n{\n array small[10], big[5000], mid[100];\n big[1] = 1;\n m = big[1];\n}\n";
+  EXPECT_EQ(compile(src).diagnostics, "");
+  Limits l;
+  l.max_slots = 10000;  // 2 x (10 + 5000 + 100) slots with the flags, plus x, a, s
+  auto c = compile(src, "", "test.hf", l);
+  EXPECT_NE(c.diagnostics.find("test.hf:3:19: error: object 'm' needs 10226 slots for its "
+                               "variables and array elements"),
+            std::string::npos)
+      << c.diagnostics;
+  EXPECT_NE(c.diagnostics.find("--max-slots N"), std::string::npos);
+}
+
+}  // namespace
+}  // namespace hfrt::jit

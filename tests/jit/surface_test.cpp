@@ -456,12 +456,78 @@ const LoadCase kLoadCases[] = {
      "deg.bpt:2: "},
     {"bpt_truncated", "short.bpt", "2\n1 1\n0 0 0 1 0 0 0 1 0 1 1 0\n",
      "hfBezierSurface(x, \"short.bpt\")", "short.bpt"},
+    // Endless inputs are refused before reading (the fuzzer's hang, limits.md).
+    {"dev_zero", nullptr, "", "hfMesh(x, \"/dev/zero\")",
+     "hfMesh: /dev/zero: is not a regular file (a device, a pipe or a socket, which may never "
+     "end)"},
+    {"dev_zero_bpt", nullptr, "", "hfBezierSurface(x, \"/dev/zero\")",
+     "hfBezierSurface: /dev/zero: is not a regular file"},
 };
 
 INSTANTIATE_TEST_SUITE_P(Files, SurfaceLoadError, ::testing::ValuesIn(kLoadCases),
                          [](const ::testing::TestParamInfo<LoadCase>& info) {
                            return std::string(info.param.id);
                          });
+
+/// A model of `leaf` in the temp folder compiled within `limits`: its first diagnostic.
+SourceDiagnostic limit_error(const std::string& name, const std::string& leaf,
+                             const ModelLimits& limits) {
+  fs::path model = write_file(name, mesh_model(leaf));
+  ModelOptions mo;
+  mo.limits = limits;
+  CompileResult r = Model::compile_file(model.string(), mo);
+  EXPECT_FALSE(r.ok()) << name;
+  EXPECT_TRUE(r.error.empty()) << r.error;
+  if (r.diagnostics.empty()) return {};
+  EXPECT_EQ(r.diagnostics[0].line, 2) << name;
+  EXPECT_EQ(r.diagnostics[0].col, 14) << name;
+  return r.diagnostics[0];
+}
+
+TEST(SurfaceLimits, AFileOverTheByteLimitIsRefusedBeforeReading) {
+  // A mesh that loads under the default limits.
+  const std::string off =
+      "OFF\n4 4 6\n0 0 0\n1 0 0\n0 1 0\n0 0 1\n3 0 2 1\n3 0 1 3\n3 0 3 2\n3 1 2 3\n";
+  write_file("lim.off", off);
+  ASSERT_TRUE(compile_in_temp("lim_ok.hf", mesh_model("hfMesh(x, \"lim.off\")")).ok());
+  ModelLimits small;
+  small.max_mesh_bytes = 20;
+  SourceDiagnostic d = limit_error("lim_bytes.hf", "hfMesh(x, \"lim.off\")", small);
+  EXPECT_NE(d.message.find("lim.off: is " + std::to_string(off.size()) +
+                           " bytes, more than the limit of 20 bytes"),
+            std::string::npos)
+      << d.message;
+  EXPECT_NE(d.hint.find("--max-mesh-bytes N"), std::string::npos) << d.hint;
+  // Patch files too.
+  write_file("lim.bpt", "1\n1 1\n0 0 0 1 0 0 0 1 0 1 1 0\n");
+  SourceDiagnostic b = limit_error("lim_bpt.hf", "hfBezierSurface(x, \"lim.bpt\")", small);
+  EXPECT_NE(b.message.find("more than the limit of 20 bytes"), std::string::npos) << b.message;
+}
+
+TEST(SurfaceLimits, TooManyTrianglesOrPatchesAreLocatedErrors) {
+  write_file("tri.off",
+             "OFF\n4 4 6\n0 0 0\n1 0 0\n0 1 0\n0 0 1\n3 0 2 1\n3 0 1 3\n3 0 3 2\n3 1 2 3\n");
+  ModelLimits three;
+  three.max_mesh_triangles = 3;
+  SourceDiagnostic d = limit_error("tri.hf", "hfMesh(x, \"tri.off\")", three);
+  EXPECT_NE(d.message.find("tri.off: 4 triangles, more than the limit of 3"), std::string::npos)
+      << d.message;
+  EXPECT_NE(d.hint.find("--max-mesh-triangles N"), std::string::npos) << d.hint;
+  // One patch tessellates into 2 x 32 x 32 triangles for the field.
+  write_file("one.bpt", "1\n1 1\n0 0 0 1 0 0 0 1 0 1 1 0\n");
+  ModelLimits few;
+  few.max_mesh_triangles = 2000;
+  SourceDiagnostic p = limit_error("one.hf", "hfBezierSurface(x, \"one.bpt\")", few);
+  EXPECT_NE(p.message.find("1 patches tessellate into 2048 triangles (2048 per patch), more than "
+                           "the limit of 2000"),
+            std::string::npos)
+      << p.message;
+  few.max_mesh_triangles = 2048;
+  fs::path ok = write_file("one_ok.hf", mesh_model("hfBezierSurface(x, \"one.bpt\")"));
+  ModelOptions mo;
+  mo.limits = few;
+  EXPECT_TRUE(Model::compile_file(ok.string(), mo).ok());
+}
 
 /// Inline forms: the messages name the function and the problem, at the call.
 struct InlineCase {

@@ -183,7 +183,7 @@ const MessageCase kMessages[] = {
     {"header_rparen", "m(x[3], a[1] { m = 1; }", 1, 14, E,
      "expected ')' in the header of object 'm', found '{'"},
     {"size_range", "m(x[0], a[1]) { m = 1; }", 1, 5, E,
-     "array size must be a whole number from 1 to 1048576, found number '0'"},
+     "array size must be a whole number from 1 to 8192, found number '0'"},
     {"lbrace", "m(x[3], a[1]) m = 1; }", 1, 15, E,
      "expected '{' to start the body of object 'm', found 'm'"},
     {"missing_rbrace", "m(x[3], a[1]) { m = 1;", 1, 23, E,

@@ -466,3 +466,54 @@ TEST(Robustness, DeepestAllowedNestingIsCheckedAndDumped) {
 
 }  // namespace
 }  // namespace hfrt::lang
+
+namespace hfrt::lang {
+namespace {
+
+using testing::compile;
+using testing::Compiled;
+using testing::model;
+
+// ---- limits on hostile input (base/limits.h) ------------------------------------------------
+
+TEST(Limits, HugeArrayIsALocatedErrorNamingTheOption) {
+  Compiled c = compile(model("array v[1000000000];\nmy_model = 1;"));
+  ASSERT_EQ(c.errors().size(), 1u) << c.rendered();
+  const Diagnostic& d = *c.errors()[0];
+  EXPECT_EQ(d.message, "array size 1000000000 is more than the limit of 8192 elements");
+  EXPECT_EQ(d.range.begin.line, 3u);
+  EXPECT_EQ(d.range.begin.col, 9u);
+  EXPECT_EQ(d.range.length, 10u);
+  EXPECT_NE(d.hint.find("--max-array-size N"), std::string::npos) << d.hint;
+  EXPECT_NE(d.hint.find("ModelLimits::max_array_size"), std::string::npos) << d.hint;
+}
+
+TEST(Limits, ArraySizeLimitIsConfigurableAndCoversHeaders) {
+  auto parse = [](const std::string& text, int64_t max) {
+    auto file = std::make_shared<const SourceFile>("t.hf", text);
+    auto diags = std::make_unique<DiagnosticSink>(file);
+    Limits limits;
+    limits.max_array_size = max;
+    parse_program(file, *diags, limits);
+    return diags->render(false);
+  };
+  const std::string src = "m(x[3], a[20]) { array v[10]; m = 1; }";
+  EXPECT_EQ(parse(src, 20), "");
+  EXPECT_NE(parse(src, 19).find("t.hf:1:11: error: array size 20 is more than the limit of 19 "
+                                "elements"),
+            std::string::npos)
+      << parse(src, 19);
+  EXPECT_NE(parse(src, 9).find("1:11: error: array size 20"), std::string::npos);
+}
+
+TEST(Robustness, AMillionNestedParenthesesAreAnErrorNotACrash) {
+  std::string e = std::string(1000000, '(') + "1" + std::string(1000000, ')');
+  Compiled c = compile(model("my_model = " + e + ";"));
+  ASSERT_FALSE(c.ok());
+  ASSERT_EQ(c.errors().size(), 1u) << c.errors().size();
+  EXPECT_EQ(c.errors()[0]->range.begin.line, 3u);
+  EXPECT_EQ(c.errors()[0]->range.begin.col, 12u + kMaxNesting);
+}
+
+}  // namespace
+}  // namespace hfrt::lang

@@ -464,3 +464,43 @@ def test_main_render_writes_an_image(tmp_path):
     assert r.returncode == 1 and f"{bad}:1:" in r.stderr
     r = _py(["render", str(bad), "-o", str(out), "--size", "big"])
     assert r.returncode == 2 and "--size" in r.stderr
+
+
+# -- limits on hostile input (docs/limits.md) ---------------------------------------------
+
+ENDLESS = ("my_model(x[3], a[1])\n{\n  i = 0;\n  while x[1] > 0 loop i = i + 1; endloop;\n"
+           "  my_model = i;\n}\n")
+
+
+def test_limits_are_keyword_arguments():
+    m = hfrt.Model(ENDLESS, max_loop_iterations=100)
+    vals = m.eval(np.array([[1.0, 0, 0], [-1.0, 0, 0]]))
+    assert math.isnan(vals[0]) and vals[1] == 0
+    counted = ("my_model(x[3], a[1]) { i = 0; while i < x[1] loop i = i + 1; endloop; "
+               "my_model = i; }")
+    m = hfrt.Model(counted, max_loop_iterations=100)
+    assert m.eval([100.0, 0, 0]) == 100
+    assert math.isnan(m.eval([101.0, 0, 0]))
+    with pytest.raises(hfrt.CompileError, match="more than the limit of 2 elements") as e:
+        hfrt.Model("m(x[3], a[1]) { m = 1; }", name="arr.hf", max_array_size=2)
+    assert (e.value.line, e.value.column) == (1, 5)
+    assert "max_loop_iterations" in hfrt.LIMITS
+
+
+def test_bad_limits_are_errors():
+    with pytest.raises(TypeError, match="max_loops"):
+        hfrt.Model(BALL, max_loops=3)
+    with pytest.raises(ValueError, match="max_slots must be at least 1"):
+        hfrt.Model(BALL, max_slots=0)
+    with pytest.raises(ValueError, match="max_loop_iterations must be from 1 to 16777216"):
+        hfrt.Model(BALL, max_loop_iterations=1 << 25)
+    with pytest.raises(TypeError, match="must be an int"):
+        hfrt.Model(BALL, max_mesh_bytes=1.5)
+
+
+def test_dev_zero_mesh_is_a_located_error_that_comes_back_quickly():
+    t0 = time.monotonic()
+    with pytest.raises(hfrt.CompileError, match="/dev/zero: is not a regular file") as e:
+        hfrt.Model('my_model(x[3], a[1]) {\n  my_model = hfMesh(x, "/dev/zero");\n}\n')
+    assert (e.value.line, e.value.column) == (2, 14)
+    assert time.monotonic() - t0 < 60

@@ -152,3 +152,47 @@ TEST_F(EvalCliTest, StatsGoToStderr) {
 
 }  // namespace
 }  // namespace hfrt::tools
+
+namespace hfrt::tools {
+namespace {
+
+// ---- limits on hostile input (docs/limits.md) ------------------------------------------------
+
+TEST_F(EvalCliTest, LoopLimitIsAnOptionAndEndlessLoopsAreNaNWithTheirLocation) {
+  write("loop.hf",
+        "my_model(x[3], a[1])\n{\n  i = 0;\n  while i < x[1] loop i = i + 1; endloop;\n"
+        "  my_model = i;\n}\n");
+  for (const char* backend : {"jit", "interp"}) {
+    CliRun r = hfrt(std::string("eval loop.hf --max-loop-iterations 5 --backend ") + backend,
+                    "5 0 0\n6 0 0\n");
+    EXPECT_EQ(r.exit_code, 0) << r.err;
+    EXPECT_EQ(r.out, "5 0\nnan Loop iteration limit exceeded (line 4 pos 3)\n") << backend;
+  }
+  CliRun bad = hfrt("eval loop.hf --max-loop-iterations 0");
+  EXPECT_EQ(bad.exit_code, 2) << bad.err;  // a usage error
+  EXPECT_NE(bad.err.find("--max-loop-iterations: Value 0 not in range 1 to 16777216"),
+            std::string::npos)
+      << bad.err;
+}
+
+TEST_F(EvalCliTest, HugeArrayAndDevZeroMeshAreLocatedErrors) {
+  write("arr.hf", "my_model(x[3], a[1])\n{\n  array v[1000000000];\n  my_model = 1;\n}\n");
+  CliRun r = hfrt("eval arr.hf");
+  EXPECT_EQ(r.exit_code, 1);
+  EXPECT_NE(r.err.find("arr.hf:3:11: error: array size 1000000000 is more than the limit of 8192 "
+                       "elements"),
+            std::string::npos)
+      << r.err;
+  EXPECT_NE(r.err.find("hint: raise the limit with --max-array-size N"), std::string::npos);
+  EXPECT_EQ(hfrt("eval arr.hf --max-array-size 999999999").exit_code, 1);
+
+  write("zero.hf", "my_model(x[3], a[1])\n{\n  my_model = hfMesh(x, \"/dev/zero\");\n}\n");
+  CliRun z = hfrt("eval zero.hf");
+  EXPECT_EQ(z.exit_code, 1);
+  EXPECT_NE(z.err.find("zero.hf:3:14: error: hfMesh: /dev/zero: is not a regular file"),
+            std::string::npos)
+      << z.err;
+}
+
+}  // namespace
+}  // namespace hfrt::tools

@@ -393,14 +393,17 @@ int run_emit(EmitCli& cli, const CLI::App& sub) {
 
   // The IR, as `hfrt ir` shows it.
   const ModelRequest& req = cli.render.model;
-  Result<std::string> text = read_file(req.file);
+  const Limits limits = to_limits(req.limits);
+  Result<std::string> text =
+      read_file_limited(req.file, limits.max_source_bytes, false, "max_source_bytes");
   if (!text) {
     std::fprintf(stderr, "hfrt: %s\n", text.error().message.c_str());
+    if (!text.error().hint.empty()) std::fprintf(stderr, "hint: %s\n", text.error().hint.c_str());
     return 2;
   }
   auto file = std::make_shared<const lang::SourceFile>(req.file, std::move(text).value());
   lang::DiagnosticSink diags(file);
-  jit::LoweredSource lowered = jit::compile_source(diags, req.object);
+  jit::LoweredSource lowered = jit::compile_source(diags, req.object, limits);
   if (!lowered.program || !report_no_object(lowered, req.file)) {
     std::fputs(diags.render(color).c_str(), stderr);
     return 1;
@@ -511,6 +514,7 @@ CommandRunner register_emit(CLI::App& app) {
   sub->add_flag("--transparent-background", cli->transparent,
                 "background with transmit 1: with POV-Ray's +UA, alpha is the coverage");
   add_render_options(*sub, &cli->render);
+  add_limit_options(*sub, &cli->render.model.limits);
   return [cli, sub] { return run_emit(*cli, *sub); };
 }
 

@@ -40,6 +40,7 @@
 #include "base/timer.h"
 #include "hfrt/model.h"
 #include "tools/hfrt/commands.h"
+#include "tools/hfrt/model_request.h"
 
 namespace hfrt::tools {
 namespace {
@@ -56,6 +57,7 @@ struct EvalOptions {
   bool interval = false;
   bool gradient = false;
   bool stats = false;
+  ModelLimits limits;
 };
 
 void append_number(std::string& out, double v) {
@@ -229,6 +231,7 @@ int run_eval(const EvalOptions& opts) {
   mo.object = opts.object;
   mo.backend = opts.backend == "interp" ? Backend::kInterp : Backend::kJit;
   mo.opt_level = opts.opt_level;
+  mo.limits = opts.limits;
   const bool f32 = opts.precision == "f32";
   // The scalar code is needed only without --interval/--gradient (those compile their own).
   const bool scalar = !opts.interval && !opts.gradient;
@@ -389,6 +392,7 @@ CommandRunner register_eval(CLI::App& app) {
   sub->add_flag("--gradient", opts->gradient,
                 "print 'f dfdx dfdy dfdz' per point (automatic differentiation)");
   sub->add_flag("--stats", opts->stats, "print compile and evaluation times on stderr");
+  add_limit_options(*sub, &opts->limits);
   return [opts] { return run_eval(*opts); };
 }
 

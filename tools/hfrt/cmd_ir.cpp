@@ -16,6 +16,7 @@
 #include "jit/driver.h"
 #include "jit/poly.h"
 #include "tools/hfrt/commands.h"
+#include "tools/hfrt/model_request.h"
 
 namespace hfrt::tools {
 namespace {
@@ -24,18 +25,22 @@ struct IrOptions {
   std::string file;
   std::string object;
   bool poly = false;
+  ModelLimits limits;
 };
 
 int run_ir(const IrOptions& opts) {
   const bool color = use_color(STDERR_FILENO);
-  Result<std::string> text = read_file(opts.file);
+  const Limits limits = to_limits(opts.limits);
+  Result<std::string> text =
+      read_file_limited(opts.file, limits.max_source_bytes, false, "max_source_bytes");
   if (!text) {
     std::fprintf(stderr, "hfrt: %s\n", text.error().message.c_str());
+    if (!text.error().hint.empty()) std::fprintf(stderr, "hint: %s\n", text.error().hint.c_str());
     return 2;
   }
   auto file = std::make_shared<const lang::SourceFile>(opts.file, std::move(text).value());
   lang::DiagnosticSink diags(file);
-  jit::LoweredSource lowered = jit::compile_source(diags, opts.object);
+  jit::LoweredSource lowered = jit::compile_source(diags, opts.object, limits);
   // Errors and warnings of the front end and of the lowering (library argument sizes, a mesh
   // or patch file that does not load, ...).
   std::fputs(diags.render(color).c_str(), stderr);
@@ -73,6 +78,7 @@ CommandRunner register_ir(CLI::App& app) {
   cmd->add_flag("--poly", opts->poly,
                 "Also print the polynomial program of the analytic root search (or why the "
                 "object has none)");
+  add_limit_options(*cmd, &opts->limits);
   return [opts] { return run_ir(*opts); };
 }
 

@@ -191,6 +191,7 @@ CommandRunner register_mesh(CLI::App& app) {
   sub->add_flag("--no-color", cli->no_color,
                 "no per-vertex colours even when the model has s[1..3]");
   sub->add_flag("--stats", cli->stats, "print the grid, the octree, counts and times on stderr");
+  add_limit_options(*sub, &cli->model.limits);
   return [cli] { return run_mesh(*cli); };
 }
 

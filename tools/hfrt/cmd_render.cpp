@@ -357,6 +357,7 @@ CommandRunner register_render(CLI::App& app) {
   sub->add_option("-o,--output", cli->output, "output image; the format follows the extension")
       ->required();
   add_render_options(*sub, cli.get());
+  add_limit_options(*sub, &cli->model.limits);
   auto seq = std::make_shared<SequenceCli>();
   sub->add_option("--frames", seq->frames,
                   "scene files: the frames A:B (or A) of the [animation] to render; -o needs a "

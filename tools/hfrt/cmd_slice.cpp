@@ -162,6 +162,7 @@ CommandRunner register_slice(CLI::App& app) {
   sub->add_option("--device", cli->device,
                   "cpu (default), cuda (an NVIDIA GPU: the model's generated kernel) or "
                   "cuda-host (that kernel compiled for this CPU); docs/gpu.md");
+  add_limit_options(*sub, &cli->model.limits);
   return [cli] { return run_slice(*cli); };
 }
 

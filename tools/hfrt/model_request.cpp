@@ -1,9 +1,11 @@
 // Model options and loading for the commands (model_request.h).
 #include "tools/hfrt/model_request.h"
 
+#include <CLI/CLI.hpp>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
+#include <limits>
 
 #include "base/timer.h"
 
@@ -44,12 +46,37 @@ bool parse_time(const std::string& text, double* out, std::string* err) {
   return true;
 }
 
+void add_limit_options(CLI::App& app, ModelLimits* limits) {
+  const ModelLimits d;
+  auto add = [&](const char* name, int64_t* field, int64_t def, int64_t max, const char* what) {
+    app.add_option(name, *field, std::string(what) + " (default " + std::to_string(def) + ")")
+        ->check(CLI::Range(int64_t{1}, max))
+        ->group("Limits (docs/limits.md)");
+  };
+  constexpr int64_t kNoMax = std::numeric_limits<int64_t>::max();
+  add("--max-loop-iterations", &limits->max_loop_iterations, d.max_loop_iterations, 1 << 24,
+      "while-loop iterations per point, all loops together; beyond: no value");
+  add("--max-array-size", &limits->max_array_size, d.max_array_size, kNoMax,
+      "elements of one array (header or 'array' declaration)");
+  add("--max-slots", &limits->max_slots, d.max_slots, kNoMax,
+      "variables and array elements of the model, inlined object calls included");
+  add("--max-model-size", &limits->max_model_size, d.max_model_size, kNoMax,
+      "operations of the model once object calls are inlined");
+  add("--max-source-bytes", &limits->max_source_bytes, d.max_source_bytes, kNoMax,
+      "bytes of the model file");
+  add("--max-mesh-bytes", &limits->max_mesh_bytes, d.max_mesh_bytes, kNoMax,
+      "bytes of a mesh or patch file (hfMesh, hfBezierSurface)");
+  add("--max-mesh-triangles", &limits->max_mesh_triangles, d.max_mesh_triangles, kNoMax,
+      "triangles (and vertices) of one mesh or patch tessellation");
+}
+
 std::optional<LoadedModel> load_model(const ModelRequest& request, bool eager_f32, int* exit_code) {
   ModelOptions mo;
   mo.object = request.object;
   mo.backend = request.backend == "interp" ? Backend::kInterp : Backend::kJit;
   mo.eager_f64 = false;
   mo.eager_f32 = eager_f32;
+  mo.limits = request.limits;
   std::vector<double> params;
   if (!parse_doubles(request.params, &params)) {
     std::fprintf(stderr, "hfrt: -a expects numbers separated by commas, e.g. -a 1,0.5 (got '%s')\n",

@@ -1,12 +1,17 @@
 #pragma once
 // The model options every command that compiles a model takes (the file, --object, -a,
-// --backend), and loading it with its diagnostics printed as the command line prints them.
+// --backend, the limits), and loading it with its diagnostics printed as the command line prints
+// them.
 
 #include <optional>
 #include <string>
 #include <vector>
 
 #include "hfrt/model.h"
+
+namespace CLI {
+class App;
+}
 
 namespace hfrt::tools {
 
@@ -16,8 +21,14 @@ struct ModelRequest {
   std::string object;
   std::string params;  ///< "v1,v2,..." for a[1..]
   std::string backend = "jit";
-  std::string time;  ///< --time: x[4] of the model ("" : 0)
+  std::string time;    ///< --time: x[4] of the model ("" : 0)
+  ModelLimits limits;  ///< --max-loop-iterations, --max-array-size, ... (add_limit_options)
 };
+
+/// Registers the options of the limits on hostile input (docs/limits.md) on a command that
+/// compiles models: --max-loop-iterations N, --max-array-size N, --max-slots N,
+/// --max-model-size N, --max-source-bytes N, --max-mesh-bytes N, --max-mesh-triangles N.
+void add_limit_options(CLI::App& app, ModelLimits* limits);
 
 /// A compiled model ready for rendering, with its compile time.
 struct LoadedModel {

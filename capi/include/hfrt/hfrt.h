@@ -108,6 +108,16 @@ typedef struct hfrt_compile_options {
   int32_t num_params;
   hfrt_precision precision; /**< which scalar evaluator is compiled eagerly */
   hfrt_backend backend;     /**< JIT (default) or the reference interpreter */
+  /* Limits on hostile input (docs/limits.md; hfrt::ModelLimits), each at least 1; init sets
+   * the defaults. A caller compiled against an older header (a smaller struct_size) gets the
+   * defaults. An out-of-range value is HFRT_ERROR_INVALID_ARGUMENT. */
+  int64_t max_loop_iterations; /**< while iterations per point (<= 2^24); beyond: NaN */
+  int64_t max_array_size;      /**< elements of one array */
+  int64_t max_slots;           /**< variables and array elements, inlined calls included */
+  int64_t max_model_size;      /**< operations once object calls are inlined */
+  int64_t max_source_bytes;    /**< bytes of the source file */
+  int64_t max_mesh_bytes;      /**< bytes of a mesh or patch file; non-regular files refused */
+  int64_t max_mesh_triangles;  /**< triangles (and vertices) of one mesh */
 } hfrt_compile_options;
 
 /** Fills *options with the defaults (no-op for NULL). */

@@ -31,6 +31,35 @@ enum class Backend { kJit, kInterp };
 
 enum class Precision { kF64, kF32 };
 
+/// Limits on what one model may cost (docs/limits.md): hostile or broken input stops with a
+/// clear error instead of hanging or exhausting memory. Every field must be at least 1;
+/// Model::compile fails (CompileResult::error) otherwise.
+struct ModelLimits {
+  /// While-loop iterations per evaluation of one point, all loops together (inlined objects'
+  /// included); beyond it the point has no value (NaN, "Loop iteration limit exceeded" at
+  /// the loop). At most 16777216 (single precision counts exactly up to 2^24).
+  int64_t max_loop_iterations = 1'000'000;
+  /// Elements of one array (x, a, s in a header; `array` declarations): a located error.
+  int64_t max_array_size = 8192;
+  /// Slots of the model: its variables and array elements with their "assigned" flags, and
+  /// those of every object call (calls are inlined).
+  int64_t max_slots = 32768;
+  /// Operations of the model once object calls are inlined (expression and statement nodes,
+  /// array elements copied): objects that call the previous one twice double at each level.
+  int64_t max_model_size = 4'000'000;
+  /// Bytes of the source file (Model::compile_file).
+  int64_t max_source_bytes = int64_t{64} << 20;
+  /// Bytes of a mesh or patch file (hfMesh, hfBezierSurface); other than regular files
+  /// (devices such as /dev/zero, pipes) are refused.
+  int64_t max_mesh_bytes = int64_t{256} << 20;
+  /// Triangles, and vertices, of one mesh; for patches, their tessellation's triangles.
+  int64_t max_mesh_triangles = 10'000'000;
+};
+
+/// "" when every limit is in range, else what is wrong ("max_slots must be at least 1 (got
+/// 0)"); Model::compile reports the same as CompileResult::error.
+std::string check_model_limits(const ModelLimits& limits);
+
 struct ModelOptions {
   std::string object;  ///< object to evaluate; empty: `my_model`, else the first
   Backend backend = Backend::kJit;
@@ -62,6 +91,8 @@ struct ModelOptions {
   /// source reuse another's code instead of compiling its own (the REPL: an edit of a radius
   /// costs no JIT compile). The same values as without it, bit for bit.
   bool hoist_constants = false;
+  /// Limits on hostile input (docs/limits.md).
+  ModelLimits limits;
 };
 
 /// One compile-time diagnostic (error, warning or note), located in the source.
