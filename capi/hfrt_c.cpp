@@ -33,6 +33,18 @@ struct hfrt_model {
 };
 
 namespace {
+/// The int a C enum field holds, read without loading it as the C++ enum type (which is
+/// undefined for values outside the enumerators' range: C callers may store any int).
+template <typename E>
+int enum_bits(const E& field) {
+  static_assert(sizeof(E) == sizeof(int));
+  int v;
+  std::memcpy(&v, &field, sizeof v);
+  return v;
+}
+}  // namespace
+
+namespace {
 
 struct LastError {
   hfrt_status status = HFRT_OK;
@@ -129,11 +141,14 @@ hfrt_status compile(const char* function, const std::string& source_or_path, boo
       return bad_arg(function, "options->params is NULL but num_params > 0");
     }
     params.assign(options->params, options->params + options->num_params);
-    if (options->precision != HFRT_PRECISION_F64 && options->precision != HFRT_PRECISION_F32) {
+    // A C caller may store any int in an enum field; in C++ loading one outside the enum's
+    // values is undefined (UBSan: "not a valid value"), so the field is read as its int.
+    const int precision = enum_bits(options->precision);
+    if (precision != HFRT_PRECISION_F64 && precision != HFRT_PRECISION_F32) {
       return bad_arg(function, "options->precision is not an hfrt_precision");
     }
-    mo.eager_f64 = options->precision == HFRT_PRECISION_F64;
-    mo.eager_f32 = options->precision == HFRT_PRECISION_F32;
+    mo.eager_f64 = precision == HFRT_PRECISION_F64;
+    mo.eager_f32 = precision == HFRT_PRECISION_F32;
     if (options->backend != HFRT_BACKEND_JIT && options->backend != HFRT_BACKEND_INTERP) {
       return bad_arg(function, "options->backend is not an hfrt_backend");
     }
@@ -508,7 +523,7 @@ hfrt_status hfrt_render_model(const hfrt_model* model, const hfrt_render_options
     if (options->fov_deg != 0) s.fov_deg = options->fov_deg;
     if (options->ortho_width != 0) s.ortho_width = options->ortho_width;
     for (int i = 0; i < 6; ++i) s.bbox[size_t(i)] = options->bbox[i];
-    switch (options->root) {
+    switch (enum_bits(options->root)) {  // any int a C caller stored (see enum_bits)
       case HFRT_ROOT_AUTO:
         s.root = hfrt::RootSearch::kAuto;
         break;

@@ -60,6 +60,10 @@ inline double frexp_exponent_(double x) {
   return e;
 }
 inline double pow2_(double k) {
+  // k is NaN or huge only where the algorithms select the value away (the LLVM backend's
+  // fptosi then makes poison, which a select does not propagate); converting such a k to int
+  // would be undefined behaviour here.
+  if (!(std::fabs(k) <= 2000.0)) return k;
   return std::ldexp(1.0, static_cast<int>(k));
 }
 inline double to_f32_(double x) {
