@@ -8,6 +8,7 @@
 
 #include "base/parallel.h"
 #include "base/timer.h"
+#include "gpu/check_grid.h"
 #include "gpu/cuda_driver.h"
 #include "jit/nvptx.h"
 #include "render/camera.h"
@@ -15,11 +16,6 @@
 namespace hfrt::app {
 
 namespace {
-// The shading constants of render/renderer.cpp (kAmbient, kSpecular, kShininess).
-constexpr float kAmbient = 0.12f;
-constexpr float kSpecular = 0.25f;
-constexpr float kShininess = 48.0f;
-
 void copy3(float* dst, render::Vec3 v) {
   dst[0] = v.x, dst[1] = v.y, dst[2] = v.z;
 }
@@ -109,12 +105,8 @@ Result<gpu::RenderParams> make_render_params(const render::RenderOptions& opt, d
   copy3(p.forward, frame.forward());
   copy3(p.right, frame.right());
   copy3(p.up, frame.up());
-  // The half extents of the image plane: CameraFrame::ray at the corner pixel (0, 0).
-  const render::Ray corner = frame.ray(0.0f, 0.0f);
-  const render::Vec3 offset =
-      frame.orthographic() ? corner.o - frame.eye() : corner.d - frame.forward();
-  p.half_w = -hfrt::dot(offset, frame.right());
-  p.half_h = hfrt::dot(offset, frame.up());
+  p.half_w = frame.half_width();
+  p.half_h = frame.half_height();
   p.ortho = frame.orthographic() ? 1 : 0;
   p.width = opt.width;
   p.height = opt.height;
@@ -122,13 +114,13 @@ Result<gpu::RenderParams> make_render_params(const render::RenderOptions& opt, d
   copy3(p.box_hi, opt.bbox.hi);
   p.step = render::effective_step(opt);
   p.eps = render::effective_epsilon(opt);
-  p.shadow_bias = 1e-3f * opt.bbox.max_extent();
+  p.shadow_bias = render::shadow_bias(opt);
   p.max_steps = 1 << 26;
   copy3(p.background, opt.background);
   copy3(p.albedo, opt.albedo);
-  p.ambient = kAmbient;
-  p.specular = kSpecular;
-  p.shininess = kShininess;
+  p.ambient = render::kAmbient;
+  p.specular = render::kSpecular;
+  p.shininess = render::kShininess;
   p.shadows = opt.shadows ? 1 : 0;
   p.num_lights = int32_t(lights.size());
   for (size_t i = 0; i < lights.size(); ++i) {
@@ -275,18 +267,10 @@ Result<DeviceRunInfo> eval_on_device(const Model& model, int64_t n, const float*
 Result<DeviceRunInfo> slice_on_device(const Model& model, const render::SliceOptions& opt,
                                       Device device, render::SliceResult* out) {
   const int64_t n = int64_t(opt.width) * opt.height;
-  const int nin = std::max(model.num_inputs(), 1);
-  std::vector<float> xs(size_t(nin) * size_t(n), 0.0f);
-  const float dx = (opt.x1 - opt.x0) / float(opt.width), dy = (opt.y1 - opt.y0) / float(opt.height);
-  for (int j = 0; j < opt.height; ++j) {
-    for (int i = 0; i < opt.width; ++i) {
-      const size_t k = size_t(j) * size_t(opt.width) + size_t(i);
-      xs[k] = opt.x0 + (float(i) + 0.5f) * dx;
-      if (nin > 1) xs[size_t(n) + k] = opt.y1 - (float(j) + 0.5f) * dy;
-      if (nin > 2) xs[2 * size_t(n) + k] = opt.z;
-      if (nin > 3) xs[3 * size_t(n) + k] = float(model.time());
-    }
-  }
+  // render_slice's pixel centres, x[4] the model's time.
+  const std::vector<float> xs =
+      gpu::grid_points(opt.width, opt.height, opt.x0, opt.x1, opt.y0, opt.y1, opt.z,
+                       std::max(model.num_inputs(), 1), float(model.time()));
   std::vector<float> f(static_cast<size_t>(n));
   auto ran = eval_on_device(model, n, xs.data(), device, f.data());
   if (!ran.ok()) return ran.error();

@@ -8,31 +8,29 @@
 #include <cstdint>
 #include <vector>
 
+#include "base/color.h"
+
 namespace hfrt::gpu {
 
 /// The points of `grid=W,H,X0,X1,Y0,Y1,Z`, structure of arrays with `num_inputs` coordinates:
-/// point j*W + i is x = x0 + (x1 - x0) (i + 0.5) / W, y = y1 - (y1 - y0) (j + 0.5) / H (row 0
-/// at the top), z, and 0 for any further coordinate; computed in float, in this order.
+/// point j*W + i is x = x0 + (i + 0.5) dx, y = y1 - (j + 0.5) dy with dx = (x1 - x0) / W and
+/// dy = (y1 - y0) / H (row 0 at the top), z, then `x4` (x[4], a model's time), then 0;
+/// computed in float, in this order: render::render_slice's pixel centres (render/slice.cpp).
 inline std::vector<float> grid_points(int w, int h, float x0, float x1, float y0, float y1, float z,
-                                      int num_inputs) {
+                                      int num_inputs, float x4 = 0.0f) {
   const size_t n = size_t(w) * size_t(h);
   std::vector<float> xs(n * size_t(num_inputs > 0 ? num_inputs : 1), 0.0f);
+  const float dx = (x1 - x0) / float(w), dy = (y1 - y0) / float(h);
   for (int j = 0; j < h; ++j) {
     for (int i = 0; i < w; ++i) {
       const size_t k = size_t(j) * size_t(w) + size_t(i);
-      xs[k] = x0 + (x1 - x0) * (float(i) + 0.5f) / float(w);
-      if (num_inputs > 1) xs[n + k] = y1 - (y1 - y0) * (float(j) + 0.5f) / float(h);
+      xs[k] = x0 + (float(i) + 0.5f) * dx;
+      if (num_inputs > 1) xs[n + k] = y1 - (float(j) + 0.5f) * dy;
       if (num_inputs > 2) xs[2 * n + k] = z;
+      if (num_inputs > 3) xs[3 * n + k] = x4;
     }
   }
   return xs;
-}
-
-/// Linear to sRGB-encoded, clamped to [0, 1] (NaN: 0).
-inline float linear_to_srgb(float v) {
-  if (!(v > 0)) return 0;
-  if (v >= 1) return 1;
-  return v <= 0.0031308f ? 12.92f * v : 1.055f * std::pow(v, 1.0f / 2.4f) - 0.055f;
 }
 
 /// One pixel of render kernel output (linear r, g, b, coverage, ...) as `format=rgba8` stores

@@ -223,14 +223,12 @@ llvm::Function* declare_lane_call(llvm::Module& m, Op op) {
 /// hfrt_dev_<name> (internal), so that no libm call is left (the GPU has none) and no pass
 /// mistakes it for the C function.
 void define_device_libm(llvm::Module& m) {
-  std::vector<llvm::Function*> todo;
+  std::vector<std::pair<llvm::Function*, Op>> todo;
   for (llvm::Function& f : m) {
     Op op;
-    if (f.isDeclaration() && lane_call_op(f.getName(), &op)) todo.push_back(&f);
+    if (f.isDeclaration() && lane_call_op(f.getName(), &op)) todo.emplace_back(&f, op);
   }
-  for (llvm::Function* f : todo) {
-    Op op;
-    HFRT_CHECK(lane_call_op(f->getName(), &op));
+  for (auto [f, op] : todo) {
     f->setName("hfrt_dev_" + f->getName().str());
     f->setLinkage(llvm::GlobalValue::InternalLinkage);
     f->setDoesNotThrow();
@@ -424,6 +422,9 @@ class KernelEmitter {
   llvm::Value* sub(llvm::Value* a, llvm::Value* b) { return b_.CreateFSub(a, b); }
   llvm::Value* mul(llvm::Value* a, llvm::Value* b) { return b_.CreateFMul(a, b); }
   llvm::Value* div(llvm::Value* a, llvm::Value* b) { return b_.CreateFDiv(a, b); }
+  llvm::Value* fabs(llvm::Value* v) { return b_.CreateUnaryIntrinsic(llvm::Intrinsic::fabs, v); }
+  /// i1: v is neither infinite nor NaN.
+  llvm::Value* finite(llvm::Value* v) { return b_.CreateFCmpOLT(fabs(v), c(INFINITY)); }
   llvm::Value* fmin(llvm::Value* a, llvm::Value* b) {  // std::min(a, b): b < a ? b : a
     return b_.CreateSelect(b_.CreateFCmpOLT(b, a), b, a);
   }
@@ -612,9 +613,6 @@ class KernelEmitter {
     llvm::Value* bt = get(tb);
     llvm::Value* fav = get(fa);
     llvm::Value* fbv = get(fb);
-    auto finite = [&](llvm::Value* v) {
-      return b_.CreateFCmpOLT(b_.CreateUnaryIntrinsic(llvm::Intrinsic::fabs, v), c(INFINITY));
-    };
     llvm::Value* diff = sub(fbv, fav);
     llvm::Value* ok = b_.CreateAnd(
         b_.CreateAnd(finite(fav), finite(fbv)),
@@ -633,9 +631,7 @@ class KernelEmitter {
   llvm::Value* segment_may_hit(V3 o, V3 d, llvm::Value* ta, llvm::Value* tb) {
     llvm::Type* f64 = b_.getDoubleTy();
     V3 p0 = add(o, scale(d, ta)), p1 = add(o, scale(d, tb));
-    llvm::Value* tmax = fmax(b_.CreateUnaryIntrinsic(llvm::Intrinsic::fabs, ta),
-                             b_.CreateUnaryIntrinsic(llvm::Intrinsic::fabs, tb));
-    auto fabs = [&](llvm::Value* v) { return b_.CreateUnaryIntrinsic(llvm::Intrinsic::fabs, v); };
+    llvm::Value* tmax = fmax(fabs(ta), fabs(tb));
     for (int k = 0; k < 3; ++k) {
       llvm::Value* w =
           add(mul(c(4e-7f), add(fabs(comp(o, k)), mul(fabs(comp(d, k)), tmax))), c(1e-30f));
@@ -847,9 +843,6 @@ class KernelEmitter {
       V3 s{b_.CreateLoad(f32_, b_.CreateConstInBoundsGEP1_64(f32_, s_buf, 0)),
            b_.CreateLoad(f32_, b_.CreateConstInBoundsGEP1_64(f32_, s_buf, 1)),
            b_.CreateLoad(f32_, b_.CreateConstInBoundsGEP1_64(f32_, s_buf, 2))};
-      auto finite = [&](llvm::Value* v) {
-        return b_.CreateFCmpOLT(b_.CreateUnaryIntrinsic(llvm::Intrinsic::fabs, v), c(INFINITY));
-      };
       llvm::Value* all = b_.CreateAnd(b_.CreateAnd(finite(s.x), finite(s.y)), finite(s.z));
       auto clamp01 = [&](llvm::Value* v) {
         // vmin(vmax(a, 0), 1) as render/vec.h computes it.
@@ -1052,37 +1045,46 @@ std::string device_unsupported_reason(const Function& fn) {
   return "";
 }
 
-Result<std::string> device_llvm_ir(const Function& fn) {
+namespace {
+/// The kernels of `fn` (or the point evaluator alone) in a fresh, verified NVPTX module.
+Result<std::unique_ptr<llvm::Module>> nvptx_module(llvm::LLVMContext& ctx, const Function& fn,
+                                                   const PtxOptions& options,
+                                                   std::unique_ptr<llvm::TargetMachine>* tm) {
   if (std::string why = device_unsupported_reason(fn); !why.empty()) return Error{why};
-  auto tm = nvptx_machine({});
-  if (!tm.ok()) return tm.error();
+  auto machine = nvptx_machine(options);
+  if (!machine.ok()) return machine.error();
+  *tm = std::move(machine).value();
+  auto m = std::make_unique<llvm::Module>("hfrt_device", ctx);
+  m->setTargetTriple("nvptx64-nvidia-cuda");
+  m->setDataLayout((*tm)->createDataLayout());
+  KernelEmitter(*m, fn, Target::kNvptx).emit(options.eval_only);
+  verify(*m);
+  return m;
+}
+}  // namespace
+
+Result<std::string> device_llvm_ir(const Function& fn) {
   llvm::LLVMContext ctx;
-  llvm::Module m("hfrt_device", ctx);
-  m.setTargetTriple("nvptx64-nvidia-cuda");
-  m.setDataLayout(tm.value()->createDataLayout());
-  KernelEmitter(m, fn, Target::kNvptx).emit();
-  verify(m);
+  std::unique_ptr<llvm::TargetMachine> tm;
+  auto m = nvptx_module(ctx, fn, {}, &tm);
+  if (!m.ok()) return m.error();
   std::string text;
   llvm::raw_string_ostream os(text);
-  m.print(os, nullptr);
+  m.value()->print(os, nullptr);
   return os.str();
 }
 
 Result<std::string> emit_ptx(const Function& fn, const PtxOptions& options) {
-  if (std::string why = device_unsupported_reason(fn); !why.empty()) return Error{why};
-  auto tm = nvptx_machine(options);
-  if (!tm.ok()) return tm.error();
   llvm::LLVMContext ctx;
-  llvm::Module m("hfrt_device", ctx);
-  m.setTargetTriple("nvptx64-nvidia-cuda");
-  m.setDataLayout(tm.value()->createDataLayout());
-  KernelEmitter(m, fn, Target::kNvptx).emit(options.eval_only);
-  verify(m);
-  optimize(m, tm.value().get(), options.opt_level);
+  std::unique_ptr<llvm::TargetMachine> tm;
+  auto module = nvptx_module(ctx, fn, options, &tm);
+  if (!module.ok()) return module.error();
+  llvm::Module& m = *module.value();
+  optimize(m, tm.get(), options.opt_level);
   llvm::SmallString<0> ptx;
   llvm::raw_svector_ostream os(ptx);
   llvm::legacy::PassManager pm;
-  if (tm.value()->addPassesToEmitFile(pm, os, nullptr, llvm::CodeGenFileType::AssemblyFile)) {
+  if (tm->addPassesToEmitFile(pm, os, nullptr, llvm::CodeGenFileType::AssemblyFile)) {
     return Error{"the NVPTX back end cannot emit PTX"};
   }
   pm.run(m);

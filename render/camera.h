@@ -48,6 +48,11 @@ class CameraFrame {
   void depth_range(const Box& box, float* t_min, float* t_max) const;
 
   bool orthographic() const { return ortho_; }
+  /// Half extents of the image plane at depth 1 (perspective) or in world units (ortho): ray()
+  /// offsets by (2 px / width - 1) half_width() along right() and (1 - 2 py / height)
+  /// half_height() along up().
+  float half_width() const { return half_w_; }
+  float half_height() const { return half_h_; }
   Vec3 forward() const { return forward_; }
   Vec3 right() const { return right_; }
   Vec3 up() const { return up_; }

@@ -81,12 +81,6 @@ void Image::resize(int w, int h) {
   normal.assign(3 * n, 0.0f);
 }
 
-float linear_to_srgb(float v) {
-  if (!(v > 0)) return 0;
-  if (v >= 1) return 1;
-  return v <= 0.0031308f ? 12.92f * v : 1.055f * std::pow(v, 1.0f / 2.4f) - 0.055f;
-}
-
 Result<std::vector<std::string>> write_pixels(const std::string& path, int width, int height,
                                               int channels, const std::vector<float>& data,
                                               bool encode_srgb,

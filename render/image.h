@@ -4,6 +4,7 @@
 #include <string>
 #include <vector>
 
+#include "base/color.h"
 #include "base/result.h"
 #include "render/vec.h"
 
@@ -54,7 +55,7 @@ Result<std::vector<std::string>> write_pixels(const std::string& path, int width
 Result<std::vector<float>> read_image(const std::string& path, int* width, int* height,
                                       int* channels);
 
-/// Linear -> sRGB transfer function (both in [0, 1]).
-float linear_to_srgb(float v);
+/// Linear -> sRGB transfer function (base/color.h).
+using ::hfrt::linear_to_srgb;
 
 }  // namespace hfrt::render

@@ -22,10 +22,6 @@ double seconds_since(Clock::time_point t) {
   return std::chrono::duration<double>(Clock::now() - t).count();
 }
 
-constexpr float kAmbient = 0.12f;
-constexpr float kSpecular = 0.25f;
-constexpr float kShininess = 48.0f;
-
 /// A range of camera depths that per-tile culling could not prove empty.
 struct Span {
   float a, b;
@@ -91,7 +87,7 @@ class TileRenderer {
       footprint_b_ = length(r1.d - r0.d);
     }
     attrs_ = field.num_attributes() >= 3;
-    shadow_bias_ = 1e-3f * options.bbox.max_extent();
+    shadow_bias_ = shadow_bias(options);
   }
 
   RootMode root_used() const {
@@ -624,6 +620,10 @@ bool parse_root_mode(std::string_view text, RootMode* mode) {
 
 float effective_step(const RenderOptions& options) {
   return options.step > 0 ? options.step : options.bbox.max_extent() / 512.0f;
+}
+
+float shadow_bias(const RenderOptions& options) {
+  return 1e-3f * options.bbox.max_extent();
 }
 
 float effective_epsilon(const RenderOptions& options) {

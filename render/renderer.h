@@ -101,6 +101,14 @@ struct RenderResult {
 /// The effective marching step and tolerance (world units) for `options`.
 float effective_step(const RenderOptions& options);
 float effective_epsilon(const RenderOptions& options);
+/// How far along the normal a shadow ray starts from the surface point (world units).
+float shadow_bias(const RenderOptions& options);
+
+/// The shading of render(): ambient share of the albedo, then per light Lambert plus
+/// Blinn-Phong with this weight and exponent (the GPU kernels shade alike: app/gpu_render).
+inline constexpr float kAmbient = 0.12f;
+inline constexpr float kSpecular = 0.25f;
+inline constexpr float kShininess = 48.0f;
 
 /// The default lights for a camera: a key light from the upper left behind the viewer and a
 /// weaker fill light from the right.

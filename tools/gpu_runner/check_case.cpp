@@ -218,7 +218,7 @@ Result<bool> write_ppm(const fs::path& path, const std::vector<float>& image, in
       const float* px = &image[(static_cast<size_t>(y) * width + x) * gpu::kRenderFloatsPerPixel];
       for (int c = 0; c < 3; ++c) {
         row[static_cast<size_t>(x) * 3 + c] =
-            static_cast<unsigned char>(std::lround(gpu::linear_to_srgb(px[c]) * 255.0f));
+            static_cast<unsigned char>(std::lround(linear_to_srgb(px[c]) * 255.0f));
       }
     }
     out.write(reinterpret_cast<const char*>(row.data()), static_cast<std::streamsize>(row.size()));

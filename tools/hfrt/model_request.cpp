@@ -7,6 +7,7 @@
 #include <cstdlib>
 #include <limits>
 
+#include "base/limits.h"
 #include "base/timer.h"
 
 namespace hfrt::tools {
@@ -54,7 +55,8 @@ void add_limit_options(CLI::App& app, ModelLimits* limits) {
         ->group("Limits (docs/limits.md)");
   };
   constexpr int64_t kNoMax = std::numeric_limits<int64_t>::max();
-  add("--max-loop-iterations", &limits->max_loop_iterations, d.max_loop_iterations, 1 << 24,
+  add("--max-loop-iterations", &limits->max_loop_iterations, d.max_loop_iterations,
+      kMaxLoopIterationsCap,
       "while-loop iterations per point, all loops together; beyond: no value");
   add("--max-array-size", &limits->max_array_size, d.max_array_size, kNoMax,
       "elements of one array (header or 'array' declaration)");
