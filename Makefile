@@ -3,7 +3,7 @@ BUILD_DIR ?= build
 JOBS ?= $(shell nproc)
 CMAKE_FLAGS ?= -G Ninja -DCMAKE_BUILD_TYPE=Release
 
-.PHONY: all deps configure build demo test bench bench-render bench-peers bench-mesh bench-scenes bench-cluster clean format package
+.PHONY: all deps configure build demo test bench bench-render bench-peers bench-mesh bench-scenes bench-cluster bench-startup clean format package
 .PHONY: test-asan test-tsan fuzz
 
 all: build
@@ -59,6 +59,12 @@ bench-scenes: build
 CLUSTER_ARGS ?=
 bench-cluster: build
 	@/usr/bin/python3 bench/cluster/mpi_scaling.py --build $(BUILD_DIR) $(CLUSTER_ARGS)
+
+# Start-up cost of hfrt commands (issue 25): CPU, peak memory and shared objects per process.
+# STARTUP_ARGS: e.g. --runs 20 --hfrt /usr/bin/hfrt (compare with another build).
+STARTUP_ARGS ?=
+bench-startup: build
+	@/usr/bin/python3 bench/startup/startup.py --hfrt $(BUILD_DIR)/tools/hfrt/hfrt $(STARTUP_ARGS)
 
 clean:
 	@rm -rf $(BUILD_DIR) out

@@ -1,10 +1,6 @@
 #include "geom/mesh.h"
 
-#include <assimp/postprocess.h>
-#include <assimp/scene.h>
-
 #include <algorithm>
-#include <assimp/Importer.hpp>
 #include <cctype>
 #include <cerrno>
 #include <cmath>
@@ -15,6 +11,8 @@
 #include <sstream>
 
 #include "base/file.h"
+#include "base/module.h"
+#include "geom/mesh_import_module.h"
 
 namespace hfrt::geom {
 
@@ -432,48 +430,31 @@ Result<TriangleMesh> load_mesh(const std::string& path, const Limits& limits) {
     if (auto err = precheck_ply(path, *text)) return *err;
   }
 
-  Assimp::Importer importer;
-  // Points and lines are removed so that only polygons (triangulated) remain. The scene is
-  // validated (every index in range) before any other step: the post-processing steps index
-  // vertices unchecked and crash on a file whose faces name vertices it does not have.
-  importer.SetPropertyInteger(AI_CONFIG_PP_SBP_REMOVE,
-                              aiPrimitiveType_POINT | aiPrimitiveType_LINE);
-  const aiScene* scene = importer.ReadFileFromMemory(
-      text->data(), text->size(),
-      aiProcess_ValidateDataStructure | aiProcess_Triangulate | aiProcess_JoinIdenticalVertices |
-          aiProcess_PreTransformVertices | aiProcess_SortByPType,
-      ext.c_str() + 1);
-  if (!scene) return Error{path + ": malformed mesh: " + importer.GetErrorString()};
-
-  TriangleMesh mesh;
-  mesh.source = path;
-  uint64_t num_vertices = 0, num_faces = 0;
-  for (unsigned m = 0; m < scene->mNumMeshes; ++m) {
-    num_vertices += scene->mMeshes[m]->mNumVertices;
-    num_faces += scene->mMeshes[m]->mNumFaces;
+  auto entry = module_symbol("meshimport", mesh_import::kEntrySymbol);
+  if (!entry.ok()) return Error{path + ": " + entry.error().message, entry.error().hint};
+  using EntryFn = const mesh_import::Module* (*)();
+  const mesh_import::Module* module = reinterpret_cast<EntryFn>(entry.value())();
+  if (!module || module->abi_version != mesh_import::kAbiVersion) {
+    return Error{path + ": the mesh import module libhfrt_meshimport.so is from another build",
+                 "reinstall hfrt, or point HFRT_MODULE_DIR at this build's modules"};
   }
+  mesh_import::Imported imported;
+  std::string why;
   const uint64_t max = static_cast<uint64_t>(limits.max_mesh_triangles);
-  if (num_faces > max || num_vertices > max) {
-    const bool faces = num_faces > max;
-    return Error{path + ": " + std::to_string(faces ? num_faces : num_vertices) +
+  if (!module->import(text->data(), text->size(), ext.c_str() + 1, max, &imported, &why))
+    return Error{path + ": malformed mesh: " + why};
+  if (imported.over_limit) {
+    const bool faces = imported.num_faces > max;
+    return Error{path + ": " + std::to_string(faces ? imported.num_faces : imported.num_vertices) +
                      (faces ? " triangles" : " vertices") + ", more than the limit of " +
                      std::to_string(max),
                  limit_hint("max_mesh_triangles")};
   }
-  for (unsigned m = 0; m < scene->mNumMeshes; ++m) {
-    const aiMesh* am = scene->mMeshes[m];
-    const uint32_t base = static_cast<uint32_t>(mesh.vertices.size());
-    for (unsigned i = 0; i < am->mNumVertices; ++i) {
-      const aiVector3D& v = am->mVertices[i];
-      mesh.vertices.push_back({v.x, v.y, v.z});
-    }
-    for (unsigned f = 0; f < am->mNumFaces; ++f) {
-      const aiFace& face = am->mFaces[f];
-      if (face.mNumIndices != 3) continue;  // points and lines: not part of a surface
-      mesh.triangles.push_back(
-          {base + face.mIndices[0], base + face.mIndices[1], base + face.mIndices[2]});
-    }
-  }
+  TriangleMesh mesh;
+  mesh.source = path;
+  mesh.vertices.reserve(imported.vertices.size());
+  for (const auto& v : imported.vertices) mesh.vertices.push_back({v[0], v[1], v[2]});
+  mesh.triangles = std::move(imported.triangles);
   return finish_mesh(std::move(mesh));
 }
 

@@ -57,7 +57,9 @@ hf_files=("$corpus"/parse/*.hf "$corpus"/models/**/*.hf "$root"/examples/*.hf)
 for t in $targets; do
   dir=$work/corpus/$t
   case $t in
-    frontend | lower | differential) seed "$dir" "${hf_files[@]}" ;;
+    frontend | lower) seed "$dir" "${hf_files[@]}" ;;
+    # fuzz/seeds/differential: inputs that once failed (kept as regression seeds).
+    differential) seed "$dir" "${hf_files[@]}" "$root"/fuzz/seeds/differential/* ;;
     mesh) seed_mesh "$dir" "$corpus"/meshes/* "$root"/fuzz/seeds/mesh/* ;;
     bpt) seed "$dir" "$corpus"/bezier/*.bpt "$root"/fuzz/seeds/bpt/* ;;
     scene) seed "$dir" "$root"/examples/scenes/*.toml ;;

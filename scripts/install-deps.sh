@@ -24,6 +24,7 @@ packages=(
   python3-skimage                                       # the marching-cubes peer of the mesher tests/bench
   libopenmpi-dev openmpi-bin                            # rendering across processes (cluster/, mpirun tests)
   ffmpeg                                                # `hfrt render --video` and its test
+  time                                                  # /usr/bin/time: peak memory in bench/startup/startup.py
 )
 if [[ "${1:-}" == "--bench" ]]; then
   packages+=(libembree-dev)   # optional: hfrt_bench_mesh compares against Embree when found

@@ -18,6 +18,7 @@
 #include "base/result.h"
 #include "lang/frontend.h"
 #include "scene/scene_file.h"
+#include "tools/hfrt/command_table.h"
 #include "tools/hfrt/commands.h"
 
 namespace hfrt::tools {
@@ -127,10 +128,7 @@ int run_check(const CheckOptions& opts) {
 
 CommandRunner register_check(CLI::App& app) {
   auto opts = std::make_shared<CheckOptions>();
-  CLI::App* cmd = app.add_subcommand(
-      "check",
-      "Parse and check HyperFun files (.hf) or scene files (.toml); print errors and warnings "
-      "with their location");
+  CLI::App* cmd = app.add_subcommand("check", command_description("check"));
   cmd->add_option("files", opts->files, "HyperFun source files (.hf) or scene files (.toml)")
       ->required();
   cmd->add_flag("--dump-ast", opts->dump_ast, "Print the checked syntax tree to stdout");

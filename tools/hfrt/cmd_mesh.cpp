@@ -23,6 +23,7 @@
 #include "mesher/mesh_io.h"
 #include "render/progress.h"
 #include "scene/scene_file.h"
+#include "tools/hfrt/command_table.h"
 #include "tools/hfrt/commands.h"
 #include "tools/hfrt/model_request.h"
 
@@ -164,8 +165,7 @@ int run_mesh(const MeshCli& cli) {
 
 CommandRunner register_mesh(CLI::App& app) {
   auto cli = std::make_shared<MeshCli>();
-  CLI::App* sub = app.add_subcommand(
-      "mesh", "polygonise the solid into a watertight triangle mesh (STL, OBJ, PLY, glTF)");
+  CLI::App* sub = app.add_subcommand("mesh", command_description("mesh"));
   sub->add_option("model", cli->model.file,
                   "HyperFun model file, or a scene file (.toml): every object, placed")
       ->required();

@@ -35,6 +35,7 @@
 #include "render/progress.h"
 #include "render/renderer.h"
 #include "scene/scene_file.h"
+#include "tools/hfrt/command_table.h"
 #include "tools/hfrt/commands.h"
 #include "tools/hfrt/render_options.h"
 
@@ -350,8 +351,7 @@ int run_render(const RenderCli& cli) {
 
 CommandRunner register_render(CLI::App& app) {
   auto cli = std::make_shared<RenderCli>();
-  CLI::App* sub =
-      app.add_subcommand("render", "ray trace a model to an image (PNG, EXR, TIFF, JPEG)");
+  CLI::App* sub = app.add_subcommand("render", command_description("render"));
   sub->add_option("model", cli->model.file, "HyperFun model file, or a scene file (.toml)")
       ->required();
   sub->add_option("-o,--output", cli->output, "output image; the format follows the extension")

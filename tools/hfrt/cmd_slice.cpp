@@ -21,6 +21,7 @@
 #include "render/image.h"
 #include "render/progress.h"
 #include "render/slice.h"
+#include "tools/hfrt/command_table.h"
 #include "tools/hfrt/commands.h"
 #include "tools/hfrt/model_request.h"
 
@@ -143,8 +144,7 @@ int run_slice(const SliceCli& cli) {
 
 CommandRunner register_slice(CLI::App& app) {
   auto cli = std::make_shared<SliceCli>();
-  CLI::App* sub =
-      app.add_subcommand("slice", "render a 2-D model or a z slice as an inside/outside image");
+  CLI::App* sub = app.add_subcommand("slice", command_description("slice"));
   sub->add_option("model", cli->model.file, "HyperFun model file")->required();
   sub->add_option("-o,--output", cli->output, "output image; the format follows the extension")
       ->required();
