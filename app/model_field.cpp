@@ -99,8 +99,9 @@ class ModelTapeEvaluator final : public render::TapeEvaluator {
     return to_render_interval({r.lo, r.hi, r.maybe_nan}, maybe_nan);
   }
 
-  void prune_last(const render::FieldTape& tape, render::FieldTape* child) override {
-    vm_.prune_last(static_cast<const ModelTape&>(tape).tape, &static_cast<ModelTape*>(child)->tape);
+  bool prune_last(const render::FieldTape& tape, render::FieldTape* child) override {
+    return vm_.prune_last(static_cast<const ModelTape&>(tape).tape,
+                          &static_cast<ModelTape*>(child)->tape);
   }
 
   void eval(const render::FieldTape& tape, size_t n, const float* x, const float* y, const float* z,

@@ -62,9 +62,10 @@ inline T hf_truth(T v) {
 /// compute (the same formulas with float operations, the float libm functions and the
 /// tolerances rounded to float), used by the tape VM (jit/tape_vm.h). Unused arguments are
 /// ignored. Returns NaN for other ops (callers never pass them). With a constant `op` it
-/// inlines to the one formula (the tape VM's lane loops rely on that to vectorise).
+/// inlines to the one formula (the tape VM's lane loops rely on that to vectorise: hence
+/// always_inline, as GCC would otherwise call the whole switch per lane).
 template <typename T>
-inline T apply_op_t(Op op, T a, T b, T c) {
+[[gnu::always_inline]] inline T apply_op_t(Op op, T a, T b, T c) {
   const T eps = static_cast<T>(kHfEps);
   switch (op) {
     case Op::kAdd:

@@ -143,41 +143,69 @@ std::unique_ptr<Tape> Tape::build(const Function& fn, std::span<const double> pa
   return TapeBuilder::build(fn, params, why);
 }
 
-void Tape::prune(std::span<const uint8_t> choices, std::span<const uint8_t> check_can_fire,
+bool Tape::prune(std::span<const uint8_t> choices, std::span<const uint8_t> check_can_fire,
                  Tape* child) const {
   HFRT_CHECK(child != this);
   HFRT_CHECK(choices.size() >= code_.size() && check_can_fire.size() >= code_.size());
-  child->nodes_.clear();
-  child->num_inputs_ = num_inputs_;
-  std::vector<uint32_t>& remap = child->remap_;
-  remap.assign(nodes_.size(), kNone);
-  for (size_t i = 0; i < nodes_.size(); ++i) {
-    const Node& n = nodes_[i];
-    if (n.code >= 0 && is_choice_op(n.op)) {
-      const uint8_t c = choices[static_cast<size_t>(n.code)];
+  const size_t n = nodes_.size();
+  // What each node becomes: itself, or (a decided choice) the node of its chosen operand.
+  std::vector<uint32_t>& alias = child->last_use_;  // scratch, reused below by allocate()
+  alias.resize(n);
+  bool changed = false;
+  for (size_t i = 0; i < n; ++i) {
+    const Node& nd = nodes_[i];
+    alias[i] = static_cast<uint32_t>(i);
+    if (nd.code < 0) continue;
+    if (is_choice_op(nd.op)) {
+      const uint8_t c = choices[static_cast<size_t>(nd.code)];
       if (c == kChoiceLeft || c == kChoiceRight) {
         // One operand is the result everywhere in the box: the node is that operand.
         int k = c == kChoiceLeft ? 0 : 1;
-        if (n.op == Op::kSelect) ++k;  // select's values are arguments 1 and 2
-        remap[i] = remap[n.args[k]];
-        continue;
+        if (nd.op == Op::kSelect) ++k;  // select's values are arguments 1 and 2
+        alias[i] = alias[nd.args[k]];
+        changed = true;
       }
+    } else if (nd.op == Op::kCheck && !check_can_fire[static_cast<size_t>(nd.code)]) {
+      alias[i] = kNone;  // cannot fire anywhere in the box
+      changed = true;
     }
-    if (n.op == Op::kCheck && n.code >= 0 && !check_can_fire[static_cast<size_t>(n.code)]) {
-      continue;  // cannot fire anywhere in the box
+  }
+  if (!changed) return false;
+  // Liveness on this tape's nodes, through the aliases, from the result and the checks kept.
+  std::vector<uint8_t>& live = child->live_;
+  live.assign(n, 0);
+  live[alias[result_]] = 1;
+  for (size_t i = n; i-- > 0;) {
+    const Node& nd = nodes_[i];
+    if (nd.op == Op::kCheck && alias[i] != kNone) live[i] = 1;
+    if (!live[i] || alias[i] != i) continue;
+    for (uint32_t a : nd.args) {
+      if (a != kNone) live[alias[a]] = 1;
     }
-    Node m = n;
+    for (uint32_t a : nd.r_args) {
+      if (a != kNone) live[alias[a]] = 1;
+    }
+  }
+  // The live nodes, in order, with their arguments renumbered.
+  std::vector<uint32_t>& remap = child->remap_;
+  remap.resize(n);
+  child->nodes_.clear();
+  child->num_inputs_ = num_inputs_;
+  for (size_t i = 0; i < n; ++i) {
+    if (!live[i]) continue;
+    Node m = nodes_[i];
     for (uint32_t& a : m.args) {
-      if (a != kNone) a = remap[a];
+      if (a != kNone) a = remap[alias[a]];
     }
     for (uint32_t& a : m.r_args) {
-      if (a != kNone) a = remap[a];
+      if (a != kNone) a = remap[alias[a]];
     }
+    remap[i] = static_cast<uint32_t>(child->nodes_.size());
     child->nodes_.push_back(m);
-    remap[i] = static_cast<uint32_t>(child->nodes_.size() - 1);
   }
-  child->result_ = remap[result_];
-  child->finish();
+  child->result_ = remap[alias[result_]];
+  child->allocate();
+  return true;
 }
 
 void Tape::finish() {
@@ -213,7 +241,11 @@ void Tape::finish() {
   }
   nodes_.resize(m);
   result_ = remap_[result_];
+  allocate();
+}
 
+void Tape::allocate() {
+  const uint32_t m = static_cast<uint32_t>(nodes_.size());
   // Which arguments are registers: a constant second (else first) argument of a binary op is
   // an immediate; every other use of a constant needs it in a register.
   auto imm_arg = [&](const Node& nd) -> int {

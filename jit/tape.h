@@ -66,8 +66,10 @@ class Tape {
 
   /// The child of this tape for a box over which the interval VM recorded `choices` (one
   /// byte per instruction of code(), kChoice bits; `check_can_fire` likewise per instruction,
-  /// 1 where a kCheck's argument may be nonzero). Overwrites `*child` (reusing its buffers).
-  void prune(std::span<const uint8_t> choices, std::span<const uint8_t> check_can_fire,
+  /// 1 where a kCheck's argument may be nonzero). Overwrites `*child` (reusing its buffers)
+  /// and returns true; returns false, leaving `*child` as it was, when nothing was decided
+  /// over the box (the child would be this tape: use this one).
+  bool prune(std::span<const uint8_t> choices, std::span<const uint8_t> check_can_fire,
              Tape* child) const;
 
  private:
@@ -83,8 +85,10 @@ class Tape {
   };
   friend class TapeBuilder;
 
-  /// Dead code elimination from the result and the checks, then register code.
+  /// Dead code elimination from the result and the checks, then allocate().
   void finish();
+  /// The register code of nodes_ (all live).
+  void allocate();
 
   std::vector<Node> nodes_;
   uint32_t result_ = ir::kNoValue;

@@ -34,8 +34,11 @@ class TapeVm {
   /// the sense of jit/interval.h. Records choices() and check_can_fire() for prune_last().
   Interval eval_interval(const Tape& tape, std::span<const Interval> inputs);
 
-  /// The child of `tape` (the tape of the last eval_interval) for that call's box.
-  void prune_last(const Tape& tape, Tape* child) const { tape.prune(choices_, fire_, child); }
+  /// The child of `tape` (the tape of the last eval_interval) for that call's box, as
+  /// Tape::prune: false when nothing was decided (then `tape` itself serves the box).
+  bool prune_last(const Tape& tape, Tape* child) const {
+    return tape.prune(choices_, fire_, child);
+  }
 
   /// Per instruction of the last eval_interval's tape: the kChoice bits of kMin/kMax/kSelect.
   std::span<const uint8_t> choices() const { return choices_; }

@@ -43,8 +43,10 @@ class TapeEvaluator {
   /// As Field::eval_interval, on `tape` (the root tape or one pruned for a box containing
   /// `box`); remembers the decisions for prune_last().
   virtual Interval eval_interval(const FieldTape& tape, const Box& box, bool* maybe_nan) = 0;
-  /// The child of `tape` for the box of the last eval_interval() call (which was on `tape`).
-  virtual void prune_last(const FieldTape& tape, FieldTape* child) = 0;
+  /// The child of `tape` for the box of the last eval_interval() call (which was on `tape`);
+  /// false, with `child` unchanged, when the interval decided nothing (then `tape` itself
+  /// is the box's tape).
+  virtual bool prune_last(const FieldTape& tape, FieldTape* child) = 0;
   /// As Field::eval, on `tape` at points of the box it was pruned for.
   virtual void eval(const FieldTape& tape, size_t n, const float* x, const float* y, const float* z,
                     float* out_f) = 0;

@@ -139,11 +139,12 @@ class SliceRenderer {
     bool maybe_nan = false;
     Interval iv = st.tapes_eval->eval_interval(*tape, block_box(i0, j0, i1, j1), &maybe_nan);
     if (settle(iv, maybe_nan, i0, j0, i1, j1, st)) return;
+    std::shared_ptr<const FieldTape> next = tape;
     std::shared_ptr<FieldTape> child = st.tapes_eval->new_tape();
-    st.tapes_eval->prune_last(*tape, child.get());
-    st.count_tape(level, child->length());
+    if (st.tapes_eval->prune_last(*tape, child.get())) next = std::move(child);
+    st.count_tape(level, next->length());
     split(i0, j0, i1, j1,
-          [&](int a, int b, int c, int d) { plan(a, b, c, d, level + 1, child, st, tasks); });
+          [&](int a, int b, int c, int d) { plan(a, b, c, d, level + 1, next, st, tasks); });
   }
 
   /// block() on tapes: `tape` is valid over the block (pruned for it or a block around it).
@@ -153,15 +154,17 @@ class SliceRenderer {
     bool maybe_nan = false;
     Interval iv = ev.eval_interval(tape, block_box(i0, j0, i1, j1), &maybe_nan);
     if (settle(iv, maybe_nan, i0, j0, i1, j1, st)) return;
-    FieldTape& child = st.tape_at(level);
-    ev.prune_last(tape, &child);
-    st.count_tape(level, child.length());
     if (i1 - i0 > kLeafSize || j1 - j0 > kLeafSize) {
+      FieldTape& child = st.tape_at(level);
+      const FieldTape& next = ev.prune_last(tape, &child) ? child : tape;
+      st.count_tape(level, next.length());
       split(i0, j0, i1, j1,
-            [&](int a, int b, int c, int d) { pruned_block(a, b, c, d, level + 1, child, st); });
+            [&](int a, int b, int c, int d) { pruned_block(a, b, c, d, level + 1, next, st); });
       return;
     }
-    // A leaf: every pixel in one batch, on the shortest tape.
+    // A leaf: every pixel in one batch, on the tape of the block around it. (Pruning once
+    // more for the leaf costs more than it saves: pruning and register allocation take tens
+    // of cycles per instruction, the VM a few per instruction for all 64 pixels.)
     size_t n = size_t(i1 - i0) * size_t(j1 - j0);
     st.xs.resize(n), st.ys.resize(n), st.zs.resize(n), st.fs.resize(n);
     size_t k = 0;
@@ -172,7 +175,7 @@ class SliceRenderer {
         st.zs[k] = opt_.z;
       }
     }
-    ev.eval(child, n, st.xs.data(), st.ys.data(), st.zs.data(), st.fs.data());
+    ev.eval(tape, n, st.xs.data(), st.ys.data(), st.zs.data(), st.fs.data());
     store(i0, j0, i1, j1, st);
   }
 
