@@ -202,8 +202,23 @@ Interval TapeVm::eval_interval(const Tape& tape, std::span<const Interval> input
           Interval b, c;
           if (nargs >= 2) b = (t.flags & TapeInst::kImmB) ? Interval::point(t.imm) : regs[t.b];
           if (nargs >= 3) c = regs[t.c];
-          Interval r =
-              apply_interval(t.op, a, b, c, (t.flags & TapeInst::kSame) != 0, &choices_[k]);
+          // The frequent ops in place (the same functions apply_interval calls for them).
+          const bool same = (t.flags & TapeInst::kSame) != 0;
+          uint8_t* choice = &choices_[k];
+          Interval r;
+          if (t.op == Op::kAdd) {
+            r = interval_detail::add(a, b);
+          } else if (t.op == Op::kSub) {
+            r = interval_detail::add(a, interval_detail::neg(b));
+          } else if (t.op == Op::kMul) {
+            r = same ? interval_detail::square(a) : interval_detail::mul(a, b);
+          } else if (t.op == Op::kMin || t.op == Op::kMax) {
+            r = same ? a : interval_detail::min_max(a, b, t.op == Op::kMin, choice);
+          } else if (t.op == Op::kNeg) {
+            r = interval_detail::neg(a);
+          } else {
+            r = apply_interval(t.op, a, b, c, same, choice);
+          }
           if (t.flags & (TapeInst::kRPlus | TapeInst::kRMinus)) {
             // Read before the write: the result may reuse f1's or f2's register.
             r = r_function_interval(r, regs[t.r1], regs[t.r2], (t.flags & TapeInst::kRPlus) != 0);
