@@ -10,6 +10,8 @@
 #include <thread>
 
 #include "base/timer.h"
+#include "jit/tape.h"
+#include "jit/tape_vm.h"
 #include "render/poly_solve.h"
 
 namespace hfrt::app {
@@ -71,6 +73,73 @@ void pack(int dims, double time, size_t n, const float* x, const float* y, const
 }
 
 }  // namespace
+
+/// A jit::Tape as the renderer's opaque FieldTape.
+struct ModelTape final : render::FieldTape {
+  jit::Tape tape;
+  size_t length() const override { return tape.length(); }
+};
+
+/// The tape VMs behind render::TapeEvaluator: x, y, z and x[4] = time as the tape's inputs.
+class ModelTapeEvaluator final : public render::TapeEvaluator {
+ public:
+  ModelTapeEvaluator(int dims, double time) : dims_(dims), time_(time) {}
+
+  std::unique_ptr<render::FieldTape> new_tape() override { return std::make_unique<ModelTape>(); }
+
+  render::Interval eval_interval(const render::FieldTape& tape, const render::Box& box,
+                                 bool* maybe_nan) override {
+    // Float box corners are exact in double; the f64 enclosure is rounded outwards.
+    const Interval in[4] = {{box.lo.x, box.hi.x, false},
+                            {box.lo.y, box.hi.y, false},
+                            {box.lo.z, box.hi.z, false},
+                            Interval::point(time_)};
+    const Interval r =
+        vm_.eval_interval(static_cast<const ModelTape&>(tape).tape, {in, dims_ > 3 ? 4u : 3u});
+    return to_render_interval({r.lo, r.hi, r.maybe_nan}, maybe_nan);
+  }
+
+  bool prune_last(const render::FieldTape& tape, render::FieldTape* child) override {
+    return vm_.prune_last(static_cast<const ModelTape&>(tape).tape,
+                          &static_cast<ModelTape*>(child)->tape);
+  }
+
+  void eval(const render::FieldTape& tape, size_t n, const float* x, const float* y, const float* z,
+            float* out_f) override {
+    if (n == 0) return;
+    const float* in[4] = {x, y, z, nullptr};
+    size_t k = 3;
+    if (dims_ > 3) {
+      time_lanes_.assign(n, float(time_));
+      in[3] = time_lanes_.data();
+      k = 4;
+    }
+    vm_.eval<float>(static_cast<const ModelTape&>(tape).tape, n, {in, k}, out_f);
+  }
+
+ private:
+  int dims_;
+  double time_;
+  jit::TapeVm vm_;
+  std::vector<float> time_lanes_;
+};
+
+bool ModelField::prepare_tapes(std::string* why) {
+  std::unique_ptr<jit::Tape> tape = model_.tape(why);
+  if (!tape) {
+    root_tape_.reset();
+    return false;
+  }
+  auto root = std::make_shared<ModelTape>();
+  root->tape = std::move(*tape);
+  root_tape_ = std::move(root);
+  return true;
+}
+
+std::unique_ptr<render::TapeEvaluator> ModelField::tape_evaluator() const {
+  if (!root_tape_) return nullptr;
+  return std::make_unique<ModelTapeEvaluator>(dims_, model_.time());
+}
 
 ModelField::ModelField(const Model& model, std::string file)
     : model_(model),

@@ -56,6 +56,14 @@ class ModelField final : public render::Field {
   void set_sign_only_eval(bool on) {
     sign_only_ = on && analytic_.qualifies && analytic_.num_surface_leaves > 0;
   }
+  /// Builds the object's tape (jit/tape.h) for the pruning evaluator: root_tape() and
+  /// tape_evaluator() then serve `hfrt slice`'s pruned recursion. False, with `why`, for
+  /// objects without a tape (control flow, tables, meshes); they keep the other evaluators.
+  /// Call before rendering, after the parameters are set.
+  bool prepare_tapes(std::string* why = nullptr);
+  std::shared_ptr<const render::FieldTape> root_tape() const override { return root_tape_; }
+  std::unique_ptr<render::TapeEvaluator> tape_evaluator() const override;
+
   /// Before a render with `root` (as settled): for the analytic search, compiles the
   /// polynomial code now rather than inside the first worker's first ray, and switches eval()
   /// to the sign-only path (compiling it too, by one evaluation). Nothing for other methods.
@@ -67,6 +75,7 @@ class ModelField final : public render::Field {
   int dims_;
   AnalyticInfo analytic_;
   bool sign_only_ = false;
+  std::shared_ptr<const render::FieldTape> root_tape_;
 };
 
 /// A view of a Field without its interval evaluator (has_interval() false; everything else

@@ -9,6 +9,11 @@
 // rows (all cores) and its frame time is extrapolated from those rows (printed as such).
 // The "physical limit" lines (bench/README.md) compare the brute-force rate, computing IR ops x
 // points per second, with the peak of a tight loop of vector adds measured in the same run.
+// The pruned slice (docs/tape_vm.md) runs in the same process: `hfrt slice`'s recursion with
+// tapes pruned per block and the tape VMs (render_slice with a ModelField that has tapes), on
+// the same grid and threads, printed beside the JIT's brute force with the ratio, the average
+// tape length per recursion level, and the pixels where its image differs from the unpruned
+// render_slice (compiled interval + f32 code) and from the brute-force f32 signs.
 // A pixel is inside the solid where F >= 0 (HyperFun's convention; prospero.hf negates the
 // challenge expression, whose inside is < 0).
 
@@ -24,6 +29,7 @@
 #include <thread>
 #include <vector>
 
+#include "app/model_field.h"
 #include "base/file.h"
 #include "base/result.h"
 #include "base/timer.h"
@@ -31,6 +37,7 @@
 #include "ir/ir.h"
 #include "jit/lower.h"
 #include "lang/frontend.h"
+#include "render/slice.h"
 
 namespace {
 
@@ -311,6 +318,57 @@ int main(int argc, char** argv) {
       interp_ms, interp_cpu, rows.size());
   std::printf("ratio interpreter / jit f32: %.1fx; interpreter / jit f64: %.1fx\n",
               interp_ms / jit32, interp_ms / jit64);
+  // The pruned slice against the brute force above, same grid (render_slice's pixel centres
+  // over [-1, 1]^2), same threads.
+  {
+    hfrt::app::ModelField field(mj, o.model);
+    std::string why;
+    if (!field.prepare_tapes(&why)) {
+      std::printf("pruned slice: no tape (%s)\n", why.c_str());
+    } else {
+      hfrt::render::SliceOptions so;
+      so.width = so.height = o.size;
+      so.x0 = so.y0 = -1;
+      so.x1 = so.y1 = 1;
+      so.threads = o.threads;
+      hfrt::render::SliceResult pr;
+      const double pruned = frame_ms([&] { pr = hfrt::render::render_slice(field, so); });
+      const double pruned_cpu = cpu_ms, pruned_best = best_ms;
+      std::printf(
+          "pruned slice: %10.2f ms/frame  (best %.2f, CPU time %.2f ms/frame; tape VM, no JIT)\n",
+          pruned, pruned_best, pruned_cpu);
+      std::printf("ratio pruned slice / jit f32 brute force: %.3fx (CPU time %.3fx)\n",
+                  pruned / jit32, pruned_cpu / jit32_cpu);
+      const hfrt::render::SliceStats& ps = pr.stats;
+      std::printf("pruned tape length per level (average over the blocks pruned): root %zu",
+                  ps.root_tape_length);
+      for (size_t l = 0; l < ps.tapes_by_level.size(); ++l) {
+        if (ps.tapes_by_level[l] == 0) continue;
+        std::printf("; L%zu %.1f (%llu)", l,
+                    double(ps.tape_length_by_level[l]) / double(ps.tapes_by_level[l]),
+                    (unsigned long long)ps.tapes_by_level[l]);
+      }
+      std::printf("\n  interval calls %llu, pixels settled by intervals %llu, points %llu\n",
+                  (unsigned long long)ps.evals.interval_calls,
+                  (unsigned long long)ps.pixels_by_interval,
+                  (unsigned long long)ps.evals.eval_points);
+      // Today's slice (compiled interval code or the interval interpreter, f32 JIT points),
+      // once: its image is the reference of the pruned one.
+      so.prune = false;
+      auto tu = Clock::now();
+      hfrt::render::SliceResult ur = hfrt::render::render_slice(field, so);
+      const double unpruned_ms = ms_since(tu);
+      size_t diff_slice = 0, diff_brute = 0;
+      for (size_t p = 0; p < pixels; ++p) {
+        diff_slice += pr.inside[p] != ur.inside[p];
+        diff_brute += pr.inside[p] != (img32[p] >= 0 ? 1 : 0);
+      }
+      std::printf(
+          "unpruned slice (render_slice with prune off): %.2f ms, one frame; pixels differing "
+          "from the pruned slice: %zu; from the brute-force f32 signs: %zu\n",
+          unpruned_ms, diff_slice, diff_brute);
+    }
+  }
   // Distance to the machine's limit: brute force (no pruning) evaluates every IR instruction
   // at every pixel, so IR instructions x pixels / time is the achieved lane-op rate, against
   // the measured peak of vector adds on the same threads, measured now.

@@ -20,27 +20,13 @@
 namespace hfrt::ir {
 namespace {
 
-constexpr double kInf = std::numeric_limits<double>::infinity();
+using namespace interval_detail;
+// Declared here too, so that the ulps overloads below add to them rather than hide them.
+using interval_detail::down;
+using interval_detail::up;
+
 constexpr double kPi = 3.141592653589793;  // the double nearest pi (below pi)
 
-// Outward widening by at least one ulp: v +- max(|v| 2^-52, denorm_min) in round-to-nearest
-// moves a finite v by one or two ulps (never zero); an infinite bound moves to the largest
-// finite double, as nextafter does. The same
-// formula is what the interval JIT emits (four FP ops, no integer tricks that would slow
-// LLVM's instruction selection), so both evaluators give the same bits.
-constexpr double kUlpScale = 0x1p-52;
-constexpr double kDenormMin = std::numeric_limits<double>::denorm_min();
-constexpr double kMax = std::numeric_limits<double>::max();
-double up(double v) {
-  if (v == -kInf) return -kMax;  // as nextafter: an overflowed bound moves to the largest finite
-  double step = std::fabs(v) * kUlpScale;
-  return v + (step > kDenormMin ? step : kDenormMin);
-}
-double down(double v) {
-  if (v == kInf) return kMax;
-  double step = std::fabs(v) * kUlpScale;
-  return v - (step > kDenormMin ? step : kDenormMin);
-}
 double down(double v, int ulps) {
   for (int i = 0; i < ulps; ++i) v = down(v);
   return v;
@@ -48,13 +34,6 @@ double down(double v, int ulps) {
 double up(double v, int ulps) {
   for (int i = 0; i < ulps; ++i) v = up(v);
   return v;
-}
-
-/// NaN endpoints (from inf - inf and the like) become the widest bound on their side.
-Interval make(double lo, double hi, bool nan) {
-  if (lo != lo) lo = -kInf;
-  if (hi != hi) hi = kInf;
-  return {lo, hi, nan};
 }
 
 Interval widen(Interval r, int ulps) {
@@ -84,10 +63,6 @@ Interval widen_rel(Interval r, double rel) {
   return r;
 }
 
-bool contains_zero(const Interval& a) {
-  return a.lo <= 0 && a.hi >= 0;
-}
-
 /// Tri-state truth: can the scalar value be nonzero (true) / zero (false) somewhere?
 Interval from_tri(Tri t) {
   return {t.can_false ? 0.0 : 1.0, t.can_true ? 1.0 : 0.0, false};
@@ -98,38 +73,6 @@ Tri truth(const Interval& a) {
   double mag_hi = std::max(std::fabs(a.lo), std::fabs(a.hi));
   double mag_lo = contains_zero(a) ? 0.0 : std::min(std::fabs(a.lo), std::fabs(a.hi));
   return {mag_hi >= kHfEps, mag_lo < kHfEps || a.maybe_nan};
-}
-
-Interval add(Interval a, Interval b) {
-  bool nan = a.maybe_nan || b.maybe_nan || (a.lo == -kInf && b.hi == kInf) ||
-             (a.hi == kInf && b.lo == -kInf);
-  return make(down(a.lo + b.lo), up(a.hi + b.hi), nan);
-}
-
-Interval neg(Interval a) {
-  return {-a.hi, -a.lo, a.maybe_nan};
-}
-
-Interval mul(Interval a, Interval b) {
-  bool nan = a.maybe_nan || b.maybe_nan ||
-             (contains_zero(a) && (std::isinf(b.lo) || std::isinf(b.hi))) ||
-             (contains_zero(b) && (std::isinf(a.lo) || std::isinf(a.hi)));
-  // 0 * inf corners are NaN; the products near them are bounded by the other corners and 0.
-  auto p = [](double u, double v) {
-    double r = u * v;
-    return r != r ? 0.0 : r;
-  };
-  double c0 = p(a.lo, b.lo), c1 = p(a.lo, b.hi), c2 = p(a.hi, b.lo), c3 = p(a.hi, b.hi);
-  double lo = std::min(std::min(c0, c1), std::min(c2, c3));
-  double hi = std::max(std::max(c0, c1), std::max(c2, c3));
-  return make(down(lo), up(hi), nan);
-}
-
-Interval square(Interval a) {
-  double m_lo = contains_zero(a) ? 0.0 : std::min(std::fabs(a.lo), std::fabs(a.hi));
-  double m_hi = std::max(std::fabs(a.lo), std::fabs(a.hi));
-  double lo = m_lo * m_lo;
-  return {lo == 0 ? 0.0 : down(lo), up(m_hi * m_hi), a.maybe_nan};
 }
 
 Interval div(Interval a, Interval b) {
@@ -369,31 +312,6 @@ Interval pow_hf(Interval b, Interval e) {
 
 Interval sign_i(Interval a) {
   Interval r{hf_sign(a.lo), hf_sign(a.hi), a.maybe_nan};
-  return r;
-}
-
-Interval min_max(Interval a, Interval b, bool is_min, uint8_t* choice) {
-  // kMin: a < b ? a : b; kMax: a > b ? a : b. A NaN a gives b; a NaN b gives b (NaN).
-  bool left_only, right_only;
-  if (is_min) {
-    left_only = !a.maybe_nan && !b.maybe_nan && a.hi < b.lo;
-    right_only = b.hi <= a.lo;
-  } else {
-    left_only = !a.maybe_nan && !b.maybe_nan && a.lo > b.hi;
-    right_only = b.lo >= a.hi;
-  }
-  if (choice) *choice |= left_only ? kChoiceLeft : right_only ? kChoiceRight : kChoiceBoth;
-  if (left_only) return a;
-  if (right_only) return b;
-  Interval r;
-  if (is_min) {
-    r.lo = std::min(a.lo, b.lo);
-    r.hi = a.maybe_nan ? b.hi : std::min(a.hi, b.hi);
-  } else {
-    r.lo = a.maybe_nan ? b.lo : std::max(a.lo, b.lo);
-    r.hi = std::max(a.hi, b.hi);
-  }
-  r.maybe_nan = b.maybe_nan;
   return r;
 }
 

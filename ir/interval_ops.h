@@ -5,7 +5,10 @@
 // set). The interval interpreter calls it per instruction and the interval JIT's per-lane
 // helpers call it for the ops they do not emit as vector code, so both domains' engines agree.
 
+#include <algorithm>
+#include <cmath>
 #include <cstdint>
+#include <limits>
 
 #include "base/interval.h"
 #include "ir/ir.h"
@@ -19,6 +22,99 @@ inline constexpr uint8_t kChoiceNone = 0;
 inline constexpr uint8_t kChoiceLeft = 1;
 inline constexpr uint8_t kChoiceRight = 2;
 inline constexpr uint8_t kChoiceBoth = 3;
+
+/// The enclosures of the most frequent ops, inline so that an interval VM with a constant op
+/// compiles them in place (jit/tape_vm.cpp); apply_interval uses the very same functions.
+namespace interval_detail {
+
+inline constexpr double kInf = std::numeric_limits<double>::infinity();
+// Outward widening by at least one ulp: v +- max(|v| 2^-52, denorm_min) in round-to-nearest
+// moves a finite v by one or two ulps (never zero); an infinite bound moves to the largest
+// finite double, as nextafter does. The same
+// formula is what the interval JIT emits (four FP ops, no integer tricks that would slow
+// LLVM's instruction selection), so both evaluators give the same bits.
+inline constexpr double kUlpScale = 0x1p-52;
+inline constexpr double kDenormMin = std::numeric_limits<double>::denorm_min();
+inline constexpr double kMax = std::numeric_limits<double>::max();
+inline double up(double v) {
+  if (v == -kInf) return -kMax;  // as nextafter: an overflowed bound moves to the largest finite
+  double step = std::fabs(v) * kUlpScale;
+  return v + (step > kDenormMin ? step : kDenormMin);
+}
+inline double down(double v) {
+  if (v == kInf) return kMax;
+  double step = std::fabs(v) * kUlpScale;
+  return v - (step > kDenormMin ? step : kDenormMin);
+}
+/// NaN endpoints (from inf - inf and the like) become the widest bound on their side.
+inline Interval make(double lo, double hi, bool nan) {
+  if (lo != lo) lo = -kInf;
+  if (hi != hi) hi = kInf;
+  return {lo, hi, nan};
+}
+
+inline bool contains_zero(const Interval& a) {
+  return a.lo <= 0 && a.hi >= 0;
+}
+
+inline Interval add(Interval a, Interval b) {
+  bool nan = a.maybe_nan || b.maybe_nan || (a.lo == -kInf && b.hi == kInf) ||
+             (a.hi == kInf && b.lo == -kInf);
+  return make(down(a.lo + b.lo), up(a.hi + b.hi), nan);
+}
+
+inline Interval neg(Interval a) {
+  return {-a.hi, -a.lo, a.maybe_nan};
+}
+
+inline Interval mul(Interval a, Interval b) {
+  bool nan = a.maybe_nan || b.maybe_nan ||
+             (contains_zero(a) && (std::isinf(b.lo) || std::isinf(b.hi))) ||
+             (contains_zero(b) && (std::isinf(a.lo) || std::isinf(a.hi)));
+  // 0 * inf corners are NaN; the products near them are bounded by the other corners and 0.
+  auto p = [](double u, double v) {
+    double r = u * v;
+    return r != r ? 0.0 : r;
+  };
+  double c0 = p(a.lo, b.lo), c1 = p(a.lo, b.hi), c2 = p(a.hi, b.lo), c3 = p(a.hi, b.hi);
+  double lo = std::min(std::min(c0, c1), std::min(c2, c3));
+  double hi = std::max(std::max(c0, c1), std::max(c2, c3));
+  return make(down(lo), up(hi), nan);
+}
+
+inline Interval square(Interval a) {
+  double m_lo = contains_zero(a) ? 0.0 : std::min(std::fabs(a.lo), std::fabs(a.hi));
+  double m_hi = std::max(std::fabs(a.lo), std::fabs(a.hi));
+  double lo = m_lo * m_lo;
+  return {lo == 0 ? 0.0 : down(lo), up(m_hi * m_hi), a.maybe_nan};
+}
+
+inline Interval min_max(Interval a, Interval b, bool is_min, uint8_t* choice) {
+  // kMin: a < b ? a : b; kMax: a > b ? a : b. A NaN a gives b; a NaN b gives b (NaN).
+  bool left_only, right_only;
+  if (is_min) {
+    left_only = !a.maybe_nan && !b.maybe_nan && a.hi < b.lo;
+    right_only = b.hi <= a.lo;
+  } else {
+    left_only = !a.maybe_nan && !b.maybe_nan && a.lo > b.hi;
+    right_only = b.lo >= a.hi;
+  }
+  if (choice) *choice |= left_only ? kChoiceLeft : right_only ? kChoiceRight : kChoiceBoth;
+  if (left_only) return a;
+  if (right_only) return b;
+  Interval r;
+  if (is_min) {
+    r.lo = std::min(a.lo, b.lo);
+    r.hi = a.maybe_nan ? b.hi : std::min(a.hi, b.hi);
+  } else {
+    r.lo = a.maybe_nan ? b.lo : std::max(a.lo, b.lo);
+    r.hi = std::max(a.hi, b.hi);
+  }
+  r.maybe_nan = b.maybe_nan;
+  return r;
+}
+
+}  // namespace interval_detail
 
 /// What a condition can be over a box: true somewhere, false somewhere, or both.
 struct Tri {

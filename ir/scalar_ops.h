@@ -18,37 +18,55 @@ inline constexpr double kHfEps = 1e-6;
 /// multiplications (the loop then only reproduces overflow to inf, underflow to 0 or +-1).
 inline constexpr double kHfPowMaxLoop = 1024;
 
-/// kPowHF: HyperFun's `b ^ e` value without the error report (the checks are kCheck ops).
-inline double hf_pow(double b, double e) {
-  if (std::fabs(b) < kHfEps) return 0.0;
-  if (std::fabs(e - std::trunc(e)) < kHfEps) {
+/// kPowHF: HyperFun's `b ^ e` value without the error report (the checks are kCheck ops), in
+/// the precision T (float: the f32 JIT's helper and the tape VM; double: everything else).
+/// Every constant is rounded to T first, as the f32 code does.
+template <typename T>
+inline T hf_pow_t(T b, T e) {
+  const T eps = static_cast<T>(kHfEps);
+  if (std::fabs(b) < eps) return T(0);
+  if (std::fabs(e - std::trunc(e)) < eps) {
     // Integral exponent: b multiplied round(|e|) times, left to right as the original does.
-    const double n = std::round(std::fabs(e));
-    double v = 1.0;
-    if (n <= kHfPowMaxLoop) {
+    const T n = std::round(std::fabs(e));
+    T v = T(1);
+    if (n <= static_cast<T>(kHfPowMaxLoop)) {
       for (int i = 0; i < static_cast<int>(n); ++i) v *= b;
     } else {
       v = std::pow(b, n);
     }
-    return e < 0 ? 1.0 / v : v;
+    return e < 0 ? T(1) / v : v;
   }
   return std::exp(e * std::log(b));  // NaN for b < 0 (reported by a separate kCheck)
 }
 
-/// kSign with hfrt's semantics: -1, 0 or 1 (NaN stays NaN).
-inline double hf_sign(double v) {
-  if (v > 0) return 1.0;
-  if (v < 0) return -1.0;
-  return v == 0 ? 0.0 : v;
+/// kPowHF in double precision (the interpreter, the constant folder, the f64 JIT's helper).
+inline double hf_pow(double b, double e) {
+  return hf_pow_t<double>(b, e);
 }
 
-inline double hf_truth(double v) {
-  return std::fabs(v) >= kHfEps ? 1.0 : 0.0;
+/// kSign with hfrt's semantics: -1, 0 or 1 (NaN stays NaN).
+template <typename T>
+inline T hf_sign(T v) {
+  if (v > 0) return T(1);
+  if (v < 0) return T(-1);
+  return v == 0 ? T(0) : v;
+}
+
+template <typename T>
+inline T hf_truth(T v) {
+  return std::fabs(v) >= static_cast<T>(kHfEps) ? T(1) : T(0);
 }
 
 /// Applies an op computed from its arguments (op_is_arith: the kinds Arith, Step and Bool of
-/// ir_ops.h). Unused arguments are ignored. Returns NaN for other ops (callers never pass them).
-inline double apply_op(Op op, double a, double b, double c) {
+/// ir_ops.h) in the precision T: double is the IR's meaning; float is what the f32 evaluators
+/// compute (the same formulas with float operations, the float libm functions and the
+/// tolerances rounded to float), used by the tape VM (jit/tape_vm.h). Unused arguments are
+/// ignored. Returns NaN for other ops (callers never pass them). With a constant `op` it
+/// inlines to the one formula (the tape VM's lane loops rely on that to vectorise: hence
+/// always_inline, as GCC would otherwise call the whole switch per lane).
+template <typename T>
+[[gnu::always_inline]] inline T apply_op_t(Op op, T a, T b, T c) {
+  const T eps = static_cast<T>(kHfEps);
   switch (op) {
     case Op::kAdd:
       return a + b;
@@ -107,33 +125,33 @@ inline double apply_op(Op op, double a, double b, double c) {
     case Op::kPow:
       return std::pow(a, b);
     case Op::kPowHF:
-      return hf_pow(a, b);
+      return hf_pow_t<T>(a, b);
     case Op::kSign:
-      return hf_sign(a);
+      return hf_sign<T>(a);
     case Op::kLt:
-      return a < b ? 1.0 : 0.0;
+      return a < b ? T(1) : T(0);
     case Op::kLe:
-      return a <= b ? 1.0 : 0.0;
+      return a <= b ? T(1) : T(0);
     case Op::kGt:
-      return a > b ? 1.0 : 0.0;
+      return a > b ? T(1) : T(0);
     case Op::kGe:
-      return a >= b ? 1.0 : 0.0;
+      return a >= b ? T(1) : T(0);
     case Op::kEqTol:
-      return std::fabs(a - b) < kHfEps ? 1.0 : 0.0;
+      return std::fabs(a - b) < eps ? T(1) : T(0);
     case Op::kNeTol:
-      return std::fabs(a - b) >= kHfEps ? 1.0 : 0.0;
+      return std::fabs(a - b) >= eps ? T(1) : T(0);
     case Op::kEq:
-      return a == b ? 1.0 : 0.0;
+      return a == b ? T(1) : T(0);
     case Op::kNe:
-      return a != b ? 1.0 : 0.0;
+      return a != b ? T(1) : T(0);
     case Op::kTruth:
-      return hf_truth(a);
+      return hf_truth<T>(a);
     case Op::kAnd:
-      return (hf_truth(a) != 0 && hf_truth(b) != 0) ? 1.0 : 0.0;
+      return (hf_truth<T>(a) != 0 && hf_truth<T>(b) != 0) ? T(1) : T(0);
     case Op::kOr:
-      return (hf_truth(a) != 0 || hf_truth(b) != 0) ? 1.0 : 0.0;
+      return (hf_truth<T>(a) != 0 || hf_truth<T>(b) != 0) ? T(1) : T(0);
     case Op::kNot:
-      return hf_truth(a) != 0 ? 0.0 : 1.0;
+      return hf_truth<T>(a) != 0 ? T(0) : T(1);
     case Op::kSelect:
       return a != 0 ? b : c;
     case Op::kCbrt:
@@ -142,7 +160,12 @@ inline double apply_op(Op op, double a, double b, double c) {
       HFRT_OP_CASES_NON_ARITH
       break;
   }
-  return std::nan("");
+  return static_cast<T>(std::nan(""));
+}
+
+/// apply_op_t in double: the IR's meaning of every op computed from its arguments.
+inline double apply_op(Op op, double a, double b, double c) {
+  return apply_op_t<double>(op, a, b, c);
 }
 
 }  // namespace hfrt::ir

@@ -37,20 +37,10 @@ double hfrt_jit_powhf_f64(double b, double e) noexcept {
   return hfrt::jit::hf_pow(b, e);
 }
 
-/// kPowHF in single precision, the same algorithm as hf_pow.
+/// kPowHF in single precision: hf_pow's algorithm in float (scalar_ops.h hf_pow_t, which the
+/// tape VM's f32 lanes use too).
 float hfrt_jit_powhf_f32(float b, float e) noexcept {
-  if (std::fabs(b) < 1e-6f) return 0.0f;
-  if (std::fabs(e - std::trunc(e)) < 1e-6f) {
-    const float n = std::round(std::fabs(e));
-    float v = 1.0f;
-    if (n <= static_cast<float>(hfrt::jit::kHfPowMaxLoop)) {
-      for (int i = 0; i < static_cast<int>(n); ++i) v *= b;
-    } else {
-      v = std::pow(b, n);
-    }
-    return e < 0 ? 1.0f / v : v;
-  }
-  return std::exp(e * std::log(b));
+  return hfrt::jit::hf_pow_t<float>(b, e);
 }
 
 }  // extern "C"

@@ -27,6 +27,7 @@
 #include "jit/llvm_jit.h"
 #include "jit/nvptx.h"
 #include "jit/poly.h"
+#include "jit/tape.h"
 
 namespace hfrt {
 
@@ -577,6 +578,10 @@ std::shared_ptr<const jit::HostKernels> Model::device_kernels_on_host(std::strin
 
 std::vector<float> Model::code_params_f32() const {
   return impl_->params_f32;
+}
+
+std::unique_ptr<jit::Tape> Model::tape(std::string* why) const {
+  return jit::Tape::build(impl_->compiled->fn, impl_->params_f64, why);
 }
 
 std::string Model::ir_text() const {

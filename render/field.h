@@ -1,13 +1,14 @@
 #pragma once
 // Field: how the renderer sees a model. The renderer never talks to the compiler or the JIT
-// directly; app/ (app/model_field.h) adapts a compiled hfrt::Model to this interface, and tests implement it
-// analytically (sphere, thin shell, torus). That keeps render/ free of LLVM and of jit/
-// internals, and testable against exact answers.
+// directly; app/ (app/model_field.h) adapts a compiled hfrt::Model to this interface, and tests
+// implement it analytically (sphere, thin shell, torus). That keeps render/ free of LLVM and of
+// jit/ internals, and testable against exact answers.
 //
 // Convention (HyperFun): the solid is F >= 0; F = 0 is the surface; F < 0 is outside. A point
 // where F has no value (NaN: division by ~0, sqrt of a negative, ...) counts as outside.
 
 #include <cstddef>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -20,6 +21,36 @@ namespace hfrt::render {
 /// An evaluator that cannot bound F returns NaN ends; the renderer then treats the region as
 /// "unknown" and subdivides it. (Whether F may be NaN travels separately, as `maybe_nan`.)
 using Interval = BasicInterval<float>;
+
+/// A program for F specialised to a box (a pruned tape, jit/tape.h), opaque to the renderer:
+/// made and read only by the field's TapeEvaluator.
+class FieldTape {
+ public:
+  virtual ~FieldTape() = default;
+  /// Instructions the evaluator runs per point or box (statistics).
+  virtual size_t length() const = 0;
+};
+
+/// The pruning evaluator of a field (Field::tape_evaluator): one per thread, with its own
+/// scratch memory. The recursion of a renderer: eval_interval() over a box on the tape valid
+/// there, prune_last() into the child tape for that box (shorter: every min/max the interval
+/// decided is gone), recurse into sub-boxes with the child, eval() the points of a leaf.
+class TapeEvaluator {
+ public:
+  virtual ~TapeEvaluator() = default;
+  /// An empty tape for prune_last() to fill (its buffers are reused by later prunes).
+  virtual std::unique_ptr<FieldTape> new_tape() = 0;
+  /// As Field::eval_interval, on `tape` (the root tape or one pruned for a box containing
+  /// `box`); remembers the decisions for prune_last().
+  virtual Interval eval_interval(const FieldTape& tape, const Box& box, bool* maybe_nan) = 0;
+  /// The child of `tape` for the box of the last eval_interval() call (which was on `tape`);
+  /// false, with `child` unchanged, when the interval decided nothing (then `tape` itself
+  /// is the box's tape).
+  virtual bool prune_last(const FieldTape& tape, FieldTape* child) = 0;
+  /// As Field::eval, on `tape` at points of the box it was pruned for.
+  virtual void eval(const FieldTape& tape, size_t n, const float* x, const float* y, const float* z,
+                    float* out_f) = 0;
+};
 
 /// The model as a function of a 3-D point. Implementations must be thread-safe: the renderer
 /// calls every method concurrently from its worker threads (each call with its own buffers).
@@ -70,6 +101,14 @@ class Field {
   /// that contains every crossing of F's zero set (analytic leaves of a set-operation
   /// skeleton). When false, ray_candidates() is never called.
   virtual bool has_ray_candidates() const { return false; }
+
+  /// The whole program as a tape for TapeEvaluator, or null when the field has no pruning
+  /// evaluator (then tape_evaluator() is never called). Its evaluations equal eval() and
+  /// eval_interval() up to rounding: a pruned tape's value is the full tape's bit for bit in
+  /// f64; in float it can differ only where rounding contradicts the f64 enclosure.
+  virtual std::shared_ptr<const FieldTape> root_tape() const { return nullptr; }
+  /// A new per-thread evaluator of this field's tapes.
+  virtual std::unique_ptr<TapeEvaluator> tape_evaluator() const { return nullptr; }
 
   /// Appends to `out` (unsorted, may repeat) every candidate t in [t0, t1] for the ray o + t d:
   /// each parameter where F may change sign on the ray must be listed (to rounding).

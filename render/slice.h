@@ -20,6 +20,9 @@ struct SliceOptions {
   int tile_size = 32;
   /// Use intervals to fill whole (sub-)tiles when the field has them.
   bool use_interval = true;
+  /// With intervals: when the field has a pruning evaluator (Field::root_tape), recurse with
+  /// tapes pruned per block and evaluate leaf pixels on the shortest tape (docs/tape_vm.md).
+  bool prune = true;
   ProgressFn progress;
 };
 
@@ -33,6 +36,13 @@ struct SliceStats {
   bool has_nan_point = false;
   Vec3 nan_point;
   std::string nan_explanation;
+  /// The pruned path ran (SliceOptions::prune and a field with tapes).
+  bool pruned = false;
+  /// Pruned path: per recursion level (0 = the whole image), how many tapes were pruned for
+  /// blocks of that level and their total length (average: total / count). Level 0's tape is
+  /// the root's child for the whole image.
+  std::vector<uint64_t> tapes_by_level, tape_length_by_level;
+  size_t root_tape_length = 0;
 };
 
 /// One byte per pixel, row-major from the top-left: 1 inside (F >= 0), 0 outside or no value.

@@ -1,10 +1,12 @@
 // `hfrt slice MODEL.hf -o OUT.png [--size WxH] [--bbox x0,y0,x1,y1] [--z Z] [-a v1,...]
-//      [--object NAME] [--threads N] [--backend jit|interp] [--stats]`
+//      [--object NAME] [--threads N] [--backend jit|interp] [--no-prune] [--stats]`
 //
 // Renders a 2-D model, or the z = Z slice of a 3-D one, as an inside/outside image: white
 // where F >= 0, black where F < 0 or F has no value; x grows to the right, y upwards.
 // Tile-parallel (render/slice.h); whole tiles are settled by the interval evaluator when the
-// model has one.
+// model has one. Straight-line models (no if / while, tables or meshes) take the pruned path:
+// the tape VMs of jit/tape_vm.h with a tape pruned per block (docs/tape_vm.md), which needs no
+// LLVM compile at all; --no-prune (or --backend interp) keeps the compiled evaluators.
 //
 // Exit codes: 0 = done, 1 = compile errors, 2 = usage or environment error.
 
@@ -39,6 +41,7 @@ struct SliceCli {
   float z = 0;
   int threads = 0;
   bool stats = false;
+  bool no_prune = false;       ///< --no-prune
   std::string device = "cpu";  ///< --device
 };
 
@@ -71,8 +74,11 @@ int run_slice(const SliceCli& cli) {
     return usage_error("--device expects cpu, cuda or cuda-host (got '" + cli.device + "')");
   }
 
+  // The pruned path needs no compiled code: the f32 JIT is compiled only without it.
+  const bool try_prune =
+      !cli.no_prune && cli.model.backend != "interp" && device == app::Device::kCpu;
   int code = 0;
-  auto loaded = load_model(cli.model, /*eager_f32=*/true, &code);
+  auto loaded = load_model(cli.model, /*eager_f32=*/!try_prune, &code);
   if (!loaded) return code;
   if (device != app::Device::kCpu) {
     render::SliceResult res;
@@ -99,10 +105,23 @@ int run_slice(const SliceCli& cli) {
     return 0;
   }
   app::ModelField field(*loaded->model, cli.model.file);
-  const app::PreparedCode prepared =
-      app::prepare_render_code(*loaded->model, field.has_interval(), /*gradient=*/false);
-  for (const std::string& w : prepared.warnings) std::fprintf(stderr, "%s\n", w.c_str());
-  const double prepare_ms = prepared.ms;
+  std::string no_tape;
+  const bool pruned = try_prune && field.prepare_tapes(&no_tape);
+  opt.prune = pruned;
+  double prepare_ms = 0;
+  if (!pruned) {
+    if (try_prune) {
+      std::string error;
+      if (!loaded->model->prepare(Precision::kF32, &error)) {
+        std::fprintf(stderr, "hfrt: warning: f32 JIT failed (%s); using the interpreter\n",
+                     error.c_str());
+      }
+    }
+    const app::PreparedCode prepared =
+        app::prepare_render_code(*loaded->model, field.has_interval(), /*gradient=*/false);
+    for (const std::string& w : prepared.warnings) std::fprintf(stderr, "%s\n", w.c_str());
+    prepare_ms = prepared.ms;
+  }
 
   render::ProgressBar bar("slicing", isatty(STDERR_FILENO) != 0);
   opt.progress = [&bar](size_t done, size_t total) { bar.update(done, total); };
@@ -124,7 +143,21 @@ int run_slice(const SliceCli& cli) {
                  (unsigned long long)st.evals.nan_samples, st.nan_explanation.empty() ? "" : ": ",
                  st.nan_explanation.c_str());
   }
-  if (cli.stats) {
+  if (cli.stats && st.pruned) {
+    std::fprintf(stderr,
+                 "stats: compile %.1f ms (pruned tape VM, no JIT), slice %.3f s on %d threads\n",
+                 loaded->compile_ms, st.seconds, st.threads);
+    std::fprintf(stderr, "stats: tape length: root %zu", st.root_tape_length);
+    for (size_t l = 0; l < st.tapes_by_level.size(); ++l) {
+      if (st.tapes_by_level[l] == 0) continue;
+      std::fprintf(stderr, "; level %zu: %.1f (%llu tapes)", l,
+                   double(st.tape_length_by_level[l]) / double(st.tapes_by_level[l]),
+                   (unsigned long long)st.tapes_by_level[l]);
+    }
+    std::fprintf(stderr, "\n");
+  } else if (cli.stats) {
+    if (try_prune)
+      std::fprintf(stderr, "stats: no pruned path: the model has %s\n", no_tape.c_str());
     std::fprintf(
         stderr,
         "stats: compile %.1f ms (+ %.1f ms interval code: %s), slice %.3f s on %d threads\n",
@@ -159,6 +192,8 @@ CommandRunner register_slice(CLI::App& app) {
   sub->add_option("--backend", cli->model.backend, "evaluator: jit (default) or interp")
       ->check(CLI::IsMember({"jit", "interp"}));
   sub->add_flag("--stats", cli->stats, "print time and evaluator calls on stderr");
+  sub->add_flag("--no-prune", cli->no_prune,
+                "evaluate with the compiled code, not the pruned tape VM (docs/tape_vm.md)");
   sub->add_option("--device", cli->device,
                   "cpu (default), cuda (an NVIDIA GPU: the model's generated kernel) or "
                   "cuda-host (that kernel compiled for this CPU); docs/gpu.md");

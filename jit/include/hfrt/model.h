@@ -23,7 +23,8 @@ namespace hfrt {
 
 namespace jit {
 class HostKernels;  // jit/nvptx.h
-}
+class Tape;         // jit/tape.h
+}  // namespace jit
 
 /// Which evaluator runs the model. Both give the same f64 values (the interpreter is the
 /// reference); the JIT is vectorised machine code, the interpreter can explain errors.
@@ -371,6 +372,11 @@ class Model {
   /// without a GPU (tests, the device check's expectations, `--device cuda-host`). Null with
   /// `error` as for device_ptx. Each call compiles anew.
   std::shared_ptr<const jit::HostKernels> device_kernels_on_host(std::string* error) const;
+  /// The object as a tape for the pruning VMs (jit/tape.h, docs/tape_vm.md), with the current
+  /// parameters and hoisted numbers as constants; null, with `why` (when given) saying what
+  /// tapes do not support, for objects with control flow, tables or mesh/patch leaves. Each
+  /// call builds anew (rebuild after set_params); the tape does not refer to the model.
+  std::unique_ptr<jit::Tape> tape(std::string* why = nullptr) const;
   /// a[] as the compiled code and the kernels take it: the parameters padded to the object's
   /// count, then the hoisted numbers.
   std::vector<float> code_params_f32() const;

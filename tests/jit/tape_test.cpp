@@ -1,0 +1,282 @@
+// Tapes and their VMs (jit/tape.h, jit/tape_vm.h) on every corpus model and prospero:
+//  - the full tape in the f64 point VM equals the reference interpreter bit for bit;
+//  - over random boxes, two levels deep: the pruned tape in the f64 point VM equals the full
+//    tape bit for bit at every sampled point of its box (the interval domain is sound for
+//    f64, so a decided choice is the choice at every point); in the f32 VM it equals the
+//    full tape's f32 value except where f32 rounding contradicts the f64 enclosure (counted,
+//    and required to be rare and within rounding); the pruned interval encloses the full
+//    f64 values; tapes never grow and do shrink somewhere;
+//  - the f32 VM on the full tape agrees with the f32 JIT (Model::eval_batch).
+// Counts are asserted, so the test cannot pass with nothing checked.
+
+#include "jit/tape.h"
+
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <bit>
+#include <cmath>
+#include <cstring>
+#include <filesystem>
+#include <memory>
+#include <random>
+#include <string>
+#include <vector>
+
+#include "base/file.h"
+#include "base/result.h"
+#include "hfrt/model.h"
+#include "jit/interpreter.h"
+#include "jit/lower.h"
+#include "jit/tape_vm.h"
+#include "lang/frontend.h"
+
+namespace hfrt::jit {
+
+using namespace ::hfrt::ir;
+namespace {
+
+namespace fs = std::filesystem;
+
+std::optional<Function> lower_file(const std::string& path) {
+  Result<std::string> text = read_file(path);
+  if (!text.ok()) return std::nullopt;
+  auto file = std::make_shared<const lang::SourceFile>(path, std::move(text.value()));
+  lang::DiagnosticSink diags(file);
+  auto program = lang::compile_source(file, diags);
+  if (!program || program->default_object() < 0) return std::nullopt;
+  return lower_object(*program, program->default_object(), nullptr);
+}
+
+std::vector<std::string> corpus_files() {
+  std::vector<std::string> files;
+  for (const auto& e : fs::recursive_directory_iterator(HFRT_CORPUS_DIR "/models")) {
+    if (e.is_regular_file() && e.path().extension() == ".hf") files.push_back(e.path().string());
+  }
+  std::sort(files.begin(), files.end());
+  files.push_back((fs::path(HFRT_CORPUS_DIR) / "bench" / "prospero.hf").string());
+  return files;
+}
+
+template <typename T>
+bool same_bits(T a, T b) {
+  if (a != a) return b != b;
+  return std::memcmp(&a, &b, sizeof(T)) == 0;
+}
+
+struct Totals {
+  int files = 0, supported = 0;
+  int64_t points = 0, boxes = 0, pruned_shorter = 0, f32_mismatches = 0;
+  size_t min_child = SIZE_MAX;
+};
+
+/// Points of a box, structure of arrays (3 coordinates).
+template <typename T>
+struct Points {
+  std::vector<T> c[3];
+  std::span<const T* const> inputs() {
+    ptr[0] = c[0].data(), ptr[1] = c[1].data(), ptr[2] = c[2].data();
+    return {ptr, 3};
+  }
+  const T* ptr[3];
+};
+
+void check_box(const Tape& full, const Tape& parent, const Interval box[3], std::mt19937& rng,
+               TapeVm& vm, Tape* child, Totals* t, const std::string& file, int depth) {
+  vm.eval_interval(parent, {box, 3});
+  if (vm.prune_last(parent, child)) {
+    ASSERT_LE(child->length(), parent.length()) << file;
+  } else {
+    *child = parent;  // nothing decided: the parent is the box's tape
+  }
+  t->boxes++;
+  if (child->length() < full.length()) t->pruned_shorter++;
+  t->min_child = std::min(t->min_child, child->length());
+  // The pruned interval over the box.
+  TapeVm vm2;
+  const Interval enclosure = vm2.eval_interval(*child, {box, 3});
+
+  constexpr size_t kN = 100;  // two passes of the lanes, the second partial
+  Points<double> pd;
+  Points<float> pf;
+  for (int k = 0; k < 3; ++k) {
+    std::uniform_real_distribution<double> u(box[k].lo, box[k].hi);
+    pd.c[k].resize(kN);
+    pf.c[k].resize(kN);
+    for (size_t i = 0; i < kN; ++i) {
+      // Points as floats (exact in double), corners included.
+      float v = static_cast<float>(i < 8 ? ((i >> k) & 1 ? box[k].hi : box[k].lo) : u(rng));
+      v = std::clamp(v, static_cast<float>(box[k].lo), static_cast<float>(box[k].hi));
+      if (v < box[k].lo) v = std::nextafter(v, INFINITY);
+      if (v > box[k].hi) v = std::nextafter(v, -INFINITY);
+      pf.c[k][i] = v;
+      pd.c[k][i] = v;
+    }
+  }
+  std::vector<double> full_d(kN), pruned_d(kN);
+  std::vector<float> full_f(kN), pruned_f(kN);
+  vm.eval<double>(full, kN, pd.inputs(), full_d.data());
+  vm.eval<double>(*child, kN, pd.inputs(), pruned_d.data());
+  vm.eval<float>(full, kN, pf.inputs(), full_f.data());
+  vm.eval<float>(*child, kN, pf.inputs(), pruned_f.data());
+  for (size_t i = 0; i < kN; ++i) {
+    if (pd.c[0][i] < box[0].lo || pd.c[0][i] > box[0].hi) continue;
+    t->points++;
+    ASSERT_TRUE(same_bits(full_d[i], pruned_d[i]))
+        << file << " depth " << depth << " at (" << pd.c[0][i] << ", " << pd.c[1][i] << ", "
+        << pd.c[2][i] << "): full " << full_d[i] << " pruned " << pruned_d[i];
+    ASSERT_TRUE(enclosure.contains(full_d[i])) << file << " pruned interval [" << enclosure.lo
+                                               << ", " << enclosure.hi << "] misses " << full_d[i];
+    if (!same_bits(full_f[i], pruned_f[i])) {
+      t->f32_mismatches++;
+      // Only a rounding-level disagreement is allowed (see tape.h).
+      ASSERT_NEAR(full_f[i], pruned_f[i], 1e-4 * (1 + std::fabs(full_f[i]))) << file;
+    }
+  }
+  if (depth < 2) {
+    // A random quarter (in x and y) of the box, on the child.
+    Interval sub[3] = {box[0], box[1], box[2]};
+    for (int k = 0; k < 2; ++k) {
+      const double mid = 0.5 * (box[k].lo + box[k].hi);
+      if (rng() & 1) {
+        sub[k].lo = mid;
+      } else {
+        sub[k].hi = mid;
+      }
+    }
+    Tape grandchild;
+    check_box(full, *child, sub, rng, vm, &grandchild, t, file, depth + 1);
+  }
+}
+
+TEST(TapeTest, PrunedEqualsFullOnCorpus) {
+  Totals t;
+  std::mt19937 rng(2025);
+  for (const std::string& file : corpus_files()) {
+    std::optional<Function> fn = lower_file(file);
+    if (!fn) continue;
+    t.files++;
+    std::string why;
+    std::unique_ptr<Tape> tape = Tape::build(*fn, {}, &why);
+    if (!tape) continue;
+    t.supported++;
+    SCOPED_TRACE(file);
+    // The full tape against the reference interpreter, in double, bit for bit.
+    Interpreter interp(*fn);
+    TapeVm vm;
+    std::uniform_real_distribution<double> u(-3.5, 3.5);
+    {
+      Points<double> p;
+      constexpr size_t kN = 70;
+      for (auto& c : p.c) {
+        c.resize(kN);
+        for (double& v : c) v = u(rng);
+      }
+      std::vector<double> out(kN);
+      vm.eval<double>(*tape, kN, p.inputs(), out.data());
+      for (size_t i = 0; i < kN; ++i) {
+        const double x[3] = {p.c[0][i], p.c[1][i], p.c[2][i]};
+        ASSERT_TRUE(same_bits(interp.eval(x, {}).value, out[i])) << file;
+      }
+    }
+    for (int b = 0; b < 24; ++b) {
+      Interval box[3];
+      const double w = std::pow(10.0, std::uniform_real_distribution<double>(-2.5, 0.5)(rng));
+      for (int k = 0; k < 3; ++k) {
+        const double lo = u(rng);
+        box[k] = {lo, lo + w * (k == 2 ? 0.5 : 1.0), false};
+      }
+      Tape child;
+      check_box(*tape, *tape, box, rng, vm, &child, &t, file, 1);
+      if (HasFatalFailure()) return;
+    }
+  }
+  std::printf(
+      "tape test: %d files, %d with a tape, %lld boxes (%lld pruned shorter, shortest %zu), "
+      "%lld points, %lld f32 rounding disagreements\n",
+      t.files, t.supported, (long long)t.boxes, (long long)t.pruned_shorter, t.min_child,
+      (long long)t.points, (long long)t.f32_mismatches);
+  EXPECT_GE(t.files, 30);
+  EXPECT_GE(t.supported, 10);
+  EXPECT_GE(t.points, 100000);
+  EXPECT_GE(t.pruned_shorter, t.boxes / 4);
+  EXPECT_LE(t.f32_mismatches, t.points / 10000);
+}
+
+TEST(TapeTest, F32VmAgreesWithF32Jit) {
+  int compared = 0, exact = 0;
+  for (const std::string& file : corpus_files()) {
+    ModelOptions mo;  // only the f32 code is compared
+    mo.eager_f64 = false;
+    mo.eager_f32 = true;
+    auto compiled = Model::compile_file(file, mo);
+    if (!compiled.ok()) continue;
+    const Model& model = *compiled.model;
+    std::unique_ptr<Tape> tape = model.tape();
+    if (!tape) continue;
+    constexpr size_t kN = 200;
+    std::mt19937 rng(7);
+    std::uniform_real_distribution<float> u(-3.5f, 3.5f);
+    const int dims = std::max(model.num_inputs(), 1);
+    std::vector<float> xs(size_t(dims) * kN, 0.0f), jit(kN), vmout(kN);
+    for (int k = 0; k < std::min(dims, 3); ++k) {
+      for (size_t i = 0; i < kN; ++i) xs[k * kN + i] = u(rng);
+    }
+    model.eval_batch(int64_t(kN), xs.data(), jit.data());
+    std::vector<const float*> in;
+    for (int k = 0; k < dims; ++k) in.push_back(xs.data() + k * kN);
+    TapeVm vm;
+    vm.eval<float>(*tape, kN, in, vmout.data());
+    for (size_t i = 0; i < kN; ++i) {
+      compared++;
+      if (same_bits(jit[i], vmout[i])) {
+        exact++;
+        continue;
+      }
+      // libm calls per lane may differ from a vectorised form by rounding.
+      ASSERT_NEAR(jit[i], vmout[i], 1e-4 * (1 + std::fabs(jit[i]))) << file;
+    }
+  }
+  std::printf("tape f32 VM vs f32 JIT: %d values, %d bit for bit\n", compared, exact);
+  EXPECT_GE(compared, 2000);
+  EXPECT_GE(exact, compared * 9 / 10);
+}
+
+TEST(TapeTest, UnsupportedFunctionsSayWhy) {
+  auto compiled = Model::compile(
+      "m(x[3], a[1]) { r = 0; if (x[1] > 0) then r = 1; else r = -1; endif; m = r; }");
+  ASSERT_TRUE(compiled.ok()) << compiled.rendered;
+  std::string why;
+  EXPECT_EQ(compiled.model->tape(&why), nullptr);
+  EXPECT_NE(why.find("control flow"), std::string::npos) << why;
+}
+
+TEST(TapeTest, PruningDropsDecidedMinMaxAndReusesRegisters) {
+  // Two spheres far apart: over a box around the first, the union's max keeps one operand.
+  auto compiled = Model::compile(
+      "m(x[3], a[1]) { s1 = 1 - (x[1]-5)^2 - x[2]^2 - x[3]^2;"
+      " s2 = 1 - (x[1]+5)^2 - x[2]^2 - x[3]^2; m = max(s1, s2); }");
+  ASSERT_TRUE(compiled.ok()) << compiled.rendered;
+  std::unique_ptr<Tape> tape = compiled.model->tape();
+  ASSERT_NE(tape, nullptr);
+  // (`^2` lowers with a select of its own: count relative to the full tape.)
+  ASSERT_GE(tape->num_choices(), 1u);
+  TapeVm vm;
+  const Interval box[3] = {{4, 6, false}, {-1, 1, false}, {-1, 1, false}};
+  vm.eval_interval(*tape, box);
+  Tape child;
+  ASSERT_TRUE(vm.prune_last(*tape, &child));
+  EXPECT_LT(child.num_choices(), tape->num_choices());
+  EXPECT_LT(child.length(), tape->length());
+  EXPECT_LT(child.num_regs(), child.length());
+  const double x[3] = {5.5, 0.25, 0.5};
+  const double* in[3] = {&x[0], &x[1], &x[2]};
+  double full = 0, pruned = 0;
+  vm.eval<double>(*tape, 1, in, &full);
+  vm.eval<double>(child, 1, in, &pruned);
+  EXPECT_EQ(full, pruned);
+  EXPECT_EQ(full, 1 - 0.25 - 0.0625 - 0.25);
+}
+
+}  // namespace
+}  // namespace hfrt::jit
