@@ -1079,11 +1079,16 @@ TriMesh mesh_field(const render::Field& field, const MeshOptions& options, MeshS
         mesh.vertices[vi] = mesh.vertices[vi] + step;
         state[i] = kNeedValue;
       };
-      for (int it = 0; it < kNewtonSteps; ++it) {
+      // The vertices not done yet (shrinks each iteration; most finish after two).
+      std::vector<uint32_t> live;
+      for (size_t i = 0; i < n; ++i) {
+        if (state[i] != kDone) live.push_back(uint32_t(i));
+      }
+      for (int it = 0; it < kNewtonSteps && !live.empty(); ++it) {
         const bool last = it == kNewtonSteps - 1;
         // Gradients: the first evaluation of a vertex, or a direction from an accepted point.
         idx.clear();
-        for (size_t i = 0; i < n; ++i) {
+        for (const uint32_t i : live) {
           if (state[i] != kNeedGradient) continue;
           const Vec3 p = mesh.vertices[vb + i];
           xs[idx.size()] = p.x, ys[idx.size()] = p.y, zs[idx.size()] = p.z;
@@ -1110,7 +1115,7 @@ TriMesh mesh_field(const render::Field& field, const MeshOptions& options, MeshS
         }
         // Values: flat starts, and the points steps reached.
         idx.clear();
-        for (size_t i = 0; i < n; ++i) {
+        for (const uint32_t i : live) {
           if (state[i] != kNeedValue && state[i] != kFlatStart) continue;
           const Vec3 p = mesh.vertices[vb + i];
           xs[idx.size()] = p.x, ys[idx.size()] = p.y, zs[idx.size()] = p.z;
@@ -1155,6 +1160,9 @@ TriMesh mesh_field(const render::Field& field, const MeshOptions& options, MeshS
           last_f[i] = af;
           state[i] = kNeedGradient;
         }
+        live.erase(
+            std::remove_if(live.begin(), live.end(), [&](uint32_t i) { return state[i] == kDone; }),
+            live.end());
       }
       // Keep a projection only when it stayed near its cell; otherwise the QEF point.
       size_t moved = 0;
