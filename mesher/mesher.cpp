@@ -350,17 +350,13 @@ struct CellRec {
   bool operator<(const CellRec& o) const { return key < o.key; }
 };
 
-void append_cells(const float* f, const uint8_t* known, const int c0[3], int nx, int ny, int nz,
-                  size_t sy, size_t sz, std::vector<CellRec>* out);
-
-/// The sign of a node whose owning block the octree proved inside (1) or outside (0), or -1
-/// for a node of a sampled block (its sampled value decides).
-using NodeSign = std::function<int(int i, int j, int k)>;
+void append_cells(const float* f, const int c0[3], int nx, int ny, int nz,
+                  std::vector<CellRec>* out);
 
 /// Samples the grid nodes of the cells [c0, c1) (per axis) and appends the cells with a sign
 /// change to `out`.
 void sample_cells(const Capped& capped, const Grid& grid, const int c0[3], const int c1[3],
-                  std::vector<CellRec>* out, size_t* nan_count, const NodeSign& node_sign) {
+                  std::vector<CellRec>* out, size_t* nan_count) {
   const int nx = c1[0] - c0[0] + 1, ny = c1[1] - c0[1] + 1, nz = c1[2] - c0[2] + 1;
   const size_t np = size_t(nx) * ny * nz;
   thread_local std::vector<float> buf;
@@ -375,28 +371,18 @@ void sample_cells(const Capped& capped, const Grid& grid, const int c0[3], const
         z[i] = grid.node(2, c0[2] + k);
       }
   capped.eval(np, x, y, z, f, nan_count);
-  thread_local std::vector<uint8_t> known;
-  known.assign(np, 2);
-  i = 0;
-  for (int k = 0; k < nz; ++k)
-    for (int j = 0; j < ny; ++j)
-      for (int l = 0; l < nx; ++l, ++i) {
-        const int sg = node_sign(c0[0] + l, c0[1] + j, c0[2] + k);
-        if (sg >= 0) known[i] = uint8_t(sg);
-      }
-  append_cells(f, known.data(), c0, nx, ny, nz, size_t(nx), size_t(nx) * ny, out);
+  append_cells(f, c0, nx, ny, nz, out);
 }
 
 /// Appends the cells with a sign change among nodes [c0, c0 + (nx, ny, nz)) whose values are
-/// `f` (node (l, j, k) at l + j * sy + k * sz); where `known` is 0 or 1 that is the node's
-/// side, not f's (2: f's).
-void append_cells(const float* f, const uint8_t* known, const int c0[3], int nx, int ny, int nz,
-                  size_t sy, size_t sz, std::vector<CellRec>* out) {
+/// `f` (x fastest).
+void append_cells(const float* f, const int c0[3], int nx, int ny, int nz,
+                  std::vector<CellRec>* out) {
   // The side of every node first, then each cell's corners from it.
-  const size_t np = size_t(nz - 1) * sz + size_t(ny - 1) * sy + size_t(nx);
+  const size_t np = size_t(nx) * ny * nz, sy = size_t(nx), sz = size_t(nx) * ny;
   thread_local std::vector<uint8_t> side;
   side.resize(np);
-  for (size_t n = 0; n < np; ++n) side[n] = known[n] == 2 ? uint8_t(inside(f[n])) : known[n];
+  for (size_t n = 0; n < np; ++n) side[n] = uint8_t(inside(f[n]));
   const size_t corner[8] = {0, 1, sy, sy + 1, sz, sz + 1, sz + sy, sz + sy + 1};
   for (int k = 0; k + 1 < nz; ++k)
     for (int j = 0; j + 1 < ny; ++j)
@@ -514,13 +500,6 @@ TriMesh mesh_field(const render::Field& field, const MeshOptions& options, MeshS
       return Box(lo, hi);
     };
     // Per block: 0 proven outside, 1 proven inside (by the octree), 2 sampled.
-    // Per block: kOutside or kInside (proven by the octree), else its index among the sampled
-    // blocks (4 bytes per block of 4^3 cells: 8.6 MB at 512^3).
-    constexpr uint32_t kOutside = ~uint32_t(0), kInside = kOutside - 1;
-    std::vector<uint32_t> block_state(size_t(nb[0]) * nb[1] * nb[2], kOutside);
-    auto block_index = [&](int bx, int by, int bz) {
-      return (size_t(bz) * nb[1] + by) * nb[0] + bx;
-    };
     std::vector<Node> level{{{0, 0, 0}}};
     int size = root;
     std::vector<Box> boxes;
@@ -536,16 +515,7 @@ TriMesh mesh_field(const render::Field& field, const MeshOptions& options, MeshS
       std::vector<Node> next;
       for (size_t i = 0; i < level.size(); ++i) {
         const render::Interval& iv = ivals[i];
-        if (iv.hi < 0 || iv.lo >= 0) {  // proven outside, or inside everywhere
-          if (iv.lo >= 0) {
-            const Node& nd = level[i];
-            for (int bz = nd.b[2]; bz < std::min(nd.b[2] + size, nb[2]); ++bz)
-              for (int by = nd.b[1]; by < std::min(nd.b[1] + size, nb[1]); ++by)
-                for (int bx = nd.b[0]; bx < std::min(nd.b[0] + size, nb[0]); ++bx)
-                  block_state[block_index(bx, by, bz)] = kInside;
-          }
-          continue;
-        }
+        if (iv.hi < 0 || iv.lo >= 0) continue;  // proven outside, or inside everywhere
         if (size == 1) {
           next.push_back(level[i]);
           continue;
@@ -567,55 +537,41 @@ TriMesh mesh_field(const render::Field& field, const MeshOptions& options, MeshS
     timer = Timer();
     const std::vector<Node>& blocks = level;
     stats.blocks_sampled = blocks.size();
-    for (size_t bi = 0; bi < blocks.size(); ++bi) {
-      block_state[block_index(blocks[bi].b[0], blocks[bi].b[1], blocks[bi].b[2])] = uint32_t(bi);
-    }
-    // The side of a node: its owning block's (block b owns nodes [4b, 4b + 4) along each axis,
-    // the last block also the grid's last node) when the octree proved that block inside or
-    // outside, so that a node has one definition whichever block's cell looks at it.
-    const NodeSign node_sign = [&](int i, int j, int k) {
-      const int q[3] = {i, j, k};
-      int bq[3];
-      for (int a = 0; a < 3; ++a) bq[a] = std::min(q[a] / kBlock, nb[a] - 1);
-      const uint32_t st = block_state[block_index(bq[0], bq[1], bq[2])];
-      return st == kInside ? 1 : (st == kOutside ? 0 : -1);
-    };
-    // Neighbouring blocks share the nodes of their common faces: each block samples the
-    // nodes it owns ([c0, c0 + kBlock) per axis, and the grid's last node in the last block
-    // along an axis) into its slot of `values` (kNodes per block, x fastest over the 5^3 nodes
-    // of its cells), then takes its far faces from the neighbours' slots, sampling only those
-    // of neighbours that were pruned. About one evaluation per node instead of two.
+    // Every block samples the (up to) 5^3 nodes of its cells, kBatchBlocks blocks per
+    // evaluation call (the per-call cost paid once), and appends its surface cells to its
+    // thread's list; the lists are sorted by key afterwards, so their order does not depend
+    // on the scheduling. (Neighbouring sampled blocks both evaluate their common faces: taking
+    // them from each other halves the evaluations but costs more in memory traffic than it
+    // saves on models whose F is cheap.)
     constexpr int kSide = kBlock + 1;
     constexpr size_t kNodes = size_t(kSide) * kSide * kSide;
-    constexpr size_t kBatchBlocks = 16;  // blocks per evaluation call
-    std::vector<float> values(blocks.size() * kNodes);
-    // Cells and owned node counts of block bi along each axis.
-    auto block_extent = [&](size_t bi, int c0[3], int cn[3], int own[3]) {
+    constexpr size_t kBatchBlocks = 16;
+    auto block_extent = [&](size_t bi, int c0[3], int cn[3]) {
       for (int a = 0; a < 3; ++a) {
         c0[a] = blocks[bi].b[a] * kBlock;
         cn[a] = std::min(kBlock, grid.cells(a) - c0[a]);
-        own[a] = c0[a] + kBlock < grid.cells(a) ? kBlock : cn[a] + 1;
       }
     };
     std::vector<size_t> block_nans(blocks.size(), 0);
+    par::ThreadLocal<std::vector<CellRec>> thread_cells;
     const size_t kProgressBatch = 4096;
     for (size_t b0 = 0; b0 < blocks.size(); b0 += kProgressBatch) {
       const size_t b1 = std::min(blocks.size(), b0 + kProgressBatch);
       parallel_chunks(b1 - b0, kBatchBlocks, [&](size_t s, size_t e) {
-        // Up to kBatchBlocks blocks per evaluation: the per-call cost is paid once.
+        std::vector<CellRec>& out = thread_cells.local();
         thread_local std::vector<float> buf;
-        buf.resize(4 * kNodes * kBatchBlocks);
         const size_t cap = kNodes * kBatchBlocks;
+        buf.resize(4 * cap);
         float *x = buf.data(), *y = x + cap, *z = y + cap, *f = z + cap;
         for (size_t bs = b0 + s; bs < b0 + e; bs += kBatchBlocks) {
           const size_t be = std::min(b0 + e, bs + kBatchBlocks);
           size_t np = 0;
           for (size_t bi = bs; bi < be; ++bi) {
-            int c0[3], cn[3], own[3];
-            block_extent(bi, c0, cn, own);
-            for (int k = 0; k < own[2]; ++k)
-              for (int j = 0; j < own[1]; ++j)
-                for (int l = 0; l < own[0]; ++l, ++np) {
+            int c0[3], cn[3];
+            block_extent(bi, c0, cn);
+            for (int k = 0; k <= cn[2]; ++k)
+              for (int j = 0; j <= cn[1]; ++j)
+                for (int l = 0; l <= cn[0]; ++l, ++np) {
                   x[np] = grid.node(0, c0[0] + l);
                   y[np] = grid.node(1, c0[1] + j);
                   z[np] = grid.node(2, c0[2] + k);
@@ -624,94 +580,16 @@ TriMesh mesh_field(const render::Field& field, const MeshOptions& options, MeshS
           capped.eval(np, x, y, z, f, &block_nans[bs]);
           np = 0;
           for (size_t bi = bs; bi < be; ++bi) {
-            int c0[3], cn[3], own[3];
-            block_extent(bi, c0, cn, own);
-            float* v = values.data() + bi * kNodes;
-            for (int k = 0; k < own[2]; ++k)
-              for (int j = 0; j < own[1]; ++j)
-                for (int l = 0; l < own[0]; ++l) v[(k * kSide + j) * kSide + l] = f[np++];
+            int c0[3], cn[3];
+            block_extent(bi, c0, cn);
+            const int nx = cn[0] + 1, ny = cn[1] + 1, nz = cn[2] + 1;
+            append_cells(f + np, c0, nx, ny, nz, &out);
+            np += size_t(nx) * ny * nz;
           }
         }
       });
       if (options.progress) options.progress(b1, blocks.size() * 2);
     }
-    // The far faces, then the cells. Every block's cells go to its thread's list; the lists
-    // are sorted by key afterwards, so their order does not depend on the scheduling.
-    par::ThreadLocal<std::vector<CellRec>> thread_cells;
-    parallel_chunks(blocks.size(), 16, [&](size_t s, size_t e) {
-      std::vector<CellRec>& out = thread_cells.local();
-      thread_local std::vector<float> ex, ey, ez, ef;
-      // Extra samples of the whole chunk, evaluated at once: cell (index in `out`) * 4 + corner.
-      thread_local std::vector<size_t> slots;
-      ex.clear(), ey.clear(), ez.clear(), slots.clear();
-      thread_local std::vector<uint8_t> known;
-      known.resize(kNodes);
-      for (size_t bi = s; bi < e; ++bi) {
-        int c0[3], cn[3], own[3];
-        block_extent(bi, c0, cn, own);
-        float* v = values.data() + bi * kNodes;
-        std::fill(known.begin(), known.end(), uint8_t(2));
-        // Neighbour d (bit a: +1 along axis a) owns the nodes with local index own[a] (the
-        // far face) along the axes of d's bits and [0, own) along the others: their values
-        // from its slot when it was sampled, else its proven side.
-        for (int d = 1; d < 8; ++d) {
-          int lo[3], hi[3];
-          bool any = true;
-          for (int a = 0; a < 3; ++a) {
-            if ((d >> a) & 1) {
-              lo[a] = own[a], hi[a] = cn[a] + 1;  // empty when the block owns its far face
-            } else {
-              lo[a] = 0, hi[a] = own[a];
-            }
-            any = any && lo[a] < hi[a];
-          }
-          if (!any) continue;
-          const int bq[3] = {blocks[bi].b[0] + (d & 1), blocks[bi].b[1] + ((d >> 1) & 1),
-                             blocks[bi].b[2] + ((d >> 2) & 1)};
-          const uint32_t st = block_state[block_index(bq[0], bq[1], bq[2])];
-          const uint32_t nbi = st < kInside ? st : kNone;
-          for (int k = lo[2]; k < hi[2]; ++k)
-            for (int j = lo[1]; j < hi[1]; ++j)
-              for (int l = lo[0]; l < hi[0]; ++l) {
-                const int li = (k * kSide + j) * kSide + l;
-                if (nbi != kNone) {
-                  // The same node in the neighbour's slot (its owned part).
-                  const int nl = l - (d & 1) * kBlock, nj = j - ((d >> 1) & 1) * kBlock,
-                            nk = k - ((d >> 2) & 1) * kBlock;
-                  v[li] = values[nbi * kNodes + (nk * kSide + nj) * kSide + nl];
-                } else {
-                  known[li] = st == kInside;
-                  v[li] = st == kInside ? std::numeric_limits<float>::infinity()
-                                        : -std::numeric_limits<float>::infinity();
-                }
-              }
-        }
-        const size_t first = out.size();
-        append_cells(v, known.data(), c0, cn[0] + 1, cn[1] + 1, cn[2] + 1, kSide, kSide * kSide,
-                     &out);
-        // The root search needs F at both ends of each crossing edge a cell owns: evaluate
-        // the ends whose side came from a pruned neighbour.
-        for (size_t ci = first; ci < out.size(); ++ci) {
-          int c[3];
-          key_cell(out[ci].key, c);
-          const int m = out[ci].mask;
-          for (int a = 0; a < 3; ++a) {
-            if ((m & 1) == ((m >> (1 << a)) & 1)) continue;
-            int q[3] = {c[0] - c0[0], c[1] - c0[1], c[2] - c0[2]};
-            q[a] += 1;
-            if (known[(q[2] * kSide + q[1]) * kSide + q[0]] == 2) continue;
-            ex.push_back(grid.node(0, c0[0] + q[0]));
-            ey.push_back(grid.node(1, c0[1] + q[1]));
-            ez.push_back(grid.node(2, c0[2] + q[2]));
-            slots.push_back(ci * 4 + size_t(a) + 1);
-          }
-        }
-      }
-      ef.resize(ex.size());
-      capped.eval(ex.size(), ex.data(), ey.data(), ez.data(), ef.data());
-      for (size_t k = 0; k < slots.size(); ++k) out[slots[k] / 4].f[slots[k] % 4] = ef[k];
-    });
-    std::vector<float>().swap(values);
     std::vector<CellRec> cells;
     {
       size_t total = 0;
@@ -772,7 +650,7 @@ TriMesh mesh_field(const render::Field& field, const MeshOptions& options, MeshS
         key_cell(k, c0);
         for (int a = 0; a < 3; ++a) c1[a] = c0[a] + 1;
         size_t nan_dummy = 0;
-        sample_cells(capped, grid, c0, c1, &added, &nan_dummy, node_sign);
+        sample_cells(capped, grid, c0, c1, &added, &nan_dummy);
       }
       HFRT_CHECK(!added.empty());  // a missing cell has a crossing edge: it is a surface cell
       cells.insert(cells.end(), added.begin(), added.end());

@@ -11,12 +11,9 @@
 //  2. An octree over blocks of 4^3 cells, subdivided level by level where the interval of Fc
 //     over the node contains 0 (batched Field::eval_intervals); blocks proven empty or full
 //     are dropped, so the work grows with the area of the surface, not the volume of the box.
-//  3. In the blocks left, F is sampled at the grid nodes, each node once: by the block that
-//     owns it (block b owns nodes [4b, 4b + 4) per axis); a node whose owning block the
-//     intervals proved inside or outside takes that side (and is evaluated only where a
-//     crossing edge needs its value), so every cell that uses a node sees the same side.
-//     A cell whose corners disagree (inside: F >= 0; NaN counts as outside) is a surface
-//     cell. Its crossing edges are grouped into patches as marching cubes would connect them
+//  3. In the blocks left, F is sampled at every grid node (16 blocks per evaluation call); a
+//     cell whose corners disagree (inside: F >= 0; NaN counts as outside) is a surface cell.
+//     Its crossing edges are grouped into patches as marching cubes would connect them
 //     (on a face with four crossings the inside corners are separated, a rule that only looks
 //     at the face, so both cells sharing it agree): one vertex per patch.
 //  4. Each crossing edge's zero is found by Illinois false-position steps (until |F| is below

@@ -213,9 +213,8 @@ TEST(Mesher, SmoothVerticesAreOnTheSurfaceToATenThousandthOfACell) {
   }
 }
 
-// Each grid node is sampled once, by the block that owns it; a node of a block the intervals
-// proved inside or outside takes that side. With sound intervals that is what sampling every
-// node finds: the same mesh, bit for bit, as without intervals (nothing pruned).
+// With sound intervals, pruning only skips blocks without a sign change, and the blocks are
+// sampled in batches: the same mesh, bit for bit, as without intervals (nothing pruned).
 TEST(Mesher, PruningGivesTheSameMeshAsSamplingEveryNode) {
   const Box box({-1.5f, -0.5f, -1.5f}, {1.5f, 0.5f, 1.5f});
   for (int res : {37, 64}) {
@@ -247,9 +246,9 @@ class LyingSphereField : public SphereField {
   }
 };
 
-// Where they disagree, a node still has one side for every cell that uses it (its owning
-// block's), so the mesh stays a closed oriented manifold: the cells that the sampled blocks
-// miss are added by the closure.
+// Where they disagree, a sampled block's cell can have a crossing edge whose other cells lie in
+// a pruned block, on either side of it: the closure adds them (it looked only from an edge's
+// owning cell before, and hit an invariant check when the owner was the missing one).
 TEST(Mesher, DisagreeingIntervalsStillGiveAClosedManifold) {
   LyingSphereField ball({0, 0, 0}, 1.0);
   const Box box({-1.2f, -1.2f, -1.2f}, {1.2f, 1.2f, 1.2f});
