@@ -24,10 +24,11 @@ constexpr int kBlock = 4;     // cells per block side
 constexpr int kKeyBits = 21;  // bits per axis of a cell key
 constexpr uint64_t kKeyMask = (uint64_t(1) << kKeyBits) - 1;
 constexpr int kMaxCells = (1 << kKeyBits) - 4;
-constexpr size_t kPad = 16;           // batches are padded to this many points
-constexpr float kRankCutoff = 0.02f;  // eigenvalues of A^T A below this * max are dropped
-constexpr int kRootSteps = 3;         // Illinois steps per crossing edge
-constexpr int kNewtonSteps = 10;      // gradient evaluations per vertex at most
+constexpr size_t kPad = 16;              // batches are padded to this many points
+constexpr float kRankCutoff = 0.02f;     // eigenvalues of A^T A below this * max are dropped
+constexpr int kRootSteps = 3;            // Illinois steps per crossing edge at most
+constexpr float kRootTolerance = 1e-5f;  // an edge is done at |F| below this * its change
+constexpr int kNewtonSteps = 10;         // gradient evaluations per vertex at most
 
 uint64_t cell_key(int i, int j, int k) {
   return uint64_t(i) | (uint64_t(j) << kKeyBits) | (uint64_t(k) << (2 * kKeyBits));
@@ -60,6 +61,7 @@ int edge_corner(int e, int end) {
 struct CubeTable {
   int8_t comp[256][12];
   int8_t ncomp[256];
+  uint16_t cross[256];  // bit e: edge e crosses
 
   CubeTable() {
     for (int m = 0; m < 256; ++m) {
@@ -71,8 +73,8 @@ struct CubeTable {
         return x;
       };
       auto unite = [&](int x, int y) { parent[find(x)] = find(y); };
-      bool cross[12];
-      for (int e = 0; e < 12; ++e) cross[e] = in(edge_corner(e, 0)) != in(edge_corner(e, 1));
+      bool cross_e[12];
+      for (int e = 0; e < 12; ++e) cross_e[e] = in(edge_corner(e, 0)) != in(edge_corner(e, 1));
       for (int a = 0; a < 3; ++a) {
         for (int s = 0; s < 2; ++s) {
           int b, c;
@@ -91,7 +93,7 @@ struct CubeTable {
           }
           int crossing[4], n = 0;
           for (int i = 0; i < 4; ++i)
-            if (cross[edges[i]]) crossing[n++] = edges[i];
+            if (cross_e[edges[i]]) crossing[n++] = edges[i];
           if (n == 2) {
             unite(crossing[0], crossing[1]);
           } else if (n == 4) {
@@ -105,12 +107,14 @@ struct CubeTable {
       int next = 0;
       for (int e = 0; e < 12; ++e) {
         comp[m][e] = -1;
-        if (!cross[e]) continue;
+        if (!cross_e[e]) continue;
         int r = find(e);
         if (ids[r] < 0) ids[r] = int8_t(next++);
         comp[m][e] = ids[r];
       }
       ncomp[m] = int8_t(next);
+      cross[m] = 0;
+      for (int e = 0; e < 12; ++e) cross[m] |= uint16_t(cross_e[e]) << e;
     }
   }
 };
@@ -283,8 +287,10 @@ void eigen_sym3(double a[3][3], double w[3], double v[3][3]) {
 }
 
 /// The point minimising sum (n_i . (x - p_i))^2 nearest the mass point, by the truncated
-/// pseudo-inverse; `rank` receives the number of eigenvalues kept.
-Vec3 solve_qef(const Vec3* p, const Vec3* nrm, int k, int* rank) {
+/// pseudo-inverse; `rank` receives the number of eigenvalues kept. When the normals are all
+/// valid and within ~6 degrees of their mean (the mass point is the answer), `*flat` is set
+/// to their normalised mean; otherwise it is left alone.
+Vec3 solve_qef(const Vec3* p, const Vec3* nrm, int k, int* rank, Vec3* flat_normal) {
   double mass[3] = {0, 0, 0};
   for (int i = 0; i < k; ++i)
     for (int a = 0; a < 3; ++a) mass[a] += p[i][a];
@@ -302,6 +308,7 @@ Vec3 solve_qef(const Vec3* p, const Vec3* nrm, int k, int* rank) {
     for (int i = 0; i < k && flat; ++i) flat = dot(nrm[i], u) > 0.995f;
     if (flat) {
       *rank = 1;
+      *flat_normal = u;
       return {float(mass[0]), float(mass[1]), float(mass[2])};
     }
   }
@@ -343,6 +350,9 @@ struct CellRec {
   bool operator<(const CellRec& o) const { return key < o.key; }
 };
 
+void append_cells(const float* f, const int c0[3], int nx, int ny, int nz,
+                  std::vector<CellRec>* out);
+
 /// Samples the grid nodes of the cells [c0, c1) (per axis) and appends the cells with a sign
 /// change to `out`.
 void sample_cells(const Capped& capped, const Grid& grid, const int c0[3], const int c1[3],
@@ -361,15 +371,28 @@ void sample_cells(const Capped& capped, const Grid& grid, const int c0[3], const
         z[i] = grid.node(2, c0[2] + k);
       }
   capped.eval(np, x, y, z, f, nan_count);
-  auto at = [&](int l, int j, int k) { return inside(f[(size_t(k) * ny + j) * nx + l]); };
+  append_cells(f, c0, nx, ny, nz, out);
+}
+
+/// Appends the cells with a sign change among nodes [c0, c0 + (nx, ny, nz)) whose values are
+/// `f` (x fastest).
+void append_cells(const float* f, const int c0[3], int nx, int ny, int nz,
+                  std::vector<CellRec>* out) {
+  // The side of every node first, then each cell's corners from it.
+  const size_t np = size_t(nx) * ny * nz, sy = size_t(nx), sz = size_t(nx) * ny;
+  thread_local std::vector<uint8_t> side;
+  side.resize(np);
+  for (size_t n = 0; n < np; ++n) side[n] = uint8_t(inside(f[n]));
+  const size_t corner[8] = {0, 1, sy, sy + 1, sz, sz + 1, sz + sy, sz + sy + 1};
   for (int k = 0; k + 1 < nz; ++k)
     for (int j = 0; j + 1 < ny; ++j)
       for (int l = 0; l + 1 < nx; ++l) {
+        const uint8_t* s0 = side.data() + size_t(k) * sz + size_t(j) * sy + size_t(l);
         int mask = 0;
-        for (int c = 0; c < 8; ++c) mask |= at(l + (c & 1), j + ((c >> 1) & 1), k + (c >> 2)) << c;
+        for (int c = 0; c < 8; ++c) mask |= s0[corner[c]] << c;
         if (mask != 0 && mask != 255) {
           auto val = [&](int dl, int dj, int dk) {
-            return f[(size_t(k + dk) * ny + j + dj) * nx + l + dl];
+            return f[size_t(k + dk) * sz + size_t(j + dj) * sy + size_t(l + dl)];
           };
           out->push_back({cell_key(c0[0] + l, c0[1] + j, c0[2] + k),
                           {val(0, 0, 0), val(1, 0, 0), val(0, 1, 0), val(0, 0, 1)},
@@ -476,6 +499,7 @@ TriMesh mesh_field(const render::Field& field, const MeshOptions& options, MeshS
       }
       return Box(lo, hi);
     };
+    // Per block: 0 proven outside, 1 proven inside (by the octree), 2 sampled.
     std::vector<Node> level{{{0, 0, 0}}};
     int size = root;
     std::vector<Box> boxes;
@@ -513,19 +537,55 @@ TriMesh mesh_field(const render::Field& field, const MeshOptions& options, MeshS
     timer = Timer();
     const std::vector<Node>& blocks = level;
     stats.blocks_sampled = blocks.size();
-    std::vector<std::vector<CellRec>> per_block(blocks.size());
+    // Every block samples the (up to) 5^3 nodes of its cells, kBatchBlocks blocks per
+    // evaluation call (the per-call cost paid once), and appends its surface cells to its
+    // thread's list; the lists are sorted by key afterwards, so their order does not depend
+    // on the scheduling. (Neighbouring sampled blocks both evaluate their common faces: taking
+    // them from each other halves the evaluations but costs more in memory traffic than it
+    // saves on models whose F is cheap.)
+    constexpr int kSide = kBlock + 1;
+    constexpr size_t kNodes = size_t(kSide) * kSide * kSide;
+    constexpr size_t kBatchBlocks = 16;
+    auto block_extent = [&](size_t bi, int c0[3], int cn[3]) {
+      for (int a = 0; a < 3; ++a) {
+        c0[a] = blocks[bi].b[a] * kBlock;
+        cn[a] = std::min(kBlock, grid.cells(a) - c0[a]);
+      }
+    };
     std::vector<size_t> block_nans(blocks.size(), 0);
+    par::ThreadLocal<std::vector<CellRec>> thread_cells;
     const size_t kProgressBatch = 4096;
     for (size_t b0 = 0; b0 < blocks.size(); b0 += kProgressBatch) {
       const size_t b1 = std::min(blocks.size(), b0 + kProgressBatch);
-      parallel_chunks(b1 - b0, 4, [&](size_t s, size_t e) {
-        for (size_t bi = b0 + s; bi < b0 + e; ++bi) {
-          int c0[3], c1[3];
-          for (int a = 0; a < 3; ++a) {
-            c0[a] = blocks[bi].b[a] * kBlock;
-            c1[a] = std::min(c0[a] + kBlock, grid.cells(a));
+      parallel_chunks(b1 - b0, kBatchBlocks, [&](size_t s, size_t e) {
+        std::vector<CellRec>& out = thread_cells.local();
+        thread_local std::vector<float> buf;
+        const size_t cap = kNodes * kBatchBlocks;
+        buf.resize(4 * cap);
+        float *x = buf.data(), *y = x + cap, *z = y + cap, *f = z + cap;
+        for (size_t bs = b0 + s; bs < b0 + e; bs += kBatchBlocks) {
+          const size_t be = std::min(b0 + e, bs + kBatchBlocks);
+          size_t np = 0;
+          for (size_t bi = bs; bi < be; ++bi) {
+            int c0[3], cn[3];
+            block_extent(bi, c0, cn);
+            for (int k = 0; k <= cn[2]; ++k)
+              for (int j = 0; j <= cn[1]; ++j)
+                for (int l = 0; l <= cn[0]; ++l, ++np) {
+                  x[np] = grid.node(0, c0[0] + l);
+                  y[np] = grid.node(1, c0[1] + j);
+                  z[np] = grid.node(2, c0[2] + k);
+                }
           }
-          sample_cells(capped, grid, c0, c1, &per_block[bi], &block_nans[bi]);
+          capped.eval(np, x, y, z, f, &block_nans[bs]);
+          np = 0;
+          for (size_t bi = bs; bi < be; ++bi) {
+            int c0[3], cn[3];
+            block_extent(bi, c0, cn);
+            const int nx = cn[0] + 1, ny = cn[1] + 1, nz = cn[2] + 1;
+            append_cells(f + np, c0, nx, ny, nz, &out);
+            np += size_t(nx) * ny * nz;
+          }
         }
       });
       if (options.progress) options.progress(b1, blocks.size() * 2);
@@ -533,18 +593,19 @@ TriMesh mesh_field(const render::Field& field, const MeshOptions& options, MeshS
     std::vector<CellRec> cells;
     {
       size_t total = 0;
-      for (auto& v : per_block) total += v.size();
+      thread_cells.for_each([&](std::vector<CellRec>& v) { total += v.size(); });
       cells.reserve(total);
-      for (auto& v : per_block) {
+      thread_cells.for_each([&](std::vector<CellRec>& v) {
         cells.insert(cells.end(), v.begin(), v.end());
         std::vector<CellRec>().swap(v);
-      }
+      });
       for (size_t n : block_nans) stats.nan_samples += n;
     }
     par::parallel_sort(cells.begin(), cells.end());
 
-    // Closure: every crossing edge needs its four cells. A cell can be missing only where the
-    // interval and point evaluators disagree about a node on a pruned block's face.
+    // Closure: every crossing edge needs its four cells (looked for from the edge's owner and
+    // from the three others). A cell can be missing only where the interval and point
+    // evaluators disagree about a node of a pruned block.
     Neighbours nbr;
     while (true) {
       nbr = find_neighbours(cells);
@@ -564,6 +625,19 @@ TriMesh mesh_field(const render::Field& field, const MeshOptions& options, MeshS
             q[d] -= uv >> 1;
             missing.push_back(cell_key(q[0], q[1], q[2]));
           }
+        }
+        // And every crossing edge a cell shares needs the cell that owns it (at +u, +v).
+        constexpr uint16_t kShared = 0xEEE;  // the edges with (e & 3) != 0
+        for (unsigned bits = table.cross[cr.mask] & kShared; bits != 0; bits &= bits - 1) {
+          const int e = std::countr_zero(bits);
+          int b, d;
+          other_axes(e / 4, &b, &d);
+          const int u = e & 1, v = (e >> 1) & 1;
+          if (nbr.at[offset_index(b, d, u, v, false)][ci] != kNone) continue;
+          int q[3] = {c[0], c[1], c[2]};
+          q[b] += u;
+          q[d] += v;
+          missing.push_back(cell_key(q[0], q[1], q[2]));
         }
       }
       if (missing.empty()) break;
@@ -601,6 +675,7 @@ TriMesh mesh_field(const render::Field& field, const MeshOptions& options, MeshS
     const size_t nedges = edge_base.back();
     stats.crossing_edges = nedges;
     std::vector<Vec3> edge_point(nedges), edge_normal(nedges);
+    std::vector<float> edge_slope(nedges);  // |grad F| at the edge point
     auto owned_edge_index = [&](size_t ci, int axis) {
       const int m = cells[ci].mask;
       uint32_t idx = edge_base[ci];
@@ -635,8 +710,20 @@ TriMesh mesh_field(const render::Field& field, const MeshOptions& options, MeshS
       }
       // Illinois false position (bisection where a value is not finite): superlinear on
       // smooth edges, exact in one step where F is affine along the edge (planes of CSG).
-      for (int it = 0; it < kRootSteps; ++it) {
-        for (size_t i = 0; i < n; ++i) {
+      // An edge is done once |F| at its newest point is below kRootTolerance of the change of
+      // F along the edge (then ~1e-5 of the edge from the zero): after one step on a plane,
+      // two on a smooth surface; only the edges not done are evaluated again.
+      std::vector<float> tol(n);
+      std::vector<uint32_t> active(n), next_active;
+      for (size_t i = 0; i < n; ++i) {
+        const float d = std::abs(vlo[i] - vhi[i]);
+        tol[i] = std::isfinite(d) ? kRootTolerance * d : 0.0f;
+        active[i] = uint32_t(i);
+      }
+      for (int it = 0; it < kRootSteps && !active.empty(); ++it) {
+        const size_t na = active.size();
+        for (size_t j = 0; j < na; ++j) {
+          const size_t i = active[j];
           const float d = flo[i] - fhi[i];
           float t = 0.5f * (tlo[i] + thi[i]);
           if (std::isfinite(flo[i]) && std::isfinite(fhi[i]) && d != 0) {
@@ -646,20 +733,24 @@ TriMesh mesh_field(const render::Field& field, const MeshOptions& options, MeshS
           }
           tm[i] = t;
           const Vec3 p = pa[i] + (pb[i] - pa[i]) * t;
-          xs[i] = p.x, ys[i] = p.y, zs[i] = p.z;
+          xs[j] = p.x, ys[j] = p.y, zs[j] = p.z;
         }
-        capped.eval(n, xs.data(), ys.data(), zs.data(), fs.data());
-        for (size_t i = 0; i < n; ++i) {
-          if (inside(fs[i]) == bool(sa[i])) {
-            tlo[i] = tm[i], flo[i] = vlo[i] = fs[i];
+        capped.eval(na, xs.data(), ys.data(), zs.data(), fs.data());
+        next_active.clear();
+        for (size_t j = 0; j < na; ++j) {
+          const size_t i = active[j];
+          if (!(std::abs(fs[j]) <= tol[i])) next_active.push_back(uint32_t(i));
+          if (inside(fs[j]) == bool(sa[i])) {
+            tlo[i] = tm[i], flo[i] = vlo[i] = fs[j];
             if (side[i] == 0) fhi[i] *= 0.5f;
             side[i] = 0;
           } else {
-            thi[i] = tm[i], fhi[i] = vhi[i] = fs[i];
+            thi[i] = tm[i], fhi[i] = vhi[i] = fs[j];
             if (side[i] == 1) flo[i] *= 0.5f;
             side[i] = 1;
           }
         }
+        active.swap(next_active);
       }
       for (size_t i = 0; i < n; ++i) {
         // The end of the bracket with the smaller |F| (both are within the bracket).
@@ -672,7 +763,9 @@ TriMesh mesh_field(const render::Field& field, const MeshOptions& options, MeshS
       capped.eval_gradient(n, xs.data(), ys.data(), zs.data(), fs.data(), g.data());
       for (size_t i = 0; i < n; ++i) {
         float l = length(g[i]);
-        edge_normal[e0 + i] = (l > 0 && std::isfinite(l)) ? g[i] / l : Vec3{0, 0, 0};
+        const bool valid = l > 0 && std::isfinite(l);
+        edge_normal[e0 + i] = valid ? g[i] / l : Vec3{0, 0, 0};
+        edge_slope[e0 + i] = valid ? l : 0.0f;
       }
     });
     stats.seconds_edges = timer.seconds();
@@ -761,6 +854,9 @@ TriMesh mesh_field(const render::Field& field, const MeshOptions& options, MeshS
     mesh.vertices.assign(nverts, Vec3{0, 0, 0});
     std::vector<uint8_t> project(nverts, 0);
     std::vector<Box> vcell(nverts);
+    // Flat patches (project 3): the mean edge normal and slope, for the first Newton step.
+    std::vector<Vec3> vdir(nverts);
+    std::vector<float> vslope(nverts);
     std::atomic<size_t> sharp{0};
     // The four patch vertices around each crossing edge, in the cycle order of kUV, written
     // by the cell at that position (each slot by exactly one cell).
@@ -768,6 +864,7 @@ TriMesh mesh_field(const render::Field& field, const MeshOptions& options, MeshS
     parallel_chunks(cells.size(), 1024, [&](size_t cb, size_t ce) {
       size_t local_sharp = 0;
       Vec3 pts[12], nrm[12];
+      float slp[12];
       for (size_t ci = cb; ci < ce; ++ci) {
         const int m = cells[ci].mask;
         int c[3];
@@ -781,19 +878,31 @@ TriMesh mesh_field(const render::Field& field, const MeshOptions& options, MeshS
             const uint32_t gi = local_edge_index(ci, e);
             pts[k] = edge_point[gi];
             nrm[k] = edge_normal[gi];
+            slp[k] = edge_slope[gi];
             // This cell is at (u, v) = (e & 1, e >> 1 & 1) behind the edge's owner.
             static constexpr int kSlot[4] = {0, 1, 3, 2};  // (u | v << 1) -> position in kUV
             quad[4 * size_t(gi) + kSlot[e & 3]] = vbase[ci] + uint32_t(comp);
             ++k;
           }
           int rank = 0;
-          Vec3 v = solve_qef(pts, nrm, k, &rank);
+          Vec3 flat{0, 0, 0};
+          Vec3 v = solve_qef(pts, nrm, k, &rank, &flat);
           if (!is_finite(v)) v = cb_box.center();
           v = vmin(vmax(v, cb_box.lo), cb_box.hi);
           const uint32_t vi = vbase[ci] + comp;
           mesh.vertices[vi] = v;
           vcell[vi] = cb_box;
           project[vi] = rank <= 1 ? 2 : 1;  // 2: always; 1: only when off the surface
+          if (length2(flat) > 0) {
+            float sl = 0;
+            for (int i = 0; i < k; ++i) sl += slp[i];
+            sl /= float(k);
+            if (sl > 0 && std::isfinite(sl)) {
+              project[vi] = 3;  // always, first along the mean normal
+              vdir[vi] = flat;
+              vslope[vi] = sl;
+            }
+          }
           if (rank >= 2) ++local_sharp;
         }
       }
@@ -815,70 +924,126 @@ TriMesh mesh_field(const render::Field& field, const MeshOptions& options, MeshS
     const float hmin = float(std::min({grid.h[0], grid.h[1], grid.h[2]}));
     const float on_surface = 1e-4f * hmin;  // a vertex this close to F = 0 stays where it is
     std::atomic<size_t> projected{0};
+    // Newton steps onto F = 0. A gradient is evaluated only where a step needs a direction;
+    // the point a step reaches is checked by a value alone (|F| reduced? close enough?), with
+    // the gradient's length at the step's origin as the slope. A flat patch's vertex (its
+    // edge normals within ~6 degrees) starts from a value alone too: its first step goes along
+    // the mean edge normal with the mean edge slope, both exact to first order at the mass
+    // point. Usually two values per smooth vertex, and no gradient.
+    enum : uint8_t { kDone, kNeedGradient, kNeedValue, kFlatStart };
     parallel_chunks(nverts, 1024, [&](size_t vb, size_t ve) {
       const size_t n = ve - vb;
       std::vector<float> xs(n), ys(n), zs(n), fs(n);
-      std::vector<Vec3> g(n), start(n);
-      std::vector<uint8_t> active(n);
-      std::vector<float> last_f(n, std::numeric_limits<float>::infinity());
-      std::vector<Vec3> prev(n), prev_step(n);
-      std::vector<float> scale(n, 1);
+      std::vector<Vec3> g(n), start(n), prev(n), prev_step(n);
+      std::vector<uint8_t> state(n);
+      std::vector<float> last_f(n, std::numeric_limits<float>::infinity()), slope(n, 0),
+          scale(n, 1);
+      std::vector<uint32_t> idx;
       for (size_t i = 0; i < n; ++i) {
         start[i] = mesh.vertices[vb + i];
-        active[i] = project[vb + i] != 0;
+        const uint8_t pr = project[vb + i];
+        state[i] = pr == 0 ? kDone : (pr == 3 ? kFlatStart : kNeedGradient);
       }
-      size_t moved = 0;
-      for (int it = 0; it < kNewtonSteps; ++it) {
-        size_t na = 0;
-        std::vector<size_t> idx;
-        for (size_t i = 0; i < n; ++i) {
-          if (!active[i]) continue;
+      // A step from the current point of vertex i along `step`, from a value `f` and slope.
+      auto take_step = [&](size_t i, float f, Vec3 step, float sl) {
+        const size_t vi = vb + i;
+        last_f[i] = std::abs(f);
+        slope[i] = sl;
+        prev[i] = mesh.vertices[vi];
+        const float len = length(step);
+        if (len > hmin) step = step * (hmin / len);
+        prev_step[i] = step;
+        scale[i] = 1;
+        mesh.vertices[vi] = mesh.vertices[vi] + step;
+        state[i] = kNeedValue;
+      };
+      // The vertices not done yet (shrinks each iteration; most finish after two).
+      std::vector<uint32_t> live;
+      for (size_t i = 0; i < n; ++i) {
+        if (state[i] != kDone) live.push_back(uint32_t(i));
+      }
+      for (int it = 0; it < kNewtonSteps && !live.empty(); ++it) {
+        const bool last = it == kNewtonSteps - 1;
+        // Gradients: the first evaluation of a vertex, or a direction from an accepted point.
+        idx.clear();
+        for (const uint32_t i : live) {
+          if (state[i] != kNeedGradient) continue;
           const Vec3 p = mesh.vertices[vb + i];
-          xs[na] = p.x, ys[na] = p.y, zs[na] = p.z;
-          idx.push_back(i);
-          ++na;
+          xs[idx.size()] = p.x, ys[idx.size()] = p.y, zs[idx.size()] = p.z;
+          idx.push_back(uint32_t(i));
         }
-        if (na == 0) break;
-        capped.eval_gradient(na, xs.data(), ys.data(), zs.data(), fs.data(), g.data());
-        for (size_t j = 0; j < na; ++j) {
-          const size_t i = idx[j];
-          const size_t vi = vb + i;
+        capped.eval_gradient(idx.size(), xs.data(), ys.data(), zs.data(), fs.data(), g.data());
+        for (size_t j = 0; j < idx.size(); ++j) {
+          const size_t i = idx[j], vi = vb + i;
           const float g2 = length2(g[j]);
           if (!std::isfinite(fs[j]) || !(g2 > 0) || !std::isfinite(g2)) {
             mesh.vertices[vi] = start[i];  // no value or no direction: keep the QEF point
-            active[i] = 0;
+            state[i] = kDone;
             continue;
           }
+          const float gl = std::sqrt(g2);
+          // A first evaluation may find the vertex on the surface already; a later point
+          // was checked by its value (not close enough) before its gradient was asked for.
+          if (last || (last_f[i] == std::numeric_limits<float>::infinity() &&
+                       std::abs(fs[j]) / gl <= on_surface)) {
+            state[i] = kDone;
+            continue;
+          }
+          take_step(i, fs[j], g[j] * (-fs[j] / g2), gl);
+        }
+        // Values: flat starts, and the points steps reached.
+        idx.clear();
+        for (const uint32_t i : live) {
+          if (state[i] != kNeedValue && state[i] != kFlatStart) continue;
+          const Vec3 p = mesh.vertices[vb + i];
+          xs[idx.size()] = p.x, ys[idx.size()] = p.y, zs[idx.size()] = p.z;
+          idx.push_back(uint32_t(i));
+        }
+        capped.eval(idx.size(), xs.data(), ys.data(), zs.data(), fs.data());
+        for (size_t j = 0; j < idx.size(); ++j) {
+          const size_t i = idx[j], vi = vb + i;
           const float af = std::abs(fs[j]);
+          if (!std::isfinite(fs[j])) {
+            mesh.vertices[vi] = start[i];  // no value: keep the QEF point
+            state[i] = kDone;
+            continue;
+          }
+          if (state[i] == kFlatStart) {
+            const float sl = vslope[vi];
+            if (af <= on_surface * sl || last) {
+              state[i] = kDone;
+              continue;
+            }
+            take_step(i, fs[j], vdir[vi] * (-fs[j] / sl), sl);
+            continue;
+          }
           if (!(af < last_f[i])) {
             // The step did not reduce |F| (a kink of min/max, or rounding): a shorter one
             // from the previous point, until it is too short to matter.
             scale[i] *= 0.25f;
-            if (scale[i] < 1.0f / 64 || it == kNewtonSteps - 1) {
+            if (scale[i] < 1.0f / 64 || last) {
               mesh.vertices[vi] = prev[i];
-              active[i] = 0;
-              if (it > 1) ++moved;
+              state[i] = kDone;
             } else {
               mesh.vertices[vi] = prev[i] + prev_step[i] * scale[i];
             }
             continue;
           }
-          if (af / std::sqrt(g2) <= on_surface || it == kNewtonSteps - 1) {
-            active[i] = 0;
-            if (it > 0) ++moved;
+          // Close enough by the slope at the step's origin (half the bound: the slope at
+          // the new point may differ a little); otherwise a new direction there.
+          if (af <= 0.5f * on_surface * slope[i] || last) {
+            state[i] = kDone;
             continue;
           }
           last_f[i] = af;
-          prev[i] = mesh.vertices[vi];
-          Vec3 step = g[j] * (-fs[j] / g2);
-          const float sl = length(step);
-          if (sl > hmin) step = step * (hmin / sl);
-          prev_step[i] = step;
-          scale[i] = 1;
-          mesh.vertices[vi] = mesh.vertices[vi] + step;
+          state[i] = kNeedGradient;
         }
+        live.erase(
+            std::remove_if(live.begin(), live.end(), [&](uint32_t i) { return state[i] == kDone; }),
+            live.end());
       }
       // Keep a projection only when it stayed near its cell; otherwise the QEF point.
+      size_t moved = 0;
       for (size_t i = 0; i < n; ++i) {
         const size_t vi = vb + i;
         Box near = vcell[vi];
@@ -887,10 +1052,13 @@ TriMesh mesh_field(const render::Field& field, const MeshOptions& options, MeshS
         if (!near.contains(mesh.vertices[vi]) || !is_finite(mesh.vertices[vi])) {
           mesh.vertices[vi] = start[i];
         }
+        const Vec3 v = mesh.vertices[vi];
+        if (v.x != start[i].x || v.y != start[i].y || v.z != start[i].z) ++moved;
       }
       projected += moved;
     });
     stats.projected_vertices = projected.load();
+
     stats.seconds_vertices = timer.seconds();
 
     // --- 5. Faces: a quad per crossing edge (polygons where a face vertex was added). ---------

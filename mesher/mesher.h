@@ -11,16 +11,19 @@
 //  2. An octree over blocks of 4^3 cells, subdivided level by level where the interval of Fc
 //     over the node contains 0 (batched Field::eval_intervals); blocks proven empty or full
 //     are dropped, so the work grows with the area of the surface, not the volume of the box.
-//  3. In the blocks left, F is sampled at every grid node; a cell whose corners disagree
-//     (inside: F >= 0; NaN counts as outside) is a surface cell. Its crossing edges are grouped
-//     into patches as marching cubes would connect them (on a face with four crossings the
-//     inside corners are separated, a rule that only looks at the face, so both cells sharing
-//     it agree): one vertex per patch.
-//  4. Each crossing edge's zero is found by Illinois false-position steps, its normal by the
-//     exact gradient; the patch vertex minimises the quadric error of those tangent planes
-//     (truncated pseudo-inverse around the mass point), clamped to its cell, so that sharp
-//     edges and corners of CSG are reproduced. A vertex that is then not on F = 0 (a smooth
-//     region) is moved onto it by Newton steps along the gradient.
+//  3. In the blocks left, F is sampled at every grid node (16 blocks per evaluation call); a
+//     cell whose corners disagree (inside: F >= 0; NaN counts as outside) is a surface cell.
+//     Its crossing edges are grouped into patches as marching cubes would connect them
+//     (on a face with four crossings the inside corners are separated, a rule that only looks
+//     at the face, so both cells sharing it agree): one vertex per patch.
+//  4. Each crossing edge's zero is found by Illinois false-position steps (until |F| is below
+//     1e-5 of its change along the edge: one step on a plane, two on a smooth surface), its
+//     normal by the exact gradient; the patch vertex minimises the quadric error of those
+//     tangent planes (truncated pseudo-inverse around the mass point), clamped to its cell,
+//     so that sharp edges and corners of CSG are reproduced. A vertex that is then not on
+//     F = 0 (a smooth region) is moved onto it by Newton steps: the point a step reaches is
+//     checked by F alone, and a flat patch's first step goes along its mean edge normal and
+//     slope, so that a smooth vertex usually costs two values of F and no gradient.
 //  5. Every crossing edge gives one quad over the four patches around it, oriented so that
 //     its normal points out of the solid, split into two triangles along the better diagonal.
 //     Where two cells' patches would be joined by two distinct face segments (an edge of the

@@ -192,6 +192,75 @@ TEST(Mesher, WorksWithoutIntervals) {
   EXPECT_EQ(torus.interval_calls.load(), 0);
 }
 
+// Smooth vertices end within 1e-4 of a cell of F = 0 (the Newton tolerance), though the point
+// a step reaches is judged by F alone, with the slope at the step's origin (or, for a flat
+// patch's first step, the mean slope of its edges).
+TEST(Mesher, SmoothVerticesAreOnTheSurfaceToATenThousandthOfACell) {
+  for (double r : {0.9, 0.31}) {
+    SphereField sphere({0.013f, -0.021f, 0.007f}, r);
+    const Box box({-1, -1, -1}, {1, 1, 1});
+    const int res = 64;
+    const double h = 2.0 / res;
+    MeshStats stats;
+    TriMesh m = mesh_field(sphere, options_for(box, res), &stats);
+    ASSERT_EQ(check_closed_manifold(m.vertices, m.triangles), "");
+    EXPECT_EQ(stats.sharp_vertices, 0u);
+    EXPECT_GT(stats.projected_vertices, m.vertices.size() / 2);
+    double worst = 0;
+    for (const Vec3& v : m.vertices) worst = std::max(worst, std::abs(sphere.value(v.x, v.y, v.z)));
+    // 1e-4 h, plus the rounding of float coordinates near 1.
+    EXPECT_LT(worst, 1e-4 * h + 2e-7) << r;
+  }
+}
+
+// With sound intervals, pruning only skips blocks without a sign change, and the blocks are
+// sampled in batches: the same mesh, bit for bit, as without intervals (nothing pruned).
+TEST(Mesher, PruningGivesTheSameMeshAsSamplingEveryNode) {
+  const Box box({-1.5f, -0.5f, -1.5f}, {1.5f, 0.5f, 1.5f});
+  for (int res : {37, 64}) {
+    TorusField pruned(1.0, 0.3), full(1.0, 0.3);
+    full.set_has_interval(false);
+    MeshStats sp, sf;
+    TriMesh a = mesh_field(pruned, options_for(box, res), &sp);
+    TriMesh b = mesh_field(full, options_for(box, res), &sf);
+    EXPECT_LT(sp.blocks_sampled, sf.blocks_sampled);
+    EXPECT_EQ(sp.closure_cells, 0u);
+    ASSERT_EQ(a.vertices.size(), b.vertices.size()) << res;
+    ASSERT_TRUE(a.triangles == b.triangles) << res;
+    for (size_t i = 0; i < a.vertices.size(); ++i) {
+      ASSERT_EQ(a.vertices[i].x, b.vertices[i].x) << res << " " << i;
+      ASSERT_EQ(a.vertices[i].y, b.vertices[i].y) << res << " " << i;
+      ASSERT_EQ(a.vertices[i].z, b.vertices[i].z) << res << " " << i;
+    }
+  }
+}
+
+/// A ball whose interval claims "inside" for every box in x > 0.55, where the sphere's surface
+/// still runs: the interval and the point values disagree at nodes of pruned blocks.
+class LyingSphereField : public SphereField {
+ public:
+  using SphereField::SphereField;
+  Interval interval(const Box& b) const override {
+    if (b.lo.x > 0.55f) return Interval{1, 2};
+    return SphereField::interval(b);
+  }
+};
+
+// Where they disagree, a sampled block's cell can have a crossing edge whose other cells lie in
+// a pruned block, on either side of it: the closure adds them (it looked only from an edge's
+// owning cell before, and hit an invariant check when the owner was the missing one).
+TEST(Mesher, DisagreeingIntervalsStillGiveAClosedManifold) {
+  LyingSphereField ball({0, 0, 0}, 1.0);
+  const Box box({-1.2f, -1.2f, -1.2f}, {1.2f, 1.2f, 1.2f});
+  for (int res : {24, 40}) {
+    MeshStats stats;
+    TriMesh m = mesh_field(ball, options_for(box, res), &stats);
+    ASSERT_EQ(check_closed_manifold(m.vertices, m.triangles), "") << res;
+    EXPECT_GT(mesh_volume(m.vertices, m.triangles), 0) << res;
+    EXPECT_GT(stats.closure_cells, 0u) << res;
+  }
+}
+
 TEST(Mesher, EmptyAndFullBoxes) {
   SphereField sphere({0, 0, 0}, 1.0);
   // No surface: the ball is outside the box.
