@@ -6,9 +6,11 @@
 #include <algorithm>
 #include <filesystem>
 #include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
+#include "base/file.h"
 #include "jit/interpreter.h"
 #include "jit/lower.h"
 #include "lang/frontend.h"
@@ -54,6 +56,17 @@ inline std::vector<std::string> hf_files(const std::string& dir) {
   }
   std::sort(out.begin(), out.end());
   return out;
+}
+
+/// The default object of a corpus file, lowered; nullopt when it cannot be read or compiled.
+inline std::optional<Function> lower_file(const std::string& path) {
+  Result<std::string> text = read_file(path);
+  if (!text.ok()) return std::nullopt;
+  auto file = std::make_shared<const lang::SourceFile>(path, std::move(text.value()));
+  lang::DiagnosticSink diags(file);
+  auto program = lang::compile_source(file, diags);
+  if (!program || program->default_object() < 0) return std::nullopt;
+  return lower_object(*program, program->default_object(), nullptr);
 }
 
 /// Evaluates the model of `text` at x with a = 0.

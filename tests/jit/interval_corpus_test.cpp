@@ -35,16 +35,7 @@ namespace {
 
 namespace fs = std::filesystem;
 
-/// The default object of a corpus file, lowered; nullopt when it does not compile.
-std::optional<Function> lower_file(const std::string& path) {
-  Result<std::string> text = read_file(path);
-  if (!text.ok()) return std::nullopt;
-  auto file = std::make_shared<const lang::SourceFile>(path, std::move(text.value()));
-  lang::DiagnosticSink diags(file);
-  auto program = lang::compile_source(file, diags);
-  if (!program || program->default_object() < 0) return std::nullopt;
-  return lower_object(*program, program->default_object(), nullptr);
-}
+using testutil::lower_file;
 
 std::string str(const Interval& iv) {
   std::ostringstream os;

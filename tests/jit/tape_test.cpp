@@ -30,6 +30,7 @@
 #include "jit/lower.h"
 #include "jit/tape_vm.h"
 #include "lang/frontend.h"
+#include "tests/jit/compile_util.h"
 
 namespace hfrt::jit {
 
@@ -38,15 +39,7 @@ namespace {
 
 namespace fs = std::filesystem;
 
-std::optional<Function> lower_file(const std::string& path) {
-  Result<std::string> text = read_file(path);
-  if (!text.ok()) return std::nullopt;
-  auto file = std::make_shared<const lang::SourceFile>(path, std::move(text.value()));
-  lang::DiagnosticSink diags(file);
-  auto program = lang::compile_source(file, diags);
-  if (!program || program->default_object() < 0) return std::nullopt;
-  return lower_object(*program, program->default_object(), nullptr);
-}
+using testutil::lower_file;
 
 std::vector<std::string> corpus_files() {
   std::vector<std::string> files;
