@@ -125,13 +125,13 @@ class ModelTapeEvaluator final : public render::TapeEvaluator {
 };
 
 bool ModelField::prepare_tapes(std::string* why) {
-  std::unique_ptr<jit::Tape> tape = model_.tape(why);
+  std::shared_ptr<const jit::Tape> tape = model_.tape(why);
   if (!tape) {
     root_tape_.reset();
     return false;
   }
   auto root = std::make_shared<ModelTape>();
-  root->tape = std::move(*tape);
+  root->tape = *tape;
   root_tape_ = std::move(root);
   return true;
 }

@@ -580,7 +580,7 @@ std::vector<float> Model::code_params_f32() const {
   return impl_->params_f32;
 }
 
-std::unique_ptr<jit::Tape> Model::tape(std::string* why) const {
+std::shared_ptr<const jit::Tape> Model::tape(std::string* why) const {
   return jit::Tape::build(impl_->compiled->fn, impl_->params_f64, why);
 }
 

@@ -205,7 +205,7 @@ TEST(TapeTest, F32VmAgreesWithF32Jit) {
     auto compiled = Model::compile_file(file, mo);
     if (!compiled.ok()) continue;
     const Model& model = *compiled.model;
-    std::unique_ptr<Tape> tape = model.tape();
+    std::shared_ptr<const Tape> tape = model.tape();
     if (!tape) continue;
     constexpr size_t kN = 200;
     std::mt19937 rng(7);
@@ -250,7 +250,7 @@ TEST(TapeTest, PruningDropsDecidedMinMaxAndReusesRegisters) {
       "m(x[3], a[1]) { s1 = 1 - (x[1]-5)^2 - x[2]^2 - x[3]^2;"
       " s2 = 1 - (x[1]+5)^2 - x[2]^2 - x[3]^2; m = max(s1, s2); }");
   ASSERT_TRUE(compiled.ok()) << compiled.rendered;
-  std::unique_ptr<Tape> tape = compiled.model->tape();
+  std::shared_ptr<const Tape> tape = compiled.model->tape();
   ASSERT_NE(tape, nullptr);
   // (`^2` lowers with a select of its own: count relative to the full tape.)
   ASSERT_GE(tape->num_choices(), 1u);

@@ -376,7 +376,9 @@ class Model {
   /// parameters and hoisted numbers as constants; null, with `why` (when given) saying what
   /// tapes do not support, for objects with control flow, tables or mesh/patch leaves. Each
   /// call builds anew (rebuild after set_params); the tape does not refer to the model.
-  std::unique_ptr<jit::Tape> tape(std::string* why = nullptr) const;
+  /// Shared and const, as device_kernels_on_host: the caller does not need jit/tape.h to hold
+  /// or drop it (the deleter is captured where it is built).
+  std::shared_ptr<const jit::Tape> tape(std::string* why = nullptr) const;
   /// a[] as the compiled code and the kernels take it: the parameters padded to the object's
   /// count, then the hoisted numbers.
   std::vector<float> code_params_f32() const;
