@@ -3,6 +3,7 @@
 // everything else, so that LLVM, TBB and Open MPI are loaded only by the commands that use them.
 #include <CLI/CLI.hpp>
 #include <cstdio>
+#include <optional>
 #include <string>
 #include <utility>
 #include <vector>
@@ -10,7 +11,6 @@
 #include "hfrt/compile_cache.h"
 #include "jit/driver.h"
 #include "lang/diagnostics.h"
-#include "tools/hfrt/command_table.h"
 #include "tools/hfrt/commands.h"
 
 namespace hfrt::tools {
@@ -26,10 +26,9 @@ bool report_no_object(const jit::LoweredSource& lowered, const std::string& file
 }  // namespace hfrt::tools
 
 extern "C" __attribute__((visibility("default"))) int hfrt_cli_main(int argc, char** argv) {
-  CLI::App app{hfrt::tools::kAppDescription};
-  app.require_subcommand(1);
+  CLI::App app;
   bool no_cache = false;
-  app.add_flag("--no-cache", no_cache, hfrt::tools::kNoCacheHelp);
+  hfrt::tools::add_top_level(app, &no_cache);
   std::vector<std::pair<CLI::App*, hfrt::tools::CommandRunner>> commands;
   auto add = [&](hfrt::tools::CommandRunner (*reg)(CLI::App&)) {
     size_t before = app.get_subcommands({}).size();
@@ -51,14 +50,7 @@ extern "C" __attribute__((visibility("default"))) int hfrt_cli_main(int argc, ch
   add(hfrt::tools::register_mesh);
   add(hfrt::tools::register_gpu_cases);
   add(hfrt::tools::register_cache);
-  try {
-    app.parse(argc, argv);
-  } catch (const CLI::ParseError& e) {
-    // Help and version requests exit 0; every usage error exits 2, as the subcommands'
-    // own usage errors do (CLI11's per-error codes would leak 100+ codes to scripts).
-    const int code = app.exit(e);
-    return code == 0 ? 0 : 2;
-  }
+  if (std::optional<int> code = hfrt::tools::parse_command_line(app, argc, argv)) return *code;
   if (no_cache) hfrt::configure_compile_cache(false);
   for (auto& [sub, run] : commands) {
     if (sub->parsed()) return run();

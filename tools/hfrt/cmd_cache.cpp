@@ -6,14 +6,13 @@
 #include <string>
 
 #include "hfrt/compile_cache.h"
-#include "tools/hfrt/command_table.h"
 #include "tools/hfrt/commands.h"
 
 namespace hfrt::tools {
 
 CommandRunner register_cache(CLI::App& app) {
   auto action = std::make_shared<std::string>();
-  CLI::App* sub = app.add_subcommand("cache", command_description("cache"));
+  CLI::App* sub = add_command(app, "cache");
   sub->add_option("action", *action, "info or clear")
       ->required()
       ->check(CLI::IsMember({"info", "clear"}));

@@ -18,7 +18,6 @@
 #include "base/result.h"
 #include "lang/frontend.h"
 #include "scene/scene_file.h"
-#include "tools/hfrt/command_table.h"
 #include "tools/hfrt/commands.h"
 
 namespace hfrt::tools {
@@ -128,7 +127,7 @@ int run_check(const CheckOptions& opts) {
 
 CommandRunner register_check(CLI::App& app) {
   auto opts = std::make_shared<CheckOptions>();
-  CLI::App* cmd = app.add_subcommand("check", command_description("check"));
+  CLI::App* cmd = add_command(app, "check");
   cmd->add_option("files", opts->files, "HyperFun source files (.hf) or scene files (.toml)")
       ->required();
   cmd->add_flag("--dump-ast", opts->dump_ast, "Print the checked syntax tree to stdout");

@@ -36,7 +36,6 @@
 #include "render/camera.h"
 #include "scene/pov_scene.h"
 #include "scene/scene_file.h"
-#include "tools/hfrt/command_table.h"
 #include "tools/hfrt/commands.h"
 #include "tools/hfrt/render_options.h"
 
@@ -497,7 +496,7 @@ int run_emit(EmitCli& cli, const CLI::App& sub) {
 
 CommandRunner register_emit(CLI::App& app) {
   auto cli = std::make_shared<EmitCli>();
-  CLI::App* sub = app.add_subcommand("emit", command_description("emit"));
+  CLI::App* sub = add_command(app, "emit");
   sub->add_option("model", cli->render.model.file, "HyperFun model file, or a scene file (.toml)")
       ->required();
   sub->add_flag("--pov", cli->pov, "POV-Ray 3.7 SDL");

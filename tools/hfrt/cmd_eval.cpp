@@ -39,7 +39,6 @@
 
 #include "base/timer.h"
 #include "hfrt/model.h"
-#include "tools/hfrt/command_table.h"
 #include "tools/hfrt/commands.h"
 #include "tools/hfrt/model_request.h"
 
@@ -374,7 +373,7 @@ int run_eval(const EvalOptions& opts) {
 
 CommandRunner register_eval(CLI::App& app) {
   auto opts = std::make_shared<EvalOptions>();
-  CLI::App* sub = app.add_subcommand("eval", command_description("eval"));
+  CLI::App* sub = add_command(app, "eval");
   sub->add_option("model", opts->file, "HyperFun model file")->required();
   sub->add_option("--object", opts->object, "object to evaluate (default: my_model or the first)");
   sub->add_option("-a", opts->params, "parameter values a[1],a[2],... separated by commas");

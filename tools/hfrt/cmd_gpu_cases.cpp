@@ -10,7 +10,6 @@
 #include <vector>
 
 #include "app/gpu_cases.h"
-#include "tools/hfrt/command_table.h"
 #include "tools/hfrt/commands.h"
 
 namespace hfrt::tools {
@@ -58,8 +57,7 @@ int run_gpu_cases(const GpuCasesCli& cli) {
 
 CommandRunner register_gpu_cases(CLI::App& app) {
   auto cli = std::make_shared<GpuCasesCli>();
-  CLI::App* sub = app.add_subcommand("gpu-cases", command_description("gpu-cases"));
-  sub->group("");  // a developer's command: not in the help
+  CLI::App* sub = add_command(app, "gpu-cases");
   sub->add_option("out", cli->out, "folder to write the cases into")->required();
   sub->add_option("--corpus", cli->corpus,
                   "the corpus folder (default $HFRT_CORPUS_DIR, else ../shared/corpus)");

@@ -15,7 +15,6 @@
 #include "ir/print.h"
 #include "jit/driver.h"
 #include "jit/poly.h"
-#include "tools/hfrt/command_table.h"
 #include "tools/hfrt/commands.h"
 #include "tools/hfrt/model_request.h"
 
@@ -71,7 +70,7 @@ int run_ir(const IrOptions& opts) {
 
 CommandRunner register_ir(CLI::App& app) {
   auto opts = std::make_shared<IrOptions>();
-  CLI::App* cmd = app.add_subcommand("ir", command_description("ir"));
+  CLI::App* cmd = add_command(app, "ir");
   cmd->add_option("file", opts->file, "HyperFun source file (.hf)")->required();
   cmd->add_option("--object", opts->object,
                   "Object to print (default: my_model if present, else the first object)");

@@ -23,7 +23,6 @@
 #include "mesher/mesh_io.h"
 #include "render/progress.h"
 #include "scene/scene_file.h"
-#include "tools/hfrt/command_table.h"
 #include "tools/hfrt/commands.h"
 #include "tools/hfrt/model_request.h"
 
@@ -165,7 +164,7 @@ int run_mesh(const MeshCli& cli) {
 
 CommandRunner register_mesh(CLI::App& app) {
   auto cli = std::make_shared<MeshCli>();
-  CLI::App* sub = app.add_subcommand("mesh", command_description("mesh"));
+  CLI::App* sub = add_command(app, "mesh");
   sub->add_option("model", cli->model.file,
                   "HyperFun model file, or a scene file (.toml): every object, placed")
       ->required();

@@ -35,7 +35,6 @@
 #include "render/progress.h"
 #include "render/renderer.h"
 #include "scene/scene_file.h"
-#include "tools/hfrt/command_table.h"
 #include "tools/hfrt/commands.h"
 #include "tools/hfrt/render_options.h"
 
@@ -351,7 +350,7 @@ int run_render(const RenderCli& cli) {
 
 CommandRunner register_render(CLI::App& app) {
   auto cli = std::make_shared<RenderCli>();
-  CLI::App* sub = app.add_subcommand("render", command_description("render"));
+  CLI::App* sub = add_command(app, "render");
   sub->add_option("model", cli->model.file, "HyperFun model file, or a scene file (.toml)")
       ->required();
   sub->add_option("-o,--output", cli->output, "output image; the format follows the extension")

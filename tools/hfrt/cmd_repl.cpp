@@ -3,7 +3,6 @@
 #include <memory>
 #include <string>
 
-#include "tools/hfrt/command_table.h"
 #include "tools/hfrt/commands.h"
 
 namespace hfrt::tools {
@@ -12,7 +11,7 @@ int run_repl(const std::string& model_file);  // repl.cpp
 
 CommandRunner register_repl(CLI::App& app) {
   auto file = std::make_shared<std::string>();
-  CLI::App* sub = app.add_subcommand("repl", command_description("repl"));
+  CLI::App* sub = add_command(app, "repl");
   sub->add_option("model", *file, "HyperFun model file to :load first");
   return [file] { return run_repl(*file); };
 }

@@ -23,7 +23,6 @@
 #include "render/image.h"
 #include "render/progress.h"
 #include "render/slice.h"
-#include "tools/hfrt/command_table.h"
 #include "tools/hfrt/commands.h"
 #include "tools/hfrt/model_request.h"
 
@@ -177,7 +176,7 @@ int run_slice(const SliceCli& cli) {
 
 CommandRunner register_slice(CLI::App& app) {
   auto cli = std::make_shared<SliceCli>();
-  CLI::App* sub = app.add_subcommand("slice", command_description("slice"));
+  CLI::App* sub = add_command(app, "slice");
   sub->add_option("model", cli->model.file, "HyperFun model file")->required();
   sub->add_option("-o,--output", cli->output, "output image; the format follows the extension")
       ->required();

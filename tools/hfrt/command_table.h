@@ -1,10 +1,9 @@
 #pragma once
 // The subcommands of `hfrt`, in the order of the help, with their one-line descriptions. One
-// table for two users: each register_*() (commands.h) names its subcommand from it, and the
-// launcher (main.cpp) prints the top-level help from it without loading the commands
-// themselves (tools/hfrt/cli_main.cpp, in the run-time module libhfrt_cli.so).
+// table for two users: each register_*() (commands.h) adds its subcommand from it
+// (add_command), and the launcher (main.cpp) prints the top-level help from it without loading
+// the commands themselves (tools/hfrt/cli_main.cpp, in the run-time module libhfrt_cli.so).
 
-#include <string>
 #include <string_view>
 
 namespace hfrt::tools {
@@ -40,12 +39,6 @@ constexpr const CommandInfo* find_command(std::string_view name) {
     if (c.name == name) return &c;
   }
   return nullptr;
-}
-
-/// The description of a command of the table (a missing name is a bug: empty text).
-inline std::string command_description(std::string_view name) {
-  const CommandInfo* c = find_command(name);
-  return c ? std::string(c->description) : std::string();
 }
 
 /// The top-level description and the --no-cache flag's help, shared by both front ends.

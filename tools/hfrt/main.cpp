@@ -8,6 +8,7 @@
 // (issue 25; bench/startup/startup.py measures it).
 #include <CLI/CLI.hpp>
 #include <cstdio>
+#include <optional>
 #include <string_view>
 #include <vector>
 
@@ -51,26 +52,18 @@ int main(int argc, char** argv) {
 
   // `check`, the top-level help, and usage errors without a known subcommand. The other
   // subcommands appear with their descriptions only, as the help lists them.
-  CLI::App app{hfrt::tools::kAppDescription};
-  app.require_subcommand(1);
-  bool no_cache = false;
-  app.add_flag("--no-cache", no_cache, hfrt::tools::kNoCacheHelp);
+  CLI::App app;
+  bool no_cache = false;  // parsed for the help and usage; `check` compiles nothing
+  hfrt::tools::add_top_level(app, &no_cache);
   hfrt::tools::CommandRunner check;
   for (const hfrt::tools::CommandInfo& c : hfrt::tools::kCommands) {
     if (c.name == "check") {
       check = hfrt::tools::register_check(app);
       app.get_subcommands({}).back()->fallthrough();
     } else {
-      CLI::App* sub = app.add_subcommand(std::string(c.name), std::string(c.description));
-      if (c.hidden) sub->group("");
+      hfrt::tools::add_command(app, c.name);
     }
   }
-  try {
-    app.parse(argc, argv);
-  } catch (const CLI::ParseError& e) {
-    // Help and version requests exit 0; every usage error exits 2 (as in cli_main.cpp).
-    const int code = app.exit(e);
-    return code == 0 ? 0 : 2;
-  }
+  if (std::optional<int> code = hfrt::tools::parse_command_line(app, argc, argv)) return *code;
   return app.got_subcommand("check") ? check() : 2;
 }
