@@ -68,6 +68,11 @@ std::vector<std::string> module_search_dirs() {
   return dirs;
 }
 
+Error stale_module_error(std::string_view name) {
+  return Error{"hfrt module libhfrt_" + std::string(name) + ".so is from another build of hfrt",
+               "reinstall hfrt, or point HFRT_MODULE_DIR at this build's modules"};
+}
+
 Result<void*> module_symbol(std::string_view name, const char* symbol, ModuleScope scope) {
   std::lock_guard<std::mutex> lock(g_mutex);
   auto it = g_modules.find(name);

@@ -38,4 +38,22 @@ enum class ModuleScope {
 Result<void*> module_symbol(std::string_view name, const char* symbol,
                             ModuleScope scope = ModuleScope::kLocal);
 
+/// The error of a module whose table has another ABI number: it is left over from another build.
+Error stale_module_error(std::string_view name);
+
+/// The function table of module `name`: its entry point `entry_symbol` is an extern "C"
+/// function returning `const Table*`, and `Table::abi_version` must equal `abi_version` (the
+/// number the loading code was built with; both sides of a module boundary come from one tree
+/// and may pass C++ types). Errors as module_symbol's, or stale_module_error.
+template <typename Table>
+Result<const Table*> module_table(std::string_view name, const char* entry_symbol,
+                                  int abi_version) {
+  Result<void*> entry = module_symbol(name, entry_symbol);
+  if (!entry.ok()) return entry.error();
+  using EntryFn = const Table* (*)();
+  const Table* table = reinterpret_cast<EntryFn>(entry.value())();
+  if (!table || table->abi_version != abi_version) return stale_module_error(name);
+  return table;
+}
+
 }  // namespace hfrt

@@ -430,18 +430,13 @@ Result<TriangleMesh> load_mesh(const std::string& path, const Limits& limits) {
     if (auto err = precheck_ply(path, *text)) return *err;
   }
 
-  auto entry = module_symbol("meshimport", mesh_import::kEntrySymbol);
-  if (!entry.ok()) return Error{path + ": " + entry.error().message, entry.error().hint};
-  using EntryFn = const mesh_import::Module* (*)();
-  const mesh_import::Module* module = reinterpret_cast<EntryFn>(entry.value())();
-  if (!module || module->abi_version != mesh_import::kAbiVersion) {
-    return Error{path + ": the mesh import module libhfrt_meshimport.so is from another build",
-                 "reinstall hfrt, or point HFRT_MODULE_DIR at this build's modules"};
-  }
+  auto module = module_table<mesh_import::Module>("meshimport", mesh_import::kEntrySymbol,
+                                                  mesh_import::kAbiVersion);
+  if (!module.ok()) return Error{path + ": " + module.error().message, module.error().hint};
   mesh_import::Imported imported;
   std::string why;
   const uint64_t max = static_cast<uint64_t>(limits.max_mesh_triangles);
-  if (!module->import(text->data(), text->size(), ext.c_str() + 1, max, &imported, &why))
+  if (!(*module)->import(text->data(), text->size(), ext.c_str() + 1, max, &imported, &why))
     return Error{path + ": malformed mesh: " + why};
   if (imported.over_limit) {
     const bool faces = imported.num_faces > max;
@@ -452,8 +447,7 @@ Result<TriangleMesh> load_mesh(const std::string& path, const Limits& limits) {
   }
   TriangleMesh mesh;
   mesh.source = path;
-  mesh.vertices.reserve(imported.vertices.size());
-  for (const auto& v : imported.vertices) mesh.vertices.push_back({v[0], v[1], v[2]});
+  mesh.vertices = std::move(imported.vertices);
   mesh.triangles = std::move(imported.triangles);
   return finish_mesh(std::move(mesh));
 }

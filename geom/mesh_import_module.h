@@ -12,6 +12,8 @@
 #include <string>
 #include <vector>
 
+#include "geom/vec.h"
+
 namespace hfrt::geom::mesh_import {
 
 inline constexpr int kAbiVersion = 1;
@@ -24,7 +26,7 @@ struct Imported {
   /// The counts of the whole file, set even when it is over the limit (and then nothing else).
   uint64_t num_vertices = 0, num_faces = 0;
   bool over_limit = false;
-  std::vector<std::array<float, 3>> vertices;
+  std::vector<Vec3> vertices;
   std::vector<std::array<uint32_t, 3>> triangles;  ///< zero-based; faces of 3 corners only
 };
 

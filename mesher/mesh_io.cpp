@@ -47,19 +47,12 @@ Result<size_t> write_mesh(const std::string& path, const TriMesh& mesh) {
   } else {
     return Error{path + ": cannot write: " + std::strerror(errno)};
   }
-  auto entry = module_symbol("meshexport", mesh_export::kEntrySymbol);
-  if (!entry.ok())
-    return Error{path + ": cannot write: " + entry.error().message, entry.error().hint};
-  using EntryFn = const mesh_export::Module* (*)();
-  const mesh_export::Module* module = reinterpret_cast<EntryFn>(entry.value())();
-  if (!module || module->abi_version != mesh_export::kAbiVersion) {
-    return Error{path +
-                     ": cannot write: the mesh export module libhfrt_meshexport.so is from "
-                     "another build",
-                 "reinstall hfrt, or point HFRT_MODULE_DIR at this build's modules"};
-  }
+  auto module = module_table<mesh_export::Module>("meshexport", mesh_export::kEntrySymbol,
+                                                  mesh_export::kAbiVersion);
+  if (!module.ok())
+    return Error{path + ": cannot write: " + module.error().message, module.error().hint};
   std::string why;
-  if (!module->write(path, *format, mesh, &why)) return Error{path + ": cannot write: " + why};
+  if (!(*module)->write(path, *format, mesh, &why)) return Error{path + ": cannot write: " + why};
   std::error_code ec;
   const auto size = std::filesystem::file_size(path, ec);
   return size_t(ec ? 0 : size);

@@ -72,15 +72,7 @@ uint8_t linear_to_unorm8(float v) {
 
 /// The image I/O module's table (loaded on first use), or why it cannot be loaded.
 Result<const image_io::Module*> image_io_module() {
-  auto entry = module_symbol("imageio", image_io::kEntrySymbol);
-  if (!entry.ok()) return entry.error();
-  using EntryFn = const image_io::Module* (*)();
-  const image_io::Module* m = reinterpret_cast<EntryFn>(entry.value())();
-  if (!m || m->abi_version != image_io::kAbiVersion) {
-    return Error{"the image I/O module libhfrt_imageio.so is from another build of hfrt",
-                 "reinstall hfrt, or point HFRT_MODULE_DIR at this build's modules"};
-  }
-  return m;
+  return module_table<image_io::Module>("imageio", image_io::kEntrySymbol, image_io::kAbiVersion);
 }
 
 /// "cannot write 'x.png': " + why, keeping the loader's hint.
