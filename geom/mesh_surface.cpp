@@ -3,8 +3,10 @@
 #include <immintrin.h>
 
 #include <algorithm>
+#include <bit>
 #include <chrono>
 #include <numbers>
+#include <unordered_map>
 
 #include "base/check.h"
 #include "geom/triangle.h"
@@ -407,8 +409,58 @@ ClosestPoint MeshSurface::closest_point(Vec3 p, float max_distance) const {
   if (best_slot != ~0u) {
     best.prim = prim_order_[best_slot];
     best.distance = std::sqrt(best_d2);
+    const Vec3 a = corners_[3 * best_slot], b = corners_[3 * best_slot + 1],
+               c = corners_[3 * best_slot + 2];
+    best.normal = normalize(cross(b - a, c - a));
   }
   return best;
+}
+
+SurfaceTopology MeshSurface::topology() const {
+  std::call_once(topology_once_, [this] {
+    // Vertices are identified by their coordinates' bits (an STL file repeats them per
+    // triangle); -0 and +0 are one vertex.
+    const size_t n = prim_order_.size();
+    std::unordered_map<uint64_t, uint32_t> first_id;  // hash of the bits -> first corner
+    first_id.reserve(3 * n);
+    std::vector<uint32_t> ids(3 * n);
+    auto bits = [](float f) { return uint64_t(std::bit_cast<uint32_t>(f == 0 ? 0.0f : f)); };
+    for (size_t i = 0; i < 3 * n; ++i) {
+      const Vec3 v = corners_[i];
+      const uint64_t h = (bits(v.x) * 0x9E3779B97F4A7C15ull) ^ (bits(v.y) * 0xC2B2AE3D27D4EB4Full) ^
+                         (bits(v.z) * 0x165667B19E3779F9ull);
+      auto [it, fresh] = first_id.try_emplace(h, uint32_t(i));
+      const Vec3 w = corners_[it->second];
+      if (!fresh && (bits(w.x) != bits(v.x) || bits(w.y) != bits(v.y) || bits(w.z) != bits(v.z))) {
+        // A hash collision of two points: this corner keeps its own identity, so at worst a
+        // closed mesh reads as open (and keeps its winding numbers), never the reverse.
+        ids[i] = uint32_t(i);
+        continue;
+      }
+      ids[i] = it->second;
+    }
+    // Undirected edges (low, high) with the direction in bit 0: a closed, consistently
+    // oriented mesh has each exactly twice, once each way.
+    std::vector<uint64_t> edges(3 * n);
+    for (size_t t = 0; t < n; ++t)
+      for (int k = 0; k < 3; ++k) {
+        const uint32_t a = ids[3 * t + k], b = ids[3 * t + (k + 1) % 3];
+        edges[3 * t + k] =
+            (uint64_t(std::min(a, b)) << 33) | (uint64_t(std::max(a, b)) << 1) | uint64_t(a > b);
+      }
+    std::sort(edges.begin(), edges.end());
+    size_t boundary = 0;
+    for (size_t i = 0; i < edges.size();) {
+      size_t j = i;
+      while (j < edges.size() && edges[j] >> 1 == edges[i] >> 1) ++j;
+      const bool paired = j - i == 2 && (edges[i] & 1) == 0 && (edges[i + 1] & 1) == 1;
+      if (!paired) boundary += j - i;
+      i = j;
+    }
+    topology_.closed = boundary == 0;
+    topology_.boundary_edges = boundary;
+  });
+  return topology_;
 }
 
 double MeshSurface::winding_number(Vec3 p) const {
@@ -458,14 +510,7 @@ float MeshSurface::signed_distance(Vec3 p, Vec3* gradient) const {
       *gradient = inside ? away : -away;
     } else {
       // On the surface: the inward normal of the closest triangle (outward orientation).
-      Vec3 n{0, 0, 0};
-      for (size_t s = 0; s < prim_order_.size(); ++s) {
-        if (prim_order_[s] != c.prim) continue;
-        const Vec3 a = corners_[3 * s], b = corners_[3 * s + 1], cc = corners_[3 * s + 2];
-        n = -normalize(cross(b - a, cc - a));
-        break;
-      }
-      *gradient = n;
+      *gradient = -c.normal;
     }
   }
   return inside ? c.distance : -c.distance;

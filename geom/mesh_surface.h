@@ -12,6 +12,7 @@
 // The indexed TriangleMesh it was built from is not kept.
 
 #include <memory>
+#include <mutex>
 #include <vector>
 
 #include "geom/bvh.h"
@@ -20,13 +21,6 @@
 #include "geom/wide_bvh.h"
 
 namespace hfrt::geom {
-
-/// The closest surface point to a query point.
-struct ClosestPoint {
-  float distance = std::numeric_limits<float>::infinity();
-  Vec3 point;
-  uint32_t prim = ~0u;  ///< original triangle index; ~0u when nothing within the limit
-};
 
 class MeshSurface final : public Surface {
  public:
@@ -60,8 +54,10 @@ class MeshSurface final : public Surface {
   bool occluded(const Ray& ray, float tmin, float tmax) const;
 
   /// The closest point of the mesh to p among points closer than `max_distance`.
-  ClosestPoint closest_point(Vec3 p,
-                             float max_distance = std::numeric_limits<float>::infinity()) const;
+  ClosestPoint closest_point(
+      Vec3 p, float max_distance = std::numeric_limits<float>::infinity()) const override;
+  /// Edges matched by coordinates (a sort of the 3n directed edges, on first use).
+  SurfaceTopology topology() const override;
 
   /// A lower bound on the distance from `box` to the mesh (0 when the box may touch it).
   float distance_lower_bound(const Box& box) const;
@@ -92,6 +88,8 @@ class MeshSurface final : public Surface {
   WideBvh wide_;                      // 4-wide upper levels, for rays
   double beta_ = 2.0;
   SurfaceStats stats_;
+  mutable std::once_flag topology_once_;
+  mutable SurfaceTopology topology_;
 };
 
 }  // namespace hfrt::geom

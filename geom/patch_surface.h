@@ -48,6 +48,15 @@ class PatchSurface final : public Surface {
     return field_->signed_distance(p, gradient);
   }
   DistanceBounds signed_distance_bounds(const Box& box) const override;
+  /// The field tessellation's closest point (within field_error() of the patches').
+  ClosestPoint closest_point(
+      Vec3 p, float max_distance = std::numeric_limits<float>::infinity()) const override {
+    return field_->closest_point(p, max_distance);
+  }
+  /// Never closed: Newton's roots on two patches that share a seam are not watertight (a ray
+  /// through the seam may be found on both or neither), so crossings cannot replace the
+  /// winding number even when the patches close up (boundary_edges is not counted).
+  SurfaceTopology topology() const override { return {}; }
   SurfaceStats stats() const override { return stats_; }
 
   const PatchSet& patches() const { return set_; }

@@ -9,6 +9,7 @@
 // that are not closed (the Utah teapot) still have a sensible inside.
 
 #include <cstdint>
+#include <limits>
 #include <string>
 #include <vector>
 
@@ -45,6 +46,28 @@ struct SurfaceStats {
   size_t memory_bytes = 0;
 };
 
+/// The closest surface point to a query point.
+struct ClosestPoint {
+  float distance = std::numeric_limits<float>::infinity();
+  Vec3 point;
+  /// Unit normal of the closest primitive (a triangle's geometric normal, (b - a) x (c - a)):
+  /// the generalised winding number drops by 1 across the primitive along it, so -normal is
+  /// the direction into the solid (the field's gradient on the surface).
+  Vec3 normal;
+  uint32_t prim = ~0u;  ///< original triangle index; ~0u when nothing within the limit
+};
+
+/// How the inside of a surface can be decided along a ray (Surface::topology()).
+struct SurfaceTopology {
+  /// Every edge is shared by exactly two primitives that use it in opposite directions
+  /// (vertices identified by their coordinates): the winding number is an integer off the
+  /// surface, 0 outside its bounds, and changes by exactly the crossing's facing at each
+  /// crossing of a ray, so a ray's crossings decide inside and outside without a winding
+  /// number (closed and self-intersecting meshes alike).
+  bool closed = false;
+  size_t boundary_edges = 0;  ///< directed edges without their one opposite partner
+};
+
 /// A closed interval of signed-distance values.
 struct DistanceBounds {
   float lo = 0, hi = 0;
@@ -75,6 +98,14 @@ class Surface {
   /// Sound bounds of signed_distance over `box` (for closed surfaces; for open ones the sign
   /// part assumes w does not cross 1/2 inside a box that touches no primitive).
   virtual DistanceBounds signed_distance_bounds(const Box& box) const = 0;
+
+  /// The closest surface point to p among points closer than max_distance, with the
+  /// primitive's normal: the gradient on the surface needs no winding number.
+  virtual ClosestPoint closest_point(
+      Vec3 p, float max_distance = std::numeric_limits<float>::infinity()) const = 0;
+
+  /// Whether the surface is closed (computed once, on first use; thread-safe).
+  virtual SurfaceTopology topology() const = 0;
 
   virtual SurfaceStats stats() const = 0;
 };

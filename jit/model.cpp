@@ -27,6 +27,7 @@
 #include "jit/llvm_jit.h"
 #include "jit/nvptx.h"
 #include "jit/poly.h"
+#include "jit/surface_ops.h"
 #include "jit/tape.h"
 
 namespace hfrt {
@@ -507,6 +508,8 @@ void Model::ray_surface_crossings(const double o[3], const double d[3], double t
   const Compiled& c = *impl_->compiled;
   const jit::PolyAnalysis& p = c.poly->analysis();
   HFRT_CHECK_MSG(p.qualifies, "ray_surface_crossings on an object that does not qualify");
+  // The crossings also answer the sign queries that follow on this ray (jit/surface_ops.h).
+  jit::ray_sides_clear();
   if (p.program.surfaces.empty() || !(t0 < t1)) return;
   const double* all = all_leaves(c, impl_->poly_args, o, d);
   thread_local std::vector<geom::Crossing> crossings;
@@ -521,7 +524,8 @@ void Model::ray_surface_crossings(const double o[3], const double d[3], double t
     }
     if (!is_finite(ray.org) || !is_finite(ray.dir)) continue;
     if (ray.dir.x == 0 && ray.dir.y == 0 && ray.dir.z == 0) continue;  // F constant on the ray
-    c.fn.surfaces[s.surface]->crossings(ray, tmin, tmax, &crossings);
+    const geom::Surface& surface = *c.fn.surfaces[s.surface];
+    jit::ray_sides_crossings(surface, ray, tmin, tmax, &crossings);
     for (const geom::Crossing& x : crossings) out->push_back(x.t);
   }
 }

@@ -1,9 +1,11 @@
 // kSurface in every domain (see surface_ops.h).
 #include "jit/surface_ops.h"
 
+#include <algorithm>
 #include <cmath>
 #include <cstring>
 #include <limits>
+#include <vector>
 
 #include "geom/surface.h"
 
@@ -17,9 +19,8 @@ namespace {
 constexpr double kInf = std::numeric_limits<double>::infinity();
 
 /// Points closer to the surface than this fraction of its bounding-box diagonal count as on
-/// it for the gradient, which is then taken by central differences of step kNormalStep.
+/// it for the gradient, which is then the closest primitive's normal.
 constexpr float kOnSurface = 1e-5f;
-constexpr float kNormalStep = 1e-4f;
 
 /// The float nearest to v on the side of -inf / +inf.
 float down(double v) {
@@ -64,29 +65,187 @@ Dual surface_dual(const geom::Surface& s, const Dual& x, const Dual& y, const Du
     const double nan = std::numeric_limits<double>::quiet_NaN();
     return {nan, {nan, nan, nan}};
   }
-  geom::Vec3 g;
   geom::Vec3 p(static_cast<float>(x.v), static_cast<float>(y.v), static_cast<float>(z.v));
-  r.v = static_cast<double>(s.signed_distance(p, &g));
+  const geom::ClosestPoint c = s.closest_point(p);
   const float size = ::hfrt::length(s.bounds().diagonal());
-  if (std::abs(r.v) < kOnSurface * size) {
+  geom::Vec3 g;
+  bool inside;
+  if (c.distance < kOnSurface * size) {
     // On the surface to rounding (a ray hit: where the renderer asks for normals), the
-    // direction from the closest point is rounding noise and the side test is ambiguous, so
-    // the gradient could point anywhere, even outwards. Central differences a little farther
-    // out give the face's normal (the distance is linear across a face).
-    const float h = kNormalStep * size;
-    geom::Vec3 fd;
-    for (int k = 0; k < 3; ++k) {
-      geom::Vec3 a = p, b = p;
-      a[k] += h;
-      b[k] -= h;
-      fd[k] = (s.signed_distance(a) - s.signed_distance(b)) / (2 * h);
-    }
-    const float len = ::hfrt::length(fd);
-    if (len > 0 && std::isfinite(len)) g = fd / len;
+    // direction from the closest point is rounding noise and the winding number's side test
+    // is ambiguous (and at its most expensive, next to the primitives). The closest
+    // primitive's normal is the gradient's direction there (the winding number rises by 1
+    // against it), and the side of its plane gives the value's sign: |value| is below the
+    // root tolerance, so which sign it carries is as good as any.
+    g = -c.normal;
+    inside = ::hfrt::dot(p - c.point, c.normal) <= 0;
+  } else {
+    // Off the surface: signed_distance's value and gradient, from the same closest point.
+    inside = s.winding_number(p) >= 0.5;
+    const geom::Vec3 away = (p - c.point) / c.distance;
+    g = inside ? away : -away;
   }
+  r.v = static_cast<double>(inside ? c.distance : -c.distance);
   for (int k = 0; k < 3; ++k)
     r.d[k] = double(g.x) * x.d[k] + double(g.y) * y.d[k] + double(g.z) * z.d[k];
   return r;
+}
+
+namespace {
+
+/// One recorded leaf ray (ray_sides_add).
+struct RaySide {
+  const geom::Surface* surface;
+  double org[3], dir[3];
+  double inv_dd;          // 1 / |dir|^2
+  double tmin, tmax;      // the searched segment
+  double tol2;            // squared distance from the line within which a point is on it
+  double slack;           // rounding of the recovered t at the segment's ends
+  uint32_t first, count;  // its crossings: RaySides::t[first, first + count)
+  uint32_t wfirst;        // its count + 1 prefix sums: RaySides::wsum[wfirst, ...]
+  // The reference: the prefix index k_ref (crossings below it) and w there; unknown until the
+  // first query when the ray does not leave the surface's bounds inside the segment.
+  bool ref_known = false;
+  uint32_t k_ref = 0;
+  int w_ref = 0;
+};
+
+struct RaySides {
+  std::vector<RaySide> rays;
+  std::vector<double> t;  // crossings' t, per ray
+  std::vector<int> wsum;  // per ray: count + 1 prefix sums of the facings
+  RaySideCounts counts;
+};
+thread_local RaySides t_sides;
+
+/// The entry and exit t of the line org + t dir through `box` (slabs, in double); false when
+/// the line misses it.
+bool line_box(const double org[3], const double dir[3], const geom::Box& box, double* t_in,
+              double* t_out) {
+  double a = -kInf, b = kInf;
+  for (int k = 0; k < 3; ++k) {
+    const double lo = box.lo[k], hi = box.hi[k];
+    if (dir[k] == 0) {
+      if (org[k] < lo || org[k] > hi) return false;
+      continue;
+    }
+    double t0 = (lo - org[k]) / dir[k], t1 = (hi - org[k]) / dir[k];
+    if (t0 > t1) std::swap(t0, t1);
+    a = std::max(a, t0);
+    b = std::min(b, t1);
+  }
+  *t_in = a;
+  *t_out = b;
+  return a <= b;
+}
+
+/// The side of p from a recorded ray of `s`; 0 when no recorded ray passes through p.
+int side_from_crossings(const geom::Surface* s, float x, float y, float z) {
+  RaySides& rs = t_sides;
+  for (RaySide& r : rs.rays) {
+    if (r.surface != s) continue;
+    const double px = x - r.org[0], py = y - r.org[1], pz = z - r.org[2];
+    const double t = (px * r.dir[0] + py * r.dir[1] + pz * r.dir[2]) * r.inv_dd;
+    if (!(t >= r.tmin - r.slack && t <= r.tmax + r.slack)) continue;
+    const double ex = px - t * r.dir[0], ey = py - t * r.dir[1], ez = pz - t * r.dir[2];
+    if (ex * ex + ey * ey + ez * ez > r.tol2) continue;
+    const double* ts = rs.t.data() + r.first;
+    const uint32_t k = uint32_t(std::lower_bound(ts, ts + r.count, t) - ts);
+    const int* ws = rs.wsum.data() + r.wfirst;
+    if (!r.ref_known) {
+      // The first point asked: one winding number (an integer for a closed surface).
+      r.w_ref = int(std::lround(s->winding_number(geom::Vec3(x, y, z))));
+      r.k_ref = k;
+      r.ref_known = true;
+      rs.counts.winding++;
+      return r.w_ref >= 1 ? 1 : -1;
+    }
+    rs.counts.from_crossings++;
+    const int w = r.w_ref + ws[k] - ws[r.k_ref];
+    return w >= 1 ? 1 : -1;
+  }
+  return 0;
+}
+
+}  // namespace
+
+void ray_sides_clear() {
+  t_sides.rays.clear();
+  t_sides.t.clear();
+  t_sides.wsum.clear();
+}
+
+void ray_sides_crossings(const geom::Surface& s, const geom::Ray& ray, float tmin, float tmax,
+                         std::vector<geom::Crossing>* out) {
+  if (!s.topology().closed) {
+    s.crossings(ray, tmin, tmax, out);
+    return;
+  }
+  RaySides& rs = t_sides;
+  RaySide r;
+  r.surface = &s;
+  double dd = 0;
+  for (int k = 0; k < 3; ++k) {
+    r.org[k] = ray.org[k];
+    r.dir[k] = ray.dir[k];
+    dd += r.dir[k] * r.dir[k];
+  }
+  if (!(dd > 0) || !std::isfinite(dd)) {
+    s.crossings(ray, tmin, tmax, out);
+    return;
+  }
+  r.inv_dd = 1 / dd;
+  // Where the line leaves the bounds, w = 0 (every crossing lies inside them; the margin
+  // covers the slab test's rounding): the search runs on to there when the segment ends
+  // before, and the crossings past tmax only serve the record.
+  const geom::Box b = s.bounds();
+  double t_in, t_out;
+  float t_end = tmax;
+  const bool meets = line_box(r.org, r.dir, b, &t_in, &t_out);
+  if (meets) {
+    const double margin = 1e-6 * (std::abs(t_out) + std::abs(t_in)) + 1e-6;
+    if (t_out + margin >= tmax && t_out + 2 * margin < 3e38) t_end = float(t_out + 2 * margin);
+  }
+  s.crossings(ray, tmin, t_end, out);
+  r.tmin = tmin;
+  r.tmax = tmax;  // queries past the original segment are not the search's
+  r.slack = 1e-6 * (std::abs(r.tmin) + std::abs(r.tmax));
+  // The sample points come from the model's code in float (through the leaf's transform):
+  // within rounding of the line. A point farther than this is not from this ray.
+  const double size = ::hfrt::length(b.diagonal());
+  double reach = 0;
+  for (int k = 0; k < 3; ++k)
+    reach =
+        std::max({reach, std::abs(r.org[k]), double(std::abs(b.lo[k])), double(std::abs(b.hi[k]))});
+  const double tol = 1e-5 * size + 1e-5 * reach;
+  r.tol2 = tol * tol;
+  r.first = uint32_t(rs.t.size());
+  r.count = uint32_t(out->size());
+  r.wfirst = uint32_t(rs.wsum.size());
+  int w = 0;
+  rs.wsum.push_back(0);
+  for (const geom::Crossing& c : *out) {
+    rs.t.push_back(c.t);
+    w += c.facing;
+    rs.wsum.push_back(w);
+  }
+  // The reference: past every crossing (k = count) with w = 0 when the search reached the
+  // exit; before every crossing (k = 0) when the line enters the bounds inside the segment;
+  // else the first point asked.
+  if (!meets || double(t_end) > t_out) {
+    r.ref_known = true;
+    r.k_ref = r.count;
+  } else if (t_in > tmin) {
+    r.ref_known = true;
+    r.k_ref = 0;
+  }
+  rs.rays.push_back(r);
+  // The caller sees the original segment only.
+  while (!out->empty() && !(out->back().t < tmax)) out->pop_back();
+}
+
+RaySideCounts ray_sides_counts() {
+  return t_sides.counts;
 }
 
 }  // namespace hfrt::jit
@@ -109,6 +268,12 @@ double hfrt_surface_sign_f64(const void* s, double x, double y, double z) noexce
 
 float hfrt_surface_sign_f32(const void* s, float x, float y, float z) noexcept {
   if (x != x || y != y || z != z) return std::numeric_limits<float>::quiet_NaN();
+  if (!hfrt::jit::t_sides.rays.empty()) {
+    const int side =
+        hfrt::jit::side_from_crossings(static_cast<const hfrt::geom::Surface*>(s), x, y, z);
+    if (side != 0) return float(side);
+  }
+  hfrt::jit::t_sides.counts.winding++;
   // The same test as signed_distance's sign (geom/surface.h), without the distance query.
   const double w =
       static_cast<const hfrt::geom::Surface*>(s)->winding_number(hfrt::geom::Vec3(x, y, z));

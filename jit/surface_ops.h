@@ -5,14 +5,12 @@
 // bit for bit. The surface works in single precision: coordinates are rounded to float (the
 // interval domain rounds its box outwards, so the enclosure stays sound).
 
+#include <cstdint>
 #include <span>
 
+#include "geom/surface.h"
 #include "jit/gradient.h"
 #include "jit/interval.h"
-
-namespace hfrt::geom {
-class Surface;
-}  // namespace hfrt::geom
 
 namespace hfrt::jit {
 
@@ -31,6 +29,41 @@ Interval surface_interval(const geom::Surface& s, const Interval& x, const Inter
 /// at a ray hit) the closest-point direction is rounding noise: the gradient is then the
 /// normalised central difference of the distance with a step of 1e-4 of the size.
 Dual surface_dual(const geom::Surface& s, const Dual& x, const Dual& y, const Dual& z);
+
+// ---- Sides from a ray's crossings (issue 17: one inside test per ray, not per candidate).
+//
+// The analytic root search (render/root_search.cpp) finds every crossing of a ray with each
+// surface leaf (Model::ray_surface_crossings) and then asks F's sign at one point of each gap
+// between candidates, through the sign-only code (hfrt_surface_sign_*: a winding number per
+// point and leaf, the most expensive query next to the surface). For a closed surface
+// (geom::SurfaceTopology::closed) the winding number is an integer off the surface, 0 outside
+// its bounds, and changes by exactly the facing (+1 entering, -1 leaving) at each crossing, so
+// along a ray w(t) = w(ref) + the facings of the crossings between ref and t. The reference is
+// where the ray leaves (or enters) the surface's bounds inside the searched segment (w = 0
+// there: no winding number at all), else the first point asked (one winding number per ray).
+// This holds for self-intersecting closed meshes too (w = 2 where two shells overlap).
+//
+// Per thread, the last ray's leaves are recorded; a sign query whose point lies on a recorded
+// leaf ray within its segment is answered from the crossings, any other point (another ray,
+// an open surface, a point off the line) by the winding number. The answer is a property of
+// the point alone, so a record can never be stale: it is only a faster way to the same side.
+
+/// Forgets the recorded rays of this thread.
+void ray_sides_clear();
+
+/// The crossings of `ray` with surface `s` (in the surface's own space) with tmin < t < tmax,
+/// sorted, into `out` (cleared first), and for a closed surface their record for the sign
+/// queries. The record's search runs on to where the ray leaves the surface's bounds (w = 0
+/// there), so that no query on this ray needs a winding number.
+void ray_sides_crossings(const geom::Surface& s, const geom::Ray& ray, float tmin, float tmax,
+                         std::vector<geom::Crossing>* out);
+
+/// How this thread's sign queries were answered (tests and statistics).
+struct RaySideCounts {
+  uint64_t from_crossings = 0;  ///< answered by the recorded crossings alone
+  uint64_t winding = 0;         ///< by a winding number (including one reference per ray)
+};
+RaySideCounts ray_sides_counts();
 
 }  // namespace hfrt::jit
 

@@ -166,5 +166,50 @@ TEST(Winding, OpenMeshHasAFractionalWindingNumber) {
   EXPECT_TRUE(cr.empty());
 }
 
+TEST(Topology, ClosedMeshesAreClosedAndHolesAreCounted) {
+  // The heightfield box and the armadillo are closed; the vertices are matched by coordinates,
+  // so the same box with every triangle's corners repeated (as STL stores them) is too.
+  EXPECT_TRUE(MeshSurface::build(testing::heightfield_box(6, 3))->topology().closed);
+  EXPECT_TRUE(testing::armadillo_surface().topology().closed);
+  const TriangleMesh box = testing::heightfield_box(4, 5);
+  std::vector<double> v, t;
+  for (size_t i = 0; i < box.triangles.size(); ++i)
+    for (int k = 0; k < 3; ++k) {
+      const Vec3 c = box.corner(i, k);
+      v.insert(v.end(), {c.x, c.y, c.z});
+      t.push_back(double(v.size() / 3));
+    }
+  const SurfaceTopology soup = MeshSurface::build(mesh_from_arrays(v, t).value())->topology();
+  EXPECT_TRUE(soup.closed);
+  EXPECT_EQ(soup.boundary_edges, 0u);
+  // Without its first two triangles (one top quad): a hole of four edges.
+  TriangleMesh holed = box;
+  holed.triangles.erase(holed.triangles.begin(), holed.triangles.begin() + 2);
+  const SurfaceTopology open = MeshSurface::build(holed)->topology();
+  EXPECT_FALSE(open.closed);
+  EXPECT_EQ(open.boundary_edges, 4u);
+  // One triangle turned over: its three edges meet partners going the same way.
+  TriangleMesh flipped = box;
+  std::swap(flipped.triangles[7][1], flipped.triangles[7][2]);
+  const SurfaceTopology inconsistent = MeshSurface::build(flipped)->topology();
+  EXPECT_FALSE(inconsistent.closed);
+  EXPECT_EQ(inconsistent.boundary_edges, 6u);  // its three and their three partners
+}
+
+TEST(Topology, ClosestPointCarriesTheFaceNormal) {
+  // Just outside the middle of each triangle, the closest point lies on that triangle and its
+  // normal is the triangle's own (outward, unit), on the walls and the bottom as on the top.
+  const TriangleMesh m = testing::heightfield_box(3, 1);
+  auto s = MeshSurface::build(m);
+  for (size_t i = 0; i < m.triangles.size(); ++i) {
+    const Vec3 a = m.corner(i, 0), b = m.corner(i, 1), c = m.corner(i, 2);
+    const Vec3 n = normalize(cross(b - a, c - a));
+    const ClosestPoint cp = s->closest_point((a + b + c) / 3.0f + n * 1e-3f);
+    ASSERT_NE(cp.prim, ~0u);
+    EXPECT_NEAR(dot(cp.normal, n), 1.0f, 1e-5f) << "triangle " << i;
+    EXPECT_NEAR(length(cp.normal), 1.0f, 1e-6f);
+  }
+}
+
 }  // namespace
 }  // namespace hfrt::geom

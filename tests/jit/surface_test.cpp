@@ -21,6 +21,7 @@
 #include "jit/lower.h"
 #include "jit/poly.h"
 #include "jit/pov_emit.h"
+#include "jit/surface_ops.h"
 #include "lang/frontend.h"
 
 namespace hfrt {
@@ -357,6 +358,77 @@ TEST(SurfaceLeaf, SignOnlyEvaluationHasTheSignOfF) {
   plain.model->eval_batch(n, xs.data(), f.data());
   plain.model->eval_batch_sign(n, xs.data(), s.data());
   EXPECT_EQ(f, s);
+}
+
+/// Two overlapping cubes in one file: closed, self-intersecting (w = 2 where they overlap).
+std::string two_cubes_off() {
+  TestMesh a = TestMesh::cube(1), b = TestMesh::cube(0.75);
+  for (P3& p : b.v) p[0] += 0.9, p[1] += 0.3;
+  for (auto f : b.t) a.t.push_back({f[0] + 8, f[1] + 8, f[2] + 8});
+  a.v.insert(a.v.end(), b.v.begin(), b.v.end());
+  return a.off();
+}
+
+TEST(SurfaceLeaf, CrossingsDecideTheSideOfClosedMeshesAlongARay) {
+  // The analytic search's sign queries at the gaps between a ray's candidates: on closed
+  // meshes they come from the ray's crossings (jit/surface_ops.h), and must equal F's sign as
+  // eval_batch (a winding number per point) gives it: on a non-convex mesh, on two
+  // overlapping shells in one file (w = 2), under a transform, and next to an open mesh that
+  // keeps its winding numbers.
+  write_file("rs_bumpy.off", TestMesh::bumpy().off());
+  write_file("rs_two.off", two_cubes_off());
+  TestMesh open = TestMesh::cube(0.5);
+  open.t.resize(10);  // without its last face: open
+  for (P3& p : open.v) p[2] += 1.2;
+  write_file("rs_open.off", open.off());
+  const std::string text =
+      "my_model(x[3], a[1]) {\n  array p[3];\n  p[1] = x[1]; p[2] = x[2]; p[3] = x[3];\n"
+      "  t1 = hfShift3D(p, 0, 0, -0.4);\n  t2 = hfRotate3DZ(p, 0.7);\n"
+      "  my_model = (hfMesh(x, \"rs_bumpy.off\") \\ hfMesh(p, \"rs_two.off\")) | "
+      "hfMesh(x, \"rs_open.off\");\n}\n";
+  CompileResult r = compile_in_temp("rs.hf", text);
+  ASSERT_TRUE(r.ok()) << r.rendered;
+  const Model& m = *r.model;
+  ASSERT_TRUE(m.analytic_info().qualifies) << m.analytic_info().reason;
+  std::mt19937 rng(21);
+  std::uniform_real_distribution<double> u(-1, 1);
+  int compared = 0, inside = 0;
+  const jit::RaySideCounts before = jit::ray_sides_counts();
+  for (int i = 0; i < 300; ++i) {
+    // From a point outside every bound towards a point near the origin.
+    P3 dir = {u(rng), u(rng), u(rng)};
+    const double len = norm(dir);
+    if (len < 0.1) continue;
+    const double o[3] = {-8 * dir[0] / len, -8 * dir[1] / len, -8 * dir[2] / len};
+    const double d[3] = {dir[0] / len + 0.3 * u(rng), dir[1] / len + 0.3 * u(rng),
+                         dir[2] / len + 0.3 * u(rng)};
+    std::vector<double> t;
+    m.ray_surface_crossings(o, d, 0, 20, &t);
+    std::sort(t.begin(), t.end());
+    std::vector<double> ts = {0.0};
+    for (size_t k = 0; k < t.size(); ++k)
+      ts.push_back(0.5 * (t[k] + (k + 1 < t.size() ? t[k + 1] : 20.0)));
+    const int n = int(ts.size());
+    std::vector<float> xs(3 * n), sign(n), ref(n);
+    for (int k = 0; k < n; ++k)
+      for (int c = 0; c < 3; ++c) xs[c * n + k] = float(o[c] + ts[k] * d[c]);
+    m.eval_batch_sign(n, xs.data(), sign.data());  // right after the crossings: the record
+    m.eval_batch(n, xs.data(), ref.data());        // distances and winding numbers
+    for (int k = 0; k < n; ++k) {
+      if (std::abs(ref[k]) < 1e-5f) continue;  // a gap narrower than rounding
+      EXPECT_EQ(sign[k] > 0, ref[k] > 0) << "ray " << i << " sample " << k << " of " << n;
+      ++compared;
+      inside += ref[k] > 0;
+    }
+  }
+  const jit::RaySideCounts after = jit::ray_sides_counts();
+  EXPECT_GT(compared, 600);
+  EXPECT_GT(inside, 30);
+  // Every closed-mesh query was answered by crossings (the rays start outside the bounds);
+  // the open mesh's were winding numbers, one per sample.
+  EXPECT_GE(after.from_crossings - before.from_crossings, uint64_t(2 * compared - 50));
+  EXPECT_GE(after.winding - before.winding, uint64_t(compared));
+  EXPECT_LE(after.winding - before.winding, uint64_t(compared + 100));
 }
 
 TEST(SurfaceLeaf, GradientOnTheSurfaceIsTheFaceNormal) {
