@@ -165,7 +165,7 @@ Vec3 PatchSurface::normal(uint32_t prim, double u, double v) const {
 template <typename Visit>
 void PatchSurface::solve_piece(const Ray& ray, const double plane[2][4], uint32_t patch_id,
                                double u0, double u1, double v0, double v1, const BezierPatch& sub,
-                               float delta, const Trim* trim, int depth, float tmin, float tmax,
+                               float delta, int depth, float tmin, float tmax,
                                Visit&& visit) const {
   const BezierPatch& patch = set_.patches[patch_id];
   const DVec3 o = to_d(ray.org), d = to_d(ray.dir);
@@ -228,13 +228,10 @@ void PatchSurface::solve_piece(const Ray& ray, const double plane[2][4], uint32_
                       u <= std::min(1.0, u1 + slack) && v >= std::max(0.0, v0 - slack) &&
                       v <= std::min(1.0, v1 + slack);
   if (inside) {
-    const double uc = std::clamp(u, 0.0, 1.0), vc = std::clamp(v, 0.0, 1.0);
-    // (u, v) are the patch's own parameters (the piece's are never used): a root in the
-    // trimmed-away region is not a hit, and this piece owns no other.
-    if (trim && !trim->contains(uc, vc)) return;
     const double dd = d.x * d.x + d.y * d.y + d.z * d.z;
     const double th = ((p.x - o.x) * d.x + (p.y - o.y) * d.y + (p.z - o.z) * d.z) / dd;
-    if (th > tmin && th < tmax) visit(RawHit{th, uc, vc, patch_id});
+    if (th > tmin && th < tmax)
+      visit(RawHit{th, std::clamp(u, 0.0, 1.0), std::clamp(v, 0.0, 1.0), patch_id});
     return;
   }
   // Converged to a root outside the piece: the piece that owns it reports it (a ray passing
@@ -253,7 +250,7 @@ void PatchSurface::solve_piece(const Ray& ray, const double plane[2][4], uint32_
       float tn;
       if (!slab_hit(wr, lo, hi, tmin, tmax, &tn)) continue;
       solve_piece(ray, plane, patch_id, cu[i], cu[i + 1], cv[j], cv[j + 1], child,
-                  piece_delta(child), trim, depth + 1, tmin, tmax, visit);
+                  piece_delta(child), depth + 1, tmin, tmax, visit);
     }
 }
 
@@ -282,9 +279,20 @@ void PatchSurface::trace(const Ray& ray, float tmin, float* tmax, Visit&& visit)
     if (!have_planes) make_planes();
     for (uint32_t k = n.index; k < n.index + n.count; ++k) {
       const Piece& pc = pieces_[k];
-      const Trim* trim = pc.trimmed ? set_.trim(pc.patch) : nullptr;
-      solve_piece(ray, plane, pc.patch, pc.u0, pc.u1, pc.v0, pc.v1, piece_cp_[k], pc.delta, trim, 0,
-                  tmin, *closest, visit);
+      if (!pc.trimmed) {
+        solve_piece(ray, plane, pc.patch, pc.u0, pc.u1, pc.v0, pc.v1, piece_cp_[k], pc.delta, 0,
+                    tmin, *closest, visit);
+        continue;
+      }
+      // A trim loop crosses the piece: a root counts only where the trim keeps it. RawHit's
+      // (u, v) are the patch's own parameters (the piece's are never used), and a piece owns
+      // at most one root, so a root trimmed away is not replaced by another. A separate
+      // instantiation, so that the untrimmed path stays as fast as before.
+      const Trim& trim = *set_.trim(pc.patch);
+      solve_piece(ray, plane, pc.patch, pc.u0, pc.u1, pc.v0, pc.v1, piece_cp_[k], pc.delta, 0, tmin,
+                  *closest, [&](const RawHit& h) {
+                    if (trim.contains(h.u, h.v)) visit(h);
+                  });
     }
   };
   if (nodes_.empty()) return;  // every patch trimmed away

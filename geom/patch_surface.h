@@ -91,8 +91,8 @@ class PatchSurface final : public Surface {
   // Newton on `patch` restricted to [u0,u1]x[v0,v1]; refines by splitting when it fails.
   template <typename Visit>
   void solve_piece(const Ray& ray, const double plane[2][4], uint32_t patch, double u0, double u1,
-                   double v0, double v1, const BezierPatch& sub, float delta, const Trim* trim,
-                   int depth, float tmin, float tmax, Visit&& visit) const;
+                   double v0, double v1, const BezierPatch& sub, float delta, int depth, float tmin,
+                   float tmax, Visit&& visit) const;
 
   PatchSet set_;
   std::vector<float> patch_size_;

@@ -6,6 +6,7 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <random>
@@ -379,6 +380,73 @@ TEST(TrimField, ClippedTessellationHasTheExactArea) {
     // A self-crossing bow tie: two triangles of area 0.09 (a signed area would cancel).
     const PatchSet bow = parse_ok(kFlatSquare + "trim 1 1\n4 0.2 0.2 0.8 0.8 0.8 0.2 0.2 0.8\n");
     EXPECT_NEAR(tessellated_area(bow, n), 0.18, 2e-6) << n;
+  }
+}
+
+// The even-odd area of loops by horizontal scanlines (independent of Trim): at each height the
+// sorted crossings with the edges pair up into kept intervals; midpoint rule over v.
+double scanline_area(const std::vector<std::vector<UV>>& loops, int lines) {
+  double area = 0;
+  std::vector<double> xs;
+  for (int k = 0; k < lines; ++k) {
+    const double v = (k + 0.5) / lines;
+    xs.clear();
+    for (const std::vector<UV>& loop : loops)
+      for (size_t i = 0; i < loop.size(); ++i) {
+        const UV a = loop[i], b = loop[(i + 1) % loop.size()];
+        if ((a.v > v) != (b.v > v)) xs.push_back(a.u + (v - a.v) * (b.u - a.u) / (b.v - a.v));
+      }
+    std::sort(xs.begin(), xs.end());
+    for (size_t i = 0; i + 1 < xs.size(); i += 2) area += (xs[i + 1] - xs[i]) / lines;
+  }
+  return area;
+}
+
+TEST(TrimField, ClipMatchesScanlinesOnRandomLoops) {
+  // Random loops of 3 to 12 points, 1 to 3 per patch: self-crossing, overlapping, touching
+  // the border. The clipped tessellation's area = the scanline area; its triangles are
+  // counter-clockwise and each lies in its grid cell.
+  std::mt19937 rng(17);
+  std::uniform_real_distribution<double> unit(0, 1);
+  for (int trial = 0; trial < 60; ++trial) {
+    std::vector<std::vector<UV>> loops(1 + rng() % 3);
+    for (std::vector<UV>& loop : loops) {
+      loop.resize(3 + rng() % 10);
+      for (UV& p : loop) p = {unit(rng), unit(rng)};
+      if (trial % 5 == 0) loop[0].u = 0;  // on the patch border
+    }
+    const Trim trim(loops);
+    const double expect = scanline_area(loops, 40000);
+    for (int n : {1, 5, 32}) {
+      double area = 0;
+      std::vector<std::array<UV, 3>> tris;
+      for (int j = 0; j < n; ++j)
+        for (int i = 0; i < n; ++i) {
+          const double u0 = double(i) / n, u1 = double(i + 1) / n, v0 = double(j) / n,
+                       v1 = double(j + 1) / n;
+          tris.clear();
+          switch (trim.classify(u0, u1, v0, v1)) {
+            case Trim::Cover::kKept:
+              area += (u1 - u0) * (v1 - v0);
+              break;
+            case Trim::Cover::kRemoved:
+              break;
+            case Trim::Cover::kPartial:
+              trim.clip(u0, u1, v0, v1, &tris);
+              break;
+          }
+          for (const std::array<UV, 3>& t : tris) {
+            const double a = 0.5 * ((t[1].u - t[0].u) * (t[2].v - t[0].v) -
+                                    (t[1].v - t[0].v) * (t[2].u - t[0].u));
+            EXPECT_GE(a, -1e-15);
+            area += a;
+            for (const UV& q : t) {
+              EXPECT_TRUE(q.u >= u0 && q.u <= u1 && q.v >= v0 && q.v <= v1);
+            }
+          }
+        }
+      EXPECT_NEAR(area, expect, 1e-5) << "trial " << trial << " n " << n;
+    }
   }
 }
 
