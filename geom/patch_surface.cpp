@@ -142,6 +142,7 @@ std::unique_ptr<PatchSurface> PatchSurface::build(const PatchSet& set, const Opt
                            s->wide_.memory_bytes() + s->pieces_.capacity() * sizeof(Piece) +
                            s->piece_cp_.capacity() * sizeof(BezierPatch) +
                            (s->field_ ? s->field_->memory_bytes() : 0);
+  for (const Trim& t : s->set_.trims) s->stats_.memory_bytes += sizeof(Trim) + t.memory_bytes();
   return s;
 }
 

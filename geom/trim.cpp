@@ -61,6 +61,13 @@ Trim::Trim(std::vector<std::vector<UV>> loops) : loops_(std::move(loops)) {
   }
 }
 
+size_t Trim::memory_bytes() const {
+  size_t bytes = loops_.capacity() * sizeof(std::vector<UV>) + edges_.capacity() * sizeof(Edge) +
+                 (band_start_.capacity() + band_edges_.capacity()) * sizeof(uint32_t);
+  for (const std::vector<UV>& loop : loops_) bytes += loop.capacity() * sizeof(UV);
+  return bytes;
+}
+
 bool Trim::contains(double u, double v) const {
   if (edges_.empty()) return true;
   const int b = std::clamp(static_cast<int>(std::floor(v * bands_)), 0, bands_ - 1);

@@ -37,6 +37,8 @@ class Trim {
   const std::vector<std::vector<UV>>& loops() const { return loops_; }
   /// The number of loop edges (all loops together).
   size_t num_edges() const { return edges_.size(); }
+  /// Heap bytes held (loops, edges, bands).
+  size_t memory_bytes() const;
 
   /// Whether (u, v) is kept: inside an odd number of loops (crossing-number test along +u;
   /// points on a loop edge go to one side or the other by the half-open rule).
