@@ -67,6 +67,9 @@ void curve_segment(int d, const Vec3* in, double t0, double t1, Vec3* out) {
   for (int i = 0; i <= d; ++i) out[i] = to_f(p[i]);
 }
 
+// How far outside [0, 1] a trim point may lie (then clamped): rounding in exporters.
+constexpr double kTrimTolerance = 1e-6;
+
 struct Token {
   std::string text;
   size_t line;
@@ -204,9 +207,59 @@ Result<PatchSet> parse_bpt(const std::string& text, const std::string& name) {
     }
     set.patches.push_back(patch);
   }
-  if (pos < toks.size())
-    return at(toks[pos].line, "unexpected '" + toks[pos].text + "' after the " +
-                                  std::to_string(count) + " patches");
+  // Trim records: `trim P L`, then L loops of `n` and n (u, v) points.
+  std::vector<std::vector<std::vector<UV>>> loops;
+  while (pos < toks.size()) {
+    if (toks[pos].text != "trim")
+      return at(toks[pos].line, "unexpected '" + toks[pos].text + "' after the " +
+                                    std::to_string(count) + " patches");
+    ++pos;
+    long patch = 0, nloops = 0;
+    if (auto e = next_int("the patch index of a trim record", &patch)) return *e;
+    if (patch < 1 || patch > count)
+      return at(toks[pos - 1].line, "trim patch index " + std::to_string(patch) +
+                                        " out of range 1.." + std::to_string(count));
+    const std::string which = "the trim record of patch " + std::to_string(patch);
+    if (auto e = next_int(("the number of loops of " + which).c_str(), &nloops)) return *e;
+    if (nloops < 1)
+      return at(toks[pos - 1].line,
+                which + ": the number of loops must be positive, found " + std::to_string(nloops));
+    if (loops.empty()) loops.resize(count);
+    for (long l = 0; l < nloops; ++l) {
+      const std::string loop = "loop " + std::to_string(l + 1) + " of " + which;
+      long n = 0;
+      if (auto e = next_int(("the number of points of " + loop).c_str(), &n)) return *e;
+      if (n < 3)
+        return at(toks[pos - 1].line,
+                  loop + " has " + std::to_string(n) + " points, at least 3 are needed");
+      std::vector<UV> pts;
+      for (long k = 0; k < n; ++k) {
+        double c[2];
+        for (int a = 0; a < 2; ++a) {
+          if (pos >= toks.size())
+            return at(last_line(), "file ends inside " + loop + " (point " + std::to_string(k + 1) +
+                                       " of " + std::to_string(n) + ")");
+          const Token& t = toks[pos++];
+          char* end = nullptr;
+          const double v = std::strtod(t.text.c_str(), &end);
+          if (end == t.text.c_str() || *end != '\0')
+            return at(t.line, "malformed trim coordinate '" + t.text + "' in " + loop);
+          if (!std::isfinite(v))
+            return at(t.line, "non-finite trim coordinate '" + t.text + "' in " + loop);
+          if (v < -kTrimTolerance || v > 1 + kTrimTolerance)
+            return at(t.line, "trim coordinate " + t.text + " in " + loop +
+                                  " is outside the parameter range [0, 1]");
+          c[a] = std::clamp(v, 0.0, 1.0);
+        }
+        pts.push_back({c[0], c[1]});
+      }
+      // A polyline closed explicitly (last point = first) is the same loop.
+      if (pts.back().u == pts.front().u && pts.back().v == pts.front().v) pts.pop_back();
+      loops[patch - 1].push_back(std::move(pts));
+    }
+  }
+  if (!loops.empty())
+    for (std::vector<std::vector<UV>>& l : loops) set.trims.emplace_back(std::move(l));
   return set;
 }
 
@@ -244,7 +297,10 @@ TriangleMesh tessellate(const PatchSet& set, int n, float* max_error) {
   mesh.source =
       set.source + " (tessellated " + std::to_string(n) + "x" + std::to_string(n) + " per patch)";
   float err = 0;
-  for (const BezierPatch& patch : set.patches) {
+  std::vector<std::array<UV, 3>> clipped;
+  for (size_t p = 0; p < set.patches.size(); ++p) {
+    const BezierPatch& patch = set.patches[p];
+    const Trim* trim = set.trim(p);
     const uint32_t base = static_cast<uint32_t>(mesh.vertices.size());
     for (int j = 0; j <= n; ++j)
       for (int i = 0; i <= n; ++i)
@@ -252,6 +308,37 @@ TriangleMesh tessellate(const PatchSet& set, int n, float* max_error) {
     auto idx = [&](int i, int j) { return base + static_cast<uint32_t>(j * (n + 1) + i); };
     for (int j = 0; j < n; ++j)
       for (int i = 0; i < n; ++i) {
+        const Trim::Cover cover = trim ? trim->classify(double(i) / n, double(i + 1) / n,
+                                                        double(j) / n, double(j + 1) / n)
+                                       : Trim::Cover::kKept;
+        if (cover == Trim::Cover::kRemoved) continue;
+        if (cover == Trim::Cover::kPartial) {
+          // The kept part of the quad, exactly in (u, v); its own vertices (a T-junction
+          // with the neighbouring quads is harmless to distances and winding numbers).
+          clipped.clear();
+          trim->clip(double(i) / n, double(i + 1) / n, double(j) / n, double(j + 1) / n, &clipped);
+          for (const std::array<UV, 3>& tri : clipped) {
+            const uint32_t first = static_cast<uint32_t>(mesh.vertices.size());
+            Vec3 q[3];
+            for (int k = 0; k < 3; ++k) {
+              q[k] = to_f(patch.eval(tri[k].u, tri[k].v));
+              mesh.vertices.push_back(q[k]);
+            }
+            mesh.triangles.push_back({first, first + 1, first + 2});
+            if (max_error) {
+              // Edge midpoints and the centroid against the flat triangle.
+              for (int k = 0; k < 3; ++k) {
+                const UV a = tri[k], b = tri[(k + 1) % 3];
+                const Vec3 m = to_f(patch.eval(0.5 * (a.u + b.u), 0.5 * (a.v + b.v)));
+                err = std::max(err, length(m - (q[k] + q[(k + 1) % 3]) * 0.5f));
+              }
+              const Vec3 c = to_f(patch.eval((tri[0].u + tri[1].u + tri[2].u) / 3,
+                                             (tri[0].v + tri[1].v + tri[2].v) / 3));
+              err = std::max(err, length(c - (q[0] + q[1] + q[2]) * (1.0f / 3)));
+            }
+          }
+          continue;
+        }
         mesh.triangles.push_back({idx(i, j), idx(i + 1, j), idx(i + 1, j + 1)});
         mesh.triangles.push_back({idx(i, j), idx(i + 1, j + 1), idx(i, j + 1)});
         if (max_error) {
@@ -263,6 +350,14 @@ TriangleMesh tessellate(const PatchSet& set, int n, float* max_error) {
           const Vec3 g = to_f(patch.eval(double(i) / n, (j + 0.5) / n));
           const Vec3 h = (mesh.vertices[idx(i, j)] + mesh.vertices[idx(i, j + 1)]) * 0.5f;
           err = std::max({err, length(c - d), length(e - f), length(g - h)});
+          if (trim) {
+            // The top and right edges too: the neighbour that samples them may be trimmed.
+            const Vec3 k = to_f(patch.eval((i + 0.5) / n, double(j + 1) / n));
+            const Vec3 l = (mesh.vertices[idx(i, j + 1)] + mesh.vertices[idx(i + 1, j + 1)]) * 0.5f;
+            const Vec3 m = to_f(patch.eval(double(i + 1) / n, (j + 0.5) / n));
+            const Vec3 q = (mesh.vertices[idx(i + 1, j)] + mesh.vertices[idx(i + 1, j + 1)]) * 0.5f;
+            err = std::max({err, length(k - l), length(m - q)});
+          }
         }
       }
   }

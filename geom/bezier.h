@@ -8,6 +8,12 @@
 // point (i, j) -- i along u, j along v -- is the (j*(du+1) + i)-th of the patch. Whitespace and
 // line breaks are free; '#' starts a comment. The Utah teapot (32 bicubic patches) is
 // /work/shared/corpus/bezier/teapot.bpt.
+//
+// Trimmed patches (an extension; files without it read as before): after the last patch, any
+// number of records `trim P L`, P a 1-based patch index and L >= 1 loops, each loop `n` (>= 3)
+// then n points `u v` of a closed polyline in patch P's parameter square (geom/trim.h: the
+// kept region is what lies inside an odd number of the patch's loops). Several records for
+// one patch add their loops together; a patch with none is untrimmed.
 
 #include <array>
 #include <span>
@@ -17,6 +23,7 @@
 #include "base/limits.h"
 #include "base/result.h"
 #include "geom/mesh.h"
+#include "geom/trim.h"
 #include "geom/vec.h"
 
 namespace hfrt::geom {
@@ -55,17 +62,26 @@ struct BezierPatch {
   float flatness() const;
 };
 
-/// A set of patches and where they came from.
+/// A set of patches, their trimming regions and where they came from.
 struct PatchSet {
   std::vector<BezierPatch> patches;
+  /// Empty (no patch is trimmed) or one per patch (an empty Trim: that patch is untrimmed).
+  std::vector<Trim> trims;
   std::string source;
+
+  /// The trim of patch p, or null when it is untrimmed.
+  const Trim* trim(size_t p) const {
+    return p < trims.size() && !trims[p].empty() ? &trims[p] : nullptr;
+  }
 
   Box bounds() const;
 };
 
 /// Parses BPT text; `name` is used in messages ("teapot.bpt:17: ..."). Errors: malformed
-/// numbers, degrees outside 1..3, non-finite coordinates, a truncated file, trailing data,
-/// zero patches.
+/// numbers, degrees outside 1..3, non-finite coordinates, a truncated file, trailing data
+/// (anything after the patches that is not a trim record), zero patches; in trim records, a
+/// patch index out of range, no loops, a loop of fewer than 3 points, a point outside [0,1]^2
+/// by more than 1e-6 (points within it are clamped).
 Result<PatchSet> parse_bpt(const std::string& text, const std::string& name);
 
 /// Reads a BPT file (missing or unreadable files are errors naming the path). Like load_mesh,
@@ -80,9 +96,11 @@ Result<PatchSet> patches_from_array(std::span<const double> p,
 
 /// An n x n grid of quads (2 triangles each) per patch, vertices shared within a patch.
 /// Degenerate triangles (at collapsed patch edges such as the teapot lid's pole) are dropped
-/// and counted by finish_mesh(). `max_error`, when not null, receives an estimate of the
-/// largest distance between the patches and the triangles (sampled at quad centres and edge
-/// midpoints).
+/// and counted by finish_mesh(). A trimmed patch keeps the quads inside its region, drops those
+/// outside, and replaces those its loops cross by the exact kept part (Trim::clip, mapped
+/// through the patch). `max_error`, when not null, receives an estimate of the largest
+/// distance between the (trimmed) patches and the triangles (sampled at quad centres and edge
+/// midpoints; for clipped triangles, at their edge midpoints and centroids).
 TriangleMesh tessellate(const PatchSet& set, int n, float* max_error = nullptr);
 
 }  // namespace hfrt::geom

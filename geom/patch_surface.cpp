@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <chrono>
+#include <limits>
 
 #include "base/check.h"
 #include "geom/triangle.h"
@@ -96,42 +97,52 @@ std::unique_ptr<PatchSurface> PatchSurface::build(const PatchSet& set, const Opt
         todo.push_back({um, t.u1, vm, t.v1, t.depth + 1});
         continue;
       }
-      pieces.push_back({p, t.u0, t.u1, t.v0, t.v1, piece_delta(sub)});
+      const Trim* trim = set.trim(p);
+      const Trim::Cover cover = trim ? trim->classify(t.u0, t.u1, t.v0, t.v1) : Trim::Cover::kKept;
+      if (cover == Trim::Cover::kRemoved) continue;  // never hit: not in the BVH
+      pieces.push_back(
+          {p, t.u0, t.u1, t.v0, t.v1, piece_delta(sub), cover == Trim::Cover::kPartial});
       piece_cp.push_back(sub);
     }
   }
-  std::vector<Box> boxes(pieces.size());
-  for (size_t i = 0; i < pieces.size(); ++i) boxes[i] = piece_cp[i].control_bounds();
-  Bvh bvh = build_bvh(boxes, BvhBuildOptions{.max_leaf_size = 2});
-  s->nodes_ = std::move(bvh.nodes);
-  s->wide_ = WideBvh::collapse(s->nodes_);
-  s->pieces_.resize(pieces.size());
-  s->piece_cp_.resize(pieces.size());
-  for (size_t i = 0; i < pieces.size(); ++i) {
-    s->pieces_[i] = pieces[bvh.prim_order[i]];
-    s->piece_cp_[i] = piece_cp[bvh.prim_order[i]];
+  int bvh_depth = 0;
+  if (!pieces.empty()) {
+    std::vector<Box> boxes(pieces.size());
+    for (size_t i = 0; i < pieces.size(); ++i) boxes[i] = piece_cp[i].control_bounds();
+    Bvh bvh = build_bvh(boxes, BvhBuildOptions{.max_leaf_size = 2});
+    s->nodes_ = std::move(bvh.nodes);
+    s->wide_ = WideBvh::collapse(s->nodes_);
+    bvh_depth = bvh.depth;
+    s->pieces_.resize(pieces.size());
+    s->piece_cp_.resize(pieces.size());
+    for (size_t i = 0; i < pieces.size(); ++i) {
+      s->pieces_[i] = pieces[bvh.prim_order[i]];
+      s->piece_cp_[i] = piece_cp[bvh.prim_order[i]];
+    }
   }
 
-  // The field goes through a tessellation.
+  // The field goes through a tessellation (clipped to the trims). Nothing left of it (every
+  // patch trimmed away or degenerate): an empty surface.
   float err = 0;
   TriangleMesh mesh = tessellate(set, options.field_tessellation, &err);
+  const size_t all_triangles = mesh.triangles.size();
   Result<TriangleMesh> clean = finish_mesh(std::move(mesh));
-  HFRT_CHECK_MSG(clean.ok(), "tessellating patches: " << clean.error().message);
-  s->field_ = MeshSurface::build(*clean);
+  if (clean.ok()) s->field_ = MeshSurface::build(*clean);
   s->field_error_ = err;
   const auto end = std::chrono::steady_clock::now();
 
   s->stats_.source = set.source;
   s->stats_.patches = set.patches.size();
-  s->stats_.triangles = s->field_->num_triangles();
-  s->stats_.degenerate_skipped = clean->degenerate_skipped;
-  s->stats_.bvh_nodes = s->nodes_.size() + s->field_->nodes().size();
-  s->stats_.bvh_depth = bvh.depth;
+  s->stats_.triangles = s->field_ ? s->field_->num_triangles() : 0;
+  s->stats_.degenerate_skipped = clean.ok() ? clean->degenerate_skipped : all_triangles;
+  s->stats_.bvh_nodes = s->nodes_.size() + (s->field_ ? s->field_->nodes().size() : 0);
+  s->stats_.bvh_depth = bvh_depth;
   s->stats_.build_seconds = std::chrono::duration<double>(end - start).count();
   s->stats_.memory_bytes = sizeof(*s) + s->nodes_.capacity() * sizeof(BvhNode) +
                            s->wide_.memory_bytes() + s->pieces_.capacity() * sizeof(Piece) +
                            s->piece_cp_.capacity() * sizeof(BezierPatch) +
-                           s->field_->memory_bytes();
+                           (s->field_ ? s->field_->memory_bytes() : 0);
+  for (const Trim& t : s->set_.trims) s->stats_.memory_bytes += sizeof(Trim) + t.memory_bytes();
   return s;
 }
 
@@ -269,10 +280,23 @@ void PatchSurface::trace(const Ray& ray, float tmin, float* tmax, Visit&& visit)
     if (!have_planes) make_planes();
     for (uint32_t k = n.index; k < n.index + n.count; ++k) {
       const Piece& pc = pieces_[k];
+      if (!pc.trimmed) {
+        solve_piece(ray, plane, pc.patch, pc.u0, pc.u1, pc.v0, pc.v1, piece_cp_[k], pc.delta, 0,
+                    tmin, *closest, visit);
+        continue;
+      }
+      // A trim loop crosses the piece: a root counts only where the trim keeps it. RawHit's
+      // (u, v) are the patch's own parameters (the piece's are never used), and a piece owns
+      // at most one root, so a root trimmed away is not replaced by another. A separate
+      // instantiation, so that the untrimmed path stays as fast as before.
+      const Trim& trim = *set_.trim(pc.patch);
       solve_piece(ray, plane, pc.patch, pc.u0, pc.u1, pc.v0, pc.v1, piece_cp_[k], pc.delta, 0, tmin,
-                  *closest, visit);
+                  *closest, [&](const RawHit& h) {
+                    if (trim.contains(h.u, h.v)) visit(h);
+                  });
     }
   };
+  if (nodes_.empty()) return;  // every patch trimmed away
   if (!wide_.empty()) {
     wide_.traverse(nodes_, r, tmin, tmax, leaf);
     return;
@@ -332,7 +356,16 @@ void PatchSurface::crossings(const Ray& ray, float tmin, float tmax,
   }
 }
 
+float PatchSurface::signed_distance(Vec3 p, Vec3* gradient) const {
+  if (!field_) {
+    if (gradient) *gradient = {0, 0, 0};
+    return -std::numeric_limits<float>::max();
+  }
+  return field_->signed_distance(p, gradient);
+}
+
 DistanceBounds PatchSurface::signed_distance_bounds(const Box& box) const {
+  if (!field_) return {-std::numeric_limits<float>::max(), -std::numeric_limits<float>::max()};
   DistanceBounds b = field_->signed_distance_bounds(box);
   // The field is the tessellation's: widen by its distance to the true patches.
   return {b.lo - field_error_, b.hi + field_error_};

@@ -19,6 +19,13 @@
 // Field (distance, winding number, bounds): approximated through a fine tessellation
 // (`field_tessellation` quads per patch side, MeshSurface), whose error is stats'd as
 // field_error(); the ray queries never use it.
+// Trimmed patches (PatchSet::trims): each piece is classified against its patch's trim once,
+// at build time; pieces wholly outside the kept region are left out of the BVH, pieces wholly
+// inside it behave as untrimmed, and only the pieces that a trim loop crosses test a root's
+// (u, v) -- in the original patch's parameters -- with Trim::contains. The field tessellation
+// is clipped to the kept region. When nothing is left (every patch trimmed away, or only
+// degenerate triangles), the surface is empty: no hits, winding number 0, and a field of
+// -FLT_MAX (outside, infinitely far).
 
 #include <memory>
 
@@ -43,10 +50,8 @@ class PatchSurface final : public Surface {
   Box bounds() const override { return bounds_; }
   bool intersect(const Ray& ray, float tmin, float tmax, SurfaceHit* hit) const override;
   void crossings(const Ray& ray, float tmin, float tmax, std::vector<Crossing>* out) const override;
-  double winding_number(Vec3 p) const override { return field_->winding_number(p); }
-  float signed_distance(Vec3 p, Vec3* gradient = nullptr) const override {
-    return field_->signed_distance(p, gradient);
-  }
+  double winding_number(Vec3 p) const override { return field_ ? field_->winding_number(p) : 0.0; }
+  float signed_distance(Vec3 p, Vec3* gradient = nullptr) const override;
   DistanceBounds signed_distance_bounds(const Box& box) const override;
   /// The field tessellation's closest point (within field_error() of the patches').
   ClosestPoint closest_point(
@@ -63,6 +68,9 @@ class PatchSurface final : public Surface {
   size_t num_pieces() const { return pieces_.size(); }
   /// Largest measured distance between the field tessellation and the patches.
   float field_error() const { return field_error_; }
+  /// False when nothing of the patches is left (all trimmed away or degenerate).
+  bool has_field() const { return field_ != nullptr; }
+  /// The field tessellation (only when has_field()).
   const MeshSurface& field_mesh() const { return *field_; }
 
   /// The unit normal of patch `prim` at (u, v) (from Pu x Pv; near a collapsed edge, from a
@@ -78,6 +86,8 @@ class PatchSurface final : public Surface {
     /// How far the piece may be from the two triangles of its corner quad: its control points'
     /// distance from the bilinear patch plus the bilinear patch's distance from the triangles.
     float delta;
+    /// A trim loop crosses the piece: its roots are tested with Trim::contains.
+    bool trimmed;
   };
   struct RawHit {
     double t, u, v;
