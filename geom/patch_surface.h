@@ -53,10 +53,11 @@ class PatchSurface final : public Surface {
   double winding_number(Vec3 p) const override { return field_ ? field_->winding_number(p) : 0.0; }
   float signed_distance(Vec3 p, Vec3* gradient = nullptr) const override;
   DistanceBounds signed_distance_bounds(const Box& box) const override;
-  /// The field tessellation's closest point (within field_error() of the patches').
+  /// The field tessellation's closest point (within field_error() of the patches'); none
+  /// (prim ~0u) without a field.
   ClosestPoint closest_point(
       Vec3 p, float max_distance = std::numeric_limits<float>::infinity()) const override {
-    return field_->closest_point(p, max_distance);
+    return field_ ? field_->closest_point(p, max_distance) : ClosestPoint{};
   }
   /// Never closed: Newton's roots on two patches that share a seam are not watertight (a ray
   /// through the seam may be found on both or neither), so crossings cannot replace the

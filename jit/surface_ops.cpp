@@ -67,6 +67,11 @@ Dual surface_dual(const geom::Surface& s, const Dual& x, const Dual& y, const Du
   }
   geom::Vec3 p(static_cast<float>(x.v), static_cast<float>(y.v), static_cast<float>(z.v));
   const geom::ClosestPoint c = s.closest_point(p);
+  if (c.prim == ~0u) {
+    // Nothing to be close to (patches all trimmed away): the field's own value, constant.
+    r.v = static_cast<double>(s.signed_distance(p));
+    return r;
+  }
   const float size = ::hfrt::length(s.bounds().diagonal());
   geom::Vec3 g;
   bool inside;
