@@ -330,6 +330,19 @@ std::string describe_domain_engines(const Model& model) {
          one("gradient f32", model.gradient_engine(Precision::kF32), st.gradient_f32);
 }
 
+std::vector<std::string> open_surface_warnings(const Model& model, const std::string& file) {
+  std::vector<std::string> out;
+  for (const OpenSurfaceLeaf& o : model.open_surface_leaves()) {
+    std::string where = file;
+    if (o.line > 0) where += ":" + std::to_string(o.line) + ":" + std::to_string(o.col);
+    out.push_back(where + ": warning: the mesh '" + o.source + "' is not closed (" +
+                  std::to_string(o.boundary_edges) +
+                  " boundary edges): inside and outside come from a winding number at every ray "
+                  "candidate (slower than from the ray's crossings)");
+  }
+  return out;
+}
+
 std::string describe_surfaces(const Model& model) {
   const std::vector<SurfaceStats> surfaces = model.surface_stats();
   if (surfaces.empty()) return "";
@@ -337,12 +350,16 @@ std::string describe_surfaces(const Model& model) {
   int leaves = 0, shared = 0;
   for (const SurfaceStats& s : surfaces) {
     char buf[512];
-    std::snprintf(buf, sizeof buf,
-                  "  surface %s: %zu triangles%s, %zu patches, %zu degenerate skipped, %zu BVH "
-                  "nodes (depth %d), built in %.1f ms, %.1f MiB, used by %d leaf%s\n",
-                  s.source.c_str(), s.triangles, s.patches > 0 ? " (field tessellation)" : "",
-                  s.patches, s.degenerate_skipped, s.bvh_nodes, s.bvh_depth, s.build_seconds * 1e3,
-                  double(s.memory_bytes) / (1 << 20), s.leaves, s.leaves == 1 ? "" : "s");
+    std::snprintf(
+        buf, sizeof buf,
+        "  surface %s: %zu triangles%s, %zu patches, %zu degenerate skipped, %zu BVH "
+        "nodes (depth %d), built in %.1f ms, %.1f MiB, used by %d leaf%s%s\n",
+        s.source.c_str(), s.triangles, s.patches > 0 ? " (field tessellation)" : "", s.patches,
+        s.degenerate_skipped, s.bvh_nodes, s.bvh_depth, s.build_seconds * 1e3,
+        double(s.memory_bytes) / (1 << 20), s.leaves, s.leaves == 1 ? "" : "s",
+        s.patches > 0 ? ""
+        : s.closed    ? ", closed"
+                   : (", open: " + std::to_string(s.boundary_edges) + " boundary edges").c_str());
     out += buf;
     leaves += s.leaves;
     if (s.leaves > 1) shared += s.leaves - 1;

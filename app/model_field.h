@@ -132,6 +132,13 @@ PreparedCode prepare_render_code(const Model& model, bool interval = true, bool 
 /// times, e.g. "interval JIT (4 lanes, 85.2 ms), gradient f32 JIT (8 lanes, 40.1 ms)".
 std::string describe_domain_engines(const Model& model);
 
+/// For a render with the analytic root search: one warning per mesh leaf whose mesh is not
+/// closed (Model::open_surface_leaves), located at the leaf's call, e.g.
+/// "m.hf:4:9: warning: the mesh 'cup.off' is not closed (12 boundary edges): inside and
+/// outside come from a winding number at every ray candidate (slower than from the ray's
+/// crossings)".
+std::vector<std::string> open_surface_warnings(const Model& model, const std::string& file);
+
 /// The mesh and patch surfaces of the model for --stats, one line each (triangles, patches,
 /// BVH nodes, build time, memory, leaves sharing it) and a total; "" without surfaces.
 std::string describe_surfaces(const Model& model);

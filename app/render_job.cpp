@@ -192,8 +192,12 @@ RenderJobResult run_render_job(const RenderJob& job, render::RenderResult* out) 
                       field.has_ray_candidates(), opt.root,
                       opt.tile_culling,           r.report.root.why};
   // The analytic search samples only F's sign: mesh and patch leaves then cost a winding
-  // number instead of a distance query.
+  // number instead of a distance query, closed meshes not even that.
   model_field.prepare_render(opt.root);
+  if (opt.root == render::RootMode::kAnalytic) {
+    for (std::string& w : open_surface_warnings(model, job.file))
+      r.warnings.push_back(std::move(w));
+  }
   if (job.on_coarse && opt.width >= 64 && opt.height >= 8) {
     render::RenderOptions coarse = opt;
     coarse.width = std::max(1, opt.width / 8);

@@ -336,7 +336,11 @@ std::unique_ptr<PreparedScene> PreparedScene::prepare(const scene::SceneDesc& sc
     }
     const bool analytic = root == render::RootMode::kAnalytic ||
                           (root == render::RootMode::kAuto && cm.used->has_ray_candidates());
-    if (analytic) cm.field->prepare_render(render::RootMode::kAnalytic);
+    if (analytic) {
+      cm.field->prepare_render(render::RootMode::kAnalytic);
+      for (std::string& w : open_surface_warnings(*cm.model, cm.file))
+        res->warnings.push_back(std::move(w));
+    }
   }
   res->prepare_ms = ms_since(t_prepare);
 

@@ -5,6 +5,7 @@
 #include <cerrno>
 #include <cmath>
 #include <cstdlib>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <optional>
@@ -63,63 +64,114 @@ std::optional<long long> parse_int(const std::string& tok) {
   return v;
 }
 
-// Line-located checks of a text OFF file (Assimp reports malformed numbers without a line and
-// accepts out-of-range indices). Returns an error or nothing.
-std::optional<Error> precheck_off(const std::string& path, const std::string& text) {
-  std::istringstream in(text);
-  std::string line;
-  size_t lineno = 0;
+// A text OFF file, read here rather than by Assimp (which reports malformed numbers without a
+// line, accepts out-of-range indices, and took 0.12 s for the 52000-triangle armadillo against
+// ~10 ms here): every error is located. The lines are scanned in place, numbers parsed with
+// strtod/strtoll where they stand (a token ends at whitespace or '#'). Polygons become fans
+// (v0, vk, vk+1), as Assimp's triangulation of a convex polygon; faces of one or two vertices
+// (points and lines) are dropped, as the Assimp path drops them. COFF/NOFF/... headers and
+// extra columns (colours, normals) are accepted and ignored.
+Result<TriangleMesh> read_off(const std::string& path, const std::string& text,
+                              const Limits& limits) {
+  TriangleMesh mesh;
+  mesh.source = path;
   enum { kHeader, kCounts, kVertices, kFaces, kDone } state = kHeader;
   long long nv = 0, nf = 0, seen_v = 0, seen_f = 0;
-  while (std::getline(in, line)) {
+  const uint64_t max = static_cast<uint64_t>(limits.max_mesh_triangles);
+  uint64_t triangles = 0;
+  const char* p = text.c_str();
+  const char* const end = p + text.size();
+  size_t lineno = 0;
+  std::vector<const char*> tok;  // token starts of the current line
+  std::vector<size_t> tok_len;
+  auto token = [&](size_t k) { return std::string(tok[k], tok_len[k]); };
+  while (p < end && state != kDone) {
     ++lineno;
-    std::vector<std::string> tok = tokens_of(line);
+    const char* eol = static_cast<const char*>(std::memchr(p, '\n', size_t(end - p)));
+    if (!eol) eol = end;
+    const char* hash = static_cast<const char*>(std::memchr(p, '#', size_t(eol - p)));
+    const char* stop = hash ? hash : eol;
+    tok.clear();
+    tok_len.clear();
+    for (const char* q = p; q < stop;) {
+      while (q < stop && std::isspace(static_cast<unsigned char>(*q))) ++q;
+      if (q == stop) break;
+      const char* t = q;
+      while (q < stop && !std::isspace(static_cast<unsigned char>(*q))) ++q;
+      tok.push_back(t);
+      tok_len.push_back(size_t(q - t));
+    }
+    const std::string_view line(p, size_t(eol - p));
+    p = eol + 1;
     if (tok.empty()) continue;
+    size_t first = 0;
     if (state == kHeader) {
-      const std::string& h = tok[0];
+      const std::string h = token(0);
       if (h.size() < 3 || h.substr(h.size() - 3) != "OFF")
         return located(path, lineno, "expected the OFF header, found '" + h + "'");
       state = kCounts;
-      tok.erase(tok.begin());
-      if (tok.empty()) continue;
+      if (tok.size() == 1) continue;
+      first = 1;
     }
     if (state == kCounts) {
-      if (tok.size() < 2) return located(path, lineno, "expected '#vertices #faces #edges'");
-      auto a = parse_int(tok[0]), b = parse_int(tok[1]);
+      if (tok.size() - first < 2)
+        return located(path, lineno, "expected '#vertices #faces #edges'");
+      auto a = parse_int(token(first)), b = parse_int(token(first + 1));
       if (!a || !b || *a < 0 || *b < 0)
-        return located(path, lineno, "malformed vertex/face counts '" + line + "'");
+        return located(path, lineno, "malformed vertex/face counts '" + std::string(line) + "'");
       nv = *a;
       nf = *b;
       if (nf == 0) return located(path, lineno, "empty mesh (the header declares no faces)");
-      state = nv > 0 ? kVertices : (nf > 0 ? kFaces : kDone);
+      // Reserve no more than the file can hold (a header may lie).
+      mesh.vertices.reserve(size_t(std::min<long long>(nv, (long long)text.size() / 6)));
+      mesh.triangles.reserve(size_t(std::min<long long>(nf, (long long)text.size() / 8)));
+      state = nv > 0 ? kVertices : kFaces;
       continue;
     }
     if (state == kVertices) {
       if (tok.size() < 3) return located(path, lineno, "a vertex needs 3 coordinates");
+      Vec3 v;
       for (int k = 0; k < 3; ++k) {
-        auto v = parse_real(tok[k]);
-        if (!v) return located(path, lineno, "malformed coordinate '" + tok[k] + "'");
-        if (!std::isfinite(*v) || !std::isfinite(static_cast<float>(*v)))
-          return located(path, lineno, "non-finite coordinate '" + tok[k] + "'");
+        char* e = nullptr;
+        const double x = std::strtod(tok[k], &e);
+        if (e != tok[k] + tok_len[k])
+          return located(path, lineno, "malformed coordinate '" + token(k) + "'");
+        if (!std::isfinite(x) || !std::isfinite(static_cast<float>(x)))
+          return located(path, lineno, "non-finite coordinate '" + token(k) + "'");
+        v[k] = static_cast<float>(x);
       }
-      if (++seen_v == nv) state = nf > 0 ? kFaces : kDone;
+      mesh.vertices.push_back(v);
+      if (++seen_v == nv) state = kFaces;
       continue;
     }
-    if (state == kFaces) {
-      auto n = parse_int(tok[0]);
-      if (!n || *n < 1) return located(path, lineno, "malformed face size '" + tok[0] + "'");
-      if (*n > static_cast<long long>(tok.size()) - 1)
-        return located(path, lineno, "a face of " + tok[0] + " vertices lists fewer indices");
-      for (long long k = 1; k <= *n; ++k) {
-        auto idx = parse_int(tok[k]);
-        if (!idx) return located(path, lineno, "malformed vertex index '" + tok[k] + "'");
-        if (*idx < 0 || *idx >= nv)
-          return located(path, lineno,
-                         "vertex index " + tok[k] + " out of range 0.." + std::to_string(nv - 1));
+    // kFaces
+    auto n = parse_int(token(0));
+    if (!n || *n < 1) return located(path, lineno, "malformed face size '" + token(0) + "'");
+    if (*n > static_cast<long long>(tok.size()) - 1)
+      return located(path, lineno, "a face of " + token(0) + " vertices lists fewer indices");
+    uint32_t idx[3] = {0, 0, 0};
+    for (long long k = 1; k <= *n; ++k) {
+      char* e = nullptr;
+      errno = 0;
+      const long long i = std::strtoll(tok[k], &e, 10);
+      if (e != tok[k] + tok_len[k] || errno == ERANGE)
+        return located(path, lineno, "malformed vertex index '" + token(k) + "'");
+      if (i < 0 || i >= nv)
+        return located(path, lineno,
+                       "vertex index " + token(k) + " out of range 0.." + std::to_string(nv - 1));
+      // A fan: (v0, v[k-1], v[k]) for k >= 3.
+      if (k == 1) {
+        idx[0] = uint32_t(i);
+      } else if (k == 2) {
+        idx[2] = uint32_t(i);
+      } else {
+        idx[1] = idx[2];
+        idx[2] = uint32_t(i);
+        // Over the limit, the rest is only counted (for the message), not kept.
+        if (++triangles <= max) mesh.triangles.push_back({idx[0], idx[1], idx[2]});
       }
-      if (++seen_f == nf) state = kDone;
-      continue;
     }
+    if (++seen_f == nf) state = kDone;
   }
   if (state == kHeader) return Error{path + ": empty file (no OFF header)"};
   if (state == kCounts) return located(path, lineno, "missing vertex/face counts");
@@ -131,7 +183,15 @@ std::optional<Error> precheck_off(const std::string& path, const std::string& te
     return located(
         path, lineno,
         "file ends after " + std::to_string(seen_f) + " of " + std::to_string(nf) + " faces");
-  return std::nullopt;
+  if (triangles > max)
+    return Error{path + ": " + std::to_string(triangles) + " triangles, more than the limit of " +
+                     std::to_string(max),
+                 limit_hint("max_mesh_triangles")};
+  if (uint64_t(nv) > max)
+    return Error{path + ": " + std::to_string(nv) + " vertices, more than the limit of " +
+                     std::to_string(max),
+                 limit_hint("max_mesh_triangles")};
+  return mesh;
 }
 
 // Line-located checks of a text OBJ file: vertex coordinates and face indices (1-based, or
@@ -423,8 +483,11 @@ Result<TriangleMesh> load_mesh(const std::string& path, const Limits& limits) {
   if (text->empty()) return Error{path + ": empty file"};
   // Text formats get line-located checks before Assimp sees them.
   if (ext == ".off") {
-    if (auto err = precheck_off(path, *text)) return *err;
-  } else if (ext == ".obj") {
+    Result<TriangleMesh> mesh = read_off(path, *text, limits);
+    if (!mesh) return mesh.error();
+    return finish_mesh(std::move(mesh).value());
+  }
+  if (ext == ".obj") {
     if (auto err = precheck_obj(path, *text)) return *err;
   } else if (ext == ".ply") {
     if (auto err = precheck_ply(path, *text)) return *err;

@@ -530,6 +530,28 @@ void Model::ray_surface_crossings(const double o[3], const double d[3], double t
   }
 }
 
+std::vector<OpenSurfaceLeaf> Model::open_surface_leaves() const {
+  std::vector<OpenSurfaceLeaf> out;
+  const Compiled& c = *impl_->compiled;
+  const jit::PolyAnalysis& p = c.poly->analysis();
+  if (!p.qualifies) return out;
+  for (const jit::PolySurfaceLeaf& leaf : p.program.surfaces) {
+    const geom::Surface& s = *c.fn.surfaces[leaf.surface];
+    if (s.stats().patches > 0) continue;  // patches: never closed, by design
+    const geom::SurfaceTopology topology = s.topology();
+    if (topology.closed) continue;
+    OpenSurfaceLeaf o;
+    o.source = s.stats().source;
+    o.boundary_edges = topology.boundary_edges;
+    if (leaf.value < c.fn.insts.size()) {
+      o.line = int(c.fn.insts[leaf.value].loc.line);
+      o.col = int(c.fn.insts[leaf.value].loc.col);
+    }
+    out.push_back(std::move(o));
+  }
+  return out;
+}
+
 std::vector<SurfaceStats> Model::surface_stats() const {
   const jit::Function& fn = impl_->compiled->fn;
   std::vector<SurfaceStats> out;
@@ -545,6 +567,9 @@ std::vector<SurfaceStats> Model::surface_stats() const {
     s.build_seconds = st.build_seconds;
     s.memory_bytes = st.memory_bytes;
     s.leaves = i < fn.surface_uses.size() ? fn.surface_uses[i] : 1;
+    const geom::SurfaceTopology topology = fn.surfaces[i]->topology();
+    s.closed = topology.closed;
+    s.boundary_edges = topology.boundary_edges;
     out.push_back(std::move(s));
   }
   return out;

@@ -4,9 +4,12 @@
 #include "app/model_field.h"
 
 #include <gtest/gtest.h>
+#include <unistd.h>
 
 #include <algorithm>
 #include <cmath>
+#include <filesystem>
+#include <fstream>
 #include <random>
 #include <string>
 #include <vector>
@@ -207,6 +210,34 @@ TEST(ModelFieldTime, ThreeDimensionalModelIgnoresTime) {
   float f = 0;
   field.eval(1, x, z, z, &f);
   EXPECT_EQ(f, 1.0f);
+}
+
+TEST(OpenSurfaceWarnings, NameTheOpenMeshAtItsCall) {
+  // A unit square pyramid without its base: 4 triangles, an open rim of 4 edges. Only the
+  // open leaf on the skeleton is named, at the position of its call.
+  namespace fs = std::filesystem;
+  const fs::path dir =
+      fs::temp_directory_path() / ("hfrt_open_warning_" + std::to_string(getpid()));
+  fs::create_directories(dir);
+  std::ofstream(dir / "cap.off") << "OFF\n5 4 0\n0 0 0\n1 0 0\n1 1 0\n0 1 0\n0.5 0.5 1\n"
+                                    "3 0 1 4\n3 1 2 4\n3 2 3 4\n3 3 0 4\n";
+  std::ofstream(dir / "tet.off") << "OFF\n4 4 6\n0 0 0\n1 0 0\n0 1 0\n0 0 1\n"
+                                    "3 0 2 1\n3 0 1 3\n3 0 3 2\n3 1 2 3\n";
+  const std::string model = (dir / "open.hf").string();
+  std::ofstream(model) << "open(x[3], a[1])\n{\n  open = hfMesh(x, \"tet.off\") |\n"
+                          "         hfMesh(x, \"cap.off\");\n}\n";
+  CompileResult r = Model::compile_file(model);
+  ASSERT_TRUE(r.ok()) << r.rendered;
+  const std::vector<std::string> w = open_surface_warnings(*r.model, "open.hf");
+  ASSERT_EQ(w.size(), 1u);
+  EXPECT_EQ(w[0], "open.hf:4:10: warning: the mesh '" + (dir / "cap.off").string() +
+                      "' is not closed (4 boundary edges): inside and outside come from a "
+                      "winding number at every ray candidate (slower than from the ray's "
+                      "crossings)");
+  EXPECT_NE(describe_surfaces(*r.model).find("open: 4 boundary edges"), std::string::npos)
+      << describe_surfaces(*r.model);
+  EXPECT_NE(describe_surfaces(*r.model).find(", closed"), std::string::npos);
+  fs::remove_all(dir);
 }
 
 }  // namespace

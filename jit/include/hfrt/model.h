@@ -157,6 +157,20 @@ struct SurfaceStats {
   size_t memory_bytes = 0;
   /// How many leaves of the object use this one loaded surface (> 1: instancing).
   int leaves = 0;
+  /// Meshes: whether every edge pairs with its reverse (geom::SurfaceTopology), and how many
+  /// directed edges do not. Patches are never closed (their seams are not watertight) and
+  /// their edges are not counted.
+  bool closed = false;
+  size_t boundary_edges = 0;
+};
+
+/// A mesh leaf of the analytic root search's skeleton whose mesh is not closed: inside and
+/// outside then come from a winding number at every ray candidate instead of from the ray's
+/// crossings (Model::open_surface_leaves).
+struct OpenSurfaceLeaf {
+  std::string source;         ///< the mesh file, or the inline function's name
+  size_t boundary_edges = 0;  ///< directed edges without their opposite partner
+  int line = 0, col = 0;      ///< the leaf's call in the source (1-based; 0 when unknown)
 };
 
 /// Compile-latency figures, in milliseconds.
@@ -343,6 +357,11 @@ class Model {
   /// mapped into the leaf's own space by the leaf's affine map (t is unchanged). With
   /// ray_polynomials' roots these are all the places where F may change sign. Requires
   /// analytic_info().qualifies. Const and thread-safe.
+  /// The mesh leaves (not patches) on the analytic skeleton whose meshes are not closed, in
+  /// the order of the skeleton: what `hfrt render` warns about, with their locations. Empty
+  /// when the object does not qualify.
+  std::vector<OpenSurfaceLeaf> open_surface_leaves() const;
+
   void ray_surface_crossings(const double o[3], const double d[3], double t0, double t1,
                              std::vector<double>* out) const;
 
