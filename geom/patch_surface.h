@@ -63,6 +63,7 @@ class PatchSurface final : public Surface {
   /// through the seam may be found on both or neither), so crossings cannot replace the
   /// winding number even when the patches close up (boundary_edges is not counted).
   SurfaceTopology topology() const override { return {}; }
+  float field_tolerance() const override { return field_error_; }
   SurfaceStats stats() const override { return stats_; }
 
   const PatchSet& patches() const { return set_; }

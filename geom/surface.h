@@ -104,6 +104,11 @@ class Surface {
   virtual ClosestPoint closest_point(
       Vec3 p, float max_distance = std::numeric_limits<float>::infinity()) const = 0;
 
+  /// How far the field's surface (what closest_point and the winding number see) may be from
+  /// the surface that rays hit: 0 for meshes; for patches, their tessellation's measured
+  /// distance (PatchSurface::field_error). A ray hit lies within it of the field's surface.
+  virtual float field_tolerance() const { return 0; }
+
   /// Whether the surface is closed (computed once, on first use; thread-safe).
   virtual SurfaceTopology topology() const = 0;
 

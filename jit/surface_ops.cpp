@@ -75,13 +75,14 @@ Dual surface_dual(const geom::Surface& s, const Dual& x, const Dual& y, const Du
   const float size = ::hfrt::length(s.bounds().diagonal());
   geom::Vec3 g;
   bool inside;
-  if (c.distance < kOnSurface * size) {
-    // On the surface to rounding (a ray hit: where the renderer asks for normals), the
-    // direction from the closest point is rounding noise and the winding number's side test
-    // is ambiguous (and at its most expensive, next to the primitives). The closest
-    // primitive's normal is the gradient's direction there (the winding number rises by 1
-    // against it), and the side of its plane gives the value's sign: |value| is below the
-    // root tolerance, so which sign it carries is as good as any.
+  if (c.distance < kOnSurface * size + s.field_tolerance()) {
+    // On the surface to rounding, or for patches within their tessellation's error (a ray
+    // hit: where the renderer asks for normals, and a patch hit lies on the true patch, up to
+    // field_tolerance() off the tessellation), the direction from the closest point is noise
+    // and the winding number's side test is ambiguous (and at its most expensive, next to the
+    // primitives). The closest primitive's normal is the gradient's direction there (the
+    // winding number rises by 1 against it), and the side of its plane gives the value's
+    // sign: |value| is within the surface's own uncertainty, so either sign is as good.
     g = -c.normal;
     inside = ::hfrt::dot(p - c.point, c.normal) <= 0;
   } else {
