@@ -172,6 +172,54 @@ int main(int argc, char** argv) {
   if (!out_dir.empty()) write_pgm(out_dir + "/armadillo_hfrt.pgm", img, res, res);
   std::vector<float> hfrt_img = img;
 
+  // Shadow rays: from every primary hit (nudged off the surface along its normal) towards one
+  // directional light; any hit (occluded, 4-wide BVH) against the nearest hit (intersect) and
+  // the binary BVH's any hit (occluded_binary), on the same rays.
+  {
+    const Vec3 light = normalize(Vec3{-0.4f, 1.0f, 0.7f});
+    const float bias = 1e-4f * length(surf->bounds().diagonal());
+    std::vector<Ray> shadow;
+    for (int y = 0; y < res; ++y)
+      for (int x = 0; x < res; ++x) {
+        const Ray r = cam.ray(x, y);
+        SurfaceHit h;
+        if (!surf->intersect(r, 0, std::numeric_limits<float>::infinity(), &h)) continue;
+        Vec3 n = h.normal;
+        if (dot(n, r.dir) > 0) n = -n;
+        shadow.push_back({r.org + r.dir * h.t + n * bias, light});
+      }
+    auto time_rays = [&](auto&& query, size_t* blocked) {
+      const auto ts = Clock::now();
+      double c = cpu_seconds();
+      *blocked = 0;
+      for (int f = 0; f < frames; ++f)
+        *blocked = tbb::parallel_reduce(
+            tbb::blocked_range<size_t>(0, shadow.size(), 256), size_t(0),
+            [&](const tbb::blocked_range<size_t>& rg, size_t acc) {
+              for (size_t i = rg.begin(); i != rg.end(); ++i) acc += query(shadow[i]);
+              return acc;
+            },
+            std::plus<size_t>());
+      const double wall = seconds_since(ts) / frames, cpu = (cpu_seconds() - c) / frames;
+      return std::pair<double, double>{shadow.size() / wall / 1e6, shadow.size() / cpu / 1e6};
+    };
+    const float inf = std::numeric_limits<float>::infinity();
+    size_t b_any = 0, b_near = 0, b_bin = 0;
+    auto any = time_rays([&](const Ray& r) { return surf->occluded(r, 0, inf); }, &b_any);
+    auto nearest = time_rays(
+        [&](const Ray& r) {
+          SurfaceHit h;
+          return surf->intersect(r, 0, inf, &h);
+        },
+        &b_near);
+    auto binary = time_rays([&](const Ray& r) { return surf->occluded_binary(r, 0, inf); }, &b_bin);
+    std::printf(
+        "armadillo shadow rays (%zu, %zu blocked): any hit %.2f Mrays/s (%.2f per CPU-second), "
+        "nearest hit %.2f (%.2f), binary-BVH any hit %.2f (%.2f)%s\n",
+        shadow.size(), b_any, any.first, any.second, nearest.first, nearest.second, binary.first,
+        binary.second, b_any == b_near && b_any == b_bin ? "" : " -- DISAGREE");
+  }
+
 #ifdef HFRT_HAVE_EMBREE
   {
     RTCDevice device = rtcNewDevice(nullptr);

@@ -302,6 +302,24 @@ bool MeshSurface::intersect_binary(const Ray& ray, float tmin, float tmax, Surfa
 }
 
 bool MeshSurface::occluded(const Ray& ray, float tmin, float tmax) const {
+  if (wide_.empty()) return occluded_binary(ray, tmin, tmax);
+  // Any hit through the 4-wide BVH: the first hit lowers the traversal's limit below tmin,
+  // which empties the stack (every entry lies beyond it) and ends the walk.
+  const WatertightRay r(ray);
+  const PacketRay pr(r);
+  const Vec3* corners = corners_.data();
+  bool hit = false;
+  float limit = tmax;
+  wide_.traverse(nodes_, r, tmin, &limit, [&](const BvhNode& n, float* lim) {
+    for (uint32_t s = n.index, end = n.index + n.count; s < end && !hit; s += 4)
+      intersect_packet(r, pr, corners, s, std::min<uint32_t>(4, end - s), tmin, *lim,
+                       [&](uint32_t, const TriangleHitInfo&) { hit = true; });
+    if (hit) *lim = -std::numeric_limits<float>::infinity();
+  });
+  return hit;
+}
+
+bool MeshSurface::occluded_binary(const Ray& ray, float tmin, float tmax) const {
   const WatertightRay r(ray);
   float tnear;
   uint32_t stack[kStackSize];

@@ -50,8 +50,11 @@ class MeshSurface final : public Surface {
   /// intersect() through the binary BVH only (the 4-wide one is the default): for tests.
   bool intersect_binary(const Ray& ray, float tmin, float tmax, SurfaceHit* hit) const;
 
-  /// True when any triangle is hit with tmin < t < tmax (shadow rays): stops at the first.
+  /// True when any triangle is hit with tmin < t < tmax (shadow rays): stops at the first,
+  /// through the 4-wide BVH with the four-triangle leaf test.
   bool occluded(const Ray& ray, float tmin, float tmax) const;
+  /// occluded() through the binary BVH, one triangle at a time: for tests.
+  bool occluded_binary(const Ray& ray, float tmin, float tmax) const;
 
   /// The closest point of the mesh to p among points closer than `max_distance`.
   ClosestPoint closest_point(

@@ -174,6 +174,7 @@ TEST(Bvh, NearestHitEqualsBruteForceOnTheArmadillo) {
     const bool sh = s.intersect(ray, 0, std::numeric_limits<float>::infinity(), &h);
     ASSERT_EQ(bh, sh) << "ray " << i;
     if (!bh) {
+      EXPECT_FALSE(s.occluded(ray, 0, std::numeric_limits<float>::infinity())) << i;
       SurfaceHit b2;
       EXPECT_FALSE(s.intersect_binary(ray, 0, std::numeric_limits<float>::infinity(), &b2));
       continue;
@@ -188,9 +189,17 @@ TEST(Bvh, NearestHitEqualsBruteForceOnTheArmadillo) {
     SurfaceHit b2;
     ASSERT_TRUE(s.intersect_binary(ray, 0, std::numeric_limits<float>::infinity(), &b2));
     EXPECT_EQ(b2.t, bt) << "ray " << i;
-    // occluded() agrees.
+    // occluded() agrees, through either BVH.
     EXPECT_TRUE(s.occluded(ray, 0, bt * 1.001f));
     EXPECT_FALSE(s.occluded(ray, 0, bt * 0.999f));
+    EXPECT_TRUE(s.occluded_binary(ray, 0, bt * 1.001f));
+    EXPECT_FALSE(s.occluded_binary(ray, 0, bt * 0.999f));
+    // From just past the nearest hit: occluded exactly when a farther hit exists.
+    const float after = bt * 1.0001f;
+    SurfaceHit next;
+    const bool farther =
+        s.intersect_binary(ray, after, std::numeric_limits<float>::infinity(), &next);
+    EXPECT_EQ(s.occluded(ray, after, std::numeric_limits<float>::infinity()), farther) << i;
   }
   EXPECT_GT(hits, 500);
 }
