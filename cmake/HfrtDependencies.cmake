@@ -20,6 +20,8 @@ find_package(TBB REQUIRED CONFIG)
 # shared libtomlplusplus (TOML_HEADER_ONLY=0).
 find_package(tomlplusplus 3 REQUIRED CONFIG)
 find_package(Threads REQUIRED)
+# PNG files are written with zlib directly (render/png_writer.h), not through OpenImageIO.
+find_package(ZLIB REQUIRED)
 
 find_package(PkgConfig REQUIRED)
 pkg_check_modules(OIIO REQUIRED IMPORTED_TARGET OpenImageIO)

@@ -1,8 +1,9 @@
 #pragma once
 // The interface between render/image.cpp and the image I/O module (libhfrt_imageio.so,
 // render/image_io_oiio.cpp), which alone links OpenImageIO. The module is loaded when an image is
-// first written or read (base/module.h): OpenImageIO's ~250 shared libraries cost ~0.3 s of CPU
-// at load, which a process that never touches an image file must not pay.
+// first read, or written in a format other than PNG (render/png_writer.h writes PNGs on zlib),
+// by base/module.h: OpenImageIO's ~250 shared libraries cost ~0.3 s of CPU at load, which a
+// process that never touches such a file must not pay.
 //
 // Both sides are built from one tree by one compiler, so the entry table passes C++ types; the
 // ABI number guards against a module left over from another build.

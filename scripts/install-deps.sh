@@ -18,7 +18,7 @@ packages=(
   libedit-dev
   libbenchmark-dev
   libassimp-dev
-  zlib1g-dev libzstd-dev
+  zlib1g-dev libzstd-dev                                # zlib: the PNG writer (render/png_writer.cpp)
   libtomlplusplus-dev                                   # scene files (render/scene)
   pybind11-dev python3-dev python3-numpy python3-pytest  # the Python module, its tests, the numpy ray-cast reference
   python3-skimage                                       # the marching-cubes peer of the mesher tests/bench

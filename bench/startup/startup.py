@@ -8,7 +8,7 @@ of whole processes, min / median / max over N runs, for one or more hfrt binarie
 Each run is a fresh process (CPU from wait4's rusage, peak RSS from /usr/bin/time); the binaries alternate run by run so
 that load from other processes falls on each alike. The commands are `hfrt --help`, `hfrt check
 M` and `hfrt eval M` (a one-line model; eval compiles it with the JIT, so it shows LLVM's share),
-and `hfrt render M --size 64 -o out.png` (image I/O loaded).
+and `hfrt render M --size 64 -o out.png` (JIT, renderer; the PNG written without OpenImageIO).
 """
 import argparse
 import os
