@@ -66,16 +66,21 @@ Dual surface_dual(const geom::Surface& s, const Dual& x, const Dual& y, const Du
     return {nan, {nan, nan, nan}};
   }
   geom::Vec3 p(static_cast<float>(x.v), static_cast<float>(y.v), static_cast<float>(z.v));
-  const geom::ClosestPoint c = s.closest_point(p);
+  // Most calls come from the renderer's normals at ray hits, on the surface: a search
+  // limited to the on-surface distance prunes nearly the whole BVH at once; only a point
+  // farther away pays for the unlimited one.
+  const float size = ::hfrt::length(s.bounds().diagonal());
+  const float on_surface = kOnSurface * size + s.field_tolerance();
+  geom::ClosestPoint c = s.closest_point(p, on_surface);
+  if (c.prim == ~0u) c = s.closest_point(p);
   if (c.prim == ~0u) {
     // Nothing to be close to (patches all trimmed away): the field's own value, constant.
     r.v = static_cast<double>(s.signed_distance(p));
     return r;
   }
-  const float size = ::hfrt::length(s.bounds().diagonal());
   geom::Vec3 g;
   bool inside;
-  if (c.distance < kOnSurface * size + s.field_tolerance()) {
+  if (c.distance < on_surface) {
     // On the surface to rounding, or for patches within their tessellation's error (a ray
     // hit: where the renderer asks for normals, and a patch hit lies on the true patch, up to
     // field_tolerance() off the tessellation), the direction from the closest point is noise
