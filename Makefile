@@ -3,7 +3,7 @@ BUILD_DIR ?= build
 JOBS ?= $(shell nproc)
 CMAKE_FLAGS ?= -G Ninja -DCMAKE_BUILD_TYPE=Release
 
-.PHONY: all deps configure build demo test bench bench-render bench-peers bench-mesh bench-scenes bench-cluster bench-startup clean format package
+.PHONY: all deps configure build demo test bench bench-render bench-peers bench-meshes bench-mesh bench-scenes bench-cluster bench-startup clean format package
 .PHONY: test-asan test-tsan fuzz
 
 all: build
@@ -39,6 +39,17 @@ bench-peers: configure
 	@cmake --build $(BUILD_DIR) --target hfrt hfrt_bench_maskdiff hfrt_bench_prospero -j $(JOBS)
 	@bench/peers/povray --build-dir $(BUILD_DIR) $(PEERS_ARGS)
 	@$(BUILD_DIR)/bench/hfrt_bench_prospero --frames 3 --interp-rows 4
+
+# hfrt vs POV-Ray 3.7 on the teapot (bicubic_patch) and the armadillo (mesh2), then the ray
+# rates against Embree (installs povray and libembree-dev; bench/README.md). MESHES_ARGS: e.g.
+# --size 256 --repeat 5.
+MESHES_ARGS ?= --repeat 3
+bench-meshes: configure
+	@scripts/install-deps.sh --bench
+	@cmake -S . -B $(BUILD_DIR) > /dev/null
+	@cmake --build $(BUILD_DIR) --target hfrt hfrt_bench_maskdiff hfrt_bench_mesh -j $(JOBS)
+	@bench/peers/povray_meshes --build-dir $(BUILD_DIR) $(MESHES_ARGS)
+	@$(BUILD_DIR)/bench/hfrt_bench_mesh --frames 5
 
 # hfrt mesh vs scikit-image marching cubes on a JIT-sampled grid (bench/README.md).
 # MESH_ARGS: e.g. --res 256 --models gyroid,blend,csg --threads 2.

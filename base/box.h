@@ -73,6 +73,13 @@ struct Box {
   }
 };
 
+/// Whether `inner` lies in `outer` (closed boxes; an empty inner is contained).
+inline bool contains(const Box& outer, const Box& inner) {
+  return inner.empty() ||
+         (inner.lo.x >= outer.lo.x && inner.lo.y >= outer.lo.y && inner.lo.z >= outer.lo.z &&
+          inner.hi.x <= outer.hi.x && inner.hi.y <= outer.hi.y && inner.hi.z <= outer.hi.z);
+}
+
 /// Intersection of two boxes (empty() when they do not overlap).
 inline Box intersect(const Box& a, const Box& b) {
   return {vmax(a.lo, b.lo), vmin(a.hi, b.hi)};

@@ -142,8 +142,8 @@ class TileRenderer {
     while (!ts.stack.empty()) {
       auto p = ts.stack.back();
       ts.stack.pop_back();
-      Box box = intersect(frame_.slab_box(float(tx0), float(ty0), float(tx1), float(ty1), p.a, p.b),
-                          opt_.bbox);
+      const Box slab = frame_.slab_box(float(tx0), float(ty0), float(tx1), float(ty1), p.a, p.b);
+      Box box = intersect(slab, opt_.bbox);
       if (box.empty()) continue;
       bool maybe_nan = false;
       Interval iv = field_.eval_interval(box, &maybe_nan);
@@ -167,8 +167,9 @@ class TileRenderer {
         ts.spans.push_back({p.a, p.b});
       }
       // Every ray of the tile is inside the solid by the end of this slab: later slabs are
-      // hidden.
-      if (inside) break;
+      // hidden. Only when the box did not clip the slab: a ray of the tile that passes the
+      // slab outside the box meets the solid (its cap) later.
+      if (inside && contains(opt_.bbox, slab)) break;
     }
   }
 

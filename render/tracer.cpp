@@ -427,8 +427,8 @@ class SceneTracer {
       while (!stack.empty()) {
         Piece p = stack.back();
         stack.pop_back();
-        Box wb = intersect(
-            frame_.slab_box(float(tx0), float(ty0), float(tx1), float(ty1), p.a, p.b), world);
+        const Box slab = frame_.slab_box(float(tx0), float(ty0), float(tx1), float(ty1), p.a, p.b);
+        Box wb = intersect(slab, world);
         if (wb.empty()) continue;
         Box ob;
         for (int corner = 0; corner < 8; ++corner) {
@@ -438,7 +438,11 @@ class SceneTracer {
         }
         // Rounding of the transform: pad by a few ulps of the box.
         const float pad = 1e-6f * obj.bbox.max_extent();
-        ob = intersect(Box{ob.lo - Vec3{pad, pad, pad}, ob.hi + Vec3{pad, pad, pad}}, obj.bbox);
+        const Box padded{ob.lo - Vec3{pad, pad, pad}, ob.hi + Vec3{pad, pad, pad}};
+        // Whether every ray of the tile crosses this slab inside the object's box (so that an
+        // "inside" slab hides everything behind it for all of them).
+        const bool unclipped = contains(world, slab) && contains(obj.bbox, padded);
+        ob = intersect(padded, obj.bbox);
         if (ob.empty()) continue;
         bool maybe_nan = false;
         Interval iv = field.eval_interval(ob, &maybe_nan);
@@ -456,7 +460,9 @@ class SceneTracer {
         }
         lo = std::min(lo, p.a);
         hi = std::max(hi, p.b);
-        if (inside) break;  // every ray of the tile is inside by the end of this slab
+        // Every ray of the tile is inside by the end of this slab, unless a box clipped it (a
+        // ray passing the slab outside the box meets the object's cap later).
+        if (inside && unclipped) break;
       }
       tile_span_[k] = {lo, hi};
     }

@@ -316,6 +316,40 @@ TEST(Renderer, BoxClipsTheSolidWithAFlatCap) {
   EXPECT_EQ(res.image.normal[3 * c + 2], 1.0f);
 }
 
+TEST(Renderer, BoxCapsSeenInPerspectiveHaveNoHoles) {
+  // Regression (found on the gallery's 'Infinity' by bench/peers/povray: tile-sized holes in
+  // its caps): a shell larger than the box (outer radius 30, hollow of radius 5 at the centre)
+  // fills the box's faces, so every camera ray that meets the box hits its cap, and the
+  // hollow keeps the culling from taking the whole depth range at once. A tile's depth slab that is
+  // inside the solid where it overlaps the box used to end the tile's culling ("every ray is inside
+  // by now"), although rays of the tile that enter the box later had not reached the solid yet:
+  // their caps were lost.
+  for (RootMode mode : {RootMode::kSign, RootMode::kInterval, RootMode::kAnalytic}) {
+    ShellField big(30, 25);
+    RenderOptions o;
+    o.width = o.height = 96;
+    o.camera.eye = {30.5f, 24.8f, 43.6f};
+    o.camera.look_at = {0, 0, 0};
+    o.camera.fov_deg = 35;
+    o.shadows = false;
+    o.root = mode;
+    RenderResult res = render(big, o);
+    CameraFrame frame(o.camera, o.width, o.height);
+    size_t wrong = 0, hits = 0;
+    for (int y = 0; y < o.height; ++y)
+      for (int x = 0; x < o.width; ++x) {
+        float te, tx;
+        int axis;
+        const bool meets = intersect_box(frame.ray(x + 0.5f, y + 0.5f), o.bbox, &te, &tx, &axis);
+        const bool covered = res.image.alpha[size_t(y) * o.width + x] > 0;
+        hits += meets;
+        wrong += meets != covered;
+      }
+    EXPECT_GT(hits, 2000u);
+    EXPECT_EQ(wrong, 0u) << "root mode " << int(mode);
+  }
+}
+
 TEST(Renderer, ProgressIsReportedForEveryTile) {
   SphereField sphere({0, 0, 0}, 3);
   RenderOptions o = ortho_options(64, 8);

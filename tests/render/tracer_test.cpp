@@ -21,6 +21,7 @@ namespace hfrt::render {
 namespace {
 
 using testing::CsgField;
+using testing::ShellField;
 using testing::SphereField;
 
 Material emitter(Vec3 c) {
@@ -419,6 +420,38 @@ TEST(Transform, ScaleRotateTranslateInThatOrder) {
 
 // The same image for any thread count, with glossy surfaces, sphere lights, a lens and adaptive
 // sampling (every random choice is a hash of the pixel, sample and bounce).
+TEST(Tracer, BoxCapsSeenInPerspectiveHaveNoHoles) {
+  // The scene tracer's per-tile culling had the renderer's bug (tests/render/renderer_test.cpp,
+  // Renderer.BoxCapsSeenInPerspectiveHaveNoHoles): a slab inside the object where it overlaps
+  // the object's box ended the tile's culling for rays that enter the box later.
+  for (RootMode mode : {RootMode::kSign, RootMode::kInterval, RootMode::kAnalytic}) {
+    ShellField shell(30, 25);
+    const Box bbox{{-10, -10, -10}, {10, 10, 10}};
+    std::vector<Material> mats{Material{}};
+    std::vector<SceneObject> objs{object(shell, bbox, 0, mode)};
+    TraceOptions opt;
+    opt.width = opt.height = 96;
+    opt.camera.eye = {30.5f, 24.8f, 43.6f};
+    opt.camera.look_at = {0, 0, 0};
+    opt.camera.fov_deg = 35;
+    opt.background = {0, 0, 0};
+    opt.threads = 2;
+    TraceResult r = trace(objs, mats, opt);
+    CameraFrame frame(opt.camera, opt.width, opt.height);
+    size_t wrong = 0, hits = 0;
+    for (int y = 0; y < opt.height; ++y)
+      for (int x = 0; x < opt.width; ++x) {
+        float te, tx;
+        int axis;
+        const bool meets = intersect_box(frame.ray(x + 0.5f, y + 0.5f), bbox, &te, &tx, &axis);
+        hits += meets;
+        wrong += meets != (r.image.alpha[size_t(y) * opt.width + x] > 0);
+      }
+    EXPECT_GT(hits, 2000u);
+    EXPECT_EQ(wrong, 0u) << "root mode " << int(mode);
+  }
+}
+
 TEST(Tracer, BitIdenticalForAnyThreadCount) {
   SphereField ball({0, 0, 0}, 1);
   auto floor = box_field({-4, -2, -4}, {4, -1, 4});
