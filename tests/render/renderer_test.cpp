@@ -5,6 +5,7 @@
 #include <cmath>
 #include <cstring>
 
+#include "tests/render/box_coverage.h"
 #include "testsupport/analytic_fields.h"
 
 namespace hfrt::render {
@@ -334,19 +335,9 @@ TEST(Renderer, BoxCapsSeenInPerspectiveHaveNoHoles) {
     o.shadows = false;
     o.root = mode;
     RenderResult res = render(big, o);
-    CameraFrame frame(o.camera, o.width, o.height);
-    size_t wrong = 0, hits = 0;
-    for (int y = 0; y < o.height; ++y)
-      for (int x = 0; x < o.width; ++x) {
-        float te, tx;
-        int axis;
-        const bool meets = intersect_box(frame.ray(x + 0.5f, y + 0.5f), o.bbox, &te, &tx, &axis);
-        const bool covered = res.image.alpha[size_t(y) * o.width + x] > 0;
-        hits += meets;
-        wrong += meets != covered;
-      }
-    EXPECT_GT(hits, 2000u);
-    EXPECT_EQ(wrong, 0u) << "root mode " << int(mode);
+    const hfrt::testing::BoxCoverage c = hfrt::testing::box_coverage(o.camera, o.bbox, res.image);
+    EXPECT_GT(c.meets, 2000u);
+    EXPECT_EQ(c.wrong, 0u) << "root mode " << int(mode);
   }
 }
 

@@ -15,6 +15,7 @@
 #include <vector>
 
 #include "render/texture.h"
+#include "tests/render/box_coverage.h"
 #include "testsupport/analytic_fields.h"
 
 namespace hfrt::render {
@@ -437,18 +438,9 @@ TEST(Tracer, BoxCapsSeenInPerspectiveHaveNoHoles) {
     opt.background = {0, 0, 0};
     opt.threads = 2;
     TraceResult r = trace(objs, mats, opt);
-    CameraFrame frame(opt.camera, opt.width, opt.height);
-    size_t wrong = 0, hits = 0;
-    for (int y = 0; y < opt.height; ++y)
-      for (int x = 0; x < opt.width; ++x) {
-        float te, tx;
-        int axis;
-        const bool meets = intersect_box(frame.ray(x + 0.5f, y + 0.5f), bbox, &te, &tx, &axis);
-        hits += meets;
-        wrong += meets != (r.image.alpha[size_t(y) * opt.width + x] > 0);
-      }
-    EXPECT_GT(hits, 2000u);
-    EXPECT_EQ(wrong, 0u) << "root mode " << int(mode);
+    const hfrt::testing::BoxCoverage c = hfrt::testing::box_coverage(opt.camera, bbox, r.image);
+    EXPECT_GT(c.meets, 2000u);
+    EXPECT_EQ(c.wrong, 0u) << "root mode " << int(mode);
   }
 }
 
