@@ -220,7 +220,10 @@ class TileRenderer {
       // outside) cannot hold a hit, so only the first span's start matters.
       float a = std::max(ts.spans.front().a, te), b = std::min(ts.spans.back().b, tx);
       if (!(a <= b)) return;
-      RootHit h = ts.searcher.analytic_search(s.ray, a, b);
+      // A span that starts inside the box starts where a culled slab ends: every point of
+      // that slab's box, this ray's point at a included, has F < 0.
+      const bool start_outside = a > te && a == ts.spans.front().a;
+      RootHit h = ts.searcher.analytic_search(s.ray, a, b, start_outside);
       h.at_start = h.at_start && a == te;
       if (h.hit) set_hit(s, h);
       return;

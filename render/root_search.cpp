@@ -244,7 +244,7 @@ RootHit RootSearcher::bisect(const Ray& ray, float t0, float eps, float fallback
   return {};
 }
 
-RootHit RootSearcher::analytic_search(const Ray& ray, float t0, float t1) {
+RootHit RootSearcher::analytic_search(const Ray& ray, float t0, float t1, bool start_outside) {
   if (!(t0 <= t1)) return {};
   std::vector<double>& c = candidates_;
   c.clear();
@@ -260,19 +260,22 @@ RootHit RootSearcher::analytic_search(const Ray& ray, float t0, float t1) {
     c[n++] = t;
   }
   c.resize(n);
-  // Samples: t0, then the midpoint of each gap (c[k], c[k+1]) with c[n] = t1. F keeps its sign
-  // on each gap (every sign change is at a candidate), so one sample per gap decides it.
-  size_t m = 1 + n;
+  // Samples: t0 (unless known outside), then the midpoint of each gap (c[k], c[k+1]) with
+  // c[n] = t1. F keeps its sign on each gap (every sign change is at a candidate), so one
+  // sample per gap decides it.
+  const size_t first = start_outside ? 0 : 1;  // index of gap 0's sample
+  const size_t m = first + n;
+  if (m == 0) return {};
   if (ts_.size() < m) ts_.resize(m);
-  ts_[0] = t0;
+  if (!start_outside) ts_[0] = t0;
   for (size_t k = 0; k < n; ++k) {
     double next = k + 1 < n ? c[k + 1] : double(t1);
-    ts_[k + 1] = float(0.5 * (c[k] + next));
+    ts_[first + k] = float(0.5 * (c[k] + next));
   }
   eval_params(ray, m);
-  if (fs_[0] >= 0) return {true, t0, true};
+  if (!start_outside && fs_[0] >= 0) return {true, t0, true};
   for (size_t k = 0; k < n; ++k) {
-    if (fs_[k + 1] >= 0) return {true, float(c[k]), false};
+    if (fs_[first + k] >= 0) return {true, float(c[k]), false};
   }
   return {};
 }

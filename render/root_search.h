@@ -101,7 +101,9 @@ class RootSearcher {
   /// between the last one and t1) in one batch call, and reports the first candidate after
   /// which F >= 0, or t0 itself (at_start) when F(t0) >= 0. A candidate where F only touches 0
   /// (a tangent ray) is not a hit. Shadow rays use it unchanged: there is nothing to refine.
-  RootHit analytic_search(const Ray& ray, float t0, float t1);
+  /// `start_outside`: the caller has proven F < 0 at t0 (the end of a culled slab), so F(t0)
+  /// is not evaluated (for a mesh or patch leaf that sample may cost a winding number).
+  RootHit analytic_search(const Ray& ray, float t0, float t1, bool start_outside = false);
 
   /// Batched interval search: the bisection of interval_search for many rays at once. Every
   /// ray has pieces of its range, added front to back or in any order; the pieces of all rays

@@ -283,6 +283,24 @@ TEST(RootSearch, AnalyticFindsSphereExactly) {
   EXPECT_EQ(s.counters().eval_points, 3u);
 }
 
+TEST(RootSearch, AnalyticStartKnownOutsideSkipsOneSample) {
+  // The renderer passes start_outside when t0 ends a culled slab: the same hit (and the same
+  // misses), one F sample fewer per call; a ray with no candidate then evaluates nothing.
+  SphereField sphere({0, 0, 0}, 3);
+  RootSearcher s(sphere);
+  Ray ray{{0.5f, 1.0f, 20}, {0, 0, -1}};
+  const RootHit full = s.analytic_search(ray, 0, 40);
+  const uint64_t before = s.counters().eval_points;
+  const RootHit skip = s.analytic_search(ray, 0, 40, true);
+  EXPECT_EQ(s.counters().eval_points - before, 2u);  // the two gaps, not t0
+  ASSERT_TRUE(full.hit && skip.hit);
+  EXPECT_EQ(full.t, skip.t);
+  EXPECT_FALSE(skip.at_start);
+  const uint64_t calls = s.counters().eval_calls;
+  EXPECT_FALSE(s.analytic_search({{5, 0, 20}, {0, 0, -1}}, 0, 40, true).hit);
+  EXPECT_EQ(s.counters().eval_calls, calls);
+}
+
 TEST(RootSearch, AnalyticMissStartInsideAndTangent) {
   SphereField sphere({0, 0, 0}, 2);
   RootSearcher s(sphere);
