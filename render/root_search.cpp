@@ -34,23 +34,23 @@ Box segment_box(const Ray& ray, float a, float b) {
   return box;
 }
 
-void RootSearcher::eval_params(const Ray& ray, size_t n) {
-  if (xs_.size() < n) {
-    xs_.resize(n);
-    ys_.resize(n);
-    zs_.resize(n);
-    fs_.resize(n);
+void RootSearcher::eval_params(const Ray& ray, size_t n, size_t first) {
+  if (xs_.size() < first + n) {
+    xs_.resize(first + n);
+    ys_.resize(first + n);
+    zs_.resize(first + n);
+    fs_.resize(first + n);
   }
-  for (size_t i = 0; i < n; ++i) {
+  for (size_t i = first; i < first + n; ++i) {
     float t = ts_[i];
     xs_[i] = ray.o.x + t * ray.d.x;
     ys_[i] = ray.o.y + t * ray.d.y;
     zs_[i] = ray.o.z + t * ray.d.z;
   }
-  field_.eval(n, xs_.data(), ys_.data(), zs_.data(), fs_.data());
+  field_.eval(n, xs_.data() + first, ys_.data() + first, zs_.data() + first, fs_.data() + first);
   counters_.eval_calls++;
   counters_.eval_points += n;
-  for (size_t i = 0; i < n; ++i) {
+  for (size_t i = first; i < first + n; ++i) {
     if (std::isnan(fs_[i])) {
       counters_.nan_samples++;
       if (!has_nan_point_) {
@@ -272,7 +272,10 @@ RootHit RootSearcher::analytic_search(const Ray& ray, float t0, float t1, bool s
     double next = k + 1 < n ? c[k + 1] : double(t1);
     ts_[first + k] = float(0.5 * (c[k] + next));
   }
-  eval_params(ray, m);
+  // The first sample (t0, or the first gap) alone, then the rest: most hits are decided by
+  // the first gap, and a mesh or patch leaf's sample may cost a winding number.
+  eval_params(ray, 1);
+  if (m > 1 && !(fs_[0] >= 0)) eval_params(ray, m - 1, 1);  // NaN counts as outside
   if (!start_outside && fs_[0] >= 0) return {true, t0, true};
   for (size_t k = 0; k < n; ++k) {
     if (fs_[first + k] >= 0) return {true, float(c[k]), false};

@@ -98,7 +98,8 @@ class RootSearcher {
 
   /// Analytic search (needs field.has_ray_candidates()): gathers the candidates in [t0, t1],
   /// sorts them, evaluates F at t0 and at the midpoints between consecutive candidates (and
-  /// between the last one and t1) in one batch call, and reports the first candidate after
+  /// between the last one and t1) in two calls (the first sample, then the others when it is
+  /// outside), and reports the first candidate after
   /// which F >= 0, or t0 itself (at_start) when F(t0) >= 0. A candidate where F only touches 0
   /// (a tangent ray) is not a hit. Shadow rays use it unchanged: there is nothing to refine.
   /// `start_outside`: the caller has proven F < 0 at t0 (the end of a culled slab), so F(t0)
@@ -143,7 +144,7 @@ class RootSearcher {
 
  private:
   /// Evaluates F at o + t_i d for the n parameters in ts_ (fills xs_, ys_, zs_, fs_).
-  void eval_params(const Ray& ray, size_t n);
+  void eval_params(const Ray& ray, size_t n, size_t first = 0);
   /// Refines a bracket (F(ta) < 0 or NaN, F(tb) >= 0) to width <= eps.
   float refine(const Ray& ray, float ta, float fa, float tb, float fb, float eps);
 

@@ -276,10 +276,10 @@ TEST(RootSearch, AnalyticFindsSphereExactly) {
   ASSERT_TRUE(h.hit);
   EXPECT_FALSE(h.at_start);
   EXPECT_NEAR(h.t, 20 - std::sqrt(9.0 - 0.25 - 1.0), 2e-6);
-  // One candidate call, one batch of F samples (t0 and the gaps between the two roots and t1).
+  // One candidate call; F at t0 (outside), then the gaps between the two roots and t1.
   EXPECT_EQ(s.counters().candidate_calls, 1u);
   EXPECT_EQ(s.counters().candidates, 2u);
-  EXPECT_EQ(s.counters().eval_calls, 1u);
+  EXPECT_EQ(s.counters().eval_calls, 2u);
   EXPECT_EQ(s.counters().eval_points, 3u);
 }
 
@@ -292,7 +292,7 @@ TEST(RootSearch, AnalyticStartKnownOutsideSkipsOneSample) {
   const RootHit full = s.analytic_search(ray, 0, 40);
   const uint64_t before = s.counters().eval_points;
   const RootHit skip = s.analytic_search(ray, 0, 40, true);
-  EXPECT_EQ(s.counters().eval_points - before, 2u);  // the two gaps, not t0
+  EXPECT_EQ(s.counters().eval_points - before, 1u);  // the first gap decides: not t0
   ASSERT_TRUE(full.hit && skip.hit);
   EXPECT_EQ(full.t, skip.t);
   EXPECT_FALSE(skip.at_start);
