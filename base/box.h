@@ -40,6 +40,8 @@ struct Box {
   bool contains(Vec3 p) const {
     return p.x >= lo.x && p.x <= hi.x && p.y >= lo.y && p.y <= hi.y && p.z >= lo.z && p.z <= hi.z;
   }
+  /// Whether box b lies in this one (closed; an empty b is contained).
+  bool contains(const Box& b) const { return b.empty() || (contains(b.lo) && contains(b.hi)); }
   /// Half the surface area (the SAH only needs ratios); 0 for an empty box.
   float half_area() const {
     if (empty()) return 0;
@@ -72,13 +74,6 @@ struct Box {
     return dx * dx + dy * dy + dz * dz;
   }
 };
-
-/// Whether `inner` lies in `outer` (closed boxes; an empty inner is contained).
-inline bool contains(const Box& outer, const Box& inner) {
-  return inner.empty() ||
-         (inner.lo.x >= outer.lo.x && inner.lo.y >= outer.lo.y && inner.lo.z >= outer.lo.z &&
-          inner.hi.x <= outer.hi.x && inner.hi.y <= outer.hi.y && inner.hi.z <= outer.hi.z);
-}
 
 /// Intersection of two boxes (empty() when they do not overlap).
 inline Box intersect(const Box& a, const Box& b) {

@@ -9,6 +9,7 @@
 
 #include "base/check.h"
 #include "base/parallel.h"
+#include "render/depth_cull.h"
 #include "render/sampling.h"
 #include "render/tiles.h"
 
@@ -27,6 +28,16 @@ struct Span {
   float a, b;
 };
 
+/// Appends [a, b] to `spans`, merged with the last span when they touch (the culling keeps
+/// its pieces front to back).
+void append_span(std::vector<Span>* spans, float a, float b) {
+  if (!spans->empty() && spans->back().b == a) {
+    spans->back().b = b;
+  } else {
+    spans->push_back({a, b});
+  }
+}
+
 /// One camera sample of a tile.
 struct Sample {
   Ray ray;
@@ -43,11 +54,7 @@ struct ThreadState {
   RootSearcher searcher;
   std::vector<Sample> samples;
   std::vector<Span> spans;
-  struct Piece {
-    float a, b;
-    int level;
-  };
-  std::vector<Piece> stack;
+  std::vector<DepthPiece> stack;  // scratch of bisect_depths
   std::vector<float> hx, hy, hz, f, gx, gy, gz, attrs;
   std::vector<int> hit_index;
   /// Per camera sample / per shadow ray: its ray in the searcher's batch (-1: none).
@@ -136,41 +143,29 @@ class TileRenderer {
  private:
   void cull_tile(int tx0, int ty0, int tx1, int ty1, ThreadState& ts) {
     const float tile_px = float(std::max(tx1 - tx0, ty1 - ty0));
-    ts.stack.clear();
-    ts.stack.push_back({t_min_, t_max_, 0});
     EvalCounters& c = ts.searcher.counters();
-    while (!ts.stack.empty()) {
-      auto p = ts.stack.back();
-      ts.stack.pop_back();
-      const Box slab = frame_.slab_box(float(tx0), float(ty0), float(tx1), float(ty1), p.a, p.b);
-      Box box = intersect(slab, opt_.bbox);
-      if (box.empty()) continue;
-      bool maybe_nan = false;
-      Interval iv = field_.eval_interval(box, &maybe_nan);
-      c.interval_calls++;
-      if (iv.hi < 0) continue;
-      bool inside = !std::isnan(iv.lo) && iv.lo >= 0 && !maybe_nan;
-      // Split along depth while the slab is deeper than it is wide: past that, halving the depth
-      // no longer shrinks the box much.
-      float width = tile_px * (footprint_a_ + footprint_b_ * p.b);
-      if (!inside && p.level < 20 && (p.b - p.a) > width) {
-        float mid = p.a + (p.b - p.a) * 0.5f;
-        if (mid > p.a && mid < p.b) {
-          ts.stack.push_back({mid, p.b, p.level + 1});
-          ts.stack.push_back({p.a, mid, p.level + 1});
-          continue;
-        }
-      }
-      if (!ts.spans.empty() && ts.spans.back().b == p.a) {
-        ts.spans.back().b = p.b;
-      } else {
-        ts.spans.push_back({p.a, p.b});
-      }
-      // Every ray of the tile is inside the solid by the end of this slab: later slabs are
-      // hidden. Only when the box did not clip the slab: a ray of the tile that passes the
-      // slab outside the box meets the solid (its cap) later.
-      if (inside && contains(opt_.bbox, slab)) break;
-    }
+    bisect_depths(
+        t_min_, t_max_, &ts.stack,
+        [&](float a, float b) {
+          const Box slab = frame_.slab_box(float(tx0), float(ty0), float(tx1), float(ty1), a, b);
+          const Box box = intersect(slab, opt_.bbox);
+          if (box.empty()) return SlabTest{.empty = true};
+          bool maybe_nan = false;
+          const Interval iv = field_.eval_interval(box, &maybe_nan);
+          c.interval_calls++;
+          SlabTest s;
+          s.empty = iv.hi < 0;
+          s.inside = !std::isnan(iv.lo) && iv.lo >= 0 && !maybe_nan;
+          // Every ray of the tile is inside the solid by the end of this slab, unless the box
+          // clipped it (a ray of the tile passing the slab outside the box meets the solid's
+          // cap later).
+          s.hides = s.inside && opt_.bbox.contains(slab);
+          return s;
+        },
+        // Split along depth while the slab is deeper than it is wide: past that, halving the
+        // depth no longer shrinks the box much.
+        [&](float b) { return tile_px * (footprint_a_ + footprint_b_ * b); },
+        [&](float a, float b) { append_span(&ts.spans, a, b); });
   }
 
   void make_samples(int tx0, int ty0, int tx1, int ty1, ThreadState& ts) {
@@ -325,42 +320,31 @@ class TileRenderer {
     spans->clear();
     const float width = std::max(origins.max_extent(), step_);
     const float t_end = length(opt_.bbox.size()) + origins.max_extent();
-    ts.stack.clear();
-    ts.stack.push_back({0.0f, t_end, 0});
     EvalCounters& c = ts.searcher.counters();
-    while (!ts.stack.empty()) {
-      auto p = ts.stack.back();
-      ts.stack.pop_back();
-      Box box = origins;
-      for (int i = 0; i < 3; ++i) {
-        float u = p.a * l[i], v = p.b * l[i];
-        // The ray points o + t l round: pad by a few ulps of the operands, as segment_box does.
-        float pad = 4e-7f * (std::max(std::abs(origins.lo[i]), std::abs(origins.hi[i])) +
-                             std::max(std::abs(u), std::abs(v))) +
-                    1e-30f;
-        box.lo[i] += std::min(u, v) - pad;
-        box.hi[i] += std::max(u, v) + pad;
-      }
-      box = intersect(box, opt_.bbox);
-      if (box.empty()) continue;
-      bool maybe_nan = false;
-      Interval iv = field_.eval_interval(box, &maybe_nan);
-      c.interval_calls++;
-      if (iv.hi < 0) continue;
-      if (p.level < 20 && (p.b - p.a) > width) {
-        float mid = p.a + (p.b - p.a) * 0.5f;
-        if (mid > p.a && mid < p.b) {
-          ts.stack.push_back({mid, p.b, p.level + 1});
-          ts.stack.push_back({p.a, mid, p.level + 1});
-          continue;
-        }
-      }
-      if (!spans->empty() && spans->back().b == p.a) {
-        spans->back().b = p.b;
-      } else {
-        spans->push_back({p.a, p.b});
-      }
-    }
+    bisect_depths(
+        0.0f, t_end, &ts.stack,
+        [&](float a, float b) {
+          Box box = origins;
+          for (int i = 0; i < 3; ++i) {
+            float u = a * l[i], v = b * l[i];
+            // The ray points o + t l round: pad by a few ulps of the operands, as segment_box
+            // does.
+            float pad = 4e-7f * (std::max(std::abs(origins.lo[i]), std::abs(origins.hi[i])) +
+                                 std::max(std::abs(u), std::abs(v))) +
+                        1e-30f;
+            box.lo[i] += std::min(u, v) - pad;
+            box.hi[i] += std::max(u, v) + pad;
+          }
+          box = intersect(box, opt_.bbox);
+          if (box.empty()) return SlabTest{.empty = true};
+          bool maybe_nan = false;
+          const Interval iv = field_.eval_interval(box, &maybe_nan);
+          c.interval_calls++;
+          // Only emptiness is asked here: pieces are split down to the bundle's width, inside
+          // or not.
+          return SlabTest{.empty = iv.hi < 0};
+        },
+        [&](float) { return width; }, [&](float a, float b) { append_span(spans, a, b); });
   }
 
   /// The unit direction from surface point p towards `light`.

@@ -10,6 +10,7 @@
 
 #include "base/check.h"
 #include "base/parallel.h"
+#include "render/depth_cull.h"
 #include "render/sampling.h"
 #include "render/texture.h"
 #include "render/tiles.h"
@@ -156,6 +157,7 @@ struct ThreadState {
   std::vector<RootHit> found;
   std::vector<int> batch_index;
   std::vector<float> px, py, pz, f, gx, gy, gz, attrs;
+  std::vector<DepthPiece> depth_stack;  // scratch of bisect_depths
   double search_seconds = 0, shade_seconds = 0;
   uint64_t camera_rays = 0, secondary_rays = 0, shadow_rays = 0, hits = 0, refined = 0;
 };
@@ -417,52 +419,42 @@ class SceneTracer {
         tile_span_[k] = {lo, hi};
         continue;
       }
-      struct Piece {
-        float a, b;
-        int level;
-      };
-      std::vector<Piece> stack;
-      if (t_min <= t_max) stack.push_back({t_min, t_max, 0});
-      EvalCounters& c = ts.searchers[k]->counters();
-      while (!stack.empty()) {
-        Piece p = stack.back();
-        stack.pop_back();
-        const Box slab = frame_.slab_box(float(tx0), float(ty0), float(tx1), float(ty1), p.a, p.b);
-        Box wb = intersect(slab, world);
-        if (wb.empty()) continue;
-        Box ob;
-        for (int corner = 0; corner < 8; ++corner) {
-          ob.extend(obj.transform.point_to_object({(corner & 1) ? wb.hi.x : wb.lo.x,
-                                                   (corner & 2) ? wb.hi.y : wb.lo.y,
-                                                   (corner & 4) ? wb.hi.z : wb.lo.z}));
-        }
-        // Rounding of the transform: pad by a few ulps of the box.
-        const float pad = 1e-6f * obj.bbox.max_extent();
-        const Box padded{ob.lo - Vec3{pad, pad, pad}, ob.hi + Vec3{pad, pad, pad}};
-        // Whether every ray of the tile crosses this slab inside the object's box (so that an
-        // "inside" slab hides everything behind it for all of them).
-        const bool unclipped = contains(world, slab) && contains(obj.bbox, padded);
-        ob = intersect(padded, obj.bbox);
-        if (ob.empty()) continue;
-        bool maybe_nan = false;
-        Interval iv = field.eval_interval(ob, &maybe_nan);
-        c.interval_calls++;
-        if (iv.hi < 0) continue;
-        bool inside = !std::isnan(iv.lo) && iv.lo >= 0 && !maybe_nan;
-        float width = tile_px * (footprint_a_ + footprint_b_ * p.b);
-        if (!inside && p.level < 20 && (p.b - p.a) > width) {
-          float mid = p.a + (p.b - p.a) * 0.5f;
-          if (mid > p.a && mid < p.b) {
-            stack.push_back({mid, p.b, p.level + 1});
-            stack.push_back({p.a, mid, p.level + 1});
-            continue;
-          }
-        }
-        lo = std::min(lo, p.a);
-        hi = std::max(hi, p.b);
-        // Every ray of the tile is inside by the end of this slab, unless a box clipped it (a
-        // ray passing the slab outside the box meets the object's cap later).
-        if (inside && unclipped) break;
+      if (t_min <= t_max) {
+        EvalCounters& c = ts.searchers[k]->counters();
+        bisect_depths(
+            t_min, t_max, &ts.depth_stack,
+            [&](float a, float b) {
+              const Box slab =
+                  frame_.slab_box(float(tx0), float(ty0), float(tx1), float(ty1), a, b);
+              const Box wb = intersect(slab, world);
+              if (wb.empty()) return SlabTest{.empty = true};
+              Box ob;
+              for (int corner = 0; corner < 8; ++corner) {
+                ob.extend(obj.transform.point_to_object({(corner & 1) ? wb.hi.x : wb.lo.x,
+                                                         (corner & 2) ? wb.hi.y : wb.lo.y,
+                                                         (corner & 4) ? wb.hi.z : wb.lo.z}));
+              }
+              // Rounding of the transform: pad by a few ulps of the box.
+              const float pad = 1e-6f * obj.bbox.max_extent();
+              const Box padded{ob.lo - Vec3{pad, pad, pad}, ob.hi + Vec3{pad, pad, pad}};
+              ob = intersect(padded, obj.bbox);
+              if (ob.empty()) return SlabTest{.empty = true};
+              bool maybe_nan = false;
+              const Interval iv = field.eval_interval(ob, &maybe_nan);
+              c.interval_calls++;
+              SlabTest s;
+              s.empty = iv.hi < 0;
+              s.inside = !std::isnan(iv.lo) && iv.lo >= 0 && !maybe_nan;
+              // Every ray of the tile is inside by the end of this slab, unless a box clipped
+              // it (a ray passing the slab outside the box meets the object's cap later).
+              s.hides = s.inside && world.contains(slab) && obj.bbox.contains(padded);
+              return s;
+            },
+            [&](float b) { return tile_px * (footprint_a_ + footprint_b_ * b); },
+            [&](float a, float b) {
+              lo = std::min(lo, a);
+              hi = std::max(hi, b);
+            });
       }
       tile_span_[k] = {lo, hi};
     }

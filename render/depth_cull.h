@@ -1,0 +1,54 @@
+#pragma once
+// The depth bisection that the renderers' culling shares (render/renderer.cpp: a tile's camera
+// rays and a tile's shadow-ray bundles; render/tracer.cpp: a tile's camera rays per scene
+// object): a range of depths is cut front to back into pieces whose boxes an interval test
+// judges, so that the per-ray root searches skip what is empty for every ray of the bundle.
+
+#include <vector>
+
+namespace hfrt::render {
+
+/// One piece [a, b] of a depth range under bisection, `level` halvings deep.
+struct DepthPiece {
+  float a, b;
+  int level;
+};
+
+/// What a culling test found in the box of the depths [a, b] of a ray bundle.
+struct SlabTest {
+  bool empty = false;   ///< proven to hold no surface (F < 0 there, or outside the box): dropped
+  bool inside = false;  ///< proven inside the solid: kept without being split further
+  /// Inside, and every ray of the bundle crosses this piece inside the box: nothing behind it
+  /// can be seen, so the bisection stops after keeping it. (A piece the box clipped does not
+  /// hide: a ray passing it outside the box meets the solid's cap later.)
+  bool hides = false;
+};
+
+/// Bisects [t0, t1] front to back. Each piece is judged by `test(a, b)` (a SlabTest); a piece
+/// that is not empty and not inside is halved while it is longer than `width(b)` and less than
+/// 20 halvings deep; every other non-empty piece goes to `keep(a, b)`, in increasing depth. The
+/// walk ends after a piece that hides what lies behind it. `stack` is the caller's scratch.
+template <typename Test, typename Width, typename Keep>
+void bisect_depths(float t0, float t1, std::vector<DepthPiece>* stack, Test&& test, Width&& width,
+                   Keep&& keep) {
+  stack->clear();
+  stack->push_back({t0, t1, 0});
+  while (!stack->empty()) {
+    const DepthPiece p = stack->back();
+    stack->pop_back();
+    const SlabTest s = test(p.a, p.b);
+    if (s.empty) continue;
+    if (!s.inside && p.level < 20 && (p.b - p.a) > width(p.b)) {
+      const float mid = p.a + (p.b - p.a) * 0.5f;
+      if (mid > p.a && mid < p.b) {
+        stack->push_back({mid, p.b, p.level + 1});
+        stack->push_back({p.a, mid, p.level + 1});
+        continue;
+      }
+    }
+    keep(p.a, p.b);
+    if (s.hides) break;
+  }
+}
+
+}  // namespace hfrt::render
