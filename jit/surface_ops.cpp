@@ -104,7 +104,7 @@ Dual surface_dual(const geom::Surface& s, const Dual& x, const Dual& y, const Du
 
 namespace {
 
-/// One recorded leaf ray (ray_sides_add).
+/// One recorded leaf ray (ray_sides_crossings).
 struct RaySide {
   const geom::Surface* surface;
   double org[3], dir[3];

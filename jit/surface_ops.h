@@ -25,9 +25,10 @@ Interval surface_interval(const geom::Surface& s, const Interval& x, const Inter
                           const Interval& z);
 
 /// Value and gradient: the surface's gradient (unit, from the closest point) chained with the
-/// arguments' derivatives. On the surface itself (|value| < 1e-5 of the surface's size, e.g.
-/// at a ray hit) the closest-point direction is rounding noise: the gradient is then the
-/// normalised central difference of the distance with a step of 1e-4 of the size.
+/// arguments' derivatives. On the surface itself (|value| < 1e-5 of the surface's size plus
+/// Surface::field_tolerance(), e.g. at a ray hit) the closest-point direction is noise: the
+/// gradient is then minus the closest primitive's unit normal, and the value's sign the side
+/// of its plane.
 Dual surface_dual(const geom::Surface& s, const Dual& x, const Dual& y, const Dual& z);
 
 // ---- Sides from a ray's crossings (issue 17: one inside test per ray, not per candidate).
