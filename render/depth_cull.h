@@ -4,7 +4,11 @@
 // object): a range of depths is cut front to back into pieces whose boxes an interval test
 // judges, so that the per-ray root searches skip what is empty for every ray of the bundle.
 
+#include <cmath>
+#include <cstdint>
 #include <vector>
+
+#include "render/field.h"
 
 namespace hfrt::render {
 
@@ -23,6 +27,22 @@ struct SlabTest {
   /// hide: a ray passing it outside the box meets the solid's cap later.)
   bool hides = false;
 };
+
+/// A camera culling's verdict on `box` from F's interval over it (one more count in
+/// `*interval_calls`): empty where F < 0, inside where F >= 0 with no NaN possible, and hiding
+/// what lies behind when also `unclipped` (every ray of the bundle crosses the piece inside
+/// the box it was clipped to).
+inline SlabTest interval_slab_test(const Field& field, const Box& box, bool unclipped,
+                                   uint64_t* interval_calls) {
+  bool maybe_nan = false;
+  const Interval iv = field.eval_interval(box, &maybe_nan);
+  ++*interval_calls;
+  SlabTest s;
+  s.empty = iv.hi < 0;
+  s.inside = !std::isnan(iv.lo) && iv.lo >= 0 && !maybe_nan;
+  s.hides = s.inside && unclipped;
+  return s;
+}
 
 /// Bisects [t0, t1] front to back. Each piece is judged by `test(a, b)` (a SlabTest); a piece
 /// that is not empty and not inside is halved while it is longer than `width(b)` and less than

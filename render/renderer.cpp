@@ -150,17 +150,10 @@ class TileRenderer {
           const Box slab = frame_.slab_box(float(tx0), float(ty0), float(tx1), float(ty1), a, b);
           const Box box = intersect(slab, opt_.bbox);
           if (box.empty()) return SlabTest{.empty = true};
-          bool maybe_nan = false;
-          const Interval iv = field_.eval_interval(box, &maybe_nan);
-          c.interval_calls++;
-          SlabTest s;
-          s.empty = iv.hi < 0;
-          s.inside = !std::isnan(iv.lo) && iv.lo >= 0 && !maybe_nan;
-          // Every ray of the tile is inside the solid by the end of this slab, unless the box
-          // clipped it (a ray of the tile passing the slab outside the box meets the solid's
-          // cap later).
-          s.hides = s.inside && opt_.bbox.contains(slab);
-          return s;
+          // Every ray of the tile is inside the solid by the end of an inside slab, unless the
+          // box clipped it (a ray of the tile passing the slab outside the box meets the
+          // solid's cap later).
+          return interval_slab_test(field_, box, opt_.bbox.contains(slab), &c.interval_calls);
         },
         // Split along depth while the slab is deeper than it is wide: past that, halving the
         // depth no longer shrinks the box much.
@@ -337,12 +330,9 @@ class TileRenderer {
           }
           box = intersect(box, opt_.bbox);
           if (box.empty()) return SlabTest{.empty = true};
-          bool maybe_nan = false;
-          const Interval iv = field_.eval_interval(box, &maybe_nan);
-          c.interval_calls++;
           // Only emptiness is asked here: pieces are split down to the bundle's width, inside
           // or not.
-          return SlabTest{.empty = iv.hi < 0};
+          return SlabTest{.empty = interval_slab_test(field_, box, false, &c.interval_calls).empty};
         },
         [&](float) { return width; }, [&](float a, float b) { append_span(spans, a, b); });
   }

@@ -439,16 +439,11 @@ class SceneTracer {
               const Box padded{ob.lo - Vec3{pad, pad, pad}, ob.hi + Vec3{pad, pad, pad}};
               ob = intersect(padded, obj.bbox);
               if (ob.empty()) return SlabTest{.empty = true};
-              bool maybe_nan = false;
-              const Interval iv = field.eval_interval(ob, &maybe_nan);
-              c.interval_calls++;
-              SlabTest s;
-              s.empty = iv.hi < 0;
-              s.inside = !std::isnan(iv.lo) && iv.lo >= 0 && !maybe_nan;
-              // Every ray of the tile is inside by the end of this slab, unless a box clipped
-              // it (a ray passing the slab outside the box meets the object's cap later).
-              s.hides = s.inside && world.contains(slab) && obj.bbox.contains(padded);
-              return s;
+              // Every ray of the tile is inside by the end of an inside slab, unless a box
+              // clipped it (a ray passing the slab outside the box meets the object's cap
+              // later).
+              return interval_slab_test(
+                  field, ob, world.contains(slab) && obj.bbox.contains(padded), &c.interval_calls);
             },
             [&](float b) { return tile_px * (footprint_a_ + footprint_b_ * b); },
             [&](float a, float b) {
