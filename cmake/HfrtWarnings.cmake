@@ -6,6 +6,10 @@ function(hfrt_target_defaults target)
   # those switches) that misses a case does not compile, so a new op cannot be silently
   # missing from a domain.
   target_compile_options(${target} PRIVATE -Wall -Wextra -Wno-unused-parameter -Werror=switch)
+  # No fused multiply-adds the source does not write: the C++ semantics (ir/scalar_ops.h,
+  # ir/trig.h, the interval enclosures) must round as the JIT's unfused operations do. The
+  # x86-64 baseline has no FMA, so this only matters for builds with -march flags.
+  target_compile_options(${target} PRIVATE -ffp-contract=off)
   # GCC 12 reports false -Wrestrict positives inside libstdc++'s std::string code
   # (GCC bug 105651), fixed in GCC 13.
   if(CMAKE_CXX_COMPILER_ID STREQUAL "GNU" AND CMAKE_CXX_COMPILER_VERSION VERSION_LESS 13)

@@ -16,6 +16,7 @@
 
 #include "base/check.h"
 #include "ir/scalar_ops.h"
+#include "ir/trig.h"
 
 namespace hfrt::ir {
 namespace {
@@ -106,30 +107,33 @@ Interval monotone(Interval a, F f, double dlo, double dhi, int ulps, double rlo 
   return r;
 }
 
-/// sin over [lo, hi] (shift = 0) or cos (shift = pi/2: cos x = sin(x + pi/2), used only to
-/// locate the extrema; the values are computed with the real function).
+/// sin (or cos) over [lo, hi]: hfrt's kernel (ir/trig.h) at the ends, widened by two steps of
+/// |v| 2^-52 (at least 2 ulps: the kernel's 1 ulp and libm's, the f64 points' sin), and
+/// +1 / -1 where a maximum / minimum may lie inside. The interval JIT emits the same
+/// operations as vector code (llvm_interval.cpp, sin_cos), so both give the same bits; the
+/// libm-free kernel is what lets it (the per-lane libm calls were half of a gyroid render).
+/// Beyond the kernel's range, or over 64 or more, [-1, 1].
 Interval sin_cos(Interval a, bool is_cos) {
-  bool nan = a.maybe_nan || std::isinf(a.lo) || std::isinf(a.hi);
-  auto f = [&](double v) { return is_cos ? std::cos(v) : std::sin(v); };
-  if (!(a.hi - a.lo < 64.0) || std::fabs(a.lo) > 1e12 || std::fabs(a.hi) > 1e12) {
+  const bool nan = a.maybe_nan || std::isinf(a.lo) || std::isinf(a.hi);
+  if (!(a.hi - a.lo < 64.0) || std::fabs(a.lo) > kTrigKernelLimit ||
+      std::fabs(a.hi) > kTrigKernelLimit) {
     return {-1, 1, nan};
   }
   // Extrema of sin at pi/2 + k pi (max for even k); of cos at k pi (max for even k). An
   // extremum within a small tolerance of the interval counts as inside (conservative).
-  double offset = is_cos ? 0.0 : kPi / 2;
-  double tol = 1e-9 * std::max(1.0, std::max(std::fabs(a.lo), std::fabs(a.hi)));
-  double k0 = std::ceil((a.lo - offset - tol) / kPi);
-  double k1 = std::floor((a.hi - offset + tol) / kPi);
-  double lo = std::min(f(a.lo), f(a.hi)), hi = std::max(f(a.lo), f(a.hi));
+  const double offset = is_cos ? 0.0 : kPi / 2;
+  const double tol = 1e-9 * std::max(1.0, std::max(std::fabs(a.lo), std::fabs(a.hi)));
+  const double k0 = std::ceil((a.lo - offset - tol) / kPi);
+  const double k1 = std::floor((a.hi - offset + tol) / kPi);
+  const double f_lo = trig_kernel(a.lo, is_cos), f_hi = trig_kernel(a.hi, is_cos);
+  double lo = std::min(f_lo, f_hi), hi = std::max(f_lo, f_hi);
   lo = down(lo, 2);
   hi = up(hi, 2);
-  for (double k = k0; k <= k1; k += 1) {
-    bool even = std::fmod(k, 2.0) == 0;
-    if (even)
-      hi = 1;
-    else
-      lo = -1;
-  }
+  // Some k in [k0, k1]: an even one (a maximum) unless the only one is odd, and vice versa.
+  const bool some = k0 <= k1, several = k0 < k1;
+  const bool k0_even = k0 - 2.0 * std::floor(k0 * 0.5) == 0.0;
+  if (some && (several || k0_even)) hi = 1;
+  if (some && (several || !k0_even)) lo = -1;
   return {std::max(lo, -1.0), std::min(hi, 1.0), nan};
 }
 

@@ -25,7 +25,8 @@
 //          arguments; handled per op), None (not a polynomial unless independent of x), AddSub,
 //          Neg, Mul, Div, Sqrt, Pow, Select, MinMax (a set operation), Compare (0/1 values)
 //
-// Semantics (all values are f64 in the reference interpreter):
+// Semantics (all values are f64 in the reference interpreter; the f32 evaluators use the
+// float libm functions, except kSin / kCos: hfrt's kernel of ir/trig.h, rounded to float):
 //  kConst            imm
 //  kInput            x[aux+1] of the evaluated point (0 when the caller passes fewer coords)
 //  kParam            a[aux+1]

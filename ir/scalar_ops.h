@@ -6,8 +6,10 @@
 // definitions; hf_pow and hf_sign are plain functions so a JIT can call them as helpers.
 
 #include <cmath>
+#include <type_traits>
 
 #include "ir/ir.h"
+#include "ir/trig.h"
 
 namespace hfrt::ir {
 
@@ -59,11 +61,11 @@ inline T hf_truth(T v) {
 
 /// Applies an op computed from its arguments (op_is_arith: the kinds Arith, Step and Bool of
 /// ir_ops.h) in the precision T: double is the IR's meaning; float is what the f32 evaluators
-/// compute (the same formulas with float operations, the float libm functions and the
-/// tolerances rounded to float), used by the tape VM (jit/tape_vm.h). Unused arguments are
-/// ignored. Returns NaN for other ops (callers never pass them). With a constant `op` it
-/// inlines to the one formula (the tape VM's lane loops rely on that to vectorise: hence
-/// always_inline, as GCC would otherwise call the whole switch per lane).
+/// compute (the same formulas with float operations, the float libm functions, hfrt's
+/// sin/cos kernel of ir/trig.h, and the tolerances rounded to float), used by the tape VM
+/// (jit/tape_vm.h). Unused arguments are ignored. Returns NaN for other ops (callers never pass
+/// them). With a constant `op` it inlines to the one formula (the tape VM's lane loops rely on that
+/// to vectorise: hence always_inline, as GCC would otherwise call the whole switch per lane).
 template <typename T>
 [[gnu::always_inline]] inline T apply_op_t(Op op, T a, T b, T c) {
   const T eps = static_cast<T>(kHfEps);
@@ -93,9 +95,13 @@ template <typename T>
     case Op::kLog10:
       return std::log10(a);
     case Op::kSin:
-      return std::sin(a);
     case Op::kCos:
-      return std::cos(a);
+      // f32: hfrt's kernel (ir/trig.h), which the f32 JIT computes in vector code.
+      if constexpr (std::is_same_v<T, float>) {
+        return sin_cos_f32(a, op == Op::kCos);
+      } else {
+        return op == Op::kCos ? std::cos(a) : std::sin(a);
+      }
     case Op::kTan:
       return std::tan(a);
     case Op::kAsin:

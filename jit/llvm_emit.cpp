@@ -7,6 +7,7 @@
 
 #include "base/check.h"
 #include "ir/scalar_ops.h"
+#include "ir/trig.h"
 
 namespace hfrt::jit {
 
@@ -206,6 +207,82 @@ llvm::Value* VectorEmitter::surface_lanes(int index, llvm::Value* x, llvm::Value
   return r;
 }
 
+llvm::Value* VectorEmitter::trig_kernel(llvm::Value* x, bool cos) {
+  using namespace trig_detail;
+  auto* dt = llvm::cast<llvm::FixedVectorType>(x->getType());
+  auto k_ = [&](double v) { return llvm::ConstantFP::get(dt, v); };
+  auto add = [&](llvm::Value* p, llvm::Value* q) { return b_.CreateFAdd(p, q); };
+  auto sub = [&](llvm::Value* p, llvm::Value* q) { return b_.CreateFSub(p, q); };
+  auto mul = [&](llvm::Value* p, llvm::Value* q) { return b_.CreateFMul(p, q); };
+  auto eq = [&](llvm::Value* p, double v) { return b_.CreateFCmpOEQ(p, k_(v)); };
+  llvm::Value* k = sub(add(mul(x, k_(kTwoOverPi)), k_(kRoundShift)), k_(kRoundShift));
+  llvm::Value* r = sub(x, mul(k, k_(kPio2Hi)));
+  llvm::Value* w = mul(k, k_(kPio2Mid));
+  llvm::Value* t = r;
+  r = sub(t, w);
+  w = sub(mul(k, k_(kPio2Lo)), sub(sub(t, r), w));
+  llvm::Value* y0 = sub(r, w);
+  llvm::Value* y1 = sub(sub(r, y0), w);
+  llvm::Value* z = mul(y0, y0);
+  // Horner from the highest coefficient: c0 + z (c1 + z (... + z c5)).
+  auto horner = [&](std::initializer_list<double> c) {
+    const double* cs = c.begin();
+    llvm::Value* p = k_(cs[c.size() - 1]);
+    for (size_t i = c.size() - 1; i-- > 0;) p = add(k_(cs[i]), mul(z, p));
+    return p;
+  };
+  llvm::Value* v = mul(z, y0);
+  llvm::Value* ps = horner({kS2, kS3, kS4, kS5, kS6});
+  llvm::Value* s =
+      sub(y0, sub(sub(mul(z, sub(mul(k_(0.5), y1), mul(v, ps))), y1), mul(v, k_(kS1))));
+  llvm::Value* pc = mul(z, horner({kC1, kC2, kC3, kC4, kC5, kC6}));
+  llvm::Value* hz = mul(k_(0.5), z);
+  llvm::Value* wc = sub(k_(1.0), hz);
+  llvm::Value* c = add(wc, add(sub(sub(k_(1.0), wc), hz), sub(mul(z, pc), mul(y0, y1))));
+  llvm::Value* q =
+      sub(k, mul(k_(4.0), b_.CreateUnaryIntrinsic(llvm::Intrinsic::floor, mul(k, k_(0.25)))));
+  q = add(q, k_(cos ? 1.0 : 0.0));
+  llvm::Value* odd = b_.CreateOr(eq(q, 1.0), eq(q, 3.0));
+  llvm::Value* negative = b_.CreateOr(eq(q, 2.0), eq(q, 3.0));
+  llvm::Value* res = b_.CreateSelect(odd, c, s);
+  return b_.CreateSelect(negative, b_.CreateFNeg(res), res);
+}
+
+llvm::Value* VectorEmitter::sin_cos_f32(llvm::Value* a, bool cos) {
+  auto* dt = llvm::FixedVectorType::get(llvm::Type::getDoubleTy(ctx_), w_);
+  llvm::Value* d = b_.CreateFPExt(a, dt);
+  llvm::Value* fast = b_.CreateFPTrunc(trig_kernel(d, cos), vt_);
+  llvm::Value* beyond = b_.CreateFCmpOGT(b_.CreateUnaryIntrinsic(llvm::Intrinsic::fabs, d),
+                                         llvm::ConstantFP::get(dt, kTrigKernelLimit));
+  // Lanes beyond the kernel's range (rare: |x| > 2^20) take libm's double function.
+  llvm::BasicBlock* from = b_.GetInsertBlock();
+  llvm::BasicBlock* slow = new_block("trig_libm");
+  llvm::BasicBlock* join = new_block("trig_join");
+  b_.CreateCondBr(any(beyond), slow, join);
+  b_.SetInsertPoint(slow);
+  auto* fty = llvm::FunctionType::get(b_.getDoubleTy(), {b_.getDoubleTy()}, false);
+  llvm::FunctionCallee f = m_.getOrInsertFunction(cos ? "cos" : "sin", fty);
+  if (auto* fn = llvm::dyn_cast<llvm::Function>(f.getCallee())) {
+    fn->setDoesNotThrow();
+    fn->setWillReturn();
+    fn->setMemoryEffects(llvm::MemoryEffects::none());
+  }
+  llvm::Value* libm = llvm::PoisonValue::get(vt_);
+  for (int i = 0; i < w_; ++i) {
+    llvm::CallInst* call = b_.CreateCall(f, {b_.CreateExtractElement(d, uint64_t(i))});
+    call->setDoesNotThrow();
+    libm = b_.CreateInsertElement(libm, b_.CreateFPTrunc(call, st_), uint64_t(i));
+  }
+  llvm::Value* mixed = b_.CreateSelect(beyond, libm, fast);
+  llvm::BasicBlock* slow_end = b_.GetInsertBlock();
+  b_.CreateBr(join);
+  b_.SetInsertPoint(join);
+  llvm::PHINode* phi = b_.CreatePHI(vt_, 2);
+  phi->addIncoming(fast, from);
+  phi->addIncoming(mixed, slow_end);
+  return phi;
+}
+
 llvm::Value* VectorEmitter::scalar_op(Op op, llvm::Value* a, llvm::Value* b, llvm::Value* c) {
   auto unary = [&](llvm::Intrinsic::ID id) { return b_.CreateUnaryIntrinsic(id, a); };
   switch (op) {
@@ -231,6 +308,10 @@ llvm::Value* VectorEmitter::scalar_op(Op op, llvm::Value* a, llvm::Value* b, llv
       // A per-lane call of the libm function or hfrt helper named by ir_ops.h (the very
       // function the interpreter calls).
       HFRT_OP_CASES_LANE_CALL {
+        // Except f32 sin and cos: hfrt's kernel (ir/trig.h) in vector code.
+        if ((op == Op::kSin || op == Op::kCos) && is_f32_ && inline_trig_) {
+          return sin_cos_f32(a, op == Op::kCos);
+        }
         const int n = op_num_args(op);
         return call_lanes(
             pure_function(pick_name(op_libm_name(op, false), op_libm_name(op, true)), n), a,

@@ -25,7 +25,8 @@ using namespace ::hfrt::ir;
 /// that evaluates one block of `lanes` points (x[k+1] of lane i at xs[k*stride + i], F to
 /// out_f[i], s[k+1] to out_s[k*out_stride + i] unless out_s is null), and, unless
 /// `batch_entry` is empty, the exported batch function of that name (BatchFn). Per-lane libm
-/// calls are declarations (op_libm_name); the caller links or defines them. Returns the body.
+/// calls are declarations (op_libm_name); the caller links or defines them, f32 sin and cos
+/// included (they are not the host's trig_kernel code here). Returns the body.
 /// The NVPTX kernels (llvm_nvptx.cpp) call it with one lane.
 llvm::Function* emit_scalar_function(llvm::Module& module, const Function& fn, Precision precision,
                                      int lanes, const std::string& batch_entry);
@@ -121,6 +122,17 @@ class VectorEmitter {
   /// with `sign_only` hfrt_surface_sign_f64 / _f32 (+1 / -1, JitOptions::surface_sign_only).
   llvm::Value* surface_lanes(int index, llvm::Value* x, llvm::Value* y, llvm::Value* z,
                              bool sign_only = false);
+
+  /// ir/trig.h's trig_kernel on a <W x double> vector: the same IEEE operations in the same
+  /// order, so every lane is bit for bit what the C++ kernel computes (any value beyond
+  /// kTrigKernelLimit, as there).
+  llvm::Value* trig_kernel(llvm::Value* x, bool cos);
+  /// ir/trig.h's sin_cos_f32 on a <W x float> vector: the kernel on the lanes' doubles, and
+  /// a branch to per-lane libm calls taken only when some lane is beyond the kernel's range.
+  llvm::Value* sin_cos_f32(llvm::Value* a, bool cos);
+  /// Whether f32 kSin / kCos are emitted as trig_kernel code (the host) or as calls of the
+  /// float libm names (the NVPTX kernels, whose device math replaces those calls).
+  bool inline_trig_ = true;
 
   /// The value of a pure op (kAdd ... kSelect, no kTableLoad) on vectors, exactly as
   /// scalar_ops.h apply_op computes it: IEEE instructions and intrinsics without fast-math

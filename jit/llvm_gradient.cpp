@@ -329,11 +329,15 @@ class GradientEmitter : public VectorEmitter {
       case Op::kLog10:
         r = chain(v, a, div(splat(1), mul(av, splat(std::log(10.0)))));
         break;
+      // The derivative in the value's arithmetic: f32 from hfrt's kernel (ir/trig.h) as
+      // the value itself, f64 from libm.
       case Op::kSin:
-        r = chain(v, a, call("cos", "cosf", av));
+        r = chain(v, a, is_f32_ && inline_trig_ ? sin_cos_f32(av, true) : call("cos", "cosf", av));
         break;
       case Op::kCos:
-        r = chain(v, a, b_.CreateFNeg(call("sin", "sinf", av)));
+        r = chain(v, a,
+                  b_.CreateFNeg(is_f32_ && inline_trig_ ? sin_cos_f32(av, false)
+                                                        : call("sin", "sinf", av)));
         break;
       case Op::kTan:
         r = chain(v, a, add(splat(1), mul(v, v)));

@@ -50,6 +50,7 @@
 #include "ir/r_functions.h"
 #include "ir/regions.h"
 #include "ir/scalar_ops.h"
+#include "ir/trig.h"
 #include "jit/interval.h"
 #include "jit/llvm_emit.h"
 #include "jit/llvm_session.h"
@@ -379,6 +380,45 @@ class IntervalEmitter : public VectorEmitter {
     }
     r.nan = b_.CreateFCmpUNE(r.nan, splat(0));
     return r;
+  }
+
+  /// kSin / kCos: ir/interval_ops.cpp's sin_cos, operation for operation, on hfrt's trig
+  /// kernel (ir/trig.h) instead of per-lane libm calls.
+  IV sin_cos(const IV& a, bool is_cos) {
+    constexpr double kPi = 3.141592653589793;
+    auto c = [&](double v) { return splat(v); };
+    auto add = [&](llvm::Value* p, llvm::Value* q) { return b_.CreateFAdd(p, q); };
+    auto sub = [&](llvm::Value* p, llvm::Value* q) { return b_.CreateFSub(p, q); };
+    auto mul = [&](llvm::Value* p, llvm::Value* q) { return b_.CreateFMul(p, q); };
+    auto floor = [&](llvm::Value* v) { return b_.CreateUnaryIntrinsic(llvm::Intrinsic::floor, v); };
+    llvm::Value* nan = OR(a.nan, OR(isinf(a.lo), isinf(a.hi)));
+    llvm::Value* alo = fabs(a.lo);
+    llvm::Value* ahi = fabs(a.hi);
+    llvm::Value* whole = OR(
+        NOT(lt(sub(a.hi, a.lo), c(64.0))),
+        OR(b_.CreateFCmpOGT(alo, c(kTrigKernelLimit)), b_.CreateFCmpOGT(ahi, c(kTrigKernelLimit))));
+    // std::max(a, b) is (a < b) ? b : a.
+    llvm::Value* tol = mul(c(1e-9), vmax(c(1.0), vmax(alo, ahi)));
+    const double offset = is_cos ? 0.0 : kPi / 2;
+    llvm::Value* k0 = b_.CreateUnaryIntrinsic(
+        llvm::Intrinsic::ceil, b_.CreateFDiv(sub(sub(a.lo, c(offset)), tol), c(kPi)));
+    llvm::Value* k1 = floor(b_.CreateFDiv(add(sub(a.hi, c(offset)), tol), c(kPi)));
+    llvm::Value* f_lo = trig_kernel(a.lo, is_cos);
+    llvm::Value* f_hi = trig_kernel(a.hi, is_cos);
+    llvm::Value* lo = vmin(f_lo, f_hi);
+    llvm::Value* hi = vmax(f_lo, f_hi);
+    for (int i = 0; i < 2; ++i) {
+      lo = down(lo);
+      hi = up(hi);
+    }
+    llvm::Value* some = le(k0, k1);
+    llvm::Value* several = lt(k0, k1);
+    llvm::Value* k0_even = eq(sub(k0, mul(c(2.0), floor(mul(k0, c(0.5))))), c(0.0));
+    hi = sel(AND(some, OR(several, k0_even)), c(1.0), hi);
+    lo = sel(AND(some, OR(several, NOT(k0_even))), c(-1.0), lo);
+    lo = vmax(lo, c(-1.0));
+    hi = vmin(hi, c(1.0));
+    return {sel(whole, c(-1.0), lo), sel(whole, c(1.0), hi), nan};
   }
 
   /// The per-lane helper (apply_interval) for the libm-based ops.
@@ -872,6 +912,10 @@ class IntervalEmitter : public VectorEmitter {
       // Helper of ir_ops.h): apply_interval per lane.
       case Op::kSign:
         HFRT_OP_CASES_LANE_CALL
+        if (op == Op::kSin || op == Op::kCos) {  // but these two: vector code
+          r = sin_cos(a, op == Op::kCos);
+          break;
+        }
         r = lane_call(op, a, b);
         break;
         // Not computed from arguments: emit_inst handles them (and helper() never sees them).

@@ -73,6 +73,10 @@ class Emitter : public VectorEmitter {
                       lanes),
         surface_sign_only_(surface_sign_only) {}
 
+  /// f32 sin and cos as calls of sinf / cosf instead of the kernel's vector code (the NVPTX
+  /// kernels give those calls the device's math).
+  void use_libm_trig() { inline_trig_ = false; }
+
   /// Emits the body and, unless `entry_name` is empty, the exported batch function of that
   /// name. Returns the body (emit_scalar_function).
   llvm::Function* emit(const std::string& entry_name) {
@@ -458,7 +462,9 @@ class Emitter : public VectorEmitter {
 
 llvm::Function* emit_scalar_function(llvm::Module& module, const Function& fn, Precision precision,
                                      int lanes, const std::string& batch_entry) {
-  return Emitter(module, fn, precision, lanes).emit(batch_entry);
+  Emitter e(module, fn, precision, lanes);
+  e.use_libm_trig();
+  return e.emit(batch_entry);
 }
 
 // ---------------------------------------------------------------------------------------

@@ -336,10 +336,12 @@ TEST(IntervalBoostTest, AgreesWithBoostOnFiniteIntervals) {
                  8, Match::kClose, u, none, &failures);
     expect_match(Op::kAcos, apply_interval(Op::kAcos, u, none, none), boost::numeric::acos(bx(u)),
                  8, Match::kClose, u, none, &failures);
+    // Slack 5: the enclosure's ends come from hfrt's kernel (ir/trig.h, within 0.78 ulps,
+    // where libm's cos and sin, which Boost calls, are within 0.52), widened by two steps.
     Interval s = finite(-1e4, 1e4);
-    expect_match(Op::kSin, apply_interval(Op::kSin, s, none, none), boost::numeric::sin(bx(s)), 4,
+    expect_match(Op::kSin, apply_interval(Op::kSin, s, none, none), boost::numeric::sin(bx(s)), 5,
                  Match::kNotLooser, s, none, &failures);
-    expect_match(Op::kCos, apply_interval(Op::kCos, s, none, none), boost::numeric::cos(bx(s)), 4,
+    expect_match(Op::kCos, apply_interval(Op::kCos, s, none, none), boost::numeric::cos(bx(s)), 5,
                  Match::kNotLooser, s, none, &failures);
   }
   EXPECT_EQ(failures, 0);

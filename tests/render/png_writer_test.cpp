@@ -5,6 +5,7 @@
 #include "render/png_writer.h"
 
 #include <gtest/gtest.h>
+#include <unistd.h>
 #include <zlib.h>
 
 #include <cmath>
@@ -22,8 +23,12 @@
 namespace hfrt::render {
 namespace {
 
+/// A file name of this process only: CTest runs the tests of this file as separate processes
+/// in parallel, and a name they shared made two of them read each other's files.
 std::string temp_path(const std::string& name) {
-  return (std::filesystem::temp_directory_path() / ("hfrt_png_writer_test_" + name)).string();
+  return (std::filesystem::temp_directory_path() /
+          ("hfrt_png_writer_test_" + std::to_string(::getpid()) + "_" + name))
+      .string();
 }
 
 /// Random samples with the edge values 0 and max in the first row and a smooth ramp in the
