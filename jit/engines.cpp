@@ -14,6 +14,16 @@ namespace hfrt::jit {
 ScalarEngine::ScalarEngine(const Function& fn, const EngineOptions& options)
     : fn_(fn), options_(options), interp_(std::make_unique<Interpreter>(fn)) {}
 
+std::string ScalarEngine::llvm_ir(Precision p) const {
+  if (!options_.use_jit) return "";
+  JitOptions options;
+  options.opt_level = options_.opt_level;
+  options.lanes = options_.lanes;
+  options.keep_llvm_ir = true;
+  auto code = JitFunction::compile(fn_, p, options);
+  return code.ok() ? code.value()->llvm_ir() : "";
+}
+
 const JitFunction* ScalarEngine::code(Precision p) const {
   if (!options_.use_jit) return nullptr;
   return jit_[index(p)].get([&] {

@@ -124,6 +124,9 @@ class ScalarEngine {
   /// The code if already compiled (never compiles; for statistics).
   const JitFunction* peek(Precision p) const { return jit_[index(p)].peek(); }
   const std::string& error(Precision p) const { return jit_[index(p)].error; }
+  /// The LLVM IR text of the code of a precision: a compile of its own with
+  /// JitOptions::keep_llvm_ir (the evaluators' compiles keep none). Empty on failure.
+  std::string llvm_ir(Precision p) const;
   /// The reference interpreter (also explains the NaN of a JIT result: the error and where).
   const Interpreter& interpreter() const { return *interp_; }
   /// n points, structure of arrays (hfrt::Model::eval_batch). `a64`/`a32`: the parameters.

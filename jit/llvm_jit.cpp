@@ -520,7 +520,7 @@ Result<std::unique_ptr<JitFunction>> JitFunction::compile(const Function& fn, Pr
   po.codegen = options.opt_level <= 0   ? llvm::CodeGenOptLevel::None
                : options.opt_level == 1 ? llvm::CodeGenOptLevel::Less
                                         : llvm::CodeGenOptLevel::Aggressive;
-  po.keep_ir = true;
+  po.keep_ir = options.keep_llvm_ir;
   auto code = session.value()->compile(std::move(unit), name, po, &impl->stats, &impl->llvm_ir);
   if (!code.ok()) return code.error();
   impl->code = std::move(code.value());

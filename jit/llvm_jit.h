@@ -39,6 +39,9 @@ struct JitOptions {
   /// analytic search only looks at signs). Other models get other values: see
   /// Model::eval_batch_sign.
   bool surface_sign_only = false;
+  /// Keep the LLVM IR text (JitFunction::llvm_ir). Off by default: printing the module costs
+  /// milliseconds (its vector constants above all), which every compile paid, cache hits too.
+  bool keep_llvm_ir = false;
 };
 
 /// Compile-latency figures of one JitFunction (`hfrt eval --stats`).
@@ -72,7 +75,9 @@ class JitFunction {
   BatchFn<double> f64() const;
   BatchFn<float> f32() const;
   const JitStats& stats() const;
-  /// The optimised LLVM IR text (for debugging and `hfrt ir --llvm`-style dumps).
+  /// The optimised LLVM IR text (for debugging and `hfrt ir --llvm`-style dumps; the IR
+  /// before optimisation when the code came from the compile cache); empty unless compiled
+  /// with JitOptions::keep_llvm_ir.
   const std::string& llvm_ir() const;
 
  private:

@@ -619,8 +619,7 @@ std::string Model::ir_text() const {
 
 std::string Model::llvm_ir(Precision precision) const {
   if (impl_->options.backend != Backend::kJit) return "";
-  const jit::JitFunction* code = impl_->compiled->scalar->code(to_jit(precision));
-  return code ? code->llvm_ir() : "";
+  return impl_->compiled->scalar->llvm_ir(to_jit(precision));
 }
 
 const std::vector<SourceDiagnostic>& Model::warnings() const {

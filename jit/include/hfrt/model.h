@@ -401,7 +401,8 @@ class Model {
   /// a[] as the compiled code and the kernels take it: the parameters padded to the object's
   /// count, then the hoisted numbers.
   std::vector<float> code_params_f32() const;
-  /// The optimised LLVM IR of a precision ("" for the interpreter backend).
+  /// The optimised LLVM IR of a precision ("" for the interpreter backend): compiled again for
+  /// the text, which the evaluators do not keep (a debugging aid).
   std::string llvm_ir(Precision precision) const;
   /// Warnings of the compilation (also in CompileResult::diagnostics).
   const std::vector<SourceDiagnostic>& warnings() const;
