@@ -5,6 +5,7 @@
 #include <limits>
 
 #include "base/check.h"
+#include "base/parallel.h"
 #include "geom/triangle.h"
 
 namespace hfrt::geom {
@@ -73,61 +74,70 @@ std::unique_ptr<PatchSurface> PatchSurface::build(const PatchSet& set, const Opt
   std::unique_ptr<PatchSurface> s(new PatchSurface());
   s->set_ = set;
   s->bounds_ = set.bounds();
-  std::vector<Piece> pieces;
-  std::vector<BezierPatch> piece_cp;
-  for (uint32_t p = 0; p < set.patches.size(); ++p) {
-    const BezierPatch& patch = set.patches[p];
-    const float size = std::max(length(patch.control_bounds().diagonal()), 1e-30f);
-    s->patch_size_.push_back(size);
-    // Split in parameter space until flat (quadtree, leaves in any order).
-    struct Todo {
-      float u0, u1, v0, v1;
-      int depth;
-    };
-    std::vector<Todo> todo{{0, 1, 0, 1, 0}};
-    while (!todo.empty()) {
-      const Todo t = todo.back();
-      todo.pop_back();
-      const BezierPatch sub = patch.sub_patch(t.u0, t.u1, t.v0, t.v1);
-      if (t.depth < options.max_split_depth && sub.flatness() > options.flatness * size) {
-        const float um = 0.5f * (t.u0 + t.u1), vm = 0.5f * (t.v0 + t.v1);
-        todo.push_back({t.u0, um, t.v0, vm, t.depth + 1});
-        todo.push_back({um, t.u1, t.v0, vm, t.depth + 1});
-        todo.push_back({t.u0, um, vm, t.v1, t.depth + 1});
-        todo.push_back({um, t.u1, vm, t.v1, t.depth + 1});
-        continue;
-      }
-      const Trim* trim = set.trim(p);
-      const Trim::Cover cover = trim ? trim->classify(t.u0, t.u1, t.v0, t.v1) : Trim::Cover::kKept;
-      if (cover == Trim::Cover::kRemoved) continue;  // never hit: not in the BVH
-      pieces.push_back(
-          {p, t.u0, t.u1, t.v0, t.v1, piece_delta(sub), cover == Trim::Cover::kPartial});
-      piece_cp.push_back(sub);
-    }
-  }
+  // The two halves are independent (the pieces and their BVH for rays; the field's
+  // tessellation, its BVH and dipoles): built side by side, each on its own thread of TBB.
   int bvh_depth = 0;
-  if (!pieces.empty()) {
-    std::vector<Box> boxes(pieces.size());
-    for (size_t i = 0; i < pieces.size(); ++i) boxes[i] = piece_cp[i].control_bounds();
-    Bvh bvh = build_bvh(boxes, BvhBuildOptions{.max_leaf_size = 2});
-    s->nodes_ = std::move(bvh.nodes);
-    s->wide_ = WideBvh::collapse(s->nodes_);
-    bvh_depth = bvh.depth;
-    s->pieces_.resize(pieces.size());
-    s->piece_cp_.resize(pieces.size());
-    for (size_t i = 0; i < pieces.size(); ++i) {
-      s->pieces_[i] = pieces[bvh.prim_order[i]];
-      s->piece_cp_[i] = piece_cp[bvh.prim_order[i]];
+  auto build_pieces = [&] {
+    std::vector<Piece> pieces;
+    std::vector<BezierPatch> piece_cp;
+    for (uint32_t p = 0; p < set.patches.size(); ++p) {
+      const BezierPatch& patch = set.patches[p];
+      const float size = std::max(length(patch.control_bounds().diagonal()), 1e-30f);
+      s->patch_size_.push_back(size);
+      // Split in parameter space until flat (quadtree, leaves in any order).
+      struct Todo {
+        float u0, u1, v0, v1;
+        int depth;
+      };
+      std::vector<Todo> todo{{0, 1, 0, 1, 0}};
+      while (!todo.empty()) {
+        const Todo t = todo.back();
+        todo.pop_back();
+        const BezierPatch sub = patch.sub_patch(t.u0, t.u1, t.v0, t.v1);
+        if (t.depth < options.max_split_depth && sub.flatness() > options.flatness * size) {
+          const float um = 0.5f * (t.u0 + t.u1), vm = 0.5f * (t.v0 + t.v1);
+          todo.push_back({t.u0, um, t.v0, vm, t.depth + 1});
+          todo.push_back({um, t.u1, t.v0, vm, t.depth + 1});
+          todo.push_back({t.u0, um, vm, t.v1, t.depth + 1});
+          todo.push_back({um, t.u1, vm, t.v1, t.depth + 1});
+          continue;
+        }
+        const Trim* trim = set.trim(p);
+        const Trim::Cover cover =
+            trim ? trim->classify(t.u0, t.u1, t.v0, t.v1) : Trim::Cover::kKept;
+        if (cover == Trim::Cover::kRemoved) continue;  // never hit: not in the BVH
+        pieces.push_back(
+            {p, t.u0, t.u1, t.v0, t.v1, piece_delta(sub), cover == Trim::Cover::kPartial});
+        piece_cp.push_back(sub);
+      }
     }
-  }
-
-  // The field goes through a tessellation (clipped to the trims). Nothing left of it (every
-  // patch trimmed away or degenerate): an empty surface.
+    if (!pieces.empty()) {
+      std::vector<Box> boxes(pieces.size());
+      for (size_t i = 0; i < pieces.size(); ++i) boxes[i] = piece_cp[i].control_bounds();
+      Bvh bvh = build_bvh(boxes, BvhBuildOptions{.max_leaf_size = 2});
+      s->nodes_ = std::move(bvh.nodes);
+      s->wide_ = WideBvh::collapse(s->nodes_);
+      bvh_depth = bvh.depth;
+      s->pieces_.resize(pieces.size());
+      s->piece_cp_.resize(pieces.size());
+      for (size_t i = 0; i < pieces.size(); ++i) {
+        s->pieces_[i] = pieces[bvh.prim_order[i]];
+        s->piece_cp_[i] = piece_cp[bvh.prim_order[i]];
+      }
+    }
+  };
   float err = 0;
-  TriangleMesh mesh = tessellate(set, options.field_tessellation, &err);
-  const size_t all_triangles = mesh.triangles.size();
-  Result<TriangleMesh> clean = finish_mesh(std::move(mesh));
-  if (clean.ok()) s->field_ = MeshSurface::build(*clean);
+  size_t all_triangles = 0;
+  Result<TriangleMesh> clean = Error{"not built"};
+  auto build_field = [&] {
+    // The field goes through a tessellation (clipped to the trims). Nothing left of it (every
+    // patch trimmed away or degenerate): an empty surface.
+    TriangleMesh mesh = tessellate(set, options.field_tessellation, &err);
+    all_triangles = mesh.triangles.size();
+    clean = finish_mesh(std::move(mesh));
+    if (clean.ok()) s->field_ = MeshSurface::build(*clean);
+  };
+  par::parallel_invoke(build_pieces, build_field);
   s->field_error_ = err;
   const auto end = std::chrono::steady_clock::now();
 
