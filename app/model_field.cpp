@@ -321,6 +321,8 @@ std::string describe_domain_engines(const Model& model) {
       std::snprintf(buf, sizeof buf, "%s JIT (%d lanes, %.1f ms)", name, d.lanes, d.compile_ms);
     } else if (engine == DomainEngine::kJit) {
       std::snprintf(buf, sizeof buf, "%s JIT (not compiled)", name);
+    } else if (engine == DomainEngine::kTapeVm) {
+      std::snprintf(buf, sizeof buf, "%s tape VM", name);
     } else {
       std::snprintf(buf, sizeof buf, "%s interpreter", name);
     }

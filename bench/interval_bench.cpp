@@ -31,6 +31,8 @@
 #include "jit/interval.h"
 #include "jit/llvm_jit.h"
 #include "jit/lower.h"
+#include "jit/tape.h"
+#include "jit/tape_vm.h"
 #include "lang/frontend.h"
 
 namespace {
@@ -146,6 +148,38 @@ int main(int argc, char** argv) {
     });
     std::printf("interval interpreter: %12.0f boxes/s (%zu of %zu boxes contain the surface)\n",
                 ii_rate, ambiguous, n);
+  }
+
+  // The tape VM's interval pass (jit/tape_vm.h: what `hfrt slice` prunes with) on the whole
+  // tape, one box per call, as the pruned recursion calls it.
+  if (!compile_only) {
+    std::string why;
+    std::unique_ptr<jit::Tape> tape = jit::Tape::build(fn, a, &why);
+    if (tape) {
+      jit::TapeVm vm;
+      const double tv_rate = rate(min_s, n, [&] {
+        for (const auto& box : boxes) vm.eval_interval(*tape, box);
+      });
+      std::printf("interval tape VM:     %12.0f boxes/s (%zu instructions: %.1f ns each)\n",
+                  tv_rate, tape->length(), 1e9 / (tv_rate * double(tape->length())));
+      // The batched pass (TapeVm::eval_intervals): all the boxes in one call.
+      std::vector<const double*> lo_in, hi_in;
+      for (int k = 0; k < dims; ++k) {
+        lo_in.push_back(lo.data() + size_t(k) * n);
+        hi_in.push_back(hi.data() + size_t(k) * n);
+      }
+      std::vector<double> blo(n), bhi(n);
+      std::vector<uint8_t> bnan(n);
+      const double tb_rate = rate(min_s, n, [&] {
+        vm.eval_intervals(*tape, n, lo_in, hi_in, blo.data(), bhi.data(), bnan.data());
+      });
+      std::printf(
+          "interval tape VM, %zu boxes per pass: %12.0f boxes/s (%.2f ns per instruction "
+          "and box)\n",
+          jit::TapeVm::kLanes, tb_rate, 1e9 / (tb_rate * double(tape->length())));
+    } else {
+      std::printf("interval tape VM: no tape (%s)\n", why.c_str());
+    }
   }
 
   // Interval JIT.

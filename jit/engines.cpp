@@ -130,7 +130,25 @@ Interval IntervalEngine::eval(std::span<const double> lo, std::span<const double
   }
   std::vector<Interval> box(static_cast<size_t>(std::max(nx, 0)), Interval{});
   for (int k = 0; k < nx; ++k) box[k] = Interval::of(lo[k], hi[k]);
+  // The trace of choices is indexed by IR instruction, which only the interpreter records.
+  if (!choices) {
+    if (std::shared_ptr<const Tape> t = tape(a)) {
+      thread_local TapeVm vm;
+      return vm.eval_interval(*t, box);
+    }
+  }
   return pool_.take()->eval(box, a, choices);
+}
+
+std::shared_ptr<const Tape> IntervalEngine::tape(const std::vector<double>& a) const {
+  if (!options_.use_jit || uses_jit()) return nullptr;
+  std::lock_guard<std::mutex> lock(tape_mutex_);
+  if (!tape_built_ || tape_params_ != a) {
+    tape_ = Tape::build(fn_, a);
+    tape_params_ = a;
+    tape_built_ = true;
+  }
+  return tape_;
 }
 
 void IntervalEngine::eval_batch(int64_t n, const double* lo, const double* hi,
@@ -144,6 +162,20 @@ void IntervalEngine::eval_batch(int64_t n, const double* lo, const double* hi,
     return;
   }
   const int nx = fn_.num_inputs;
+  if (!choices) {
+    if (std::shared_ptr<const Tape> t = tape(a)) {
+      thread_local TapeVm vm;
+      thread_local std::vector<const double*> in_lo, in_hi;
+      in_lo.clear();
+      in_hi.clear();
+      for (int k = 0; k < nx; ++k) {
+        in_lo.push_back(lo + size_t(k) * size_t(n));
+        in_hi.push_back(hi + size_t(k) * size_t(n));
+      }
+      vm.eval_intervals(*t, size_t(n), in_lo, in_hi, out_lo, out_hi, out_nan);
+      return;
+    }
+  }
   auto ii = pool_.take();
   std::vector<Interval> box(static_cast<size_t>(std::max(nx, 0)));
   std::vector<uint8_t> one;

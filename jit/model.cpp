@@ -418,7 +418,9 @@ void Model::eval_interval_batch(int64_t n, const double* lo, const double* hi, d
 }
 
 DomainEngine Model::interval_engine() const {
-  return impl_->compiled->interval->uses_jit() ? DomainEngine::kJit : DomainEngine::kInterp;
+  const jit::IntervalEngine& e = *impl_->compiled->interval;
+  if (e.uses_jit()) return DomainEngine::kJit;
+  return e.tape(impl_->params_f64) ? DomainEngine::kTapeVm : DomainEngine::kInterp;
 }
 
 bool Model::prepare_interval(std::string* error) const {

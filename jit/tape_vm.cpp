@@ -233,4 +233,441 @@ Interval TapeVm::eval_interval(const Tape& tape, std::span<const Interval> input
   return r;
 }
 
+namespace {
+
+// eval_intervals: the interval ops of eval_interval over arrays of kLanes boxes, written as
+// selects on plain arrays (no Interval structs, no branches in the lane loops) so that the
+// compiler vectorises them (jit/CMakeLists.txt: -fno-trapping-math). Each formula is the one
+// of the ir/interval_ops function named beside it, operation for operation, so both give the
+// same bits (tested on the corpus: TapeTest.BatchedIntervalsEqualOneBoxAtATime). The other
+// ops go through apply_interval lane by lane.
+
+constexpr double kIvInf = std::numeric_limits<double>::infinity();
+constexpr double kIvMax = std::numeric_limits<double>::max();
+constexpr double kIvDenorm = std::numeric_limits<double>::denorm_min();
+
+/// interval_detail::up and down.
+HFRT_TAPE_INLINE double lane_up(double v) {
+  const double step = std::fabs(v) * 0x1p-52;
+  const double r = v + (step > kIvDenorm ? step : kIvDenorm);
+  return v == -kIvInf ? -kIvMax : r;
+}
+HFRT_TAPE_INLINE double lane_down(double v) {
+  const double step = std::fabs(v) * 0x1p-52;
+  const double r = v - (step > kIvDenorm ? step : kIvDenorm);
+  return v == kIvInf ? kIvMax : r;
+}
+
+/// The registers of one pass: per register kLanes lower bounds, upper bounds and NaN flags
+/// (0 or 1, as wide as the bounds so that the flag arithmetic vectorises with them).
+struct IvRegs {
+  double* lo;
+  double* hi;
+  int64_t* nan;
+  double* lo_of(uint32_t r) const { return lo + size_t(r) * kLanes; }
+  double* hi_of(uint32_t r) const { return hi + size_t(r) * kLanes; }
+  int64_t* nan_of(uint32_t r) const { return nan + size_t(r) * kLanes; }
+};
+
+/// One operand's lanes: a register, or (kImmA / kImmB) the constant spread over `imm_*`.
+struct IvArg {
+  const double* lo;
+  const double* hi;
+  const int64_t* nan;
+};
+
+/// kLanes-long scratch lanes: a constant operand spread out, an R-function node's result.
+struct IvScratch {
+  double *imm_lo, *imm_hi, *tmp_lo, *tmp_hi;
+  int64_t *imm_nan, *tmp_nan;
+};
+
+HFRT_TAPE_INLINE IvArg iv_arg(const IvRegs& regs, IvScratch& sc, const TapeInst& t, bool imm,
+                              uint32_t reg) {
+  if (!imm) return {regs.lo_of(reg), regs.hi_of(reg), regs.nan_of(reg)};
+  const Interval c = Interval::point(t.imm);
+  std::fill_n(sc.imm_lo, kLanes, c.lo);
+  std::fill_n(sc.imm_hi, kLanes, c.hi);
+  std::fill_n(sc.imm_nan, kLanes, int64_t(c.maybe_nan));
+  return {sc.imm_lo, sc.imm_hi, sc.imm_nan};
+}
+
+// The lane loops. `o*` may be the same arrays as an operand's (a register freed at its last
+// use is reused for the result): every lane is read before it is written and no lane reads
+// another, which is what `ivdep` promises.
+
+/// interval_detail::add (and sub = add(a, neg(b)) with `negate_b`).
+template <bool kNegateB>
+HFRT_TAPE_INLINE void lanes_add(size_t m, IvArg a, IvArg b, double* olo, double* ohi,
+                                int64_t* onan) {
+#pragma GCC ivdep
+  for (size_t i = 0; i < m; ++i) {
+    const double alo = a.lo[i], ahi = a.hi[i];
+    const double blo = kNegateB ? -b.hi[i] : b.lo[i], bhi = kNegateB ? -b.lo[i] : b.hi[i];
+    const int64_t nan = a.nan[i] | b.nan[i] | int64_t((alo == -kIvInf) & (bhi == kIvInf)) |
+                        int64_t((ahi == kIvInf) & (blo == -kIvInf));
+    double lo = lane_down(alo + blo), hi = lane_up(ahi + bhi);
+    olo[i] = lo != lo ? -kIvInf : lo;
+    ohi[i] = hi != hi ? kIvInf : hi;
+    onan[i] = nan;
+  }
+}
+
+/// interval_detail::neg.
+HFRT_TAPE_INLINE void lanes_neg(size_t m, IvArg a, double* olo, double* ohi, int64_t* onan) {
+#pragma GCC ivdep
+  for (size_t i = 0; i < m; ++i) {
+    const double alo = a.lo[i], ahi = a.hi[i];
+    olo[i] = -ahi;
+    ohi[i] = -alo;
+    onan[i] = a.nan[i];
+  }
+}
+
+/// interval_detail::square.
+HFRT_TAPE_INLINE void lanes_square(size_t m, IvArg a, double* olo, double* ohi, int64_t* onan) {
+#pragma GCC ivdep
+  for (size_t i = 0; i < m; ++i) {
+    const double alo = a.lo[i], ahi = a.hi[i];
+    const bool zero = (alo <= 0) & (ahi >= 0);
+    const double m_lo = zero ? 0.0 : std::min(std::fabs(alo), std::fabs(ahi));
+    const double m_hi = std::max(std::fabs(alo), std::fabs(ahi));
+    const double lo = m_lo * m_lo;
+    olo[i] = lo == 0 ? 0.0 : lane_down(lo);
+    ohi[i] = lane_up(m_hi * m_hi);
+    onan[i] = a.nan[i];
+  }
+}
+
+/// interval_detail::mul.
+HFRT_TAPE_INLINE void lanes_mul(size_t m, IvArg a, IvArg b, double* olo, double* ohi,
+                                int64_t* onan) {
+#pragma GCC ivdep
+  for (size_t i = 0; i < m; ++i) {
+    const double alo = a.lo[i], ahi = a.hi[i], blo = b.lo[i], bhi = b.hi[i];
+    const bool az = (alo <= 0) & (ahi >= 0), bz = (blo <= 0) & (bhi >= 0);
+    const int64_t nan = a.nan[i] | b.nan[i] |
+                        int64_t(az & ((std::fabs(blo) == kIvInf) | (std::fabs(bhi) == kIvInf))) |
+                        int64_t(bz & ((std::fabs(alo) == kIvInf) | (std::fabs(ahi) == kIvInf)));
+    double c0 = alo * blo, c1 = alo * bhi, c2 = ahi * blo, c3 = ahi * bhi;
+    c0 = c0 != c0 ? 0.0 : c0;
+    c1 = c1 != c1 ? 0.0 : c1;
+    c2 = c2 != c2 ? 0.0 : c2;
+    c3 = c3 != c3 ? 0.0 : c3;
+    const double lo = lane_down(std::min(std::min(c0, c1), std::min(c2, c3)));
+    const double hi = lane_up(std::max(std::max(c0, c1), std::max(c2, c3)));
+    olo[i] = lo != lo ? -kIvInf : lo;
+    ohi[i] = hi != hi ? kIvInf : hi;
+    onan[i] = nan;
+  }
+}
+
+/// interval_detail::min_max without the choice record.
+template <bool kMin>
+HFRT_TAPE_INLINE void lanes_min_max(size_t m, IvArg a, IvArg b, double* olo, double* ohi,
+                                    int64_t* onan) {
+#pragma GCC ivdep
+  for (size_t i = 0; i < m; ++i) {
+    const double alo = a.lo[i], ahi = a.hi[i], blo = b.lo[i], bhi = b.hi[i];
+    const int64_t anan = a.nan[i], bnan = b.nan[i];
+    const bool known = (anan | bnan) == 0;
+    const bool left_only = known & (kMin ? ahi < blo : alo > bhi);
+    const bool right_only = kMin ? bhi <= alo : blo >= ahi;
+    const double lo = kMin ? std::min(alo, blo) : (anan != 0 ? blo : std::max(alo, blo));
+    const double hi = kMin ? (anan != 0 ? bhi : std::min(ahi, bhi)) : std::max(ahi, bhi);
+    olo[i] = left_only ? alo : right_only ? blo : lo;
+    ohi[i] = left_only ? ahi : right_only ? bhi : hi;
+    onan[i] = left_only ? anan : bnan;
+  }
+}
+
+/// apply_interval's kSqrt: monotone(a, sqrt, 0, inf, 1), then the lower bound kept >= 0.
+HFRT_TAPE_INLINE void lanes_sqrt(size_t m, IvArg a, double* olo, double* ohi, int64_t* onan) {
+#pragma GCC ivdep
+  for (size_t i = 0; i < m; ++i) {
+    const double alo = a.lo[i], ahi = a.hi[i];
+    const int64_t nan = a.nan[i] | int64_t(alo < 0) | int64_t(ahi > kIvInf);
+    const double lo_c = alo < 0 ? 0.0 : (kIvInf < alo ? kIvInf : alo);
+    const double hi_c = ahi < 0 ? 0.0 : (kIvInf < ahi ? kIvInf : ahi);
+    double lo = lane_down(std::sqrt(lo_c)), hi = lane_up(std::sqrt(hi_c));
+    lo = lo != lo ? -kIvInf : lo;
+    hi = hi != hi ? kIvInf : hi;
+    olo[i] = lo < 0.0 ? 0.0 : lo;
+    ohi[i] = hi;
+    onan[i] = nan;
+  }
+}
+
+/// apply_interval's comparisons: from_tri(lt(a, b)) for kLt, lt(b, a) for kGt, le(a, b) for
+/// kLe, le(b, a) for kGe.
+template <bool kSwap, bool kOrEqual>
+HFRT_TAPE_INLINE void lanes_compare(size_t m, IvArg a, IvArg b, double* olo, double* ohi,
+                                    int64_t* onan) {
+#pragma GCC ivdep
+  for (size_t i = 0; i < m; ++i) {
+    const double xlo = kSwap ? b.lo[i] : a.lo[i], xhi = kSwap ? b.hi[i] : a.hi[i];
+    const double ylo = kSwap ? a.lo[i] : b.lo[i], yhi = kSwap ? a.hi[i] : b.hi[i];
+    const bool any_nan = (a.nan[i] | b.nan[i]) != 0;
+    const bool can_true = kOrEqual ? xlo <= yhi : xlo < yhi;
+    const bool can_false = (kOrEqual ? xhi > ylo : !(xhi < ylo)) | any_nan;
+    olo[i] = can_false ? 0.0 : 1.0;
+    ohi[i] = can_true ? 1.0 : 0.0;
+    onan[i] = 0;
+  }
+}
+
+/// ir/interval_ops.cpp abs_i.
+HFRT_TAPE_INLINE void lanes_abs(size_t m, IvArg a, double* olo, double* ohi, int64_t* onan) {
+#pragma GCC ivdep
+  for (size_t i = 0; i < m; ++i) {
+    const double alo = a.lo[i], ahi = a.hi[i];
+    const double straddle_hi = std::max(-alo, ahi);
+    olo[i] = alo >= 0 ? alo : ahi <= 0 ? -ahi : 0.0;
+    ohi[i] = alo >= 0 ? ahi : ahi <= 0 ? -alo : straddle_hi;
+    onan[i] = a.nan[i];
+  }
+}
+
+/// ir/interval_ops.cpp div.
+HFRT_TAPE_INLINE void lanes_div(size_t m, IvArg a, IvArg b, double* olo, double* ohi,
+                                int64_t* onan) {
+#pragma GCC ivdep
+  for (size_t i = 0; i < m; ++i) {
+    const double alo = a.lo[i], ahi = a.hi[i], blo = b.lo[i], bhi = b.hi[i];
+    const bool az = (alo <= 0) & (ahi >= 0), bz = (blo <= 0) & (bhi >= 0);
+    const bool ainf = (std::fabs(alo) == kIvInf) | (std::fabs(ahi) == kIvInf);
+    const bool binf = (std::fabs(blo) == kIvInf) | (std::fabs(bhi) == kIvInf);
+    const int64_t nan0 = a.nan[i] | b.nan[i];
+    double c0 = alo / blo, c1 = alo / bhi, c2 = ahi / blo, c3 = ahi / bhi;
+    c0 = c0 != c0 ? 0.0 : c0;
+    c1 = c1 != c1 ? 0.0 : c1;
+    c2 = c2 != c2 ? 0.0 : c2;
+    c3 = c3 != c3 ? 0.0 : c3;
+    double lo = lane_down(std::min(std::min(c0, c1), std::min(c2, c3)));
+    double hi = lane_up(std::max(std::max(c0, c1), std::max(c2, c3)));
+    lo = lo != lo ? -kIvInf : lo;
+    hi = hi != hi ? kIvInf : hi;
+    olo[i] = bz ? -kIvInf : lo;
+    ohi[i] = bz ? kIvInf : hi;
+    onan[i] = bz ? nan0 | int64_t(az | binf) : nan0 | int64_t(ainf & binf);
+  }
+}
+
+/// The vector code of the frequent ops (add, sub, mul, min, max, neg) for one instruction of
+/// eval_intervals; false for every other op.
+HFRT_TAPE_INLINE bool fast_interval_lanes(const TapeInst& t, const IvRegs& regs, IvScratch& sc,
+                                          size_t m, double* olo, double* ohi, int64_t* onan) {
+  if (t.op == Op::kAdd || t.op == Op::kSub) {
+    const IvArg a = iv_arg(regs, sc, t, t.flags & TapeInst::kImmA, t.a);
+    const IvArg b = iv_arg(regs, sc, t, t.flags & TapeInst::kImmB, t.b);
+    if (t.op == Op::kAdd) {
+      lanes_add<false>(m, a, b, olo, ohi, onan);
+    } else {
+      lanes_add<true>(m, a, b, olo, ohi, onan);
+    }
+    return true;
+  }
+  if (t.op == Op::kMul) {
+    const IvArg a = iv_arg(regs, sc, t, t.flags & TapeInst::kImmA, t.a);
+    if (t.flags & TapeInst::kSame) {
+      lanes_square(m, a, olo, ohi, onan);
+    } else {
+      lanes_mul(m, a, iv_arg(regs, sc, t, t.flags & TapeInst::kImmB, t.b), olo, ohi, onan);
+    }
+    return true;
+  }
+  if (t.op == Op::kMin || t.op == Op::kMax) {
+    const IvArg a = iv_arg(regs, sc, t, t.flags & TapeInst::kImmA, t.a);
+    if (t.flags & TapeInst::kSame) {
+      std::copy_n(a.lo, m, olo);
+      std::copy_n(a.hi, m, ohi);
+      std::copy_n(a.nan, m, onan);
+    } else if (t.op == Op::kMin) {
+      lanes_min_max<true>(m, a, iv_arg(regs, sc, t, t.flags & TapeInst::kImmB, t.b), olo, ohi,
+                          onan);
+    } else {
+      lanes_min_max<false>(m, a, iv_arg(regs, sc, t, t.flags & TapeInst::kImmB, t.b), olo, ohi,
+                           onan);
+    }
+    return true;
+  }
+  if (t.op == Op::kNeg) {
+    lanes_neg(m, iv_arg(regs, sc, t, t.flags & TapeInst::kImmA, t.a), olo, ohi, onan);
+    return true;
+  }
+  if (t.op == Op::kAbs) {
+    lanes_abs(m, iv_arg(regs, sc, t, t.flags & TapeInst::kImmA, t.a), olo, ohi, onan);
+    return true;
+  }
+  if (t.op == Op::kDiv) {
+    lanes_div(m, iv_arg(regs, sc, t, t.flags & TapeInst::kImmA, t.a),
+              iv_arg(regs, sc, t, t.flags & TapeInst::kImmB, t.b), olo, ohi, onan);
+    return true;
+  }
+  if (t.op == Op::kSqrt) {
+    lanes_sqrt(m, iv_arg(regs, sc, t, t.flags & TapeInst::kImmA, t.a), olo, ohi, onan);
+    return true;
+  }
+  if (t.op == Op::kLt || t.op == Op::kGt || t.op == Op::kLe || t.op == Op::kGe) {
+    const IvArg a = iv_arg(regs, sc, t, t.flags & TapeInst::kImmA, t.a);
+    const IvArg b = iv_arg(regs, sc, t, t.flags & TapeInst::kImmB, t.b);
+    switch (t.op) {
+      case Op::kLt:
+        lanes_compare<false, false>(m, a, b, olo, ohi, onan);
+        break;
+      case Op::kGt:
+        lanes_compare<true, false>(m, a, b, olo, ohi, onan);
+        break;
+      case Op::kLe:
+        lanes_compare<false, true>(m, a, b, olo, ohi, onan);
+        break;
+      default:
+        lanes_compare<true, true>(m, a, b, olo, ohi, onan);
+        break;
+    }
+    return true;
+  }
+  return false;
+}
+
+/// One pass of the register code over m <= kLanes boxes (eval_intervals).
+HFRT_TAPE_INLINE void run_intervals(std::span<const TapeInst> code, const IvRegs& regs,
+                                    IvScratch& sc, int64_t* fire,
+                                    std::span<const double* const> in_lo,
+                                    std::span<const double* const> in_hi, size_t begin, size_t m) {
+  for (const TapeInst& t : code) {
+    const bool r_node = (t.flags & (TapeInst::kRPlus | TapeInst::kRMinus)) != 0;
+    // An R-function node's result goes to scratch first: its tightening reads f1 and f2,
+    // whose registers the result may reuse.
+    double* olo = r_node ? sc.tmp_lo : regs.lo_of(t.out);
+    double* ohi = r_node ? sc.tmp_hi : regs.hi_of(t.out);
+    int64_t* onan = r_node ? sc.tmp_nan : regs.nan_of(t.out);
+    switch (t.op) {
+      case Op::kConst: {
+        const Interval c = Interval::point(t.imm);
+        std::fill_n(olo, m, c.lo);
+        std::fill_n(ohi, m, c.hi);
+        std::fill_n(onan, m, int64_t(c.maybe_nan));
+        break;
+      }
+      case Op::kInput:
+        if (t.a < in_lo.size()) {
+          std::copy_n(in_lo[t.a] + begin, m, olo);
+          std::copy_n(in_hi[t.a] + begin, m, ohi);
+        } else {
+          std::fill_n(olo, m, 0.0);
+          std::fill_n(ohi, m, 0.0);
+        }
+        std::fill_n(onan, m, int64_t(0));
+        break;
+      case Op::kCheck: {
+        const IvArg a = iv_arg(regs, sc, t, false, t.a);
+        // nonzero(a).can_true, as eval_interval asks.
+#pragma GCC ivdep
+        for (size_t i = 0; i < m; ++i) {
+          fire[i] |= a.nan[i] | int64_t(a.lo[i] != 0) | int64_t(a.hi[i] != 0);
+        }
+        continue;  // no result register
+      }
+      case Op::kParam:
+      case Op::kLoadSlot:
+      case Op::kStoreSlot:
+      case Op::kLoadIdx:
+      case Op::kStoreIdx:
+      case Op::kTableLoad:
+      case Op::kSurface:
+      case Op::kIf:
+      case Op::kElse:
+      case Op::kEndIf:
+      case Op::kLoop:
+      case Op::kLoopTest:
+      case Op::kEndLoop:
+        HFRT_CHECK_MSG(false, "tape VM: op without a tape form " << op_name(t.op));
+        break;
+        HFRT_OP_CASES_ARITH {
+          // The frequent ops as vector code (an if-chain on the op: paid once per kLanes boxes),
+          // every other one through apply_interval lane by lane.
+          if (fast_interval_lanes(t, regs, sc, m, olo, ohi, onan)) break;
+          const int nargs = op_num_args(t.op);
+          const bool same = (t.flags & TapeInst::kSame) != 0;
+          const IvArg a = iv_arg(regs, sc, t, t.flags & TapeInst::kImmA, t.a);
+          const IvArg b = nargs >= 2 ? iv_arg(regs, sc, t, t.flags & TapeInst::kImmB, t.b) : a;
+          const IvArg c = nargs >= 3 ? iv_arg(regs, sc, t, false, t.c) : a;
+          for (size_t i = 0; i < m; ++i) {
+            const Interval ia{a.lo[i], a.hi[i], a.nan[i] != 0};
+            const Interval ib = nargs >= 2 ? Interval{b.lo[i], b.hi[i], b.nan[i] != 0} : Interval{};
+            const Interval ic = nargs >= 3 ? Interval{c.lo[i], c.hi[i], c.nan[i] != 0} : Interval{};
+            const Interval r = apply_interval(t.op, ia, ib, ic, same, nullptr);
+            olo[i] = r.lo;
+            ohi[i] = r.hi;
+            onan[i] = r.maybe_nan;
+          }
+          break;
+        }
+    }
+    if (r_node) {
+      const double *lo1 = regs.lo_of(t.r1), *hi1 = regs.hi_of(t.r1);
+      const double *lo2 = regs.lo_of(t.r2), *hi2 = regs.hi_of(t.r2);
+      const int64_t *n1 = regs.nan_of(t.r1), *n2 = regs.nan_of(t.r2);
+      double* rlo = regs.lo_of(t.out);
+      double* rhi = regs.hi_of(t.out);
+      int64_t* rnan = regs.nan_of(t.out);
+      const bool plus = (t.flags & TapeInst::kRPlus) != 0;
+      for (size_t i = 0; i < m; ++i) {
+        const Interval r =
+            r_function_interval({olo[i], ohi[i], onan[i] != 0}, {lo1[i], hi1[i], n1[i] != 0},
+                                {lo2[i], hi2[i], n2[i] != 0}, plus);
+        rlo[i] = r.lo;
+        rhi[i] = r.hi;
+        rnan[i] = r.maybe_nan;
+      }
+    }
+  }
+}
+
+/// The interval pass, compiled for AVX2 too (chosen at load time), as the float point pass.
+#if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__)
+__attribute__((target_clones("avx2", "default")))
+#endif
+void run_intervals_pass(std::span<const TapeInst> code, const IvRegs& regs, IvScratch& sc,
+                        int64_t* fire, std::span<const double* const> in_lo,
+                        std::span<const double* const> in_hi, size_t begin, size_t m) {
+  run_intervals(code, regs, sc, fire, in_lo, in_hi, begin, m);
+}
+
+}  // namespace
+
+void TapeVm::eval_intervals(const Tape& tape, size_t n, std::span<const double* const> in_lo,
+                            std::span<const double* const> in_hi, double* out_lo, double* out_hi,
+                            uint8_t* out_nan) {
+  HFRT_CHECK(in_lo.size() == in_hi.size());
+  const size_t need = size_t(tape.num_regs()) * kLanes;
+  if (batch_lo_.size() < need) {
+    batch_lo_.resize(need);
+    batch_hi_.resize(need);
+    batch_nan_.resize(need);
+  }
+  batch_scratch_d_.resize(4 * kLanes);
+  batch_scratch_i_.resize(2 * kLanes);
+  double* sd = batch_scratch_d_.data();
+  int64_t* si = batch_scratch_i_.data();
+  IvScratch sc{sd, sd + kLanes, sd + 2 * kLanes, sd + 3 * kLanes, si, si + kLanes};
+  batch_fire_.resize(kLanes);
+  const IvRegs regs{batch_lo_.data(), batch_hi_.data(), batch_nan_.data()};
+  int64_t* fire = batch_fire_.data();
+  const double* res_lo = regs.lo_of(tape.result_reg());
+  const double* res_hi = regs.hi_of(tape.result_reg());
+  const int64_t* res_nan = regs.nan_of(tape.result_reg());
+  for (size_t begin = 0; begin < n; begin += kLanes) {
+    const size_t m = std::min(kLanes, n - begin);
+    std::fill_n(fire, kLanes, int64_t(0));
+    run_intervals_pass(tape.code(), regs, sc, fire, in_lo, in_hi, begin, m);
+    for (size_t i = 0; i < m; ++i) {
+      out_lo[begin + i] = res_lo[i];
+      out_hi[begin + i] = res_hi[i];
+      out_nan[begin + i] = uint8_t((res_nan[i] | fire[i]) != 0);
+    }
+  }
+}
+
 }  // namespace hfrt::jit

@@ -6,7 +6,8 @@
 //    a structure-of-arrays register file (the compiler vectorises the loops); each op is
 //    ir/scalar_ops.h apply_op_t in that precision;
 //  - intervals (f64, one box): ir/interval_ops.h apply_interval per instruction, recording
-//    the min/max/select choice bits and whether each check may fire, for Tape::prune.
+//    the min/max/select choice bits and whether each check may fire, for Tape::prune; and
+//    the same enclosures for many boxes at once (kLanes per pass), which record nothing.
 // A TapeVm holds the scratch memory (registers, choices): one per thread; it never allocates
 // once its buffers have grown to the longest tape it ran.
 
@@ -34,6 +35,16 @@ class TapeVm {
   /// the sense of jit/interval.h. Records choices() and check_can_fire() for prune_last().
   Interval eval_interval(const Tape& tape, std::span<const Interval> inputs);
 
+  /// Enclosures of F over n boxes at once, each equal (bit for bit) to eval_interval() of the
+  /// same box: box i is [lo[k][i], hi[k][i]] in coordinate k (missing coordinates are the
+  /// point 0); out_nan[i] is 1 where F may have no value. kLanes boxes per pass of the register
+  /// code, one loop over them per instruction, so the dispatch of an instruction is paid once
+  /// per kLanes boxes (the renderer's searches batch their boxes by the hundred). Records no
+  /// choices: nothing is pruned from a batch.
+  void eval_intervals(const Tape& tape, size_t n, std::span<const double* const> lo,
+                      std::span<const double* const> hi, double* out_lo, double* out_hi,
+                      uint8_t* out_nan);
+
   /// The child of `tape` (the tape of the last eval_interval) for that call's box, as
   /// Tape::prune: false when nothing was decided (then `tape` itself serves the box).
   bool prune_last(const Tape& tape, Tape* child) const {
@@ -50,6 +61,12 @@ class TapeVm {
   std::vector<double> regs_f64_;
   std::vector<uint8_t> err_;
   std::vector<Interval> regs_iv_;
+  // eval_intervals: per register kLanes lower bounds, upper bounds and NaN flags, the checks
+  // that may fire per box, and scratch lanes (constants, R-function results).
+  std::vector<double> batch_lo_, batch_hi_;
+  std::vector<int64_t> batch_nan_, batch_fire_;
+  std::vector<double> batch_scratch_d_;
+  std::vector<int64_t> batch_scratch_i_;
   std::vector<uint8_t> choices_, fire_;
 };
 

@@ -421,7 +421,8 @@ TEST(JitModelTest, HeavyObjectsUseTheDomainInterpreters) {
   CompileResult heavy = Model::compile(source, mo);
   ASSERT_TRUE(heavy.ok()) << heavy.rendered;
   EXPECT_GT(heavy.model->stats().domain_jit_weight, 2000);
-  EXPECT_EQ(heavy.model->interval_engine(), DomainEngine::kInterp);
+  // Straight-line code: the tape VM stands in for the interval JIT.
+  EXPECT_EQ(heavy.model->interval_engine(), DomainEngine::kTapeVm);
   EXPECT_EQ(heavy.model->gradient_engine(), DomainEngine::kInterp);
   IntervalValue iv = heavy.model->eval_interval({1, 1, 1}, {2, 2, 2});
   EXPECT_NEAR(iv.lo, 1 - 2 * sum, 1e-9);
@@ -429,12 +430,13 @@ TEST(JitModelTest, HeavyObjectsUseTheDomainInterpreters) {
   EXPECT_NEAR(heavy.model->eval_gradient({1, 1, 1}).d[0], -sum_x1, 1e-12);
   EXPECT_FALSE(heavy.model->stats().interval.compiled);
 
-  // The thresholds are options: 0 forces the interpreters, -1 the JIT.
+  // The thresholds are options: 0 forces the interpreters (the tape VM for intervals of
+  // straight-line code), -1 the JIT.
   mo.interval_jit_max_insts = 0;
   mo.gradient_jit_max_insts = 0;
   CompileResult forced = Model::compile(kTorusModel, mo);
   ASSERT_TRUE(forced.ok());
-  EXPECT_EQ(forced.model->interval_engine(), DomainEngine::kInterp);
+  EXPECT_EQ(forced.model->interval_engine(), DomainEngine::kTapeVm);
   EXPECT_EQ(forced.model->gradient_engine(Precision::kF32), DomainEngine::kInterp);
   mo.interval_jit_max_insts = -1;
   CompileResult jit = Model::compile(kTorusModel, mo);
@@ -445,6 +447,52 @@ TEST(JitModelTest, HeavyObjectsUseTheDomainInterpreters) {
   IntervalValue b = jit.model->eval_interval({0.5, 1, 0}, {2, 3, 1.5});
   EXPECT_EQ(a.lo, b.lo);
   EXPECT_EQ(a.hi, b.hi);
+}
+
+TEST(JitModelTest, TapeVmEngineEqualsTheJitInBatchesFromManyThreads) {
+  // interval_jit_max_insts = 0 puts the torus on the tape VM (eval_interval_batch: its
+  // batched pass, kLanes boxes at a time); the interval JIT is the reference, box for box.
+  ModelOptions mo;
+  mo.interval_jit_max_insts = 0;
+  CompileResult tape = Model::compile(kTorusModel, mo);
+  ASSERT_TRUE(tape.ok());
+  ASSERT_EQ(tape.model->interval_engine(), DomainEngine::kTapeVm);
+  const Model jit = compile_or_die(kTorusModel, Backend::kJit);
+  ASSERT_EQ(jit.interval_engine(), DomainEngine::kJit);
+  constexpr int64_t kN = 300;  // several passes of the VM's lanes, the last one partial
+  std::vector<double> lo(3 * kN), hi(3 * kN);
+  for (int64_t i = 0; i < kN; ++i) {
+    for (int k = 0; k < 3; ++k) {
+      // Boxes around the torus (radii 3 and 1, centre (0, 0, 1)), a few points among them.
+      lo[k * kN + i] = -4.5 + 0.03 * double((i * (7 + 5 * k)) % kN);
+      hi[k * kN + i] = lo[k * kN + i] + 0.05 * double(i % 17);
+    }
+  }
+  std::vector<double> ref_lo(kN), ref_hi(kN);
+  std::vector<uint8_t> ref_nan(kN);
+  jit.eval_interval_batch(kN, lo.data(), hi.data(), ref_lo.data(), ref_hi.data(), ref_nan.data());
+  std::vector<std::thread> threads;
+  std::vector<int> bad(4, 0), straddling(4, 0);
+  for (int t = 0; t < 4; ++t) {
+    threads.emplace_back([&, t] {
+      std::vector<double> out_lo(kN), out_hi(kN);
+      std::vector<uint8_t> out_nan(kN);
+      for (int round = 0; round < 20; ++round) {
+        tape.model->eval_interval_batch(kN, lo.data(), hi.data(), out_lo.data(), out_hi.data(),
+                                        out_nan.data());
+        for (int64_t i = 0; i < kN; ++i) {
+          bad[t] += out_lo[i] != ref_lo[i] || out_hi[i] != ref_hi[i] || out_nan[i] != ref_nan[i];
+          straddling[t] += round == 0 && out_lo[i] <= 0 && out_hi[i] >= 0;
+        }
+      }
+    });
+  }
+  for (auto& th : threads) th.join();
+  for (int t = 0; t < 4; ++t) {
+    EXPECT_EQ(bad[t], 0) << "thread " << t;
+    EXPECT_GT(straddling[t], 0);  // some boxes hold the surface, some do not
+    EXPECT_LT(straddling[t], kN);
+  }
 }
 
 TEST(JitModelTest, ManyThreadsEvaluateDomainsAtOnce) {

@@ -27,6 +27,7 @@
 #include "base/result.h"
 #include "hfrt/model.h"
 #include "jit/interpreter.h"
+#include "jit/interval.h"
 #include "jit/lower.h"
 #include "jit/tape_vm.h"
 #include "lang/frontend.h"
@@ -194,6 +195,96 @@ TEST(TapeTest, PrunedEqualsFullOnCorpus) {
   EXPECT_GE(t.points, 100000);
   EXPECT_GE(t.pruned_shorter, t.boxes / 4);
   EXPECT_LE(t.f32_mismatches, t.points / 10000);
+}
+
+// TapeVm::eval_intervals (kLanes boxes per pass, the ops as vector code) against
+// eval_interval (one box, interval_detail / apply_interval per instruction): the same bits on
+// every corpus model with a tape, over boxes of every size, points, boxes reaching to the
+// overflow threshold and to infinity (inf - inf, 0 * inf, x / [0, 0], sqrt of negatives, the
+// comparisons and checks), in passes that end part-way through the lanes. And the tape VM
+// against the interval interpreter (what it replaces for large objects: IntervalEngine).
+TEST(TapeTest, BatchedIntervalsEqualOneBoxAtATime) {
+  std::mt19937 rng(7);
+  int models = 0;
+  int64_t boxes = 0, nan_boxes = 0, infinite = 0, interp_same = 0, interp_boxes = 0;
+  for (const std::string& file : corpus_files()) {
+    std::optional<Function> fn = lower_file(file);
+    if (!fn) continue;
+    std::unique_ptr<Tape> tape = Tape::build(*fn, {});
+    if (!tape) continue;
+    models++;
+    SCOPED_TRACE(file);
+    constexpr size_t kN = 2 * TapeVm::kLanes + 37;
+    std::vector<double> lo[3], hi[3];
+    std::uniform_real_distribution<double> u(-4, 4), e(-6, 3);
+    for (int k = 0; k < 3; ++k) {
+      lo[k].resize(kN);
+      hi[k].resize(kN);
+      for (size_t i = 0; i < kN; ++i) {
+        double a = u(rng), w = std::pow(10.0, e(rng));
+        switch (i % 9) {
+          case 0:
+            w = 0;
+            break;  // a point
+          case 1:
+            a = -w / 2;
+            break;  // straddles 0
+          case 2:
+            a = 0, w = 0;
+            break;  // the point 0
+          case 3:
+            a = -1e300, w = 2e300;
+            break;  // near overflow
+          case 4:
+            a = -INFINITY, w = INFINITY;
+            break;
+          case 5:
+            a = 0;
+            break;  // starts at 0
+          default:
+            break;
+        }
+        lo[k][i] = a;
+        hi[k][i] = std::isinf(a) ? INFINITY : a + w;
+      }
+    }
+    const double* in_lo[3] = {lo[0].data(), lo[1].data(), lo[2].data()};
+    const double* in_hi[3] = {hi[0].data(), hi[1].data(), hi[2].data()};
+    std::vector<double> out_lo(kN), out_hi(kN);
+    std::vector<uint8_t> out_nan(kN);
+    TapeVm batched, single;
+    batched.eval_intervals(*tape, kN, in_lo, in_hi, out_lo.data(), out_hi.data(), out_nan.data());
+    IntervalInterpreter interp(*fn);
+    for (size_t i = 0; i < kN; ++i) {
+      const Interval box[3] = {
+          {lo[0][i], hi[0][i], false}, {lo[1][i], hi[1][i], false}, {lo[2][i], hi[2][i], false}};
+      const Interval one = single.eval_interval(*tape, {box, 3});
+      ASSERT_TRUE(same_bits(one.lo, out_lo[i]) && same_bits(one.hi, out_hi[i]) &&
+                  one.maybe_nan == (out_nan[i] != 0))
+          << "box " << i << ": one at a time [" << one.lo << ", " << one.hi << "] nan "
+          << one.maybe_nan << ", batched [" << out_lo[i] << ", " << out_hi[i] << "] nan "
+          << int(out_nan[i]);
+      boxes++;
+      nan_boxes += one.maybe_nan;
+      infinite += std::isinf(one.lo) || std::isinf(one.hi);
+      const std::vector<Interval> b(box, box + 3);
+      const Interval r = interp.eval(b, {}, nullptr);
+      interp_boxes++;
+      interp_same +=
+          same_bits(r.lo, one.lo) && same_bits(r.hi, one.hi) && r.maybe_nan == one.maybe_nan;
+    }
+  }
+  std::printf(
+      "batched intervals: %d models, %lld boxes (%lld may be NaN, %lld with an infinite "
+      "end); tape VM = interval interpreter on %lld of %lld\n",
+      models, (long long)boxes, (long long)nan_boxes, (long long)infinite, (long long)interp_same,
+      (long long)interp_boxes);
+  EXPECT_GE(models, 10);
+  EXPECT_GT(nan_boxes, 0);
+  EXPECT_GT(infinite, 0);
+  EXPECT_GT(boxes - nan_boxes, boxes / 4);
+  // The tape VM replaces the interpreter for large objects (IntervalEngine): the same bits.
+  EXPECT_EQ(interp_same, interp_boxes);
 }
 
 TEST(TapeTest, F32VmAgreesWithF32Jit) {

@@ -265,10 +265,12 @@ int run_eval(const EvalOptions& opts) {
     if (opts.stats) {
       const double eval_ms = ms_since(t0);
       ModelStats st = model.stats();
-      const bool jit = opts.interval
-                           ? model.interval_engine() == DomainEngine::kJit
-                           : model.gradient_engine(f32 ? Precision::kF32 : Precision::kF64) ==
-                                 DomainEngine::kJit;
+      const DomainEngine engine =
+          opts.interval ? model.interval_engine()
+                        : model.gradient_engine(f32 ? Precision::kF32 : Precision::kF64);
+      const char* engine_name = engine == DomainEngine::kJit      ? "jit"
+                                : engine == DomainEngine::kTapeVm ? "tape VM"
+                                                                  : "interpreter";
       const ModelStats::Domain& d = opts.interval ? st.interval
                                     : f32         ? st.gradient_f32
                                                   : st.gradient_f64;
@@ -276,7 +278,7 @@ int run_eval(const EvalOptions& opts) {
                    "stats: object %s, %d IR instructions (domain JIT weight %lld), %s domain, "
                    "engine %s\n",
                    model.object_name().c_str(), st.ir_insts, (long long)st.domain_jit_weight,
-                   opts.interval ? "interval" : "gradient", jit ? "jit" : "interpreter");
+                   opts.interval ? "interval" : "gradient", engine_name);
       std::fprintf(stderr, "stats: compile %.3f ms (front end %.3f ms, lowering %.3f ms)\n",
                    compile_ms, st.frontend_ms, st.lower_ms);
       if (d.compiled) {

@@ -71,12 +71,14 @@ struct ModelOptions {
   bool eager_f32 = false;
   /// The interval evaluator is compiled by the JIT only for objects whose weight
   /// (ModelStats::domain_jit_weight: IR instructions, a dynamic table or array access
-  /// counting one per element) is at most this; heavier ones use the interval interpreter.
+  /// counting one per element) is at most this; heavier ones use the tape VM (jit/tape_vm.h)
+  /// when the object has a tape form (straight-line code), else the interval interpreter.
   /// The interval JIT's compile time grows faster than linearly with the weight (about 100 s
   /// for the 14k-instruction `prospero` corpus model, and as much for a 337-instruction model
   /// with 30 noise-table loads) while the interpreter starts at once: below the threshold the
   /// JIT pays for itself within one render, above it the compile would dominate. Raise it when
-  /// the domain JITs compile faster; -1 means always the JIT, 0 always the interpreter.
+  /// the domain JITs compile faster; -1 means always the JIT, 0 never (the tape VM or the
+  /// interpreter).
   /// (JIT backend only.)
   int interval_jit_max_insts = 2000;
   /// The same for the gradient evaluator.
@@ -142,6 +144,9 @@ struct GradientValue {
 enum class DomainEngine {
   kJit,     ///< LLVM code, compiled on first use
   kInterp,  ///< the interpreter (backend kInterp, a large object, or a failed JIT compile)
+  /// Intervals only: the tape VM (jit/tape_vm.h), in place of the interpreter for an object
+  /// above ModelOptions::interval_jit_max_insts (or whose JIT failed) that has a tape form.
+  kTapeVm,
 };
 
 /// One mesh or patch surface of the object (hfMesh, hfTriangles, hfBezierSurface,
@@ -288,8 +293,11 @@ class Model {
   // Engine: the JIT (compiled lazily, on the first interval call or prepare_interval(), by
   // whichever thread comes first while the others wait) unless the backend is kInterp or
   // the object has more than ModelOptions::interval_jit_max_insts IR instructions; then the
-  // interval interpreter (a pool of instances, one per concurrent caller). Both give the
-  // same results. Const and thread-safe like eval().
+  // tape VM (DomainEngine::kTapeVm: the object's straight-line tape, its batched pass for
+  // eval_interval_batch, ~15x the interpreter's boxes per second on prospero) or, for an
+  // object with control flow, tables or surfaces (and for calls that ask for the trace of
+  // choices), the interval interpreter (a pool of instances, one per concurrent caller). All
+  // give the same results. Const and thread-safe like eval().
 
   /// F over the box x[k+1] in [lo[k], hi[k]] (missing coordinates are the point 0; lo <= hi).
   /// When `choices` is non-null it receives the min/max/select trace: one byte per IR
