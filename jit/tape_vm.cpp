@@ -25,6 +25,23 @@ constexpr size_t kLanes = TapeVm::kLanes;
 // the baseline), not once for the baseline and called from both.
 #define HFRT_TAPE_INLINE inline __attribute__((always_inline))
 
+/// The ops a tape never holds (Tape::build refuses the functions that have them): every
+/// VM pass aborts on them, under one list of case labels.
+#define HFRT_TAPE_NO_FORM_CASES \
+  case Op::kParam:              \
+  case Op::kLoadSlot:           \
+  case Op::kStoreSlot:          \
+  case Op::kLoadIdx:            \
+  case Op::kStoreIdx:           \
+  case Op::kTableLoad:          \
+  case Op::kSurface:            \
+  case Op::kIf:                 \
+  case Op::kElse:               \
+  case Op::kEndIf:              \
+  case Op::kLoop:               \
+  case Op::kLoopTest:           \
+  case Op::kEndLoop:
+
 template <Op kOp, typename T>
 HFRT_TAPE_INLINE void lanes(const TapeInst& t, T* regs) {
   T* out = regs + size_t(t.out) * kLanes;
@@ -82,19 +99,7 @@ HFRT_TAPE_INLINE void run_points(std::span<const TapeInst> code, T* regs, uint8_
         for (size_t i = 0; i < kLanes; ++i) err[i] |= a[i] != 0;  // NaN != 0 fires too
         break;
       }
-      case Op::kParam:
-      case Op::kLoadSlot:
-      case Op::kStoreSlot:
-      case Op::kLoadIdx:
-      case Op::kStoreIdx:
-      case Op::kTableLoad:
-      case Op::kSurface:
-      case Op::kIf:
-      case Op::kElse:
-      case Op::kEndIf:
-      case Op::kLoop:
-      case Op::kLoopTest:
-      case Op::kEndLoop:
+        HFRT_TAPE_NO_FORM_CASES
         HFRT_CHECK_MSG(false, "tape VM: op without a tape form " << op_name(t.op));
         break;
     }
@@ -181,19 +186,7 @@ Interval TapeVm::eval_interval(const Tape& tape, std::span<const Interval> input
           error_possible = true;
         }
         break;
-      case Op::kParam:
-      case Op::kLoadSlot:
-      case Op::kStoreSlot:
-      case Op::kLoadIdx:
-      case Op::kStoreIdx:
-      case Op::kTableLoad:
-      case Op::kSurface:
-      case Op::kIf:
-      case Op::kElse:
-      case Op::kEndIf:
-      case Op::kLoop:
-      case Op::kLoopTest:
-      case Op::kEndLoop:
+        HFRT_TAPE_NO_FORM_CASES
         HFRT_CHECK_MSG(false, "tape VM: op without a tape form " << op_name(t.op));
         break;
         HFRT_OP_CASES_ARITH {
@@ -569,19 +562,7 @@ HFRT_TAPE_INLINE void run_intervals(std::span<const TapeInst> code, const IvRegs
         }
         continue;  // no result register
       }
-      case Op::kParam:
-      case Op::kLoadSlot:
-      case Op::kStoreSlot:
-      case Op::kLoadIdx:
-      case Op::kStoreIdx:
-      case Op::kTableLoad:
-      case Op::kSurface:
-      case Op::kIf:
-      case Op::kElse:
-      case Op::kEndIf:
-      case Op::kLoop:
-      case Op::kLoopTest:
-      case Op::kEndLoop:
+        HFRT_TAPE_NO_FORM_CASES
         HFRT_CHECK_MSG(false, "tape VM: op without a tape form " << op_name(t.op));
         break;
         HFRT_OP_CASES_ARITH {
