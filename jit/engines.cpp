@@ -142,13 +142,15 @@ Interval IntervalEngine::eval(std::span<const double> lo, std::span<const double
 
 std::shared_ptr<const Tape> IntervalEngine::tape(const std::vector<double>& a) const {
   if (!options_.use_jit || uses_jit()) return nullptr;
+  std::shared_ptr<const TapeEntry> e = tape_entry_.load(std::memory_order_acquire);
+  if (e && e->params == a) return e->tape;
   std::lock_guard<std::mutex> lock(tape_mutex_);
-  if (!tape_built_ || tape_params_ != a) {
-    tape_ = Tape::build(fn_, a);
-    tape_params_ = a;
-    tape_built_ = true;
+  e = tape_entry_.load(std::memory_order_acquire);
+  if (!e || e->params != a) {
+    e = std::make_shared<const TapeEntry>(TapeEntry{a, Tape::build(fn_, a)});
+    tape_entry_.store(e, std::memory_order_release);
   }
-  return tape_;
+  return e->tape;
 }
 
 void IntervalEngine::eval_batch(int64_t n, const double* lo, const double* hi,

@@ -180,10 +180,14 @@ class IntervalEngine {
   EngineOptions options_;
   mutable LazySlot<IntervalJit> jit_;
   mutable Pool<IntervalInterpreter> pool_;
+  /// The tape and the parameters it was built for, swapped whole: render threads read it on
+  /// every call without a lock; a build (first use, new parameters) takes tape_mutex_.
+  struct TapeEntry {
+    std::vector<double> params;
+    std::shared_ptr<const Tape> tape;  ///< null: no tape form
+  };
   mutable std::mutex tape_mutex_;
-  mutable std::shared_ptr<const Tape> tape_;
-  mutable std::vector<double> tape_params_;
-  mutable bool tape_built_ = false;
+  mutable std::atomic<std::shared_ptr<const TapeEntry>> tape_entry_;
 };
 
 /// The gradient domain: F and dF/dx[1..3] by forward-mode AD (jit/gradient.h).
