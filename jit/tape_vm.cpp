@@ -228,28 +228,16 @@ Interval TapeVm::eval_interval(const Tape& tape, std::span<const Interval> input
 
 namespace {
 
-// eval_intervals: the interval ops of eval_interval over arrays of kLanes boxes, written as
-// selects on plain arrays (no Interval structs, no branches in the lane loops) so that the
-// compiler vectorises them (jit/CMakeLists.txt: -fno-trapping-math). Each formula is the one
-// of the ir/interval_ops function named beside it, operation for operation, so both give the
-// same bits (tested on the corpus: TapeTest.BatchedIntervalsEqualOneBoxAtATime). The other
-// ops go through apply_interval lane by lane.
+// eval_intervals: the interval ops of eval_interval over arrays of kLanes boxes, as lane
+// loops that the compiler vectorises (jit/CMakeLists.txt: -fno-trapping-math). The ops of
+// ir/interval_ops.h's interval_detail (add, sub, neg, square, min, max) are called as they
+// are; mul (the vectoriser does not take interval_detail::mul as it is), abs, div, sqrt and
+// the comparisons (out of line in ir/interval_ops.cpp) are written here operation for
+// operation as selects, so both give the same
+// bits (tested on the corpus: TapeTest.BatchedIntervalsEqualOneBoxAtATime). The other ops go
+// through apply_interval lane by lane.
 
 constexpr double kIvInf = std::numeric_limits<double>::infinity();
-constexpr double kIvMax = std::numeric_limits<double>::max();
-constexpr double kIvDenorm = std::numeric_limits<double>::denorm_min();
-
-/// interval_detail::up and down.
-HFRT_TAPE_INLINE double lane_up(double v) {
-  const double step = std::fabs(v) * 0x1p-52;
-  const double r = v + (step > kIvDenorm ? step : kIvDenorm);
-  return v == -kIvInf ? -kIvMax : r;
-}
-HFRT_TAPE_INLINE double lane_down(double v) {
-  const double step = std::fabs(v) * 0x1p-52;
-  const double r = v - (step > kIvDenorm ? step : kIvDenorm);
-  return v == kIvInf ? kIvMax : r;
-}
 
 /// The registers of one pass: per register kLanes lower bounds, upper bounds and NaN flags
 /// (0 or 1, as wide as the bounds so that the flag arithmetic vectorises with them).
@@ -285,24 +273,31 @@ HFRT_TAPE_INLINE IvArg iv_arg(const IvRegs& regs, IvScratch& sc, const TapeInst&
   return {sc.imm_lo, sc.imm_hi, sc.imm_nan};
 }
 
+/// Lane i of an operand, and the store of lane i of a result: the ops of ir/interval_ops.h's
+/// interval_detail (inline, free of branches the vectoriser cannot turn into selects under
+/// -fno-trapping-math) run on them directly.
+HFRT_TAPE_INLINE Interval lane(const IvArg& a, size_t i) {
+  return {a.lo[i], a.hi[i], a.nan[i] != 0};
+}
+HFRT_TAPE_INLINE void store(const Interval& r, size_t i, double* olo, double* ohi, int64_t* onan) {
+  olo[i] = r.lo;
+  ohi[i] = r.hi;
+  onan[i] = r.maybe_nan;
+}
+
 // The lane loops. `o*` may be the same arrays as an operand's (a register freed at its last
 // use is reused for the result): every lane is read before it is written and no lane reads
 // another, which is what `ivdep` promises.
 
-/// interval_detail::add (and sub = add(a, neg(b)) with `negate_b`).
+/// interval_detail::add (and sub = add(a, neg(b)) with `kNegateB`).
 template <bool kNegateB>
 HFRT_TAPE_INLINE void lanes_add(size_t m, IvArg a, IvArg b, double* olo, double* ohi,
                                 int64_t* onan) {
 #pragma GCC ivdep
   for (size_t i = 0; i < m; ++i) {
-    const double alo = a.lo[i], ahi = a.hi[i];
-    const double blo = kNegateB ? -b.hi[i] : b.lo[i], bhi = kNegateB ? -b.lo[i] : b.hi[i];
-    const int64_t nan = a.nan[i] | b.nan[i] | int64_t((alo == -kIvInf) & (bhi == kIvInf)) |
-                        int64_t((ahi == kIvInf) & (blo == -kIvInf));
-    double lo = lane_down(alo + blo), hi = lane_up(ahi + bhi);
-    olo[i] = lo != lo ? -kIvInf : lo;
-    ohi[i] = hi != hi ? kIvInf : hi;
-    onan[i] = nan;
+    const Interval y = lane(b, i);
+    store(interval_detail::add(lane(a, i), kNegateB ? interval_detail::neg(y) : y), i, olo, ohi,
+          onan);
   }
 }
 
@@ -310,10 +305,7 @@ HFRT_TAPE_INLINE void lanes_add(size_t m, IvArg a, IvArg b, double* olo, double*
 HFRT_TAPE_INLINE void lanes_neg(size_t m, IvArg a, double* olo, double* ohi, int64_t* onan) {
 #pragma GCC ivdep
   for (size_t i = 0; i < m; ++i) {
-    const double alo = a.lo[i], ahi = a.hi[i];
-    olo[i] = -ahi;
-    ohi[i] = -alo;
-    onan[i] = a.nan[i];
+    store(interval_detail::neg(lane(a, i)), i, olo, ohi, onan);
   }
 }
 
@@ -321,18 +313,12 @@ HFRT_TAPE_INLINE void lanes_neg(size_t m, IvArg a, double* olo, double* ohi, int
 HFRT_TAPE_INLINE void lanes_square(size_t m, IvArg a, double* olo, double* ohi, int64_t* onan) {
 #pragma GCC ivdep
   for (size_t i = 0; i < m; ++i) {
-    const double alo = a.lo[i], ahi = a.hi[i];
-    const bool zero = (alo <= 0) & (ahi >= 0);
-    const double m_lo = zero ? 0.0 : std::min(std::fabs(alo), std::fabs(ahi));
-    const double m_hi = std::max(std::fabs(alo), std::fabs(ahi));
-    const double lo = m_lo * m_lo;
-    olo[i] = lo == 0 ? 0.0 : lane_down(lo);
-    ohi[i] = lane_up(m_hi * m_hi);
-    onan[i] = a.nan[i];
+    store(interval_detail::square(lane(a, i)), i, olo, ohi, onan);
   }
 }
 
-/// interval_detail::mul.
+/// interval_detail::mul, written out as selects: called as it is (its || and isinf), it is not
+/// vectorised and prospero's batched pass loses a third of its speed.
 HFRT_TAPE_INLINE void lanes_mul(size_t m, IvArg a, IvArg b, double* olo, double* ohi,
                                 int64_t* onan) {
 #pragma GCC ivdep
@@ -347,8 +333,8 @@ HFRT_TAPE_INLINE void lanes_mul(size_t m, IvArg a, IvArg b, double* olo, double*
     c1 = c1 != c1 ? 0.0 : c1;
     c2 = c2 != c2 ? 0.0 : c2;
     c3 = c3 != c3 ? 0.0 : c3;
-    const double lo = lane_down(std::min(std::min(c0, c1), std::min(c2, c3)));
-    const double hi = lane_up(std::max(std::max(c0, c1), std::max(c2, c3)));
+    const double lo = interval_detail::down(std::min(std::min(c0, c1), std::min(c2, c3)));
+    const double hi = interval_detail::up(std::max(std::max(c0, c1), std::max(c2, c3)));
     olo[i] = lo != lo ? -kIvInf : lo;
     ohi[i] = hi != hi ? kIvInf : hi;
     onan[i] = nan;
@@ -361,16 +347,7 @@ HFRT_TAPE_INLINE void lanes_min_max(size_t m, IvArg a, IvArg b, double* olo, dou
                                     int64_t* onan) {
 #pragma GCC ivdep
   for (size_t i = 0; i < m; ++i) {
-    const double alo = a.lo[i], ahi = a.hi[i], blo = b.lo[i], bhi = b.hi[i];
-    const int64_t anan = a.nan[i], bnan = b.nan[i];
-    const bool known = (anan | bnan) == 0;
-    const bool left_only = known & (kMin ? ahi < blo : alo > bhi);
-    const bool right_only = kMin ? bhi <= alo : blo >= ahi;
-    const double lo = kMin ? std::min(alo, blo) : (anan != 0 ? blo : std::max(alo, blo));
-    const double hi = kMin ? (anan != 0 ? bhi : std::min(ahi, bhi)) : std::max(ahi, bhi);
-    olo[i] = left_only ? alo : right_only ? blo : lo;
-    ohi[i] = left_only ? ahi : right_only ? bhi : hi;
-    onan[i] = left_only ? anan : bnan;
+    store(interval_detail::min_max(lane(a, i), lane(b, i), kMin, nullptr), i, olo, ohi, onan);
   }
 }
 
@@ -382,7 +359,7 @@ HFRT_TAPE_INLINE void lanes_sqrt(size_t m, IvArg a, double* olo, double* ohi, in
     const int64_t nan = a.nan[i] | int64_t(alo < 0) | int64_t(ahi > kIvInf);
     const double lo_c = alo < 0 ? 0.0 : (kIvInf < alo ? kIvInf : alo);
     const double hi_c = ahi < 0 ? 0.0 : (kIvInf < ahi ? kIvInf : ahi);
-    double lo = lane_down(std::sqrt(lo_c)), hi = lane_up(std::sqrt(hi_c));
+    double lo = interval_detail::down(std::sqrt(lo_c)), hi = interval_detail::up(std::sqrt(hi_c));
     lo = lo != lo ? -kIvInf : lo;
     hi = hi != hi ? kIvInf : hi;
     olo[i] = lo < 0.0 ? 0.0 : lo;
@@ -436,8 +413,8 @@ HFRT_TAPE_INLINE void lanes_div(size_t m, IvArg a, IvArg b, double* olo, double*
     c1 = c1 != c1 ? 0.0 : c1;
     c2 = c2 != c2 ? 0.0 : c2;
     c3 = c3 != c3 ? 0.0 : c3;
-    double lo = lane_down(std::min(std::min(c0, c1), std::min(c2, c3)));
-    double hi = lane_up(std::max(std::max(c0, c1), std::max(c2, c3)));
+    double lo = interval_detail::down(std::min(std::min(c0, c1), std::min(c2, c3)));
+    double hi = interval_detail::up(std::max(std::max(c0, c1), std::max(c2, c3)));
     lo = lo != lo ? -kIvInf : lo;
     hi = hi != hi ? kIvInf : hi;
     olo[i] = bz ? -kIvInf : lo;
@@ -446,8 +423,8 @@ HFRT_TAPE_INLINE void lanes_div(size_t m, IvArg a, IvArg b, double* olo, double*
   }
 }
 
-/// The vector code of the frequent ops (add, sub, mul, min, max, neg) for one instruction of
-/// eval_intervals; false for every other op.
+/// The vector code of the frequent ops (add, sub, mul, min, max, neg, abs, div, sqrt and the
+/// comparisons) for one instruction of eval_intervals; false for every other op.
 HFRT_TAPE_INLINE bool fast_interval_lanes(const TapeInst& t, const IvRegs& regs, IvScratch& sc,
                                           size_t m, double* olo, double* ohi, int64_t* onan) {
   if (t.op == Op::kAdd || t.op == Op::kSub) {
