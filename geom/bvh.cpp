@@ -2,7 +2,10 @@
 
 #include <algorithm>
 #include <atomic>
+#include <bit>
 #include <cmath>
+#include <cstdint>
+#include <limits>
 
 #include "base/check.h"
 #include "base/parallel.h"
@@ -12,52 +15,133 @@ namespace {
 
 constexpr int kMaxBins = 32;
 
-struct Bin {
-  Box bounds;
-  uint32_t count = 0;
+// The builder works on 4-lane vectors (GCC/Clang vector extensions, SSE on x86): a box is two
+// of them, and binning a primitive on all three axes is a handful of vector ops instead of
+// eighteen scalar min/max. Lane 3 of a primitive's upper corner carries its original index
+// (bits, never computed with); lane 3 of every other vector is ignored.
+using V4 = float __attribute__((vector_size(16)));
+using V4i = int32_t __attribute__((vector_size(16)));
+
+constexpr float kInf = std::numeric_limits<float>::infinity();
+
+// As std::min / std::max (Box::extend), so that bounds are bit for bit those of the scalar
+// definition (the choice between -0 and +0 included).
+inline V4 vmin4(V4 a, V4 b) {
+  return b < a ? b : a;
+}
+inline V4 vmax4(V4 a, V4 b) {
+  return a < b ? b : a;
+}
+
+/// A primitive as the builder moves it: its box with its original index, 32 bytes, partitioned
+/// in place. (An index into the caller's boxes made every binning pass a random read, one
+/// cache miss per primitive and level on large meshes.)
+struct PrimRef {
+  V4 lo, hi;  // hi[3]: the original index, as bits
+  uint32_t id() const { return std::bit_cast<V4i>(hi)[3]; }
+  /// The centroid, computed as Box::center (lane 3 zeroed first: the index bits may read as
+  /// a denormal, slow to add).
+  V4 center() const {
+    const V4i keep = {-1, -1, -1, 0};
+    return (lo + std::bit_cast<V4>(std::bit_cast<V4i>(hi) & keep)) * 0.5f;
+  }
+};
+
+/// A box as two vectors (lane 3 ignored). No default member values: the builder keeps arrays
+/// of them per node and sets up only the entries it uses (VBox::empty()).
+struct VBox {
+  V4 lo, hi;
+  static VBox empty() {
+    VBox b;
+    b.lo = V4{kInf, kInf, kInf, kInf};
+    b.hi = V4{-kInf, -kInf, -kInf, -kInf};
+    return b;
+  }
+  void extend(V4 l, V4 h) {
+    lo = vmin4(lo, l);
+    hi = vmax4(hi, h);
+  }
+  void extend(const VBox& b) { extend(b.lo, b.hi); }
+  Box box() const { return {{lo[0], lo[1], lo[2]}, {hi[0], hi[1], hi[2]}}; }
+  /// Box::half_area, the same operations in the same order.
+  float half_area() const {
+    if (!(lo[0] <= hi[0] && lo[1] <= hi[1] && lo[2] <= hi[2])) return 0;
+    const V4 d = hi - lo;
+    return d[0] * d[1] + d[1] * d[2] + d[2] * d[0];
+  }
+};
+
+/// The bins of one axis: bounds and counts, only the first `nbins` used (they are set up per
+/// node, so a small node does not pay for kMaxBins).
+struct AxisBins {
+  VBox bounds[kMaxBins];
+  uint32_t count[kMaxBins];
 };
 
 struct BinSet {
-  Bin bins[3][kMaxBins];
+  AxisBins axis[3];
+  int nbins = 0;
+
+  explicit BinSet(int n = 0) : nbins(n) {
+    for (AxisBins& a : axis) {
+      for (int k = 0; k < n; ++k) {
+        a.bounds[k] = VBox::empty();
+        a.count[k] = 0;
+      }
+    }
+  }
+  void join(const BinSet& b) {
+    for (int ax = 0; ax < 3; ++ax) {
+      for (int k = 0; k < nbins; ++k) {
+        axis[ax].bounds[k].extend(b.axis[ax].bounds[k]);
+        axis[ax].count[k] += b.axis[ax].count[k];
+      }
+    }
+  }
+};
+
+/// Bounds of a range of primitives and of their centroids.
+struct RangeInfo {
+  VBox bounds = VBox::empty(), centroids = VBox::empty();
 };
 
 class Builder {
  public:
-  Builder(std::span<const Box> boxes, const BvhBuildOptions& opt, Bvh* out)
-      : boxes_(boxes), opt_(opt), out_(out) {
+  Builder(std::span<const Box> boxes, const BvhBuildOptions& opt, Bvh* out) : opt_(opt), out_(out) {
     const size_t n = boxes.size();
-    centroids_.resize(n);
-    for (size_t i = 0; i < n; ++i) centroids_[i] = boxes[i].center();
-    out->prim_order.resize(n);
-    for (size_t i = 0; i < n; ++i) out->prim_order[i] = static_cast<uint32_t>(i);
+    refs_.resize(n);
+    for (size_t i = 0; i < n; ++i) {
+      const Box& b = boxes[i];
+      refs_[i].lo = V4{b.lo.x, b.lo.y, b.lo.z, 0};
+      refs_[i].hi = V4{b.hi.x, b.hi.y, b.hi.z, std::bit_cast<float>(static_cast<uint32_t>(i))};
+    }
     out->nodes.resize(std::max<size_t>(1, 2 * n - 1));
     next_node_.store(1);
   }
 
   void build() {
-    int depth = build_node(0, 0, static_cast<uint32_t>(boxes_.size()));
+    const uint32_t n = static_cast<uint32_t>(refs_.size());
+    int depth = build_node(0, 0, n, range_info(0, n));
     out_->nodes.resize(next_node_.load());
     out_->nodes.shrink_to_fit();
+    out_->prim_order.resize(refs_.size());
+    for (size_t i = 0; i < refs_.size(); ++i) out_->prim_order[i] = refs_[i].id();
     out_->depth = depth;
   }
 
  private:
-  struct RangeInfo {
-    Box bounds, centroid_bounds;
-  };
-
   RangeInfo range_info(uint32_t begin, uint32_t end) const {
     auto body = [&](size_t lo, size_t hi, RangeInfo acc) {
       for (size_t i = lo; i != hi; ++i) {
-        uint32_t p = out_->prim_order[i];
-        acc.bounds.extend(boxes_[p]);
-        acc.centroid_bounds.extend(centroids_[p]);
+        acc.bounds.extend(refs_[i].lo, refs_[i].hi);
+        const V4 c = refs_[i].center();
+        acc.centroids.extend(c, c);
       }
       return acc;
     };
     auto join = [](RangeInfo a, const RangeInfo& b) {
       a.bounds.extend(b.bounds);
-      a.centroid_bounds.extend(b.centroid_bounds);
+      a.centroids.extend(b.centroids);
       return a;
     };
     if (opt_.parallel && end - begin >= 65536)
@@ -65,9 +149,19 @@ class Builder {
     return body(begin, end, RangeInfo{});
   }
 
+  /// The centroid bounds of a range (its box bounds come from the parent's bins).
+  VBox centroid_bounds(uint32_t begin, uint32_t end) const {
+    VBox cb = VBox::empty();
+    for (uint32_t i = begin; i != end; ++i) {
+      const V4 c = refs_[i].center();
+      cb.extend(c, c);
+    }
+    return cb;
+  }
+
   // Clamped in float before the conversion: converting a NaN or an out-of-range float to int is
   // undefined behaviour.
-  int bin_of(float c, float lo, float scale, int nbins) const {
+  static int bin_of(float c, float lo, float scale, int nbins) {
     const float t = (c - lo) * scale;
     if (!(t > 0)) return 0;
     if (t >= static_cast<float>(nbins - 1)) return nbins - 1;
@@ -75,7 +169,7 @@ class Builder {
   }
 
   void fill_bins(uint32_t begin, uint32_t end, const Box& cb, int nbins, BinSet* set) const {
-    float scale[3];
+    V4 scale = {0, 0, 0, 0};
     for (int a = 0; a < 3; ++a) {
       // A denormal extent makes nbins / ext infinite, and (c - lo) * inf is NaN at c = lo
       // (found by fuzz/mesh_fuzz.cpp): such an axis cannot be binned, like a zero extent.
@@ -83,29 +177,54 @@ class Builder {
       const float s = ext > 0 ? nbins / ext : 0;
       scale[a] = std::isfinite(s) ? s : 0;
     }
-    auto body = [&](size_t lo, size_t hi, BinSet acc) {
-      for (size_t i = lo; i != hi; ++i) {
-        uint32_t p = out_->prim_order[i];
-        for (int a = 0; a < 3; ++a) {
-          Bin& bin = acc.bins[a][bin_of(centroids_[p][a], cb.lo[a], scale[a], nbins)];
-          bin.bounds.extend(boxes_[p]);
-          ++bin.count;
-        }
+    const V4 lo = {cb.lo.x, cb.lo.y, cb.lo.z, 0};
+    const V4 zero = {0, 0, 0, 0};
+    const float top = static_cast<float>(nbins - 1);
+    const V4 last = {top, top, top, top};
+    auto bin = [&](const PrimRef& r, BinSet* acc) {
+      // bin_of on three lanes: t <= 0 and NaN give bin 0 (t > 0 ? t : 0), the top is clamped
+      // in float, the rest truncated.
+      V4 t = (r.center() - lo) * scale;
+      t = t > zero ? t : zero;
+      t = t < last ? t : last;
+      const V4i k = __builtin_convertvector(t, V4i);
+      for (int a = 0; a < 3; ++a) {
+        acc->axis[a].bounds[k[a]].extend(r.lo, r.hi);
+        ++acc->axis[a].count[k[a]];
       }
-      return acc;
     };
-    auto join = [&](BinSet a, const BinSet& b) {
-      for (int ax = 0; ax < 3; ++ax)
-        for (int k = 0; k < nbins; ++k) {
-          a.bins[ax][k].bounds.extend(b.bins[ax][k].bounds);
-          a.bins[ax][k].count += b.bins[ax][k].count;
-        }
-      return a;
+    auto body = [&](size_t first, size_t stop, BinSet* acc) {
+      if (stop - first < 256) {
+        for (size_t i = first; i != stop; ++i) bin(refs_[i], acc);
+        return;
+      }
+      // Neighbours in the array are neighbours in space and mostly fall into the same bins:
+      // one set of bins would make each primitive wait for the previous one's update of the
+      // same bin (a load-min-store chain). Two sets, for even and odd positions, halve it.
+      BinSet odd(nbins);
+      size_t i = first;
+      for (; i + 1 < stop; i += 2) {
+        bin(refs_[i], acc);
+        bin(refs_[i + 1], &odd);
+      }
+      if (i != stop) bin(refs_[i], acc);
+      acc->join(odd);
     };
-    if (opt_.parallel && end - begin >= 65536)
-      *set = par::parallel_reduce(begin, end, 8192, BinSet{}, body, join);
-    else
-      *set = body(begin, end, BinSet{});
+    if (opt_.parallel && end - begin >= 65536) {
+      // Near the root only: a BinSet is a few KiB, copied per task.
+      *set = par::parallel_reduce(
+          begin, end, 8192, BinSet(nbins),
+          [&](size_t first, size_t stop, BinSet acc) {
+            body(first, stop, &acc);
+            return acc;
+          },
+          [](BinSet a, const BinSet& b) {
+            a.join(b);
+            return a;
+          });
+    } else {
+      body(begin, end, set);
+    }
   }
 
   void make_leaf(BvhNode& node, uint32_t begin, uint32_t end) {
@@ -113,56 +232,63 @@ class Builder {
     node.count = end - begin;
   }
 
-  // Builds node `id` over prim_order[begin, end); returns the subtree depth.
-  int build_node(uint32_t id, uint32_t begin, uint32_t end) {
+  // Builds node `id` over refs_[begin, end) whose bounds are `info`; returns the subtree depth.
+  int build_node(uint32_t id, uint32_t begin, uint32_t end, const RangeInfo& info) {
     const uint32_t n = end - begin;
-    RangeInfo info = range_info(begin, end);
     BvhNode& node = out_->nodes[id];
+    const Box bounds = info.bounds.box();
     for (int a = 0; a < 3; ++a) {
-      node.lo[a] = info.bounds.lo[a];
-      node.hi[a] = info.bounds.hi[a];
+      node.lo[a] = bounds.lo[a];
+      node.hi[a] = bounds.hi[a];
     }
     if (n <= 1) {
       make_leaf(node, begin, end);
       return 1;
     }
-    // Choose the split: SAH over binned centroids on all three axes.
-    const Box& cb = info.centroid_bounds;
-    const int nbins = std::clamp(opt_.bins, 2, kMaxBins);
+    // Choose the split: SAH over binned centroids on all three axes. The bounds of both sides
+    // of the best split are kept from the sweep: they are the children's bounds.
+    const Box cb = info.centroids.box();
+    const int nbins = std::min(std::clamp(opt_.bins, 2, kMaxBins), std::max<int>(4, int(n)));
     int best_axis = -1, best_split = 0;
     float best_cost = std::numeric_limits<float>::infinity();
+    VBox best_left, best_right;
     if (cb.diagonal()[cb.max_axis()] > 0) {
-      BinSet set;
+      BinSet set(nbins);
       fill_bins(begin, end, cb, nbins, &set);
       for (int a = 0; a < 3; ++a) {
         if (!(cb.hi[a] > cb.lo[a])) continue;
+        const AxisBins& bins = set.axis[a];
         // Sweep from the right, then from the left.
+        VBox right_box[kMaxBins];
         float right_area[kMaxBins];
         uint32_t right_count[kMaxBins];
-        Box acc;
+        VBox acc = VBox::empty();
         uint32_t cnt = 0;
         for (int k = nbins - 1; k > 0; --k) {
-          acc.extend(set.bins[a][k].bounds);
-          cnt += set.bins[a][k].count;
+          acc.extend(bins.bounds[k]);
+          cnt += bins.count[k];
+          right_box[k] = acc;
           right_area[k] = acc.half_area();
           right_count[k] = cnt;
         }
-        acc = Box{};
+        acc = VBox::empty();
         cnt = 0;
         for (int k = 1; k < nbins; ++k) {
-          acc.extend(set.bins[a][k - 1].bounds);
-          cnt += set.bins[a][k - 1].count;
+          acc.extend(bins.bounds[k - 1]);
+          cnt += bins.count[k - 1];
           if (cnt == 0 || right_count[k] == 0) continue;
           float cost = acc.half_area() * cnt + right_area[k] * right_count[k];
           if (cost < best_cost) {
             best_cost = cost;
             best_axis = a;
             best_split = k;
+            best_left = acc;
+            best_right = right_box[k];
           }
         }
       }
     }
-    const float parent_area = info.bounds.half_area();
+    const float parent_area = bounds.half_area();
     const float leaf_cost = opt_.primitive_cost * n;
     const float split_cost =
         best_axis < 0
@@ -172,39 +298,46 @@ class Builder {
       make_leaf(node, begin, end);
       return 1;
     }
-    uint32_t mid;
+    uint32_t mid = begin;
     if (best_axis >= 0) {
       float ext = cb.hi[best_axis] - cb.lo[best_axis];
       float scale = nbins / ext;
       float lo = cb.lo[best_axis];
-      auto* first = out_->prim_order.data() + begin;
-      auto* split = std::partition(first, out_->prim_order.data() + end, [&](uint32_t p) {
-        return bin_of(centroids_[p][best_axis], lo, scale, nbins) < best_split;
+      PrimRef* first = refs_.data() + begin;
+      PrimRef* split = std::partition(first, refs_.data() + end, [&](const PrimRef& r) {
+        return bin_of(r.center()[best_axis], lo, scale, nbins) < best_split;
       });
-      mid = static_cast<uint32_t>(split - out_->prim_order.data());
-    } else {
-      mid = begin + n / 2;  // all centroids coincide: any split is as good; halve by index
+      mid = static_cast<uint32_t>(split - refs_.data());
     }
-    if (mid == begin || mid == end) mid = begin + n / 2;
+    RangeInfo left, right;
+    if (best_axis < 0 || mid == begin || mid == end) {
+      // All centroids coincide (or the split left a side empty): any split is as good; halve
+      // by index, with bounds computed anew.
+      mid = begin + n / 2;
+      left = range_info(begin, mid);
+      right = range_info(mid, end);
+    } else {
+      left = {best_left, centroid_bounds(begin, mid)};
+      right = {best_right, centroid_bounds(mid, end)};
+    }
     const uint32_t child = next_node_.fetch_add(2);
     HFRT_CHECK_LE(child + 1, out_->nodes.size() - 0);
     node.index = child;
     node.count = 0;
     int dl = 0, dr = 0;
     if (opt_.parallel && n >= opt_.parallel_threshold) {
-      par::parallel_invoke([&] { dl = build_node(child, begin, mid); },
-                           [&] { dr = build_node(child + 1, mid, end); });
+      par::parallel_invoke([&] { dl = build_node(child, begin, mid, left); },
+                           [&] { dr = build_node(child + 1, mid, end, right); });
     } else {
-      dl = build_node(child, begin, mid);
-      dr = build_node(child + 1, mid, end);
+      dl = build_node(child, begin, mid, left);
+      dr = build_node(child + 1, mid, end, right);
     }
     return 1 + std::max(dl, dr);
   }
 
-  std::span<const Box> boxes_;
   const BvhBuildOptions& opt_;
   Bvh* out_;
-  std::vector<Vec3> centroids_;
+  std::vector<PrimRef> refs_;
   std::atomic<uint32_t> next_node_{1};
 };
 

@@ -32,7 +32,7 @@ static_assert(sizeof(BvhNode) == 32);
 
 struct BvhBuildOptions {
   int max_leaf_size = 4;     ///< a leaf never holds more (coincident centroids split by index)
-  int bins = 16;             ///< SAH bins per axis
+  int bins = 16;             ///< SAH bins per axis (a node of n < bins primitives uses max(4, n))
   float traversal_cost = 1;  ///< cost of one node visit relative to one primitive test
   float primitive_cost = 1;
   size_t parallel_threshold = 4096;  ///< subtrees at least this large build in parallel

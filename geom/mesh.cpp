@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cctype>
 #include <cerrno>
+#include <charconv>
 #include <cmath>
 #include <cstdlib>
 #include <cstring>
@@ -50,8 +51,13 @@ std::vector<std::string> tokens_of(const std::string& line) {
 // finiteness). Parsed where it stands: the token must be followed by a character strtod stops
 // at (whitespace, '#', the string's terminating NUL), as a token of a line always is.
 std::optional<double> parse_real(const char* s, size_t len) {
+  // std::from_chars first (3-5x faster than strtod: no locale, no errno); strtod for what it
+  // alone accepts (a leading '+', hexadecimal). Both round correctly, so the value is the same.
+  double v = 0;
+  const auto [ptr, ec] = std::from_chars(s, s + len, v);
+  if (ec == std::errc() && ptr == s + len) return v;
   char* end = nullptr;
-  double v = std::strtod(s, &end);
+  v = std::strtod(s, &end);
   if (end == s || end != s + len) return std::nullopt;
   return v;
 }
@@ -62,9 +68,13 @@ std::optional<double> parse_real(const std::string& tok) {
 // A whole token as an integer; out of long long's range is malformed too (strtoll would
 // saturate, and a count of LLONG_MAX overflowed the checks below: found by fuzz/mesh_fuzz.cpp).
 std::optional<long long> parse_int(const char* s, size_t len) {
+  long long v = 0;
+  const auto [ptr, ec] = std::from_chars(s, s + len, v);  // as parse_real: the fast path
+  if (ec == std::errc() && ptr == s + len) return v;
+  if (ec == std::errc::result_out_of_range) return std::nullopt;
   char* end = nullptr;
   errno = 0;
-  long long v = std::strtoll(s, &end, 10);
+  v = std::strtoll(s, &end, 10);
   if (end == s || end != s + len || errno == ERANGE) return std::nullopt;
   return v;
 }
@@ -101,11 +111,13 @@ Result<TriangleMesh> read_off(const std::string& path, const std::string& text,
     const char* stop = hash ? hash : eol;
     tok.clear();
     tok_len.clear();
+    // std::isspace of the "C" locale, inline: a call per character was a tenth of the load.
+    auto space = [](char ch) { return ch == ' ' || (ch >= '\t' && ch <= '\r'); };
     for (const char* q = p; q < stop;) {
-      while (q < stop && std::isspace(static_cast<unsigned char>(*q))) ++q;
+      while (q < stop && space(*q)) ++q;
       if (q == stop) break;
       const char* t = q;
-      while (q < stop && !std::isspace(static_cast<unsigned char>(*q))) ++q;
+      while (q < stop && !space(*q)) ++q;
       tok.push_back(t);
       tok_len.push_back(size_t(q - t));
     }

@@ -534,8 +534,9 @@ float MeshSurface::signed_distance(Vec3 p, Vec3* gradient) const {
   return inside ? c.distance : -c.distance;
 }
 
-float MeshSurface::distance_lower_bound(const Box& box) const {
+float MeshSurface::distance_lower_bound(const Box& box, Vec3* near_vertex) const {
   float best = std::numeric_limits<float>::infinity();
+  uint32_t best_slot = 0;
   DistanceEntry stack[kStackSize];
   int sp = 0;
   stack[sp++] = {0, nodes_[0].bounds().distance2(box)};
@@ -547,7 +548,11 @@ float MeshSurface::distance_lower_bound(const Box& box) const {
       for (uint32_t s = n.index; s < n.index + n.count; ++s) {
         Box tb;
         for (int k = 0; k < 3; ++k) tb.extend(corners_[3 * s + k]);
-        best = std::min(best, tb.distance2(box));
+        const float d2 = tb.distance2(box);
+        if (d2 < best) {
+          best = d2;
+          best_slot = s;
+        }
       }
       if (best == 0) return 0;
     } else {
@@ -556,19 +561,36 @@ float MeshSurface::distance_lower_bound(const Box& box) const {
       push_nearer_on_top(stack, sp, c0, d0, c1, d1);
     }
   }
+  if (near_vertex) *near_vertex = corners_[3 * best_slot];
   // Rounding in the squared distance: shrink slightly so the bound stays a lower bound.
   return std::sqrt(best) * (1.0f - 1e-6f);
 }
 
 DistanceBounds MeshSurface::signed_distance_bounds(const Box& box) const {
   const Vec3 c = box.center();
+  Vec3 vertex;
+  const float apart = distance_lower_bound(box, &vertex);
+  if (apart > 0) {
+    // No triangle's box meets the box. The distance from its centre would tighten the bounds
+    // (by up to half the box), but far from the mesh that search visits a hundred nodes and
+    // triangles, a cache miss each (7-9 us per box: 80 % of the armadillo's culling); a
+    // corner of the triangle that the lower bound found caps the distance from every point of
+    // the box instead. The sign is the sign at the centre (exact for closed meshes, whose
+    // winding number is constant off the surface).
+    const float upper = std::sqrt(box.max_distance2(vertex)) * (1.0f + 1e-6f);
+    if (winding_number(c) >= 0.5) return {apart, upper};
+    return {-upper, -apart};
+  }
   const float half_diag = 0.5f * length(box.diagonal()) * (1.0f + 1e-6f);
-  const float dc = closest_point(c).distance;
+  // Most such boxes hold the surface: a search within half the diagonal, which prunes far
+  // more, finds the same closest point then; only when it finds none is the whole mesh
+  // searched.
+  ClosestPoint near = closest_point(c, half_diag);
+  const float dc = near.prim != ~0u ? near.distance : closest_point(c).distance;
   const float upper = dc + half_diag;
-  const float lower = std::max(distance_lower_bound(box), dc - half_diag);
+  const float lower = dc - half_diag;
   if (lower <= 0) return {-upper, upper};
-  // The box touches no triangle: the sign is the sign at its centre (exact for closed meshes,
-  // whose winding number is constant off the surface).
+  // The box meets a triangle's box but not the mesh: signed as above.
   if (winding_number(c) >= 0.5) return {lower, upper};
   return {-upper, -lower};
 }

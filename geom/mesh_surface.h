@@ -62,8 +62,10 @@ class MeshSurface final : public Surface {
   /// Edges matched by coordinates (a sort of the 3n directed edges, on first use).
   SurfaceTopology topology() const override;
 
-  /// A lower bound on the distance from `box` to the mesh (0 when the box may touch it).
-  float distance_lower_bound(const Box& box) const;
+  /// A lower bound on the distance from `box` to the mesh (0 when the box may touch it): the
+  /// distance to the nearest triangle's bounding box. When it is positive and `near_vertex` is
+  /// given, that is set to a corner of that triangle (a point on the mesh near the box).
+  float distance_lower_bound(const Box& box, Vec3* near_vertex = nullptr) const;
 
   /// The winding number summed exactly over every triangle (no hierarchy): for tests.
   double winding_number_exact(Vec3 p) const;

@@ -8,6 +8,7 @@
 #include "base/check.h"
 #include "ir/scalar_ops.h"
 #include "ir/trig.h"
+#include "jit/llvm_session.h"
 
 namespace hfrt::jit {
 
@@ -172,8 +173,8 @@ llvm::Value* VectorEmitter::call_lanes(llvm::FunctionCallee f, llvm::Value* a, l
 
 llvm::Value* VectorEmitter::surface_pointer(int index) {
   HFRT_CHECK(index >= 0 && index < static_cast<int>(fn_.surfaces.size()));
-  const auto addr = reinterpret_cast<uintptr_t>(fn_.surfaces[index].get());
-  return llvm::ConstantExpr::getIntToPtr(llvm::ConstantInt::get(i64_, addr), ptr_);
+  // A symbol, not the address itself: the code stays cacheable (host_address()).
+  return host_address(m_, "hfrt.surface." + std::to_string(index), fn_.surfaces[index].get());
 }
 
 llvm::FunctionCallee VectorEmitter::surface_helper(const char* name) {

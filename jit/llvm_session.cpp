@@ -116,8 +116,9 @@ constexpr const char* kEntryName = "hfrt_entry";
 /// session's codegen options, the pipelines): old entries then stop matching.
 constexpr int kCacheFormat = 1;
 
-/// Whether `module` holds an address of this process (an integer turned into a pointer: the
-/// mesh and patch leaves' surfaces): such code must not be cached.
+/// Whether `module` holds an address of this process (an integer turned into a pointer; the
+/// surfaces of mesh and patch leaves are symbols instead, see host_address()): such code must
+/// not be cached.
 bool holds_process_addresses(const llvm::Module& module) {
   for (const llvm::Function& f : module) {
     for (const llvm::BasicBlock& bb : f) {
@@ -133,7 +134,35 @@ bool holds_process_addresses(const llvm::Module& module) {
   return false;
 }
 
+/// The metadata of host_address(): the address as an i64 constant.
+constexpr const char* kHostAddressMd = "hfrt.host_address";
+
+/// Takes host_address()'s metadata off `module`'s globals: (name, address) of each.
+std::vector<std::pair<std::string, uint64_t>> take_host_addresses(llvm::Module& module) {
+  std::vector<std::pair<std::string, uint64_t>> out;
+  for (llvm::GlobalVariable& g : module.globals()) {
+    llvm::MDNode* md = g.getMetadata(kHostAddressMd);
+    if (!md) continue;
+    auto* value = llvm::mdconst::extract<llvm::ConstantInt>(md->getOperand(0));
+    out.emplace_back(g.getName().str(), value->getZExtValue());
+    g.setMetadata(kHostAddressMd, nullptr);
+  }
+  return out;
+}
+
 }  // namespace
+
+llvm::Constant* host_address(llvm::Module& module, const std::string& name, const void* addr) {
+  if (llvm::GlobalVariable* g = module.getGlobalVariable(name)) return g;
+  llvm::LLVMContext& ctx = module.getContext();
+  auto* g = new llvm::GlobalVariable(module, llvm::Type::getInt8Ty(ctx), /*isConstant=*/true,
+                                     llvm::GlobalValue::ExternalLinkage, nullptr, name);
+  const uint64_t bits = reinterpret_cast<uintptr_t>(addr);
+  g->setMetadata(kHostAddressMd,
+                 llvm::MDNode::get(ctx, {llvm::ConstantAsMetadata::get(llvm::ConstantInt::get(
+                                            llvm::Type::getInt64Ty(ctx), bits))}));
+  return g;
+}
 
 Result<LlvmSession*> LlvmSession::get() {
   static Result<LlvmSession*> session = create();
@@ -242,6 +271,8 @@ Result<std::unique_ptr<CompiledCode>> LlvmSession::compile(ModuleUnit unit,
     if (llvm::Function* f = module.getFunction(name)) fast.push_back(f);
   }
   entry_fn->setName(kEntryName);
+  // Addresses of this process leave the IR (they are defined at link time below).
+  const std::vector<std::pair<std::string, uint64_t>> host_symbols = take_host_addresses(module);
   module.setModuleIdentifier("hfrt");
   module.setSourceFileName("hfrt");
   for (llvm::Function& f : module) {
@@ -372,6 +403,16 @@ Result<std::unique_ptr<CompiledCode>> LlvmSession::compile(ModuleUnit unit,
     }
     return Error{std::move(message)};
   };
+  if (!host_symbols.empty()) {
+    llvm::orc::SymbolMap symbols;
+    for (const auto& [name, addr] : host_symbols) {
+      symbols[jit_->mangleAndIntern(name)] = {llvm::orc::ExecutorAddr(addr),
+                                              llvm::JITSymbolFlags::Exported};
+    }
+    if (auto err = jd.define(llvm::orc::absoluteSymbols(std::move(symbols)))) {
+      return drop("cannot define the surfaces' symbols: " + llvm_error_text(std::move(err)));
+    }
+  }
   if (auto err = jit_->addObjectFile(jd, std::move(object))) {
     return drop("cannot add the object to the JIT: " + llvm_error_text(std::move(err)));
   }

@@ -94,6 +94,13 @@ class CompiledCode {
   void* entry_;
 };
 
+/// A symbol of `module` whose address is `addr`, an object of this process (a mesh or patch
+/// leaf's surface): an external constant named `name`, with the address in its metadata. The
+/// address stays out of the code, so that the code can be cached and reused by another
+/// process (which loads its own surfaces elsewhere): LlvmSession::compile takes the metadata
+/// off before hashing and defines the symbol at that address when it links.
+llvm::Constant* host_address(llvm::Module& module, const std::string& name, const void* addr);
+
 class LlvmSession {
  public:
   /// The process-wide session (created on first call; lives for the process, since code of

@@ -259,6 +259,32 @@ TEST_F(MeshFiles, MalformedAsciiPlyBodyHasItsLine) {
   EXPECT_EQ(ok->triangles.size(), 4u);
 }
 
+// OFF numbers go through std::from_chars first and strtod / strtoll for what only those
+// accept: a leading '+', hexadecimal floats, tabs and carriage returns between tokens. Every
+// form strtod read before still reads, to the same value.
+TEST_F(MeshFiles, OffNumbersInEveryFormStrtodAccepts) {
+  Result<TriangleMesh> m = load_mesh(
+      write("forms.off", "OFF\r\n3\t1 0\r\n+1.5 0x1p-2 -0\n1e-1 .5 7.\n0 1 0\n+3 0 +1 2\n"));
+  ASSERT_TRUE(m.ok()) << m.error().message;
+  ASSERT_EQ(m->vertices.size(), 3u);
+  EXPECT_EQ(m->vertices[0].x, 1.5f);
+  EXPECT_EQ(m->vertices[0].y, 0.25f);
+  EXPECT_EQ(m->vertices[0].z, 0.0f);
+  EXPECT_EQ(m->vertices[1].x, static_cast<float>(0.1));
+  EXPECT_EQ(m->vertices[1].y, 0.5f);
+  EXPECT_EQ(m->vertices[1].z, 7.0f);
+  ASSERT_EQ(m->triangles.size(), 1u);
+  // Still malformed: a sign alone, a trailing letter, a coordinate beyond double.
+  EXPECT_NE(error_of("sign.off", "OFF\n3 1 0\n+ 0 0\n1 0 0\n0 1 0\n3 0 1 2\n").find("sign.off:3:"),
+            std::string::npos);
+  EXPECT_NE(error_of("tail.off", "OFF\n3 1 0\n0 0 0\n1 0 0\n0 1x 0\n3 0 1 2\n")
+                .find("tail.off:5: malformed coordinate '1x'"),
+            std::string::npos);
+  EXPECT_NE(error_of("huge.off", "OFF\n3 1 0\n0 0 0\n1e400 0 0\n0 1 0\n3 0 1 2\n")
+                .find("huge.off:4: non-finite coordinate"),
+            std::string::npos);
+}
+
 // Found by fuzz/mesh_fuzz.cpp: a face size beyond long long's range (strtoll saturated it to
 // LLONG_MAX) overflowed the size check (1 + n, undefined behaviour) and the index loop then read
 // past the line's tokens. Out-of-range integers are malformed now.

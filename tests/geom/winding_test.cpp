@@ -145,6 +145,35 @@ TEST(SignedDistance, BoxBoundsEncloseSamples) {
   EXPECT_GT(constant_sign, 50);  // small boxes away from the surface get one sign
 }
 
+// Boxes that no triangle's box meets take their upper bound from a corner of the nearest
+// triangle rather than from a closest-point search at the centre (a hundred nodes for a far
+// box): still an enclosure, still decided, for boxes of every size around and inside the mesh.
+TEST(SignedDistance, BoundsOfBoxesApartFromTheMeshEncloseAndDecide) {
+  const MeshSurface& s = testing::armadillo_surface();
+  std::mt19937 rng(21);
+  const Box around = testing::grown(s.bounds(), 1.5f);
+  const float scale = s.bounds().diagonal().x;
+  int apart = 0, decided = 0;
+  for (int i = 0; i < 400; ++i) {
+    const Vec3 c = testing::random_point(rng, around);
+    const float half = scale * std::pow(2.0f, -1.0f - static_cast<float>(i % 7));
+    const Box b{c - Vec3{half, half, half}, c + Vec3{half, half, half}};
+    if (!(s.distance_lower_bound(b) > 0)) continue;
+    ++apart;
+    const DistanceBounds db = s.signed_distance_bounds(b);
+    ASSERT_LE(db.lo, db.hi);
+    decided += db.lo > 0 || db.hi < 0;
+    for (int k = 0; k < 20; ++k) {
+      const Vec3 p = testing::random_point(rng, b);
+      const float f = s.signed_distance(p);
+      ASSERT_GE(f, db.lo) << "box " << i;
+      ASSERT_LE(f, db.hi) << "box " << i;
+    }
+  }
+  EXPECT_GT(apart, 100);
+  EXPECT_EQ(decided, apart);  // apart from every triangle: one sign over the box
+}
+
 TEST(Winding, OpenMeshHasAFractionalWindingNumber) {
   // One triangle: 0 far away, +-1/2 just behind / in front of its centre.
   const double v[] = {0, 0, 0, 1, 0, 0, 0, 1, 0};

@@ -1,8 +1,8 @@
 // Tests of the compile cache on disk (hfrt/compile_cache.h, jit/compile_cache.cpp and its use
 // in jit/llvm_session.cpp): a second compile of the same code is a hit with the same values;
 // a changed model or option never reuses code; damaged entries are found, removed and
-// compiled again; concurrent compiles share a folder; code holding process addresses (mesh
-// leaves) is never stored; the folder stays within its bound; `clear` empties it.
+// compiled again; concurrent compiles share a folder; the code of mesh leaves is stored and
+// linked to each process's own surface; the folder stays within its bound; `clear` empties it.
 #include "hfrt/compile_cache.h"
 
 #include <gtest/gtest.h>
@@ -162,19 +162,31 @@ TEST_F(CompileCacheTest, ConcurrentCompilesShareOneFolder) {
   EXPECT_TRUE(cached);
 }
 
-TEST_F(CompileCacheTest, CodeWithProcessAddressesIsNeverStored) {
-  // A mesh leaf's code holds the address of its surface in this process.
-  const Function fn = lowered(
-      "my_model(x[3], a[1]) { array v[9], t[3]; v = [0,0,0, 1,0,0, 0,1,0]; t = [1, 2, 3]; "
-      "my_model = hfTriangles(x, v, t); }");
+TEST_F(CompileCacheTest, MeshLeafCodeIsStoredAndLinksToItsOwnSurface) {
+  // A mesh leaf's code refers to its surface by a symbol defined when it is linked, not by the
+  // address (which differs between processes): two meshes of the same program shape share
+  // one entry, and each compile still evaluates its own mesh.
+  auto model = [](const std::string& v) {
+    return lowered("my_model(x[3], a[1]) { array v[9], t[3]; v = [" + v +
+                   "]; t = [1, 2, 3]; my_model = hfTriangles(x, v, t); }");
+  };
+  const Function small = model("0,0,0, 1,0,0, 0,1,0"), large = model("0,0,0, 2,0,0, 0,2,0");
   const uint64_t bypassed = compile_cache_stats().bypassed;
   bool cached = true;
-  values(fn, &cached);
+  const std::vector<double> v_small = values(small, &cached);
   EXPECT_FALSE(cached);
-  values(fn, &cached);
+  EXPECT_EQ(entries().size(), 1u);
+  const std::vector<double> v_large = values(large, &cached);
+  EXPECT_TRUE(cached);
+  EXPECT_EQ(entries().size(), 1u);
+  EXPECT_EQ(compile_cache_stats().bypassed, bypassed);
+  EXPECT_NE(v_small, v_large);
+  // The values of code compiled without the cache, for each mesh.
+  configure_compile_cache(false, dir_.string());
+  EXPECT_EQ(values(large, &cached), v_large);
   EXPECT_FALSE(cached);
-  EXPECT_TRUE(entries().empty());
-  EXPECT_EQ(compile_cache_stats().bypassed, bypassed + 2);
+  EXPECT_EQ(values(small, &cached), v_small);
+  configure_compile_cache(true, dir_.string());
 }
 
 TEST_F(CompileCacheTest, SwitchedOffItWritesNothing) {
