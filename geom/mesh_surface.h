@@ -63,8 +63,9 @@ class MeshSurface final : public Surface {
   SurfaceTopology topology() const override;
 
   /// A lower bound on the distance from `box` to the mesh (0 when the box may touch it): the
-  /// distance to the nearest triangle's bounding box. When it is positive and `near_vertex` is
-  /// given, that is set to a corner of that triangle (a point on the mesh near the box).
+  /// distance to the nearest triangle's bounding box. `near_vertex`, when given, is set to a
+  /// corner of that triangle (a point of the mesh near the box; for a bound of 0, one inside
+  /// the box when the first triangle whose box meets it has one).
   float distance_lower_bound(const Box& box, Vec3* near_vertex = nullptr) const;
 
   /// The winding number summed exactly over every triangle (no hierarchy): for tests.
