@@ -5,6 +5,7 @@
 #include <chrono>
 #include <cmath>
 #include <limits>
+#include <memory>
 #include <mutex>
 
 #include "base/check.h"
@@ -48,6 +49,12 @@ struct Sample {
   float t = 0;
 };
 
+/// A piece [a, b] of camera sample `sample`'s ray (search_primary_pruned).
+struct SamplePiece {
+  uint32_t sample;
+  float a, b;
+};
+
 /// Scratch memory and counters of one worker thread.
 struct ThreadState {
   explicit ThreadState(const Field& field) : searcher(field) {}
@@ -59,6 +66,17 @@ struct ThreadState {
   std::vector<int> hit_index;
   /// Per camera sample / per shadow ray: its ray in the searcher's batch (-1: none).
   std::vector<int> batch_index;
+  /// search_primary_pruned: per sample, its pieces still to visit (the front on top) and the
+  /// pieces it marched without a hit and could not exclude (front to back); this round's
+  /// pieces and their enclosures.
+  std::vector<std::vector<SamplePiece>> todo, unproven;
+  std::vector<SamplePiece> round;
+  std::vector<Box> round_boxes;
+  std::vector<Interval> round_ivs;
+  std::unique_ptr<bool[]> round_nan;
+  size_t round_nan_size = 0;
+  std::vector<RootHit> marched;
+  std::vector<SamplePiece> hit_piece;
   /// Per light: the ranges of t along the shadow rays of the current tile that its bundle
   /// culling could not prove empty (see TileRenderer::cull_shadow_bundle).
   std::vector<std::vector<Span>> shadow_spans;
@@ -128,7 +146,11 @@ class TileRenderer {
     // 2. Camera samples and their root search.
     make_samples(tx0, ty0, tx1, ty1, ts);
     if (use_interval_ && opt_.interval_march_first) {
-      search_primary_batched(ts);
+      if (opt_.interval_pruned_march) {
+        search_primary_pruned(ts);
+      } else {
+        search_primary_batched(ts);
+      }
     } else {
       for (Sample& s : ts.samples) search_primary(s, ts);
     }
@@ -235,6 +257,141 @@ class TileRenderer {
   /// pieces that must be proven empty for all rays (the spans before the one the march hit
   /// in, and in that span the pieces growing away from the root) are bisected together by
   /// RootSearcher::batch_run, so that the interval evaluator gets boxes by the hundred.
+  /// The interval search of the tile's camera samples with the march pruned: each sample's
+  /// depths are bisected front to back by intervals (one piece per sample per round, the
+  /// tile's samples in one batch) down to kPrunedSpan march steps; a piece proven outside is
+  /// dropped, the first piece that is not is marched, and the search stops at the first
+  /// march hit. The proof then covers the marched pieces in front of the hit (and all of them
+  /// for a miss) and, in the hit's piece, the pieces growing away from the root
+  /// (RootSearcher::batch_run, as search_primary_batched). A ray beside a silhouette marches
+  /// only the pieces near the surface instead of every depth of its tile's spans.
+  void search_primary_pruned(ThreadState& ts) {
+    const size_t n = ts.samples.size();
+    if (ts.todo.size() < n) {
+      ts.todo.resize(n);
+      ts.unproven.resize(n);
+    }
+    ts.marched.assign(n, RootHit{});
+    ts.hit_piece.assign(n, SamplePiece{0, 0, 0});
+    std::vector<float> te_of(n, 0);
+    for (size_t si = 0; si < n; ++si) {
+      ts.todo[si].clear();
+      ts.unproven[si].clear();
+      Sample& s = ts.samples[si];
+      float te, tx;
+      if (!box_range(s.ray, &te, &tx, &s.cap_axis)) continue;
+      te_of[si] = te;
+      float total = 0;
+      for (size_t j = ts.spans.size(); j-- > 0;) {
+        const float a = std::max(ts.spans[j].a, te), b = std::min(ts.spans[j].b, tx);
+        if (a <= b) {
+          ts.todo[si].push_back({uint32_t(si), a, b});
+          total += b - a;
+        }
+      }
+      const float dlen = length(s.ray.d), step = step_ / dlen;
+      if (total > 2 * RootSearcher::kPrunedSpan * step) continue;
+      // Depths that short are marched whole: halving them would cost more interval
+      // evaluations than the march samples it could save.
+      std::vector<SamplePiece>& todo = ts.todo[si];
+      while (!todo.empty()) {
+        const SamplePiece p = todo.back();
+        todo.pop_back();
+        RootHit h = ts.searcher.sign_search(s.ray, p.a, p.b, step, eps_ / dlen * 0.25f, false);
+        if (h.hit) {
+          h.at_start = h.at_start && p.a == te;
+          ts.marched[si] = h;
+          ts.hit_piece[si] = p;
+          todo.clear();
+        } else {
+          ts.unproven[si].push_back(p);
+        }
+      }
+    }
+    RootSearcher& rs = ts.searcher;
+    EvalCounters& c = rs.counters();
+    for (;;) {
+      ts.round.clear();
+      for (size_t si = 0; si < n; ++si) {
+        if (ts.todo[si].empty()) continue;
+        ts.round.push_back(ts.todo[si].back());
+        ts.todo[si].pop_back();
+      }
+      const size_t m = ts.round.size();
+      if (m == 0) break;
+      ts.round_boxes.resize(m);
+      for (size_t i = 0; i < m; ++i) {
+        const SamplePiece& p = ts.round[i];
+        ts.round_boxes[i] = segment_box(ts.samples[p.sample].ray, p.a, p.b);
+      }
+      ts.round_ivs.resize(m);
+      if (ts.round_nan_size < m) {
+        ts.round_nan_size = std::max(m, 2 * ts.round_nan_size);
+        ts.round_nan.reset(new bool[ts.round_nan_size]);
+      }
+      field_.eval_intervals(m, ts.round_boxes.data(), ts.round_ivs.data(), ts.round_nan.get());
+      c.interval_calls += m;
+      for (size_t i = 0; i < m; ++i) {
+        const SamplePiece p = ts.round[i];
+        const Interval iv = ts.round_ivs[i];
+        if (iv.hi < 0) continue;  // no point inside (NaN points count as outside)
+        const Ray& ray = ts.samples[p.sample].ray;
+        const float dlen = length(ray.d);
+        const float step = step_ / dlen, eps = eps_ / dlen;
+        const bool inside = !std::isnan(iv.lo) && iv.lo >= 0 && !ts.round_nan[i];
+        const float mid = p.a + (p.b - p.a) * 0.5f;
+        if (!inside && p.b - p.a > RootSearcher::kPrunedSpan * step && mid > p.a && mid < p.b) {
+          ts.todo[p.sample].push_back({p.sample, mid, p.b});
+          ts.todo[p.sample].push_back({p.sample, p.a, mid});
+          continue;
+        }
+        RootHit h = rs.sign_search(ray, p.a, p.b, step, eps * 0.25f, false);
+        if (h.hit) {
+          h.at_start = h.at_start && p.a == te_of[p.sample];
+          ts.marched[p.sample] = h;
+          ts.hit_piece[p.sample] = p;
+          ts.todo[p.sample].clear();  // what lies behind the hit is not searched
+        } else {
+          ts.unproven[p.sample].push_back(p);
+        }
+      }
+    }
+    rs.batch_clear();
+    ts.batch_index.assign(n, -1);
+    for (size_t si = 0; si < n; ++si) {
+      Sample& s = ts.samples[si];
+      const RootHit& h = ts.marched[si];
+      if (ts.unproven[si].empty() && (!h.hit || h.at_start || h.t == ts.hit_piece[si].a)) {
+        if (h.hit) set_hit(s, h);  // nothing to prove
+        continue;
+      }
+      const float dlen = length(s.ray.d);
+      const float eps = eps_ / dlen, step = step_ / dlen;
+      RootSearcher::BatchRay br;
+      br.ray = s.ray;
+      br.t_start = te_of[si];
+      br.eps = eps;
+      br.step = step;
+      br.otherwise = h;
+      const int ray = rs.batch_add_ray(br);
+      for (const SamplePiece& p : ts.unproven[si]) rs.batch_add_piece(ray, p.a, p.b);
+      if (h.hit && !h.at_start) {
+        const float a = ts.hit_piece[si].a, b = h.t - RootSearcher::kVerifyGap * eps;
+        if (b > a) {
+          rs.batch_add_growing(ray, a, b, RootSearcher::kVerifyGap * eps,
+                               RootSearcher::kVerifyGrowth, true);
+        }
+      }
+      ts.batch_index[si] = ray;
+    }
+    rs.batch_run();
+    for (size_t si = 0; si < n; ++si) {
+      if (ts.batch_index[si] < 0) continue;
+      const RootHit& h = rs.batch_result(ts.batch_index[si]);
+      if (h.hit) set_hit(ts.samples[si], h);
+    }
+  }
+
   void search_primary_batched(ThreadState& ts) {
     RootSearcher& rs = ts.searcher;
     rs.batch_clear();

@@ -61,6 +61,9 @@ std::string probe_auto_root(const Field& field, RenderOptions* opt) {
   probe.shadows = false;
   probe.root = RootMode::kInterval;
   probe.interval_march_first = true;  // the search the render runs (batched, march first)
+  // ... but marching every depth: kAutoMaxIntervalEvalsPerRay was set by that search's counts
+  // (the pruned march spends 2-3 more interval evaluations per ray to save point samples).
+  probe.interval_pruned_march = false;
   probe.progress = nullptr;
   probe.threads = opt->threads;
   const uint64_t rays = uint64_t(probe.width) * uint64_t(probe.height);
