@@ -122,6 +122,20 @@ TEST(SignedDistance, GradientMatchesFiniteDifferences) {
   EXPECT_GT(good, n * 9 / 10);
 }
 
+/// Checks that `s`'s bounds over `b` hold F at 20 random points of it; true when they give F
+/// one sign over the box.
+bool bounds_enclose_samples(const MeshSurface& s, const Box& b, std::mt19937& rng, int i) {
+  const DistanceBounds db = s.signed_distance_bounds(b);
+  EXPECT_LE(db.lo, db.hi) << "box " << i;
+  for (int k = 0; k < 20; ++k) {
+    const Vec3 p = testing::random_point(rng, b);
+    const float f = s.signed_distance(p);
+    EXPECT_GE(f, db.lo) << "box " << i;
+    EXPECT_LE(f, db.hi) << "box " << i;
+  }
+  return db.lo > 0 || db.hi < 0;
+}
+
 TEST(SignedDistance, BoxBoundsEncloseSamples) {
   const MeshSurface& s = testing::armadillo_surface();
   std::mt19937 rng(8);
@@ -132,15 +146,7 @@ TEST(SignedDistance, BoxBoundsEncloseSamples) {
     const Vec3 c = testing::random_point(rng, box);
     const float half = scale * std::pow(2.0f, -2.0f - static_cast<float>(i % 8));
     const Box b{c - Vec3{half, half, half}, c + Vec3{half, half, half}};
-    const DistanceBounds db = s.signed_distance_bounds(b);
-    ASSERT_LE(db.lo, db.hi);
-    constant_sign += db.lo > 0 || db.hi < 0;
-    for (int k = 0; k < 20; ++k) {
-      const Vec3 p = testing::random_point(rng, b);
-      const float f = s.signed_distance(p);
-      ASSERT_GE(f, db.lo) << "box " << i;
-      ASSERT_LE(f, db.hi) << "box " << i;
-    }
+    constant_sign += bounds_enclose_samples(s, b, rng, i);
   }
   EXPECT_GT(constant_sign, 50);  // small boxes away from the surface get one sign
 }
@@ -160,15 +166,7 @@ TEST(SignedDistance, BoundsOfBoxesApartFromTheMeshEncloseAndDecide) {
     const Box b{c - Vec3{half, half, half}, c + Vec3{half, half, half}};
     if (!(s.distance_lower_bound(b) > 0)) continue;
     ++apart;
-    const DistanceBounds db = s.signed_distance_bounds(b);
-    ASSERT_LE(db.lo, db.hi);
-    decided += db.lo > 0 || db.hi < 0;
-    for (int k = 0; k < 20; ++k) {
-      const Vec3 p = testing::random_point(rng, b);
-      const float f = s.signed_distance(p);
-      ASSERT_GE(f, db.lo) << "box " << i;
-      ASSERT_LE(f, db.hi) << "box " << i;
-    }
+    decided += bounds_enclose_samples(s, b, rng, i);
   }
   EXPECT_GT(apart, 100);
   EXPECT_EQ(decided, apart);  // apart from every triangle: one sign over the box
