@@ -106,19 +106,26 @@ HFRT_TAPE_INLINE void run_points(std::span<const TapeInst> code, T* regs, uint8_
   }
 }
 
+// The AVX2 clones of the lane loops: GCC's target_clones, an ifunc whose resolver the dynamic
+// loader runs while it relocates the program. Not in sanitizer builds: GCC instruments the
+// resolver, which then runs before the sanitizer's runtime is set up and crashes every program
+// that links the JIT at start-up (found by `make test-tsan`; the baseline loops are used).
+#if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__) && \
+    !defined(__SANITIZE_THREAD__) && !defined(__SANITIZE_ADDRESS__)
+#define HFRT_AVX2_CLONES __attribute__((target_clones("avx2", "default")))
+#else
+#define HFRT_AVX2_CLONES
+#endif
+
 /// The float pass, compiled for AVX2 too (chosen at load time): the lane loops are the whole
 /// cost, and the baseline x86-64 target has 4-wide vectors only.
-#if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__)
-__attribute__((target_clones("avx2", "default")))
-#endif
+HFRT_AVX2_CLONES
 void run_points_f32(std::span<const TapeInst> code, float* regs, uint8_t* err,
                     std::span<const float* const> inputs, size_t begin, size_t m) {
   run_points<float>(code, regs, err, inputs, begin, m);
 }
 
-#if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__)
-__attribute__((target_clones("avx2", "default")))
-#endif
+HFRT_AVX2_CLONES
 void run_points_f64(std::span<const TapeInst> code, double* regs, uint8_t* err,
                     std::span<const double* const> inputs, size_t begin, size_t m) {
   run_points<double>(code, regs, err, inputs, begin, m);
@@ -584,9 +591,7 @@ HFRT_TAPE_INLINE void run_intervals(std::span<const TapeInst> code, const IvRegs
 }
 
 /// The interval pass, compiled for AVX2 too (chosen at load time), as the float point pass.
-#if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__)
-__attribute__((target_clones("avx2", "default")))
-#endif
+HFRT_AVX2_CLONES
 void run_intervals_pass(std::span<const TapeInst> code, const IvRegs& regs, IvScratch& sc,
                         int64_t* fire, std::span<const double* const> in_lo,
                         std::span<const double* const> in_hi, size_t begin, size_t m) {
