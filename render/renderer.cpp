@@ -77,6 +77,7 @@ struct ThreadState {
   size_t round_nan_size = 0;
   std::vector<RootHit> marched;
   std::vector<SamplePiece> hit_piece;
+  std::vector<float> t_enter;  // per sample: where its ray enters the box
   /// Per light: the ranges of t along the shadow rays of the current tile that its bundle
   /// culling could not prove empty (see TileRenderer::cull_shadow_bundle).
   std::vector<std::vector<Span>> shadow_spans;
@@ -252,11 +253,6 @@ class TileRenderer {
     }
   }
 
-  /// The interval search of every camera sample of the tile, batched: each ray marches to its
-  /// first sample inside (RootSearcher::interval_search does the same per ray), then the
-  /// pieces that must be proven empty for all rays (the spans before the one the march hit
-  /// in, and in that span the pieces growing away from the root) are bisected together by
-  /// RootSearcher::batch_run, so that the interval evaluator gets boxes by the hundred.
   /// The interval search of the tile's camera samples with the march pruned: each sample's
   /// depths are bisected front to back by intervals (one piece per sample per round, the
   /// tile's samples in one batch) down to kPrunedSpan march steps; a piece proven outside is
@@ -273,7 +269,8 @@ class TileRenderer {
     }
     ts.marched.assign(n, RootHit{});
     ts.hit_piece.assign(n, SamplePiece{0, 0, 0});
-    std::vector<float> te_of(n, 0);
+    std::vector<float>& te_of = ts.t_enter;
+    te_of.assign(n, 0);
     for (size_t si = 0; si < n; ++si) {
       ts.todo[si].clear();
       ts.unproven[si].clear();
@@ -392,6 +389,11 @@ class TileRenderer {
     }
   }
 
+  /// The interval search of every camera sample of the tile, batched: each ray marches to its
+  /// first sample inside (RootSearcher::interval_search does the same per ray), then the
+  /// pieces that must be proven empty for all rays (the spans before the one the march hit
+  /// in, and in that span the pieces growing away from the root) are bisected together by
+  /// RootSearcher::batch_run, so that the interval evaluator gets boxes by the hundred.
   void search_primary_batched(ThreadState& ts) {
     RootSearcher& rs = ts.searcher;
     rs.batch_clear();
