@@ -100,6 +100,38 @@ struct BinSet {
   }
 };
 
+/// The binning of one node's primitives by their centroids on three axes: the one rule that
+/// both fill_bins and the partition after the split use, since the children's bounds are
+/// taken from the bins and must be those of the primitives each side gets.
+struct Binning {
+  V4 lo, scale, last;
+
+  Binning(const Box& cb, int nbins) {
+    lo = V4{cb.lo.x, cb.lo.y, cb.lo.z, 0};
+    scale = V4{0, 0, 0, 0};
+    for (int a = 0; a < 3; ++a) {
+      // A denormal extent makes nbins / ext infinite, and (c - lo) * inf is NaN at c = lo
+      // (found by fuzz/mesh_fuzz.cpp): such an axis cannot be binned, like a zero extent.
+      const float ext = cb.hi[a] - cb.lo[a];
+      const float s = ext > 0 ? nbins / ext : 0;
+      scale[a] = std::isfinite(s) ? s : 0;
+    }
+    const float top = static_cast<float>(nbins - 1);
+    last = V4{top, top, top, top};
+  }
+
+  /// The bin of `r` on each axis: t <= 0 and NaN give bin 0 (t > 0 ? t : 0), the top is
+  /// clamped in float (converting a NaN or an out-of-range float to int is undefined), the
+  /// rest truncated.
+  V4i bins(const PrimRef& r) const {
+    const V4 zero = {0, 0, 0, 0};
+    V4 t = (r.center() - lo) * scale;
+    t = t > zero ? t : zero;
+    t = t < last ? t : last;
+    return __builtin_convertvector(t, V4i);
+  }
+};
+
 /// Bounds of a range of primitives and of their centroids.
 struct RangeInfo {
   VBox bounds = VBox::empty(), centroids = VBox::empty();
@@ -159,35 +191,10 @@ class Builder {
     return cb;
   }
 
-  // Clamped in float before the conversion: converting a NaN or an out-of-range float to int is
-  // undefined behaviour.
-  static int bin_of(float c, float lo, float scale, int nbins) {
-    const float t = (c - lo) * scale;
-    if (!(t > 0)) return 0;
-    if (t >= static_cast<float>(nbins - 1)) return nbins - 1;
-    return static_cast<int>(t);
-  }
-
-  void fill_bins(uint32_t begin, uint32_t end, const Box& cb, int nbins, BinSet* set) const {
-    V4 scale = {0, 0, 0, 0};
-    for (int a = 0; a < 3; ++a) {
-      // A denormal extent makes nbins / ext infinite, and (c - lo) * inf is NaN at c = lo
-      // (found by fuzz/mesh_fuzz.cpp): such an axis cannot be binned, like a zero extent.
-      const float ext = cb.hi[a] - cb.lo[a];
-      const float s = ext > 0 ? nbins / ext : 0;
-      scale[a] = std::isfinite(s) ? s : 0;
-    }
-    const V4 lo = {cb.lo.x, cb.lo.y, cb.lo.z, 0};
-    const V4 zero = {0, 0, 0, 0};
-    const float top = static_cast<float>(nbins - 1);
-    const V4 last = {top, top, top, top};
+  void fill_bins(uint32_t begin, uint32_t end, const Binning& binning, int nbins,
+                 BinSet* set) const {
     auto bin = [&](const PrimRef& r, BinSet* acc) {
-      // bin_of on three lanes: t <= 0 and NaN give bin 0 (t > 0 ? t : 0), the top is clamped
-      // in float, the rest truncated.
-      V4 t = (r.center() - lo) * scale;
-      t = t > zero ? t : zero;
-      t = t < last ? t : last;
-      const V4i k = __builtin_convertvector(t, V4i);
+      const V4i k = binning.bins(r);
       for (int a = 0; a < 3; ++a) {
         acc->axis[a].bounds[k[a]].extend(r.lo, r.hi);
         ++acc->axis[a].count[k[a]];
@@ -252,9 +259,10 @@ class Builder {
     int best_axis = -1, best_split = 0;
     float best_cost = std::numeric_limits<float>::infinity();
     VBox best_left, best_right;
+    const Binning binning(cb, nbins);
     if (cb.diagonal()[cb.max_axis()] > 0) {
       BinSet set(nbins);
-      fill_bins(begin, end, cb, nbins, &set);
+      fill_bins(begin, end, binning, nbins, &set);
       for (int a = 0; a < 3; ++a) {
         if (!(cb.hi[a] > cb.lo[a])) continue;
         const AxisBins& bins = set.axis[a];
@@ -300,12 +308,9 @@ class Builder {
     }
     uint32_t mid = begin;
     if (best_axis >= 0) {
-      float ext = cb.hi[best_axis] - cb.lo[best_axis];
-      float scale = nbins / ext;
-      float lo = cb.lo[best_axis];
       PrimRef* first = refs_.data() + begin;
       PrimRef* split = std::partition(first, refs_.data() + end, [&](const PrimRef& r) {
-        return bin_of(r.center()[best_axis], lo, scale, nbins) < best_split;
+        return binning.bins(r)[best_axis] < best_split;
       });
       mid = static_cast<uint32_t>(split - refs_.data());
     }

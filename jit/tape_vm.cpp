@@ -240,9 +240,9 @@ namespace {
 // ir/interval_ops.h's interval_detail (add, sub, neg, square, min, max) are called as they
 // are; mul (the vectoriser does not take interval_detail::mul as it is), abs, div, sqrt and
 // the comparisons (out of line in ir/interval_ops.cpp) are written here operation for
-// operation as selects, so both give the same
-// bits (tested on the corpus: TapeTest.BatchedIntervalsEqualOneBoxAtATime). The other ops go
-// through apply_interval lane by lane.
+// operation as selects, so both give the same bits (tested on the corpus:
+// TapeTest.BatchedIntervalsEqualOneBoxAtATime). The other ops go through apply_interval lane
+// by lane.
 
 constexpr double kIvInf = std::numeric_limits<double>::infinity();
 

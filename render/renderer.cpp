@@ -271,6 +271,22 @@ class TileRenderer {
     ts.hit_piece.assign(n, SamplePiece{0, 0, 0});
     std::vector<float>& te_of = ts.t_enter;
     te_of.assign(n, 0);
+    RootSearcher& rs = ts.searcher;
+    // Marches piece p of its sample: the first hit ends the sample's search (what lies behind
+    // it is not searched); a piece without one waits for the proof.
+    auto march = [&](const SamplePiece& p) {
+      const Ray& ray = ts.samples[p.sample].ray;
+      const float dlen = length(ray.d);
+      RootHit h = rs.sign_search(ray, p.a, p.b, step_ / dlen, eps_ / dlen * 0.25f, false);
+      if (h.hit) {
+        h.at_start = h.at_start && p.a == te_of[p.sample];
+        ts.marched[p.sample] = h;
+        ts.hit_piece[p.sample] = p;
+        ts.todo[p.sample].clear();
+      } else {
+        ts.unproven[p.sample].push_back(p);
+      }
+    };
     for (size_t si = 0; si < n; ++si) {
       ts.todo[si].clear();
       ts.unproven[si].clear();
@@ -286,7 +302,7 @@ class TileRenderer {
           total += b - a;
         }
       }
-      const float dlen = length(s.ray.d), step = step_ / dlen;
+      const float step = step_ / length(s.ray.d);
       if (total > 2 * RootSearcher::kPrunedSpan * step) continue;
       // Depths that short are marched whole: halving them would cost more interval
       // evaluations than the march samples it could save.
@@ -294,18 +310,9 @@ class TileRenderer {
       while (!todo.empty()) {
         const SamplePiece p = todo.back();
         todo.pop_back();
-        RootHit h = ts.searcher.sign_search(s.ray, p.a, p.b, step, eps_ / dlen * 0.25f, false);
-        if (h.hit) {
-          h.at_start = h.at_start && p.a == te;
-          ts.marched[si] = h;
-          ts.hit_piece[si] = p;
-          todo.clear();
-        } else {
-          ts.unproven[si].push_back(p);
-        }
+        march(p);
       }
     }
-    RootSearcher& rs = ts.searcher;
     EvalCounters& c = rs.counters();
     for (;;) {
       ts.round.clear();
@@ -332,9 +339,7 @@ class TileRenderer {
         const SamplePiece p = ts.round[i];
         const Interval iv = ts.round_ivs[i];
         if (iv.hi < 0) continue;  // no point inside (NaN points count as outside)
-        const Ray& ray = ts.samples[p.sample].ray;
-        const float dlen = length(ray.d);
-        const float step = step_ / dlen, eps = eps_ / dlen;
+        const float step = step_ / length(ts.samples[p.sample].ray.d);
         const bool inside = !std::isnan(iv.lo) && iv.lo >= 0 && !ts.round_nan[i];
         const float mid = p.a + (p.b - p.a) * 0.5f;
         if (!inside && p.b - p.a > RootSearcher::kPrunedSpan * step && mid > p.a && mid < p.b) {
@@ -342,15 +347,7 @@ class TileRenderer {
           ts.todo[p.sample].push_back({p.sample, p.a, mid});
           continue;
         }
-        RootHit h = rs.sign_search(ray, p.a, p.b, step, eps * 0.25f, false);
-        if (h.hit) {
-          h.at_start = h.at_start && p.a == te_of[p.sample];
-          ts.marched[p.sample] = h;
-          ts.hit_piece[p.sample] = p;
-          ts.todo[p.sample].clear();  // what lies behind the hit is not searched
-        } else {
-          ts.unproven[p.sample].push_back(p);
-        }
+        march(p);
       }
     }
     rs.batch_clear();
@@ -362,27 +359,40 @@ class TileRenderer {
         if (h.hit) set_hit(s, h);  // nothing to prove
         continue;
       }
-      const float dlen = length(s.ray.d);
-      const float eps = eps_ / dlen, step = step_ / dlen;
-      RootSearcher::BatchRay br;
-      br.ray = s.ray;
-      br.t_start = te_of[si];
-      br.eps = eps;
-      br.step = step;
+      RootSearcher::BatchRay br = camera_batch_ray(s.ray, te_of[si]);
       br.otherwise = h;
       const int ray = rs.batch_add_ray(br);
       for (const SamplePiece& p : ts.unproven[si]) rs.batch_add_piece(ray, p.a, p.b);
       if (h.hit && !h.at_start) {
-        const float a = ts.hit_piece[si].a, b = h.t - RootSearcher::kVerifyGap * eps;
+        const float a = ts.hit_piece[si].a, b = h.t - RootSearcher::kVerifyGap * br.eps;
         if (b > a) {
-          rs.batch_add_growing(ray, a, b, RootSearcher::kVerifyGap * eps,
+          rs.batch_add_growing(ray, a, b, RootSearcher::kVerifyGap * br.eps,
                                RootSearcher::kVerifyGrowth, true);
         }
       }
       ts.batch_index[si] = ray;
     }
+    run_camera_batch(ts);
+  }
+
+  /// A camera ray's entry in the searcher's batch: its tolerance and march step in units of
+  /// its t, its range starting at `t_start` (the box entry: a hit there is a cap).
+  RootSearcher::BatchRay camera_batch_ray(const Ray& ray, float t_start) const {
+    const float dlen = length(ray.d);
+    RootSearcher::BatchRay br;
+    br.ray = ray;
+    br.t_start = t_start;
+    br.eps = eps_ / dlen;
+    br.step = step_ / dlen;
+    return br;
+  }
+
+  /// Runs the searcher's batch of the tile's camera rays (ts.batch_index: each sample's ray
+  /// in it, -1 for none) and records their hits.
+  void run_camera_batch(ThreadState& ts) {
+    RootSearcher& rs = ts.searcher;
     rs.batch_run();
-    for (size_t si = 0; si < n; ++si) {
+    for (size_t si = 0; si < ts.samples.size(); ++si) {
       if (ts.batch_index[si] < 0) continue;
       const RootHit& h = rs.batch_result(ts.batch_index[si]);
       if (h.hit) set_hit(ts.samples[si], h);
@@ -402,13 +412,8 @@ class TileRenderer {
       Sample& s = ts.samples[si];
       float te, tx;
       if (!box_range(s.ray, &te, &tx, &s.cap_axis)) continue;
-      const float dlen = length(s.ray.d);
-      const float eps = eps_ / dlen, step = step_ / dlen;
-      RootSearcher::BatchRay br;
-      br.ray = s.ray;
-      br.t_start = te;
-      br.eps = eps;
-      br.step = step;
+      RootSearcher::BatchRay br = camera_batch_ray(s.ray, te);
+      const float eps = br.eps, step = br.step;
       size_t hit_span = ts.spans.size();
       for (size_t j = 0; j < ts.spans.size(); ++j) {
         float a = std::max(ts.spans[j].a, te), b = std::min(ts.spans[j].b, tx);
@@ -448,12 +453,7 @@ class TileRenderer {
       }
       ts.batch_index[si] = ray;
     }
-    rs.batch_run();
-    for (size_t si = 0; si < ts.samples.size(); ++si) {
-      if (ts.batch_index[si] < 0) continue;
-      const RootHit& h = rs.batch_result(ts.batch_index[si]);
-      if (h.hit) set_hit(ts.samples[si], h);
-    }
+    run_camera_batch(ts);
   }
 
   /// A sample's hit; at_start (the solid already at the box entry) makes it a cap.
