@@ -20,7 +20,8 @@ struct Timer {
   double seconds() const { return ms_since(t0) / 1000.0; }
 };
 
-constexpr int kBlock = 4;     // cells per block side
+constexpr int kBlock = 4;  // cells per block side
+static_assert(kBlock == 4, "a block's surface cells are a 64-bit mask");
 constexpr int kKeyBits = 21;  // bits per axis of a cell key
 constexpr uint64_t kKeyMask = (uint64_t(1) << kKeyBits) - 1;
 constexpr int kMaxCells = (1 << kKeyBits) - 4;
@@ -62,6 +63,11 @@ struct CubeTable {
   int8_t comp[256][12];
   int8_t ncomp[256];
   uint16_t cross[256];  // bit e: edge e crosses
+  // The blocks the cells around the crossing edges lie in (bit (dx + 1) + 3 (dy + 1) +
+  // 9 (dz + 1), dx etc. the block offsets), by the cell's place in its block: per axis 0 at
+  // the low face, 2 at the high face, 1 between (index c0 + 3 c1 + 9 c2). The closure needs
+  // them all sampled.
+  uint32_t reach[27][256];
 
   CubeTable() {
     for (int m = 0; m < 256; ++m) {
@@ -115,6 +121,29 @@ struct CubeTable {
       ncomp[m] = int8_t(next);
       cross[m] = 0;
       for (int e = 0; e < 12; ++e) cross[m] |= uint16_t(cross_e[e]) << e;
+      for (int place = 0; place < 27; ++place) {
+        reach[place][m] = 0;
+        for (int e = 0; e < 12; ++e) {
+          if (!cross_e[e]) continue;
+          // Edge e's owner is this cell + u e_b + v e_c; the cells around it are the owner
+          // minus 0, e_b, e_c and both. A step of -1 from the low face (or +1 from the high
+          // one) leaves the block.
+          int b, c;
+          other_axes(e / 4, &b, &c);
+          for (int s = 0; s < 2; ++s)
+            for (int t = 0; t < 2; ++t) {
+              int d[3] = {0, 0, 0};
+              d[b] = (e & 1) - s;
+              d[c] = ((e >> 1) & 1) - t;
+              int bit = 0;
+              for (int a = 0, w = 1, pl = place; a < 3; ++a, w *= 3, pl /= 3) {
+                const int o = (pl % 3 == 0 && d[a] < 0) ? -1 : (pl % 3 == 2 && d[a] > 0 ? 1 : 0);
+                bit += w * (o + 1);
+              }
+              reach[place][m] |= uint32_t(1) << bit;
+            }
+        }
+      }
     }
   }
 };
@@ -132,8 +161,15 @@ struct Grid {
   double lo[3];  // the box's low corner
   double h[3];   // cell size per axis
   Box box;
+  std::vector<float> coord[3];  // node i's coordinate per axis (set by init_coords)
 
-  float node(int axis, int i) const { return float(lo[axis] + double(i - 1) * h[axis]); }
+  void init_coords() {
+    for (int a = 0; a < 3; ++a) {
+      coord[a].resize(size_t(cells(a)) + 1);
+      for (int i = 0; i <= cells(a); ++i) coord[a][i] = float(lo[a] + double(i - 1) * h[a]);
+    }
+  }
+  float node(int axis, int i) const { return coord[axis][size_t(i)]; }
   Vec3 node_point(int i, int j, int k) const { return {node(0, i), node(1, j), node(2, k)}; }
   int cells(int axis) const { return n[axis] + 2; }
 };
@@ -154,23 +190,34 @@ class Capped {
   void eval(size_t n, const float* x, const float* y, const float* z, float* out,
             size_t* nan_count = nullptr) const {
     if (n == 0) return;
-    thread_local std::vector<float> buf;
-    const size_t m = (n + kPad - 1) / kPad * kPad;
-    buf.resize(4 * m);
-    float *px = buf.data(), *py = px + m, *pz = py + m, *pf = pz + m;
-    std::copy(x, x + n, px);
-    std::copy(y, y + n, py);
-    std::copy(z, z + n, pz);
-    for (size_t i = n; i < m; ++i) px[i] = x[n - 1], py[i] = y[n - 1], pz[i] = z[n - 1];
-    field_.eval(m, px, py, pz, pf);
+    const float* pf = out;
+    if (n % kPad == 0) {
+      field_.eval(n, x, y, z, out);  // no padding needed: evaluated in place
+    } else {
+      thread_local std::vector<float> buf;
+      const size_t m = (n + kPad - 1) / kPad * kPad;
+      buf.resize(4 * m);
+      float *px = buf.data(), *py = px + m, *pz = py + m, *pv = pz + m;
+      std::copy(x, x + n, px);
+      std::copy(y, y + n, py);
+      std::copy(z, z + n, pz);
+      for (size_t i = n; i < m; ++i) px[i] = x[n - 1], py[i] = y[n - 1], pz[i] = z[n - 1];
+      field_.eval(m, px, py, pz, pv);
+      pf = pv;
+    }
+    size_t nans = 0;
+    const float lx = box_.lo.x, hx = box_.hi.x, ly = box_.lo.y, hy = box_.hi.y, lz = box_.lo.z,
+                hz = box_.hi.z;
     for (size_t i = 0; i < n; ++i) {
       float f = pf[i];
-      if (f != f) {
-        if (nan_count) ++*nan_count;
-        f = -std::numeric_limits<float>::infinity();
-      }
-      out[i] = std::min(f, box_distance({x[i], y[i], z[i]}));
+      nans += f != f;
+      f = f != f ? -std::numeric_limits<float>::infinity() : f;
+      const float d =
+          std::min(std::min(std::min(x[i] - lx, hx - x[i]), std::min(y[i] - ly, hy - y[i])),
+                   std::min(z[i] - lz, hz - z[i]));
+      out[i] = std::min(f, d);
     }
+    if (nan_count) *nan_count += nans;
   }
 
   /// Fc and its gradient (pointing into the solid) at n points: the box face's where the cap
@@ -343,105 +390,246 @@ void parallel_chunks(size_t n, size_t grain, F&& body) {
   par::parallel_for(n, grain, body);
 }
 
+/// A surface cell: its position, its block (index in the block list) and its corner signs.
 struct CellRec {
-  uint64_t key;
-  float f[4];  // Fc at corners 0, 1, 2 and 4: the ends of the three edges the cell owns
-  uint8_t mask;
-  bool operator<(const CellRec& o) const { return key < o.key; }
+  uint64_t key;    // cell_key of its low corner
+  uint32_t block;  // the block it lies in
+  uint8_t mask;    // bit c: corner c inside
 };
 
-void append_cells(const float* f, const int c0[3], int nx, int ny, int nz,
-                  std::vector<CellRec>* out);
+/// The position of a block of kBlock^3 cells (in blocks).
+struct BlockPos {
+  int b[3];
+};
 
-/// Samples the grid nodes of the cells [c0, c1) (per axis) and appends the cells with a sign
-/// change to `out`.
-void sample_cells(const Capped& capped, const Grid& grid, const int c0[3], const int c1[3],
-                  std::vector<CellRec>* out, size_t* nan_count) {
-  const int nx = c1[0] - c0[0] + 1, ny = c1[1] - c0[1] + 1, nz = c1[2] - c0[2] + 1;
-  const size_t np = size_t(nx) * ny * nz;
-  thread_local std::vector<float> buf;
-  buf.resize(4 * np);
-  float *x = buf.data(), *y = x + np, *z = y + np, *f = z + np;
-  size_t i = 0;
-  for (int k = 0; k < nz; ++k)
-    for (int j = 0; j < ny; ++j)
-      for (int l = 0; l < nx; ++l, ++i) {
-        x[i] = grid.node(0, c0[0] + l);
-        y[i] = grid.node(1, c0[1] + j);
-        z[i] = grid.node(2, c0[2] + k);
-      }
-  capped.eval(np, x, y, z, f, nan_count);
-  append_cells(f, c0, nx, ny, nz, out);
-}
-
-/// Appends the cells with a sign change among nodes [c0, c0 + (nx, ny, nz)) whose values are
-/// `f` (x fastest).
-void append_cells(const float* f, const int c0[3], int nx, int ny, int nz,
-                  std::vector<CellRec>* out) {
-  // The side of every node first, then each cell's corners from it.
-  const size_t np = size_t(nx) * ny * nz, sy = size_t(nx), sz = size_t(nx) * ny;
-  thread_local std::vector<uint8_t> side;
-  side.resize(np);
-  for (size_t n = 0; n < np; ++n) side[n] = uint8_t(inside(f[n]));
-  const size_t corner[8] = {0, 1, sy, sy + 1, sz, sz + 1, sz + sy, sz + sy + 1};
-  for (int k = 0; k + 1 < nz; ++k)
-    for (int j = 0; j + 1 < ny; ++j)
-      for (int l = 0; l + 1 < nx; ++l) {
-        const uint8_t* s0 = side.data() + size_t(k) * sz + size_t(j) * sy + size_t(l);
-        int mask = 0;
-        for (int c = 0; c < 8; ++c) mask |= s0[corner[c]] << c;
-        if (mask != 0 && mask != 255) {
-          auto val = [&](int dl, int dj, int dk) {
-            return f[size_t(k + dk) * sz + size_t(j + dj) * sy + size_t(l + dl)];
-          };
-          out->push_back({cell_key(c0[0] + l, c0[1] + j, c0[2] + k),
-                          {val(0, 0, 0), val(1, 0, 0), val(0, 1, 0), val(0, 0, 1)},
-                          uint8_t(mask)});
-        }
-      }
-}
-
-// The neighbours of each surface cell at 12 offsets (+x, +y, +z, +x+y, +x+z, +y+z, then the
-// same negated), by merge joins of the sorted keys with themselves shifted: linear, cache
-// friendly, no hashing. ~0u where the neighbour is not a surface cell.
-constexpr int kOffsets[12][3] = {{1, 0, 0},  {0, 1, 0},   {0, 0, 1},   {1, 1, 0},
-                                 {1, 0, 1},  {0, 1, 1},   {-1, 0, 0},  {0, -1, 0},
-                                 {0, 0, -1}, {-1, -1, 0}, {-1, 0, -1}, {0, -1, -1}};
 constexpr uint32_t kNone = ~uint32_t(0);
 
-/// The offset index of u * e_b + v * e_c (b < c, u or v set), negated when `negative`.
-int offset_index(int b, int c, int u, int v, bool negative) {
-  int i = (u && v) ? (b == 0 ? (c == 1 ? 3 : 4) : 5) : (u ? b : c);
-  return negative ? i + 6 : i;
+/// A block's key (its position packed as a cell key is).
+uint64_t block_key(const BlockPos& p) {
+  return cell_key(p.b[0], p.b[1], p.b[2]);
 }
 
-struct Neighbours {
-  std::vector<uint32_t> at[12];
+/// Offset d of a block's 27 neighbourhood (bit d of SampleOut::reach): (d % 3, d / 3 % 3,
+/// d / 9) - 1 on the three axes; kSelf is the block itself.
+constexpr int kNeighbourhood = 27, kSelf = 13;
+int offset_of(int d, int axis) {
+  return (axis == 0 ? d % 3 : (axis == 1 ? d / 3 % 3 : d / 9)) - 1;
+}
+int offset_index(int dx, int dy, int dz) {
+  return (dx + 1) + 3 * (dy + 1) + 9 * (dz + 1);
+}
+
+/// The blocks around each block: at[d][b] is the index of the block at offset d from block b,
+/// kNone where that block was not sampled. By merge joins of the keys in sorted order with
+/// themselves shifted (a shift keeps the order of (z, y, x) keys): linear, no hashing.
+struct BlockNeighbours {
+  std::vector<uint32_t> at[kNeighbourhood];
 };
 
-Neighbours find_neighbours(const std::vector<CellRec>& cells) {
-  Neighbours nb;
-  par::parallel_for(12, 1, [&](size_t lo, size_t) {
-    const int o = int(lo);
-    std::vector<uint32_t>& out = nb.at[o];
-    out.assign(cells.size(), kNone);
+BlockNeighbours block_neighbours(const std::vector<BlockPos>& blocks) {
+  std::vector<std::pair<uint64_t, uint32_t>> sorted(blocks.size());
+  for (size_t i = 0; i < blocks.size(); ++i) sorted[i] = {block_key(blocks[i]), uint32_t(i)};
+  std::sort(sorted.begin(), sorted.end());
+  BlockNeighbours nb;
+  par::parallel_for(kNeighbourhood, 1, [&](size_t d, size_t) {
+    std::vector<uint32_t>& out = nb.at[d];
+    out.assign(blocks.size(), kNone);
+    if (int(d) == kSelf) {
+      std::iota(out.begin(), out.end(), 0u);
+      return;
+    }
     size_t j = 0;
-    for (size_t i = 0; i < cells.size(); ++i) {
-      int c[3];
-      key_cell(cells[i].key, c);
+    for (const auto& [key, i] : sorted) {
       int q[3];
       bool valid = true;
       for (int a = 0; a < 3; ++a) {
-        q[a] = c[a] + kOffsets[o][a];
+        q[a] = blocks[i].b[a] + offset_of(int(d), a);
         valid = valid && q[a] >= 0;
       }
       if (!valid) continue;
       const uint64_t t = cell_key(q[0], q[1], q[2]);
-      while (j < cells.size() && cells[j].key < t) ++j;
-      if (j < cells.size() && cells[j].key == t) out[i] = uint32_t(j);
+      while (j < sorted.size() && sorted[j].first < t) ++j;
+      if (j < sorted.size() && sorted[j].first == t) out[i] = sorted[j].second;
     }
   });
   return nb;
+}
+
+/// What sampling a run of blocks found, in block order: the surface cells (in each block x
+/// fastest), the zero, normal and slope (|grad Fc|) of each crossing edge they own (cell by
+/// cell, axis by axis: the order owned_edge_index assumes), and per block its surface cells
+/// (bit x + 4 y + 16 z) and the neighbouring blocks the cells around its crossing edges lie in
+/// (bit (dx + 1) + 3 (dy + 1) + 9 (dz + 1)).
+struct SampleOut {
+  std::vector<CellRec> cells;
+  std::vector<Vec3> edge_point, edge_normal;
+  std::vector<float> edge_slope;
+  std::vector<uint64_t> cmask;
+  std::vector<uint32_t> reach;
+  size_t nan_samples = 0;
+};
+
+/// Crossing edges waiting for their zeros: the low and high end and Fc there.
+struct EdgeBatch {
+  std::vector<Vec3> pa, pb;
+  std::vector<float> fa, fb;
+  void clear() { pa.clear(), pb.clear(), fa.clear(), fb.clear(); }
+  void add(Vec3 a, Vec3 b, float va, float vb) {
+    pa.push_back(a), pb.push_back(b), fa.push_back(va), fb.push_back(vb);
+  }
+};
+
+/// The zero of every edge of `in` and the gradient there, appended to `out`'s edge arrays.
+/// Illinois false position (bisection where a value is not finite): superlinear on smooth
+/// edges, exact in one step where F is affine along the edge (planes of CSG). An edge is done
+/// once |F| at its newest point is below kRootTolerance of the change of F along the edge
+/// (then ~1e-5 of the edge from the zero): after one step on a plane, two on a smooth surface;
+/// only the edges not done are evaluated again.
+void solve_edges(const Capped& capped, const EdgeBatch& in, SampleOut* out) {
+  const size_t n = in.pa.size();
+  if (n == 0) return;
+  thread_local std::vector<float> tlo, thi, flo, fhi, vlo, vhi, tol, xs, ys, zs, fs, tm;
+  thread_local std::vector<uint8_t> side;
+  thread_local std::vector<uint32_t> active, next_active;
+  thread_local std::vector<Vec3> g;
+  for (auto* v : {&tlo, &thi, &flo, &fhi, &vlo, &vhi, &tol, &xs, &ys, &zs, &fs, &tm}) v->resize(n);
+  side.assign(n, 2);
+  active.resize(n);
+  // flo, fhi: the values Illinois works with (halved when an end is kept twice); vlo, vhi:
+  // the true values at the bracket's ends.
+  for (size_t i = 0; i < n; ++i) {
+    tlo[i] = 0, thi[i] = 1;
+    flo[i] = vlo[i] = in.fa[i];
+    fhi[i] = vhi[i] = in.fb[i];
+    const float d = std::abs(vlo[i] - vhi[i]);
+    tol[i] = std::isfinite(d) ? kRootTolerance * d : 0.0f;
+    active[i] = uint32_t(i);
+  }
+  for (int it = 0; it < kRootSteps && !active.empty(); ++it) {
+    const size_t na = active.size();
+    for (size_t j = 0; j < na; ++j) {
+      const size_t i = active[j];
+      const float d = flo[i] - fhi[i];
+      float t = 0.5f * (tlo[i] + thi[i]);
+      if (std::isfinite(flo[i]) && std::isfinite(fhi[i]) && d != 0) {
+        t = tlo[i] + (thi[i] - tlo[i]) * (flo[i] / d);
+        const float lo = std::min(tlo[i], thi[i]), hi = std::max(tlo[i], thi[i]);
+        if (!(t > lo && t < hi)) t = 0.5f * (tlo[i] + thi[i]);
+      }
+      tm[i] = t;
+      const Vec3 p = in.pa[i] + (in.pb[i] - in.pa[i]) * t;
+      xs[j] = p.x, ys[j] = p.y, zs[j] = p.z;
+    }
+    capped.eval(na, xs.data(), ys.data(), zs.data(), fs.data());
+    next_active.clear();
+    for (size_t j = 0; j < na; ++j) {
+      const size_t i = active[j];
+      if (!(std::abs(fs[j]) <= tol[i])) next_active.push_back(uint32_t(i));
+      if (inside(fs[j]) == inside(in.fa[i])) {
+        tlo[i] = tm[i], flo[i] = vlo[i] = fs[j];
+        if (side[i] == 0) fhi[i] *= 0.5f;
+        side[i] = 0;
+      } else {
+        thi[i] = tm[i], fhi[i] = vhi[i] = fs[j];
+        if (side[i] == 1) flo[i] *= 0.5f;
+        side[i] = 1;
+      }
+    }
+    active.swap(next_active);
+  }
+  const size_t e0 = out->edge_point.size();
+  out->edge_point.resize(e0 + n);
+  out->edge_normal.resize(e0 + n);
+  out->edge_slope.resize(e0 + n);
+  for (size_t i = 0; i < n; ++i) {
+    // The end of the bracket with the smaller |F| (both are within the bracket).
+    const float t = std::abs(vlo[i]) <= std::abs(vhi[i]) ? tlo[i] : thi[i];
+    const Vec3 p = in.pa[i] + (in.pb[i] - in.pa[i]) * t;
+    out->edge_point[e0 + i] = p;
+    xs[i] = p.x, ys[i] = p.y, zs[i] = p.z;
+  }
+  g.resize(n);
+  capped.eval_gradient(n, xs.data(), ys.data(), zs.data(), fs.data(), g.data());
+  for (size_t i = 0; i < n; ++i) {
+    const float l = length(g[i]);
+    const bool valid = l > 0 && std::isfinite(l);
+    out->edge_normal[e0 + i] = valid ? g[i] / l : Vec3{0, 0, 0};
+    out->edge_slope[e0 + i] = valid ? l : 0.0f;
+  }
+}
+
+/// Samples the nodes of blocks [first, last) of `blocks` in one evaluation call and appends
+/// what they hold to `out` (see SampleOut): the surface cells, the zeros of the crossing edges
+/// they own, and the blocks around them that the closure needs.
+void sample_blocks(const Capped& capped, const Grid& grid, const std::vector<BlockPos>& blocks,
+                   size_t first, size_t last, SampleOut* out) {
+  constexpr int kSide = kBlock + 1;
+  constexpr size_t kNodes = size_t(kSide) * kSide * kSide;
+  const CubeTable& table = cube_table();
+  thread_local std::vector<float> buf;
+  thread_local EdgeBatch edges;
+  thread_local std::vector<CellRec> cells;  // copied to `out` at the end: one exact allocation
+  cells.clear();
+  const size_t cap = kNodes * (last - first);
+  buf.resize(4 * cap);
+  edges.clear();
+  float *x = buf.data(), *y = x + cap, *z = y + cap, *f = z + cap;
+  auto extent = [&](size_t bi, int c0[3], int cn[3]) {
+    for (int a = 0; a < 3; ++a) {
+      c0[a] = blocks[bi].b[a] * kBlock;
+      cn[a] = std::min(kBlock, grid.cells(a) - c0[a]);
+    }
+  };
+  size_t np = 0;
+  for (size_t bi = first; bi < last; ++bi) {
+    int c0[3], cn[3];
+    extent(bi, c0, cn);
+    for (int k = 0; k <= cn[2]; ++k)
+      for (int j = 0; j <= cn[1]; ++j)
+        for (int l = 0; l <= cn[0]; ++l, ++np) {
+          x[np] = grid.node(0, c0[0] + l);
+          y[np] = grid.node(1, c0[1] + j);
+          z[np] = grid.node(2, c0[2] + k);
+        }
+  }
+  capped.eval(np, x, y, z, f, &out->nan_samples);
+  np = 0;
+  for (size_t bi = first; bi < last; ++bi) {
+    int c0[3], cn[3];
+    extent(bi, c0, cn);
+    const int nx = cn[0] + 1, ny = cn[1] + 1, nz = cn[2] + 1;
+    const size_t sy = size_t(nx), sz = size_t(nx) * ny, step[3] = {1, sy, sz};
+    const float* fb = f + np;
+    uint8_t side[kNodes];
+    for (size_t n = 0; n < size_t(nz) * sz; ++n) side[n] = uint8_t(inside(fb[n]));
+    const size_t corner[8] = {0, 1, sy, sy + 1, sz, sz + 1, sz + sy, sz + sy + 1};
+    uint64_t cmask = 0;
+    uint32_t reach = 0;
+    static constexpr int kPlace[kBlock] = {0, 1, 1, 2};  // see CubeTable::reach
+    for (int k = 0; k < cn[2]; ++k)
+      for (int j = 0; j < cn[1]; ++j)
+        for (int l = 0; l < cn[0]; ++l) {
+          const size_t n0 = size_t(k) * sz + size_t(j) * sy + size_t(l);
+          int m = 0;
+          for (int c = 0; c < 8; ++c) m |= side[n0 + corner[c]] << c;
+          if (m == 0 || m == 255) continue;
+          cmask |= uint64_t(1) << (l + kBlock * j + kBlock * kBlock * k);
+          cells.push_back({cell_key(c0[0] + l, c0[1] + j, c0[2] + k), uint32_t(bi), uint8_t(m)});
+          for (int a = 0; a < 3; ++a) {
+            if ((m & 1) == ((m >> (1 << a)) & 1)) continue;
+            int q[3] = {c0[0] + l, c0[1] + j, c0[2] + k};
+            const Vec3 pa = grid.node_point(q[0], q[1], q[2]);
+            ++q[a];
+            edges.add(pa, grid.node_point(q[0], q[1], q[2]), fb[n0], fb[n0 + step[a]]);
+          }
+          reach |= table.reach[kPlace[l] + 3 * kPlace[j] + 9 * kPlace[k]][m];
+        }
+    out->cmask.push_back(cmask);
+    out->reach.push_back(reach & ~(uint32_t(1) << kSelf));
+    np += size_t(nz) * sz;
+  }
+  out->cells.assign(cells.begin(), cells.end());
+  solve_edges(capped, edges, out);
 }
 
 }  // namespace
@@ -472,6 +660,7 @@ TriMesh mesh_field(const render::Field& field, const MeshOptions& options, MeshS
     stats.grid[a] = grid.n[a];
   }
   grid.box = options.box;
+  grid.init_coords();
   const Capped capped(field, options.box);
   const CubeTable& table = cube_table();
 
@@ -487,9 +676,7 @@ TriMesh mesh_field(const render::Field& field, const MeshOptions& options, MeshS
     stats.block_size = kBlock;
     int root = 1;
     while (root < std::max({nb[0], nb[1], nb[2]})) root <<= 1;
-    struct Node {
-      int b[3];
-    };
+    using Node = BlockPos;
     auto node_box = [&](const Node& nd, int size) {
       Vec3 lo, hi;
       for (int a = 0; a < 3; ++a) {
@@ -533,138 +720,112 @@ TriMesh mesh_field(const render::Field& field, const MeshOptions& options, MeshS
     }
     stats.seconds_octree = timer.seconds();
 
-    // --- 2. Sample the blocks' nodes: the surface cells. -------------------------------------
-    timer = Timer();
-    const std::vector<Node>& blocks = level;
-    stats.blocks_sampled = blocks.size();
+    // --- 2. Sample the blocks' nodes: the surface cells and their crossing edges. -----------
     // Every block samples the (up to) 5^3 nodes of its cells, kBatchBlocks blocks per
-    // evaluation call (the per-call cost paid once), and appends its surface cells to its
-    // thread's list; the lists are sorted by key afterwards, so their order does not depend
-    // on the scheduling. (Neighbouring sampled blocks both evaluate their common faces: taking
-    // them from each other halves the evaluations but costs more in memory traffic than it
-    // saves on models whose F is cheap.)
-    constexpr int kSide = kBlock + 1;
-    constexpr size_t kNodes = size_t(kSide) * kSide * kSide;
+    // evaluation call (the per-call cost paid once), and finds the zeros of the crossing edges
+    // its cells own while the values are at hand. Each run of kBatchBlocks blocks writes its
+    // own SampleOut, and the runs are joined in block order, so nothing depends on the
+    // scheduling. (Neighbouring sampled blocks both evaluate their common faces: taking them
+    // from each other halves the evaluations but costs more in memory traffic than it saves
+    // on models whose F is cheap.)
+    timer = Timer();
+    std::vector<BlockPos> blocks = std::move(level);
+    const size_t octree_blocks = blocks.size();
     constexpr size_t kBatchBlocks = 16;
-    auto block_extent = [&](size_t bi, int c0[3], int cn[3]) {
-      for (int a = 0; a < 3; ++a) {
-        c0[a] = blocks[bi].b[a] * kBlock;
-        cn[a] = std::min(kBlock, grid.cells(a) - c0[a]);
-      }
-    };
-    std::vector<size_t> block_nans(blocks.size(), 0);
-    par::ThreadLocal<std::vector<CellRec>> thread_cells;
-    const size_t kProgressBatch = 4096;
-    for (size_t b0 = 0; b0 < blocks.size(); b0 += kProgressBatch) {
-      const size_t b1 = std::min(blocks.size(), b0 + kProgressBatch);
-      parallel_chunks(b1 - b0, kBatchBlocks, [&](size_t s, size_t e) {
-        std::vector<CellRec>& out = thread_cells.local();
-        thread_local std::vector<float> buf;
-        const size_t cap = kNodes * kBatchBlocks;
-        buf.resize(4 * cap);
-        float *x = buf.data(), *y = x + cap, *z = y + cap, *f = z + cap;
-        for (size_t bs = b0 + s; bs < b0 + e; bs += kBatchBlocks) {
-          const size_t be = std::min(b0 + e, bs + kBatchBlocks);
-          size_t np = 0;
-          for (size_t bi = bs; bi < be; ++bi) {
-            int c0[3], cn[3];
-            block_extent(bi, c0, cn);
-            for (int k = 0; k <= cn[2]; ++k)
-              for (int j = 0; j <= cn[1]; ++j)
-                for (int l = 0; l <= cn[0]; ++l, ++np) {
-                  x[np] = grid.node(0, c0[0] + l);
-                  y[np] = grid.node(1, c0[1] + j);
-                  z[np] = grid.node(2, c0[2] + k);
-                }
-          }
-          capped.eval(np, x, y, z, f, &block_nans[bs]);
-          np = 0;
-          for (size_t bi = bs; bi < be; ++bi) {
-            int c0[3], cn[3];
-            block_extent(bi, c0, cn);
-            const int nx = cn[0] + 1, ny = cn[1] + 1, nz = cn[2] + 1;
-            append_cells(f + np, c0, nx, ny, nz, &out);
-            np += size_t(nx) * ny * nz;
-          }
+    const size_t kProgressBatch = 4096;  // a multiple of kBatchBlocks
+    std::vector<SampleOut> runs;
+    BlockNeighbours nbr;  // of the blocks sampled so far
+    // Closure: every crossing edge needs its four cells, and they may lie in a block the
+    // octree pruned where the interval and the point evaluators disagree about a node. Such
+    // blocks are sampled too, round after round, until no crossing edge reaches an unsampled
+    // block (normally the first round finds none).
+    for (size_t first = 0; first < blocks.size();) {
+      const size_t last = blocks.size(), run0 = runs.size();
+      runs.resize(run0 + (last - first + kBatchBlocks - 1) / kBatchBlocks);
+      for (size_t b0 = first; b0 < last; b0 += kProgressBatch) {
+        const size_t b1 = std::min(last, b0 + kProgressBatch);
+        parallel_chunks(b1 - b0, kBatchBlocks, [&](size_t s, size_t e) {
+          SampleOut& out = runs[run0 + (b0 - first + s) / kBatchBlocks];
+          sample_blocks(capped, grid, blocks, b0 + s, b0 + e, &out);
+        });
+        if (options.progress && first == 0) {
+          options.progress(b1, octree_blocks * 2);
         }
-      });
-      if (options.progress) options.progress(b1, blocks.size() * 2);
-    }
-    std::vector<CellRec> cells;
-    {
-      size_t total = 0;
-      thread_cells.for_each([&](std::vector<CellRec>& v) { total += v.size(); });
-      cells.reserve(total);
-      thread_cells.for_each([&](std::vector<CellRec>& v) {
-        cells.insert(cells.end(), v.begin(), v.end());
-        std::vector<CellRec>().swap(v);
-      });
-      for (size_t n : block_nans) stats.nan_samples += n;
-    }
-    par::parallel_sort(cells.begin(), cells.end());
-
-    // Closure: every crossing edge needs its four cells (looked for from the edge's owner and
-    // from the three others). A cell can be missing only where the interval and point
-    // evaluators disagree about a node of a pruned block.
-    Neighbours nbr;
-    while (true) {
-      nbr = find_neighbours(cells);
+      }
+      nbr = block_neighbours(blocks);
       std::vector<uint64_t> missing;
-      for (size_t ci = 0; ci < cells.size(); ++ci) {
-        const CellRec& cr = cells[ci];
-        int c[3];
-        key_cell(cr.key, c);
-        for (int a = 0; a < 3; ++a) {
-          if (((cr.mask >> 0) & 1) == ((cr.mask >> (1 << a)) & 1)) continue;
-          int b, d;
-          other_axes(a, &b, &d);
-          for (int uv = 1; uv < 4; ++uv) {
-            if (nbr.at[offset_index(b, d, uv & 1, uv >> 1, true)][ci] != kNone) continue;
-            int q[3] = {c[0], c[1], c[2]};
-            q[b] -= uv & 1;
-            q[d] -= uv >> 1;
+      for (size_t r = run0; r < runs.size(); ++r) {
+        const size_t b_lo = first + (r - run0) * kBatchBlocks;
+        for (size_t j = 0; j < runs[r].reach.size(); ++j) {
+          const size_t bi = b_lo + j;
+          for (uint32_t bits = runs[r].reach[j]; bits != 0; bits &= bits - 1) {
+            const int d = std::countr_zero(bits);
+            if (nbr.at[d][bi] != kNone) continue;
+            int q[3];
+            for (int a = 0; a < 3; ++a) q[a] = blocks[bi].b[a] + offset_of(d, a);
+            HFRT_CHECK(q[0] >= 0 && q[1] >= 0 && q[2] >= 0);
             missing.push_back(cell_key(q[0], q[1], q[2]));
           }
         }
-        // And every crossing edge a cell shares needs the cell that owns it (at +u, +v).
-        constexpr uint16_t kShared = 0xEEE;  // the edges with (e & 3) != 0
-        for (unsigned bits = table.cross[cr.mask] & kShared; bits != 0; bits &= bits - 1) {
-          const int e = std::countr_zero(bits);
-          int b, d;
-          other_axes(e / 4, &b, &d);
-          const int u = e & 1, v = (e >> 1) & 1;
-          if (nbr.at[offset_index(b, d, u, v, false)][ci] != kNone) continue;
-          int q[3] = {c[0], c[1], c[2]};
-          q[b] += u;
-          q[d] += v;
-          missing.push_back(cell_key(q[0], q[1], q[2]));
-        }
       }
-      if (missing.empty()) break;
       std::sort(missing.begin(), missing.end());
       missing.erase(std::unique(missing.begin(), missing.end()), missing.end());
-      stats.closure_cells += missing.size();
-      std::vector<CellRec> added;
-      for (uint64_t k : missing) {
-        int c0[3], c1[3];
-        key_cell(k, c0);
-        for (int a = 0; a < 3; ++a) c1[a] = c0[a] + 1;
-        size_t nan_dummy = 0;
-        sample_cells(capped, grid, c0, c1, &added, &nan_dummy);
+      first = last;
+      for (const uint64_t k : missing) {
+        BlockPos q;
+        key_cell(k, q.b);
+        blocks.push_back(q);
       }
-      HFRT_CHECK(!added.empty());  // a missing cell has a crossing edge: it is a surface cell
-      cells.insert(cells.end(), added.begin(), added.end());
-      std::sort(cells.begin(), cells.end());
-      cells.erase(std::unique(cells.begin(), cells.end(),
-                              [](const CellRec& x, const CellRec& y) { return x.key == y.key; }),
-                  cells.end());
     }
-    stats.surface_cells = cells.size();
+    stats.blocks_sampled = blocks.size();
+
     stats.seconds_sample = timer.seconds();
+
+    // Join the runs: cells and edges in block order, and per block its surface cells.
+    timer = Timer();
+    std::vector<size_t> cell_at(runs.size() + 1, 0), edge_at(runs.size() + 1, 0);
+    for (size_t r = 0; r < runs.size(); ++r) {
+      cell_at[r + 1] = cell_at[r] + runs[r].cells.size();
+      edge_at[r + 1] = edge_at[r] + runs[r].edge_point.size();
+      stats.nan_samples += runs[r].nan_samples;
+    }
+    std::vector<CellRec> cells(cell_at.back());
+    const size_t nedges = edge_at.back();
+    std::vector<Vec3> edge_point(nedges), edge_normal(nedges);
+    std::vector<float> edge_slope(nedges);  // |grad F| at the edge point
+    std::vector<uint64_t> block_cmask(blocks.size());
+    std::vector<uint32_t> block_cell_base(blocks.size() + 1, 0);
+    parallel_chunks(runs.size(), 16, [&](size_t rb, size_t re) {
+      for (size_t r = rb; r < re; ++r) {
+        SampleOut& o = runs[r];
+        std::copy(o.cells.begin(), o.cells.end(), cells.begin() + cell_at[r]);
+        std::copy(o.edge_point.begin(), o.edge_point.end(), edge_point.begin() + edge_at[r]);
+        std::copy(o.edge_normal.begin(), o.edge_normal.end(), edge_normal.begin() + edge_at[r]);
+        std::copy(o.edge_slope.begin(), o.edge_slope.end(), edge_slope.begin() + edge_at[r]);
+        // Freed as they are copied: the peak stays near one copy.
+        std::vector<CellRec>().swap(o.cells);
+        std::vector<Vec3>().swap(o.edge_point);
+        std::vector<Vec3>().swap(o.edge_normal);
+        std::vector<float>().swap(o.edge_slope);
+      }
+    });
+    {
+      size_t bi = 0;
+      for (const SampleOut& o : runs)
+        for (const uint64_t cm : o.cmask) block_cmask[bi++] = cm;
+      HFRT_CHECK(bi == blocks.size());
+    }
+    std::vector<SampleOut>().swap(runs);
+    for (size_t bi = 0; bi < blocks.size(); ++bi) {
+      block_cell_base[bi + 1] = block_cell_base[bi] + uint32_t(std::popcount(block_cmask[bi]));
+      if (bi >= octree_blocks) stats.closure_cells += size_t(std::popcount(block_cmask[bi]));
+    }
+    HFRT_CHECK(block_cell_base.back() == cells.size());
+    stats.surface_cells = cells.size();
+    stats.crossing_edges = nedges;
     if (cells.empty()) return;
 
-    // --- 3. Crossing edges: zero and normal. --------------------------------------------------
-    timer = Timer();
+    // --- 3. Edges of the cells: owned ones by position, the others through the neighbours. ---
     std::vector<uint32_t> edge_base(cells.size() + 1, 0);
     for (size_t i = 0; i < cells.size(); ++i) {
       const int m = cells[i].mask;
@@ -672,114 +833,44 @@ TriMesh mesh_field(const render::Field& field, const MeshOptions& options, MeshS
       for (int a = 0; a < 3; ++a) owned += (m & 1) != ((m >> (1 << a)) & 1);
       edge_base[i + 1] = edge_base[i] + owned;
     }
-    const size_t nedges = edge_base.back();
-    stats.crossing_edges = nedges;
-    std::vector<Vec3> edge_point(nedges), edge_normal(nedges);
-    std::vector<float> edge_slope(nedges);  // |grad F| at the edge point
+    HFRT_CHECK(edge_base.back() == nedges);
     auto owned_edge_index = [&](size_t ci, int axis) {
       const int m = cells[ci].mask;
       uint32_t idx = edge_base[ci];
       for (int a = 0; a < axis; ++a) idx += (m & 1) != ((m >> (1 << a)) & 1);
       return idx;
     };
-    parallel_chunks(cells.size(), 512, [&](size_t cb, size_t ce) {
-      const size_t e0 = edge_base[cb], e1 = edge_base[ce], n = e1 - e0;
-      if (n == 0) return;
-      std::vector<Vec3> pa(n), pb(n);
-      std::vector<uint8_t> sa(n), side(n, 2);
-      // Parameter t along the edge and the values at the bracket's ends.
-      std::vector<float> tlo(n, 0), thi(n, 1), flo(n), fhi(n), xs(n), ys(n), zs(n), fs(n), tm(n);
-      std::vector<float> vlo(n), vhi(n);  // the true values at the ends (flo, fhi get halved)
-      for (size_t ci = cb; ci < ce; ++ci) {
-        int c[3];
-        key_cell(cells[ci].key, c);
-        const int m = cells[ci].mask;
-        size_t idx = edge_base[ci] - e0;
-        for (int a = 0; a < 3; ++a) {
-          if ((m & 1) == ((m >> (1 << a)) & 1)) continue;
-          int q[3] = {c[0], c[1], c[2]};
-          q[a] += 1;
-          pa[idx] = grid.node_point(c[0], c[1], c[2]);
-          pb[idx] = grid.node_point(q[0], q[1], q[2]);
-          sa[idx] = uint8_t(m & 1);
-          flo[idx] = cells[ci].f[0];
-          fhi[idx] = cells[ci].f[a + 1];
-          vlo[idx] = flo[idx], vhi[idx] = fhi[idx];
-          ++idx;
-        }
-      }
-      // Illinois false position (bisection where a value is not finite): superlinear on
-      // smooth edges, exact in one step where F is affine along the edge (planes of CSG).
-      // An edge is done once |F| at its newest point is below kRootTolerance of the change of
-      // F along the edge (then ~1e-5 of the edge from the zero): after one step on a plane,
-      // two on a smooth surface; only the edges not done are evaluated again.
-      std::vector<float> tol(n);
-      std::vector<uint32_t> active(n), next_active;
-      for (size_t i = 0; i < n; ++i) {
-        const float d = std::abs(vlo[i] - vhi[i]);
-        tol[i] = std::isfinite(d) ? kRootTolerance * d : 0.0f;
-        active[i] = uint32_t(i);
-      }
-      for (int it = 0; it < kRootSteps && !active.empty(); ++it) {
-        const size_t na = active.size();
-        for (size_t j = 0; j < na; ++j) {
-          const size_t i = active[j];
-          const float d = flo[i] - fhi[i];
-          float t = 0.5f * (tlo[i] + thi[i]);
-          if (std::isfinite(flo[i]) && std::isfinite(fhi[i]) && d != 0) {
-            t = tlo[i] + (thi[i] - tlo[i]) * (flo[i] / d);
-            const float lo = std::min(tlo[i], thi[i]), hi = std::max(tlo[i], thi[i]);
-            if (!(t > lo && t < hi)) t = 0.5f * (tlo[i] + thi[i]);
-          }
-          tm[i] = t;
-          const Vec3 p = pa[i] + (pb[i] - pa[i]) * t;
-          xs[j] = p.x, ys[j] = p.y, zs[j] = p.z;
-        }
-        capped.eval(na, xs.data(), ys.data(), zs.data(), fs.data());
-        next_active.clear();
-        for (size_t j = 0; j < na; ++j) {
-          const size_t i = active[j];
-          if (!(std::abs(fs[j]) <= tol[i])) next_active.push_back(uint32_t(i));
-          if (inside(fs[j]) == bool(sa[i])) {
-            tlo[i] = tm[i], flo[i] = vlo[i] = fs[j];
-            if (side[i] == 0) fhi[i] *= 0.5f;
-            side[i] = 0;
-          } else {
-            thi[i] = tm[i], fhi[i] = vhi[i] = fs[j];
-            if (side[i] == 1) flo[i] *= 0.5f;
-            side[i] = 1;
-          }
-        }
-        active.swap(next_active);
-      }
-      for (size_t i = 0; i < n; ++i) {
-        // The end of the bracket with the smaller |F| (both are within the bracket).
-        const float t = std::abs(vlo[i]) <= std::abs(vhi[i]) ? tlo[i] : thi[i];
-        const Vec3 p = pa[i] + (pb[i] - pa[i]) * t;
-        edge_point[e0 + i] = p;
-        xs[i] = p.x, ys[i] = p.y, zs[i] = p.z;
-      }
-      std::vector<Vec3> g(n);
-      capped.eval_gradient(n, xs.data(), ys.data(), zs.data(), fs.data(), g.data());
-      for (size_t i = 0; i < n; ++i) {
-        float l = length(g[i]);
-        const bool valid = l > 0 && std::isfinite(l);
-        edge_normal[e0 + i] = valid ? g[i] / l : Vec3{0, 0, 0};
-        edge_slope[e0 + i] = valid ? l : 0.0f;
-      }
-    });
-    stats.seconds_edges = timer.seconds();
-
+    // The surface cell at cell ci + (dx, dy, dz) (each -1, 0 or 1), kNone when there is none:
+    // through its block's mask, the block looked up only when it is another one.
+    auto neighbour_cell = [&](size_t ci, int dx, int dy, int dz) -> uint32_t {
+      int c[3];
+      key_cell(cells[ci].key, c);
+      const int q[3] = {c[0] + dx, c[1] + dy, c[2] + dz};
+      if (q[0] < 0 || q[1] < 0 || q[2] < 0) return kNone;
+      const BlockPos& own = blocks[cells[ci].block];
+      const int d = offset_index(q[0] / kBlock - own.b[0], q[1] / kBlock - own.b[1],
+                                 q[2] / kBlock - own.b[2]);
+      const uint32_t bq = nbr.at[d][cells[ci].block];
+      if (bq == kNone) return kNone;
+      const int l = (q[0] % kBlock) + kBlock * (q[1] % kBlock) + kBlock * kBlock * (q[2] % kBlock);
+      const uint64_t cm = block_cmask[bq];
+      if (!((cm >> l) & 1)) return kNone;
+      return block_cell_base[bq] + uint32_t(std::popcount(cm & ((uint64_t(1) << l) - 1)));
+    };
     // The crossing edge (global index) of local edge `e` of cell `ci`.
     auto local_edge_index = [&](size_t ci, int e) {
       const int a = e / 4;
       if ((e & 3) == 0) return owned_edge_index(ci, a);
       int b, d;
       other_axes(a, &b, &d);
-      const uint32_t owner = nbr.at[offset_index(b, d, e & 1, (e >> 1) & 1, false)][ci];
+      int o[3] = {0, 0, 0};
+      o[b] = e & 1;
+      o[d] = (e >> 1) & 1;
+      const uint32_t owner = neighbour_cell(ci, o[0], o[1], o[2]);
       HFRT_CHECK(owner != kNone);
       return owned_edge_index(owner, a);
     };
+    stats.seconds_edges = timer.seconds();
 
     // --- 4. Vertices: one per patch; then split faces; then placement. ------------------------
     timer = Timer();
@@ -823,7 +914,9 @@ TriMesh mesh_field(const render::Field& field, const MeshOptions& options, MeshS
         const int s1[2] = {edges[(k1 + 3) & 3], edges[k1]},
                   s2[2] = {edges[(k2 + 3) & 3], edges[k2]};
         if (table.comp[m][s1[0]] != table.comp[m][s2[0]]) continue;
-        const uint32_t di = nbr.at[a][ci];
+        int o[3] = {0, 0, 0};
+        o[a] = 1;
+        const uint32_t di = neighbour_cell(ci, o[0], o[1], o[2]);
         HFRT_CHECK(di != kNone);
         const int md = cells[di].mask;
         // The same edges in the neighbour: the face is its -a face (bit a cleared).
@@ -861,49 +954,89 @@ TriMesh mesh_field(const render::Field& field, const MeshOptions& options, MeshS
     // The four patch vertices around each crossing edge, in the cycle order of kUV, written
     // by the cell at that position (each slot by exactly one cell).
     std::vector<uint32_t> quad(4 * nedges, ~uint32_t(0));
-    parallel_chunks(cells.size(), 1024, [&](size_t cb, size_t ce) {
+    // Block by block: the cells a block's cells take edges from are its own and those of the
+    // layer at +1 of its neighbours, found once per block (kLocal positions, x fastest).
+    constexpr int kLocalSide = kBlock + 1;
+    constexpr int kLocal = kLocalSide * kLocalSide * kLocalSide;
+    parallel_chunks(blocks.size(), 64, [&](size_t bb, size_t be) {
       size_t local_sharp = 0;
       Vec3 pts[12], nrm[12];
       float slp[12];
-      for (size_t ci = cb; ci < ce; ++ci) {
-        const int m = cells[ci].mask;
-        int c[3];
-        key_cell(cells[ci].key, c);
-        const Box cb_box(grid.node_point(c[0], c[1], c[2]),
-                         grid.node_point(c[0] + 1, c[1] + 1, c[2] + 1));
-        for (int comp = 0; comp < table.ncomp[m]; ++comp) {
-          int k = 0;
-          for (int e = 0; e < 12; ++e) {
-            if (table.comp[m][e] != comp) continue;
-            const uint32_t gi = local_edge_index(ci, e);
-            pts[k] = edge_point[gi];
-            nrm[k] = edge_normal[gi];
-            slp[k] = edge_slope[gi];
-            // This cell is at (u, v) = (e & 1, e >> 1 & 1) behind the edge's owner.
-            static constexpr int kSlot[4] = {0, 1, 3, 2};  // (u | v << 1) -> position in kUV
-            quad[4 * size_t(gi) + kSlot[e & 3]] = vbase[ci] + uint32_t(comp);
-            ++k;
+      uint32_t local[kLocal];
+      for (size_t bi = bb; bi < be; ++bi) {
+        if (block_cmask[bi] == 0) continue;
+        std::fill(local, local + kLocal, kNone);
+        for (int n = 0; n < 8; ++n) {
+          // Neighbour n: +1 on each axis whose bit is set; only its cells at 0 on those axes.
+          const uint32_t bq = nbr.at[offset_index(n & 1, (n >> 1) & 1, n >> 2)][bi];
+          if (bq == kNone) continue;
+          uint32_t ci = block_cell_base[bq];
+          for (uint64_t bits = block_cmask[bq]; bits != 0; bits &= bits - 1, ++ci) {
+            const int l = std::countr_zero(bits);
+            const int p[3] = {l % kBlock, (l / kBlock) % kBlock, l / (kBlock * kBlock)};
+            if (((n & 1) && p[0] != 0) || ((n & 2) && p[1] != 0) || ((n & 4) && p[2] != 0))
+              continue;
+            const int x = p[0] + (n & 1) * kBlock, y = p[1] + ((n >> 1) & 1) * kBlock,
+                      z = p[2] + (n >> 2) * kBlock;
+            local[x + kLocalSide * (y + kLocalSide * z)] = ci;
           }
-          int rank = 0;
-          Vec3 flat{0, 0, 0};
-          Vec3 v = solve_qef(pts, nrm, k, &rank, &flat);
-          if (!is_finite(v)) v = cb_box.center();
-          v = vmin(vmax(v, cb_box.lo), cb_box.hi);
-          const uint32_t vi = vbase[ci] + comp;
-          mesh.vertices[vi] = v;
-          vcell[vi] = cb_box;
-          project[vi] = rank <= 1 ? 2 : 1;  // 2: always; 1: only when off the surface
-          if (length2(flat) > 0) {
-            float sl = 0;
-            for (int i = 0; i < k; ++i) sl += slp[i];
-            sl /= float(k);
-            if (sl > 0 && std::isfinite(sl)) {
-              project[vi] = 3;  // always, first along the mean normal
-              vdir[vi] = flat;
-              vslope[vi] = sl;
+        }
+        size_t ci = block_cell_base[bi];
+        for (uint64_t bits = block_cmask[bi]; bits != 0; bits &= bits - 1, ++ci) {
+          const int l = std::countr_zero(bits);
+          const int p[3] = {l % kBlock, (l / kBlock) % kBlock, l / (kBlock * kBlock)};
+          const int m = cells[ci].mask;
+          int c[3];
+          key_cell(cells[ci].key, c);
+          const Box cb_box(grid.node_point(c[0], c[1], c[2]),
+                           grid.node_point(c[0] + 1, c[1] + 1, c[2] + 1));
+          for (int comp = 0; comp < table.ncomp[m]; ++comp) {
+            int k = 0;
+            for (int e = 0; e < 12; ++e) {
+              if (table.comp[m][e] != comp) continue;
+              const int a = e / 4;
+              uint32_t gi;
+              if ((e & 3) == 0) {
+                gi = owned_edge_index(ci, a);
+              } else {
+                int b, d;
+                other_axes(a, &b, &d);
+                int q[3] = {p[0], p[1], p[2]};
+                q[b] += e & 1;
+                q[d] += (e >> 1) & 1;
+                const uint32_t owner = local[q[0] + kLocalSide * (q[1] + kLocalSide * q[2])];
+                HFRT_CHECK(owner != kNone);
+                gi = owned_edge_index(owner, a);
+              }
+              pts[k] = edge_point[gi];
+              nrm[k] = edge_normal[gi];
+              slp[k] = edge_slope[gi];
+              // This cell is at (u, v) = (e & 1, e >> 1 & 1) behind the edge's owner.
+              static constexpr int kSlot[4] = {0, 1, 3, 2};  // (u | v << 1) -> position in kUV
+              quad[4 * size_t(gi) + kSlot[e & 3]] = vbase[ci] + uint32_t(comp);
+              ++k;
             }
+            int rank = 0;
+            Vec3 flat{0, 0, 0};
+            Vec3 v = solve_qef(pts, nrm, k, &rank, &flat);
+            if (!is_finite(v)) v = cb_box.center();
+            v = vmin(vmax(v, cb_box.lo), cb_box.hi);
+            const uint32_t vi = vbase[ci] + comp;
+            mesh.vertices[vi] = v;
+            vcell[vi] = cb_box;
+            project[vi] = rank <= 1 ? 2 : 1;  // 2: always; 1: only when off the surface
+            if (length2(flat) > 0) {
+              float sl = 0;
+              for (int i = 0; i < k; ++i) sl += slp[i];
+              sl /= float(k);
+              if (sl > 0 && std::isfinite(sl)) {
+                project[vi] = 3;  // always, first along the mean normal
+                vdir[vi] = flat;
+                vslope[vi] = sl;
+              }
+            }
+            if (rank >= 2) ++local_sharp;
           }
-          if (rank >= 2) ++local_sharp;
         }
       }
       sharp += local_sharp;
