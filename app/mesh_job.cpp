@@ -104,14 +104,14 @@ std::string format_mesh_stats(const MeshJobResult& r, double compile_ms, double 
       "stats: octree %zu interval nodes, %zu of %zu blocks (%d^3 cells) sampled, %zu surface "
       "cells, %zu crossing edges\n"
       "stats: %zu vertices (%zu sharp, %zu moved onto F = 0, %zu face splits), %zu triangles\n"
-      "stats: mesh %.3f s (octree %.3f, sample %.3f, edges %.3f, vertices %.3f, faces %.3f), "
-      "write %.1f ms\n",
+      "stats: mesh %.3f s (octree %.3f, blocks %.3f, join %.3f, faces %.3f), write %.1f ms\n"
+      "stats: blocks' thread-seconds: sample %.3f, edges %.3f, vertices %.3f\n",
       compile_ms, r.prepare_ms, r.extent_ms, box_text(r.region).c_str(), s.grid[0], s.grid[1],
       s.grid[2], s.threads, s.octree_nodes, s.blocks_sampled, s.blocks_total, s.block_size,
       s.surface_cells, s.crossing_edges, r.mesh.vertices.size(), s.sharp_vertices,
       s.projected_vertices, s.split_faces, r.mesh.triangles.size(), s.seconds_total,
-      s.seconds_octree, s.seconds_sample, s.seconds_edges, s.seconds_vertices, s.seconds_faces,
-      write_ms);
+      s.seconds_octree, s.seconds_blocks, s.seconds_join, s.seconds_faces, write_ms,
+      s.thread_seconds_sample, s.thread_seconds_edges, s.thread_seconds_vertices);
   std::string text = buf;
   if (r.simplified.triangles_before > 0) {
     std::snprintf(buf, sizeof buf,

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <atomic>
 #include <bit>
+#include <chrono>
 #include <cmath>
 #include <limits>
 #include <numeric>
@@ -455,43 +456,46 @@ BlockNeighbours block_neighbours(const std::vector<BlockPos>& blocks) {
   return nb;
 }
 
-/// What sampling a run of blocks found, in block order: the surface cells (in each block x
-/// fastest), the zero, normal and slope (|grad Fc|) of each crossing edge they own (cell by
-/// cell, axis by axis: the order owned_edge_index assumes), and per block its surface cells
-/// (bit x + 4 y + 16 z) and the neighbouring blocks the cells around its crossing edges lie in
-/// (bit (dx + 1) + 3 (dy + 1) + 9 (dz + 1)).
-struct SampleOut {
-  std::vector<CellRec> cells;
-  std::vector<Vec3> edge_point, edge_normal;
-  std::vector<float> edge_slope;
-  std::vector<uint64_t> cmask;
-  std::vector<uint32_t> reach;
-  size_t nan_samples = 0;
-};
-
 /// Crossing edges waiting for their zeros: the low and high end and Fc there.
 struct EdgeBatch {
   std::vector<Vec3> pa, pb;
   std::vector<float> fa, fb;
   void clear() { pa.clear(), pb.clear(), fa.clear(), fb.clear(); }
+  size_t size() const { return pa.size(); }
   void add(Vec3 a, Vec3 b, float va, float vb) {
     pa.push_back(a), pb.push_back(b), fa.push_back(va), fb.push_back(vb);
   }
 };
 
-/// The zero of every edge of `in` and the gradient there, appended to `out`'s edge arrays.
-/// Illinois false position (bisection where a value is not finite): superlinear on smooth
-/// edges, exact in one step where F is affine along the edge (planes of CSG). An edge is done
-/// once |F| at its newest point is below kRootTolerance of the change of F along the edge
-/// (then ~1e-5 of the edge from the zero): after one step on a plane, two on a smooth surface;
-/// only the edges not done are evaluated again.
-void solve_edges(const Capped& capped, const EdgeBatch& in, SampleOut* out) {
-  const size_t n = in.pa.size();
+/// The zeros of a batch's edges and the unit gradient and slope (|grad Fc|) there.
+struct EdgeZeros {
+  std::vector<Vec3> point, normal;
+  std::vector<float> slope;
+};
+
+/// The zero of every edge of `in` and the gradient there. Illinois false position (bisection
+/// where a value is not finite): superlinear on smooth edges, exact in one step where F is
+/// affine along the edge (planes of CSG). An edge is done once |F| at its newest point is
+/// below kRootTolerance of the change of F along the edge (then ~1e-5 of the edge from the
+/// zero): after one step on a plane, two on a smooth surface; only the edges not done are
+/// evaluated again.
+/// Scratch of solve_edges, one per thread. (Passed in: a function-local thread_local in this
+/// shared library costs a __tls_get_addr call per use, ~7 % of the mesher's time.)
+struct EdgeScratch {
+  std::vector<float> tlo, thi, flo, fhi, vlo, vhi, tol, xs, ys, zs, fs, tm;
+  std::vector<uint8_t> side;
+  std::vector<uint32_t> active, next_active;
+  std::vector<Vec3> g;
+};
+
+void solve_edges(const Capped& capped, const EdgeBatch& in, EdgeZeros* out, EdgeScratch* scratch) {
+  const size_t n = in.size();
+  out->point.resize(n);
+  out->normal.resize(n);
+  out->slope.resize(n);
   if (n == 0) return;
-  thread_local std::vector<float> tlo, thi, flo, fhi, vlo, vhi, tol, xs, ys, zs, fs, tm;
-  thread_local std::vector<uint8_t> side;
-  thread_local std::vector<uint32_t> active, next_active;
-  thread_local std::vector<Vec3> g;
+  auto& [tlo, thi, flo, fhi, vlo, vhi, tol, xs, ys, zs, fs, tm, side, active, next_active, g] =
+      *scratch;
   for (auto* v : {&tlo, &thi, &flo, &fhi, &vlo, &vhi, &tol, &xs, &ys, &zs, &fs, &tm}) v->resize(n);
   side.assign(n, 2);
   active.resize(n);
@@ -537,15 +541,11 @@ void solve_edges(const Capped& capped, const EdgeBatch& in, SampleOut* out) {
     }
     active.swap(next_active);
   }
-  const size_t e0 = out->edge_point.size();
-  out->edge_point.resize(e0 + n);
-  out->edge_normal.resize(e0 + n);
-  out->edge_slope.resize(e0 + n);
   for (size_t i = 0; i < n; ++i) {
     // The end of the bracket with the smaller |F| (both are within the bracket).
     const float t = std::abs(vlo[i]) <= std::abs(vhi[i]) ? tlo[i] : thi[i];
     const Vec3 p = in.pa[i] + (in.pb[i] - in.pa[i]) * t;
-    out->edge_point[e0 + i] = p;
+    out->point[i] = p;
     xs[i] = p.x, ys[i] = p.y, zs[i] = p.z;
   }
   g.resize(n);
@@ -553,33 +553,247 @@ void solve_edges(const Capped& capped, const EdgeBatch& in, SampleOut* out) {
   for (size_t i = 0; i < n; ++i) {
     const float l = length(g[i]);
     const bool valid = l > 0 && std::isfinite(l);
-    out->edge_normal[e0 + i] = valid ? g[i] / l : Vec3{0, 0, 0};
-    out->edge_slope[e0 + i] = valid ? l : 0.0f;
+    out->normal[i] = valid ? g[i] / l : Vec3{0, 0, 0};
+    out->slope[i] = valid ? l : 0.0f;
   }
 }
 
-/// Samples the nodes of blocks [first, last) of `blocks` in one evaluation call and appends
-/// what they hold to `out` (see SampleOut): the surface cells, the zeros of the crossing edges
-/// they own, and the blocks around them that the closure needs.
-void sample_blocks(const Capped& capped, const Grid& grid, const std::vector<BlockPos>& blocks,
-                   size_t first, size_t last, SampleOut* out) {
-  constexpr int kSide = kBlock + 1;
-  constexpr size_t kNodes = size_t(kSide) * kSide * kSide;
-  const CubeTable& table = cube_table();
-  thread_local std::vector<float> buf;
-  thread_local EdgeBatch edges;
-  thread_local std::vector<CellRec> cells;  // copied to `out` at the end: one exact allocation
-  cells.clear();
+/// How a vertex is moved onto F = 0: from where (the QEF point), within what (its cell, or a
+/// face vertex's two edge points: a projection that leaves it by more than a cell is
+/// dropped), and for a flat patch the mean edge normal and slope of its first step (slope 0:
+/// the first step needs a gradient).
+struct Placement {
+  Box near;
+  Vec3 dir{0, 0, 0};
+  float slope = 0;
+};
+
+/// Newton steps onto F = 0 for n vertices v (in place); returns how many moved. A gradient is
+/// evaluated only where a step needs a direction; the point a step reaches is checked by a
+/// value alone (|F| reduced? close enough?), with the gradient's length at the step's origin
+/// as the slope. A flat patch's vertex (its edge normals within ~6 degrees) starts from a
+/// value alone too: its first step goes along the mean edge normal with the mean edge slope,
+/// both exact to first order at the mass point. Usually two values per smooth vertex, and no
+/// gradient. A vertex with no value or no direction keeps its QEF point.
+/// Scratch of project_vertices, one per thread (see EdgeScratch).
+struct ProjectScratch {
+  std::vector<float> xs, ys, zs, fs, last_f, slope, scale;
+  std::vector<Vec3> g, start, prev, prev_step;
+  std::vector<uint8_t> state;
+  std::vector<uint32_t> idx, live;
+};
+
+size_t project_vertices(const Capped& capped, float hmin, size_t n, Vec3* v,
+                        const Placement* placement, ProjectScratch* scratch) {
+  if (n == 0) return 0;
+  const float on_surface = 1e-4f * hmin;  // a vertex this close to F = 0 stays where it is
+  enum : uint8_t { kDone, kNeedGradient, kNeedValue, kFlatStart };
+  auto& [xs, ys, zs, fs, last_f, slope, scale, g, start, prev, prev_step, state, idx, live] =
+      *scratch;
+  for (auto* a : {&xs, &ys, &zs, &fs}) a->resize(n);
+  last_f.assign(n, std::numeric_limits<float>::infinity());
+  slope.assign(n, 0);
+  scale.assign(n, 1);
+  for (auto* a : {&g, &start, &prev, &prev_step}) a->resize(n);
+  state.resize(n);
+  live.clear();
+  for (size_t i = 0; i < n; ++i) {
+    start[i] = v[i];
+    state[i] = placement[i].slope > 0 ? kFlatStart : kNeedGradient;
+    live.push_back(uint32_t(i));
+  }
+  // A step from the current point of vertex i along `step`, from a value `f` and slope.
+  auto take_step = [&](size_t i, float f, Vec3 step, float sl) {
+    last_f[i] = std::abs(f);
+    slope[i] = sl;
+    prev[i] = v[i];
+    const float len = length(step);
+    if (len > hmin) step = step * (hmin / len);
+    prev_step[i] = step;
+    scale[i] = 1;
+    v[i] = v[i] + step;
+    state[i] = kNeedValue;
+  };
+  // `live`: the vertices not done yet (shrinks each iteration; most finish after two).
+  for (int it = 0; it < kNewtonSteps && !live.empty(); ++it) {
+    const bool last = it == kNewtonSteps - 1;
+    // Gradients: the first evaluation of a vertex, or a direction from an accepted point.
+    idx.clear();
+    for (const uint32_t i : live) {
+      if (state[i] != kNeedGradient) continue;
+      xs[idx.size()] = v[i].x, ys[idx.size()] = v[i].y, zs[idx.size()] = v[i].z;
+      idx.push_back(i);
+    }
+    capped.eval_gradient(idx.size(), xs.data(), ys.data(), zs.data(), fs.data(), g.data());
+    for (size_t j = 0; j < idx.size(); ++j) {
+      const size_t i = idx[j];
+      const float g2 = length2(g[j]);
+      if (!std::isfinite(fs[j]) || !(g2 > 0) || !std::isfinite(g2)) {
+        v[i] = start[i];  // no value or no direction: keep the QEF point
+        state[i] = kDone;
+        continue;
+      }
+      const float gl = std::sqrt(g2);
+      // A first evaluation may find the vertex on the surface already; a later point was
+      // checked by its value (not close enough) before its gradient was asked for.
+      if (last || (last_f[i] == std::numeric_limits<float>::infinity() &&
+                   std::abs(fs[j]) / gl <= on_surface)) {
+        state[i] = kDone;
+        continue;
+      }
+      take_step(i, fs[j], g[j] * (-fs[j] / g2), gl);
+    }
+    // Values: flat starts, and the points steps reached.
+    idx.clear();
+    for (const uint32_t i : live) {
+      if (state[i] != kNeedValue && state[i] != kFlatStart) continue;
+      xs[idx.size()] = v[i].x, ys[idx.size()] = v[i].y, zs[idx.size()] = v[i].z;
+      idx.push_back(i);
+    }
+    capped.eval(idx.size(), xs.data(), ys.data(), zs.data(), fs.data());
+    for (size_t j = 0; j < idx.size(); ++j) {
+      const size_t i = idx[j];
+      const float af = std::abs(fs[j]);
+      if (!std::isfinite(fs[j])) {
+        v[i] = start[i];  // no value: keep the QEF point
+        state[i] = kDone;
+        continue;
+      }
+      if (state[i] == kFlatStart) {
+        const float sl = placement[i].slope;
+        if (af <= on_surface * sl || last) {
+          state[i] = kDone;
+          continue;
+        }
+        take_step(i, fs[j], placement[i].dir * (-fs[j] / sl), sl);
+        continue;
+      }
+      if (!(af < last_f[i])) {
+        // The step did not reduce |F| (a kink of min/max, or rounding): a shorter one from
+        // the previous point, until it is too short to matter.
+        scale[i] *= 0.25f;
+        if (scale[i] < 1.0f / 64 || last) {
+          v[i] = prev[i];
+          state[i] = kDone;
+        } else {
+          v[i] = prev[i] + prev_step[i] * scale[i];
+        }
+        continue;
+      }
+      // Close enough by the slope at the step's origin (half the bound: the slope at the new
+      // point may differ a little); otherwise a new direction there.
+      if (af <= 0.5f * on_surface * slope[i] || last) {
+        state[i] = kDone;
+        continue;
+      }
+      last_f[i] = af;
+      state[i] = kNeedGradient;
+    }
+    live.erase(
+        std::remove_if(live.begin(), live.end(), [&](uint32_t i) { return state[i] == kDone; }),
+        live.end());
+  }
+  // Keep a projection only when it stayed near its cell; otherwise the QEF point.
+  size_t moved = 0;
+  for (size_t i = 0; i < n; ++i) {
+    Box near = placement[i].near;
+    near.lo = near.lo - Vec3{hmin, hmin, hmin};
+    near.hi = near.hi + Vec3{hmin, hmin, hmin};
+    if (!near.contains(v[i]) || !is_finite(v[i])) v[i] = start[i];
+    if (v[i].x != start[i].x || v[i].y != start[i].y || v[i].z != start[i].z) ++moved;
+  }
+  return moved;
+}
+
+/// A cell's +a face with four crossings whose two segments belong to one patch of the cell:
+/// if they also belong to one patch of the cell across the face, the face gets a vertex of
+/// its own (see mesh_field). Found while a run's cells are placed, settled after the join.
+struct FaceCandidate {
+  uint32_t cell;     // index in the run's cells
+  uint8_t axis;      // the face: +axis
+  int8_t s1, s2[2];  // local edges: one of the first segment, both of the second
+  Vec3 a, b;         // the zeros of s2's two edges
+};
+
+/// What one run of blocks made, in block order: the surface cells (in each block x fastest),
+/// their patch vertices (cell by cell, one per patch, projected onto F = 0 where smooth), per
+/// block its surface cells (bit x + 4 y + 16 z) and the neighbouring blocks the cells around
+/// its crossing edges lie in (bit as offset_index), and the faces that may need a vertex.
+struct RunOut {
+  std::vector<CellRec> cells;
+  std::vector<Vec3> vertices;
+  std::vector<uint64_t> cmask;
+  std::vector<uint32_t> reach;
+  std::vector<FaceCandidate> faces;
+  size_t nan_samples = 0, crossing_edges = 0, sharp = 0, projected = 0;
+};
+
+/// Thread-seconds of the steps of a run, summed over runs.
+struct RunClock {
+  std::atomic<int64_t> sample_ns{0}, edges_ns{0}, vertices_ns{0};
+};
+
+/// The blocks' part of the mesher, run by run: each run of blocks is sampled, its crossing
+/// edges solved and its cells' vertices placed together, from data of the run alone (edges
+/// on the faces between blocks are solved by both), so that no global edge arrays are
+/// needed and a run's output does not depend on the others or on the scheduling.
+class BlockMesher {
+ public:
+  BlockMesher(const Capped& capped, const Grid& grid)
+      : capped_(capped), grid_(grid), table_(cube_table()) {
+    hmin_ = float(std::min({grid.h[0], grid.h[1], grid.h[2]}));
+  }
+  float hmin() const { return hmin_; }
+
+  /// Meshes blocks [first, last) of `blocks` (one evaluation call for all their nodes).
+  void run(const std::vector<BlockPos>& blocks, size_t first, size_t last, RunOut* out,
+           RunClock* clock) const;
+
+ private:
+  static constexpr int kSide = kBlock + 1;
+  static constexpr size_t kNodes = size_t(kSide) * kSide * kSide;
+  /// A surface cell of the run while it is being placed: its crossing edges' index in the
+  /// run's edge batch, -1 where an edge does not cross.
+  struct RunCell {
+    int p[3];  // place in its block
+    int32_t edge[12];
+  };
+  /// Per thread: the run's buffers.
+  struct Scratch {
+    std::vector<float> buf;
+    EdgeBatch edges;
+    EdgeZeros zeros;
+    std::vector<CellRec> cells;
+    std::vector<RunCell> run_cells;
+    std::vector<Vec3> vertices;
+    std::vector<Placement> placements;
+    EdgeScratch edge_scratch;
+    ProjectScratch project_scratch;
+  };
+  const Capped& capped_;
+  const Grid& grid_;
+  const CubeTable& table_;
+  float hmin_;
+  mutable par::ThreadLocal<Scratch> scratch_;
+};
+
+void BlockMesher::run(const std::vector<BlockPos>& blocks, size_t first, size_t last, RunOut* out,
+                      RunClock* clock) const {
+  Clock::time_point t0 = Clock::now();
+  Scratch& sc = scratch_.local();
+  auto& [buf, edges, zeros, cells, run_cells, vertices, placements, edge_scratch, project_scratch] =
+      sc;
+  cells.clear(), run_cells.clear(), edges.clear(), vertices.clear(), placements.clear();
   const size_t cap = kNodes * (last - first);
   buf.resize(4 * cap);
-  edges.clear();
   float *x = buf.data(), *y = x + cap, *z = y + cap, *f = z + cap;
   auto extent = [&](size_t bi, int c0[3], int cn[3]) {
     for (int a = 0; a < 3; ++a) {
       c0[a] = blocks[bi].b[a] * kBlock;
-      cn[a] = std::min(kBlock, grid.cells(a) - c0[a]);
+      cn[a] = std::min(kBlock, grid_.cells(a) - c0[a]);
     }
   };
+  // 1. Sample every block's nodes.
   size_t np = 0;
   for (size_t bi = first; bi < last; ++bi) {
     int c0[3], cn[3];
@@ -587,12 +801,16 @@ void sample_blocks(const Capped& capped, const Grid& grid, const std::vector<Blo
     for (int k = 0; k <= cn[2]; ++k)
       for (int j = 0; j <= cn[1]; ++j)
         for (int l = 0; l <= cn[0]; ++l, ++np) {
-          x[np] = grid.node(0, c0[0] + l);
-          y[np] = grid.node(1, c0[1] + j);
-          z[np] = grid.node(2, c0[2] + k);
+          x[np] = grid_.node(0, c0[0] + l);
+          y[np] = grid_.node(1, c0[1] + j);
+          z[np] = grid_.node(2, c0[2] + k);
         }
   }
-  capped.eval(np, x, y, z, f, &out->nan_samples);
+  capped_.eval(np, x, y, z, f, &out->nan_samples);
+  // 2. The surface cells, and their crossing edges (each once per block: slot[] maps an
+  // edge, by axis and low node, to its index in the batch).
+  int32_t slot[3 * kNodes];
+  static constexpr int kPlace[kBlock] = {0, 1, 1, 2};  // see CubeTable::reach
   np = 0;
   for (size_t bi = first; bi < last; ++bi) {
     int c0[3], cn[3];
@@ -603,9 +821,9 @@ void sample_blocks(const Capped& capped, const Grid& grid, const std::vector<Blo
     uint8_t side[kNodes];
     for (size_t n = 0; n < size_t(nz) * sz; ++n) side[n] = uint8_t(inside(fb[n]));
     const size_t corner[8] = {0, 1, sy, sy + 1, sz, sz + 1, sz + sy, sz + sy + 1};
+    std::fill(slot, slot + 3 * kNodes, -1);
     uint64_t cmask = 0;
     uint32_t reach = 0;
-    static constexpr int kPlace[kBlock] = {0, 1, 1, 2};  // see CubeTable::reach
     for (int k = 0; k < cn[2]; ++k)
       for (int j = 0; j < cn[1]; ++j)
         for (int l = 0; l < cn[0]; ++l) {
@@ -615,21 +833,115 @@ void sample_blocks(const Capped& capped, const Grid& grid, const std::vector<Blo
           if (m == 0 || m == 255) continue;
           cmask |= uint64_t(1) << (l + kBlock * j + kBlock * kBlock * k);
           cells.push_back({cell_key(c0[0] + l, c0[1] + j, c0[2] + k), uint32_t(bi), uint8_t(m)});
-          for (int a = 0; a < 3; ++a) {
-            if ((m & 1) == ((m >> (1 << a)) & 1)) continue;
-            int q[3] = {c0[0] + l, c0[1] + j, c0[2] + k};
-            const Vec3 pa = grid.node_point(q[0], q[1], q[2]);
-            ++q[a];
-            edges.add(pa, grid.node_point(q[0], q[1], q[2]), fb[n0], fb[n0 + step[a]]);
+          reach |= table_.reach[kPlace[l] + 3 * kPlace[j] + 9 * kPlace[k]][m];
+          RunCell rc{{l, j, k}, {}};
+          for (int e = 0; e < 12; ++e) {
+            rc.edge[e] = -1;
+            if (!((table_.cross[m] >> e) & 1)) continue;
+            const int a = e / 4, c = edge_corner(e, 0);
+            const int q[3] = {l + (c & 1), j + ((c >> 1) & 1), k + (c >> 2)};
+            int32_t& s = slot[size_t(a) * kNodes + size_t(q[0] + kSide * (q[1] + kSide * q[2]))];
+            if (s < 0) {
+              s = int32_t(edges.size());
+              const size_t n = size_t(q[2]) * sz + size_t(q[1]) * sy + size_t(q[0]);
+              int h[3] = {c0[0] + q[0], c0[1] + q[1], c0[2] + q[2]};
+              const Vec3 pa = grid_.node_point(h[0], h[1], h[2]);
+              ++h[a];
+              edges.add(pa, grid_.node_point(h[0], h[1], h[2]), fb[n], fb[n + step[a]]);
+            }
+            rc.edge[e] = s;
+            out->crossing_edges += (e & 3) == 0;  // the edges it owns
           }
-          reach |= table.reach[kPlace[l] + 3 * kPlace[j] + 9 * kPlace[k]][m];
+          run_cells.push_back(rc);
         }
     out->cmask.push_back(cmask);
     out->reach.push_back(reach & ~(uint32_t(1) << kSelf));
     np += size_t(nz) * sz;
   }
+  const Clock::time_point t1 = Clock::now();
+  // 3. The edges' zeros and normals.
+  solve_edges(capped_, edges, &zeros, &edge_scratch);
+  const Clock::time_point t2 = Clock::now();
+  // 4. One vertex per patch: the QEF point of its edges' tangent planes, clamped to its cell;
+  // then onto F = 0 where the patch is smooth (rank 1) or the point is off the surface.
+  Vec3 pts[12], nrm[12];
+  float slp[12];
+  for (size_t i = 0; i < cells.size(); ++i) {
+    const int m = cells[i].mask;
+    const RunCell& rc = run_cells[i];
+    int c[3];
+    key_cell(cells[i].key, c);
+    const Box cell_box(grid_.node_point(c[0], c[1], c[2]),
+                       grid_.node_point(c[0] + 1, c[1] + 1, c[2] + 1));
+    for (int comp = 0; comp < table_.ncomp[m]; ++comp) {
+      int k = 0;
+      for (int e = 0; e < 12; ++e) {
+        if (table_.comp[m][e] != comp) continue;
+        const int32_t s = rc.edge[e];
+        pts[k] = zeros.point[size_t(s)];
+        nrm[k] = zeros.normal[size_t(s)];
+        slp[k] = zeros.slope[size_t(s)];
+        ++k;
+      }
+      int rank = 0;
+      Vec3 flat{0, 0, 0};
+      Vec3 v = solve_qef(pts, nrm, k, &rank, &flat);
+      if (!is_finite(v)) v = cell_box.center();
+      v = vmin(vmax(v, cell_box.lo), cell_box.hi);
+      Placement pl;
+      pl.near = cell_box;
+      if (length2(flat) > 0) {
+        float sl = 0;
+        for (int e = 0; e < k; ++e) sl += slp[e];
+        sl /= float(k);
+        if (sl > 0 && std::isfinite(sl)) pl.dir = flat, pl.slope = sl;
+      }
+      vertices.push_back(v);
+      placements.push_back(pl);
+      if (rank >= 2) ++out->sharp;
+    }
+    // Faces with two segments of one patch (see FaceCandidate).
+    for (int a = 0; a < 3; ++a) {
+      int b, d;
+      other_axes(a, &b, &d);
+      // The +a face: corners with bit a set, in cyclic order.
+      const int corners[4] = {1 << a, (1 << a) | (1 << b), (1 << a) | (1 << b) | (1 << d),
+                              (1 << a) | (1 << d)};
+      int ins[4];
+      for (int q = 0; q < 4; ++q) ins[q] = (m >> corners[q]) & 1;
+      if (!(ins[0] == ins[2] && ins[1] == ins[3] && ins[0] != ins[1])) continue;
+      // Local edges of this face, edge q from corner q to corner q+1.
+      int fe[4];
+      for (int q = 0; q < 4; ++q) {
+        const int p = corners[q], r = corners[(q + 1) & 3];
+        const int diff = p ^ r, axis = diff == 1 ? 0 : (diff == 2 ? 1 : 2);
+        const int lo = p & r;
+        int o1, o2;
+        other_axes(axis, &o1, &o2);
+        fe[q] = axis * 4 + (((lo >> o1) & 1) | (((lo >> o2) & 1) << 1));
+      }
+      const int k1 = ins[0] ? 0 : 1, k2 = k1 + 2;  // the inside corners
+      const int s1 = fe[(k1 + 3) & 3], s2a = fe[(k2 + 3) & 3], s2b = fe[k2];
+      if (table_.comp[m][s1] != table_.comp[m][s2a]) continue;
+      out->faces.push_back({uint32_t(i),
+                            uint8_t(a),
+                            int8_t(s1),
+                            {int8_t(s2a), int8_t(s2b)},
+                            zeros.point[size_t(rc.edge[s2a])],
+                            zeros.point[size_t(rc.edge[s2b])]});
+    }
+  }
+  out->projected += project_vertices(capped_, hmin_, vertices.size(), vertices.data(),
+                                     placements.data(), &project_scratch);
   out->cells.assign(cells.begin(), cells.end());
-  solve_edges(capped, edges, out);
+  out->vertices.assign(vertices.begin(), vertices.end());
+  const Clock::time_point t3 = Clock::now();
+  auto ns = [](Clock::time_point a, Clock::time_point b) {
+    return int64_t(std::chrono::duration_cast<std::chrono::nanoseconds>(b - a).count());
+  };
+  clock->sample_ns += ns(t0, t1);
+  clock->edges_ns += ns(t1, t2);
+  clock->vertices_ns += ns(t2, t3);
 }
 
 }  // namespace
@@ -720,24 +1032,25 @@ TriMesh mesh_field(const render::Field& field, const MeshOptions& options, MeshS
     }
     stats.seconds_octree = timer.seconds();
 
-    // --- 2. Sample the blocks' nodes: the surface cells and their crossing edges. -----------
-    // Every block samples the (up to) 5^3 nodes of its cells, kBatchBlocks blocks per
-    // evaluation call (the per-call cost paid once), and finds the zeros of the crossing edges
-    // its cells own while the values are at hand. Each run of kBatchBlocks blocks writes its
-    // own SampleOut, and the runs are joined in block order, so nothing depends on the
-    // scheduling. (Neighbouring sampled blocks both evaluate their common faces: taking them
-    // from each other halves the evaluations but costs more in memory traffic than it saves
-    // on models whose F is cheap.)
+    // --- 2. The blocks, run by run: samples, surface cells, edges, vertices. -----------------
+    // Every run of kBatchBlocks blocks samples the (up to) 5^3 nodes of each block in one
+    // evaluation call (the per-call cost paid once), then solves its crossing edges and
+    // places its cells' vertices (BlockMesher). Each run writes its own RunOut and the runs
+    // are joined in block order, so nothing depends on the scheduling. (Neighbouring sampled
+    // blocks both evaluate their common faces: taking them from each other halves the
+    // evaluations but costs more in memory traffic than it saves on models whose F is cheap.)
     timer = Timer();
     std::vector<BlockPos> blocks = std::move(level);
     const size_t octree_blocks = blocks.size();
     constexpr size_t kBatchBlocks = 16;
     const size_t kProgressBatch = 4096;  // a multiple of kBatchBlocks
-    std::vector<SampleOut> runs;
+    const BlockMesher block_mesher(capped, grid);
+    std::vector<RunOut> runs;
+    RunClock clock;
     BlockNeighbours nbr;  // of the blocks sampled so far
     // Closure: every crossing edge needs its four cells, and they may lie in a block the
     // octree pruned where the interval and the point evaluators disagree about a node. Such
-    // blocks are sampled too, round after round, until no crossing edge reaches an unsampled
+    // blocks are meshed too, round after round, until no crossing edge reaches an unsampled
     // block (normally the first round finds none).
     for (size_t first = 0; first < blocks.size();) {
       const size_t last = blocks.size(), run0 = runs.size();
@@ -745,13 +1058,12 @@ TriMesh mesh_field(const render::Field& field, const MeshOptions& options, MeshS
       for (size_t b0 = first; b0 < last; b0 += kProgressBatch) {
         const size_t b1 = std::min(last, b0 + kProgressBatch);
         parallel_chunks(b1 - b0, kBatchBlocks, [&](size_t s, size_t e) {
-          SampleOut& out = runs[run0 + (b0 - first + s) / kBatchBlocks];
-          sample_blocks(capped, grid, blocks, b0 + s, b0 + e, &out);
+          RunOut& out = runs[run0 + (b0 - first + s) / kBatchBlocks];
+          block_mesher.run(blocks, b0 + s, b0 + e, &out, &clock);
         });
-        if (options.progress && first == 0) {
-          options.progress(b1, octree_blocks * 2);
-        }
+        if (options.progress && first == 0) options.progress(b1, octree_blocks + 1);
       }
+      if (first == 0) stats.seconds_blocks = timer.seconds();
       nbr = block_neighbours(blocks);
       std::vector<uint64_t> missing;
       for (size_t r = run0; r < runs.size(); ++r) {
@@ -778,70 +1090,59 @@ TriMesh mesh_field(const render::Field& field, const MeshOptions& options, MeshS
       }
     }
     stats.blocks_sampled = blocks.size();
+    stats.thread_seconds_sample = double(clock.sample_ns.load()) * 1e-9;
+    stats.thread_seconds_edges = double(clock.edges_ns.load()) * 1e-9;
+    stats.thread_seconds_vertices = double(clock.vertices_ns.load()) * 1e-9;
 
-    stats.seconds_sample = timer.seconds();
-
-    // Join the runs: cells and edges in block order, and per block its surface cells.
-    timer = Timer();
-    std::vector<size_t> cell_at(runs.size() + 1, 0), edge_at(runs.size() + 1, 0);
+    // --- 3. Join the runs: cells and vertices in block order; face vertices. ------------------
+    Timer join_timer;
+    std::vector<size_t> cell_at(runs.size() + 1, 0), vert_at(runs.size() + 1, 0);
     for (size_t r = 0; r < runs.size(); ++r) {
-      cell_at[r + 1] = cell_at[r] + runs[r].cells.size();
-      edge_at[r + 1] = edge_at[r] + runs[r].edge_point.size();
-      stats.nan_samples += runs[r].nan_samples;
+      const RunOut& o = runs[r];
+      cell_at[r + 1] = cell_at[r] + o.cells.size();
+      vert_at[r + 1] = vert_at[r] + o.vertices.size();
+      stats.nan_samples += o.nan_samples;
+      stats.crossing_edges += o.crossing_edges;
+      stats.sharp_vertices += o.sharp;
+      stats.projected_vertices += o.projected;
     }
+    const size_t ncellverts = vert_at.back();
     std::vector<CellRec> cells(cell_at.back());
-    const size_t nedges = edge_at.back();
-    std::vector<Vec3> edge_point(nedges), edge_normal(nedges);
-    std::vector<float> edge_slope(nedges);  // |grad F| at the edge point
-    std::vector<uint64_t> block_cmask(blocks.size());
-    std::vector<uint32_t> block_cell_base(blocks.size() + 1, 0);
+    mesh.vertices.resize(ncellverts);
+    std::vector<uint32_t> vbase(cells.size() + 1, 0);  // a cell's first vertex
     parallel_chunks(runs.size(), 16, [&](size_t rb, size_t re) {
       for (size_t r = rb; r < re; ++r) {
-        SampleOut& o = runs[r];
+        RunOut& o = runs[r];
         std::copy(o.cells.begin(), o.cells.end(), cells.begin() + cell_at[r]);
-        std::copy(o.edge_point.begin(), o.edge_point.end(), edge_point.begin() + edge_at[r]);
-        std::copy(o.edge_normal.begin(), o.edge_normal.end(), edge_normal.begin() + edge_at[r]);
-        std::copy(o.edge_slope.begin(), o.edge_slope.end(), edge_slope.begin() + edge_at[r]);
+        std::copy(o.vertices.begin(), o.vertices.end(), mesh.vertices.begin() + vert_at[r]);
+        uint32_t v = uint32_t(vert_at[r]);
+        for (size_t i = 0; i < o.cells.size(); ++i) {
+          vbase[cell_at[r] + i] = v;
+          v += uint32_t(table.ncomp[o.cells[i].mask]);
+        }
         // Freed as they are copied: the peak stays near one copy.
         std::vector<CellRec>().swap(o.cells);
-        std::vector<Vec3>().swap(o.edge_point);
-        std::vector<Vec3>().swap(o.edge_normal);
-        std::vector<float>().swap(o.edge_slope);
+        std::vector<Vec3>().swap(o.vertices);
       }
     });
+    vbase[cells.size()] = uint32_t(ncellverts);
+    std::vector<uint64_t> block_cmask(blocks.size());
+    std::vector<uint32_t> block_cell_base(blocks.size() + 1, 0);
     {
       size_t bi = 0;
-      for (const SampleOut& o : runs)
+      for (const RunOut& o : runs)
         for (const uint64_t cm : o.cmask) block_cmask[bi++] = cm;
       HFRT_CHECK(bi == blocks.size());
     }
-    std::vector<SampleOut>().swap(runs);
     for (size_t bi = 0; bi < blocks.size(); ++bi) {
       block_cell_base[bi + 1] = block_cell_base[bi] + uint32_t(std::popcount(block_cmask[bi]));
       if (bi >= octree_blocks) stats.closure_cells += size_t(std::popcount(block_cmask[bi]));
     }
     HFRT_CHECK(block_cell_base.back() == cells.size());
     stats.surface_cells = cells.size();
-    stats.crossing_edges = nedges;
-    if (cells.empty()) return;
 
-    // --- 3. Edges of the cells: owned ones by position, the others through the neighbours. ---
-    std::vector<uint32_t> edge_base(cells.size() + 1, 0);
-    for (size_t i = 0; i < cells.size(); ++i) {
-      const int m = cells[i].mask;
-      int owned = 0;
-      for (int a = 0; a < 3; ++a) owned += (m & 1) != ((m >> (1 << a)) & 1);
-      edge_base[i + 1] = edge_base[i] + owned;
-    }
-    HFRT_CHECK(edge_base.back() == nedges);
-    auto owned_edge_index = [&](size_t ci, int axis) {
-      const int m = cells[ci].mask;
-      uint32_t idx = edge_base[ci];
-      for (int a = 0; a < axis; ++a) idx += (m & 1) != ((m >> (1 << a)) & 1);
-      return idx;
-    };
     // The surface cell at cell ci + (dx, dy, dz) (each -1, 0 or 1), kNone when there is none:
-    // through its block's mask, the block looked up only when it is another one.
+    // through its block's mask and the block's neighbours.
     auto neighbour_cell = [&](size_t ci, int dx, int dy, int dz) -> uint32_t {
       int c[3];
       key_cell(cells[ci].key, c);
@@ -857,31 +1158,22 @@ TriMesh mesh_field(const render::Field& field, const MeshOptions& options, MeshS
       if (!((cm >> l) & 1)) return kNone;
       return block_cell_base[bq] + uint32_t(std::popcount(cm & ((uint64_t(1) << l) - 1)));
     };
-    // The crossing edge (global index) of local edge `e` of cell `ci`.
-    auto local_edge_index = [&](size_t ci, int e) {
+    // The key of local edge e of cell ci: its owner cell (at +u, +v) * 3 + its axis.
+    auto edge_key = [&](size_t ci, int e) -> uint64_t {
       const int a = e / 4;
-      if ((e & 3) == 0) return owned_edge_index(ci, a);
-      int b, d;
+      int b, d, o[3] = {0, 0, 0};
       other_axes(a, &b, &d);
-      int o[3] = {0, 0, 0};
       o[b] = e & 1;
       o[d] = (e >> 1) & 1;
-      const uint32_t owner = neighbour_cell(ci, o[0], o[1], o[2]);
+      const uint32_t owner = (e & 3) == 0 ? uint32_t(ci) : neighbour_cell(ci, o[0], o[1], o[2]);
       HFRT_CHECK(owner != kNone);
-      return owned_edge_index(owner, a);
+      return uint64_t(owner) * 3 + uint64_t(a);
     };
-    stats.seconds_edges = timer.seconds();
-
-    // --- 4. Vertices: one per patch; then split faces; then placement. ------------------------
-    timer = Timer();
-    std::vector<uint32_t> vbase(cells.size() + 1, 0);
-    for (size_t i = 0; i < cells.size(); ++i) vbase[i + 1] = vbase[i] + table.ncomp[cells[i].mask];
-    const size_t ncellverts = vbase.back();
 
     // Faces where the same two patches would be joined by both segments: the segment around
     // the face's second inside corner gets a vertex of its own (between the two patches).
     struct Split {
-      uint32_t edge;    // crossing edge whose quad gets the face vertex
+      uint64_t edge;    // edge_key of the crossing edge whose quad gets the face vertex
       uint32_t pc, pd;  // the two patch vertices it goes between
       uint32_t m;       // the face vertex
       bool operator<(const Split& o) const {
@@ -889,31 +1181,12 @@ TriMesh mesh_field(const render::Field& field, const MeshOptions& options, MeshS
       }
     };
     std::vector<Split> splits;
-    std::vector<std::array<uint32_t, 2>> split_edges;  // per face vertex: its two crossing edges
-    for (size_t ci = 0; ci < cells.size(); ++ci) {
-      const int m = cells[ci].mask;
-      for (int a = 0; a < 3; ++a) {
-        int b, d;
-        other_axes(a, &b, &d);
-        // The +a face: corners with bit a set, in cyclic order.
-        int corners[4] = {1 << a, (1 << a) | (1 << b), (1 << a) | (1 << b) | (1 << d),
-                          (1 << a) | (1 << d)};
-        int ins[4];
-        for (int i = 0; i < 4; ++i) ins[i] = (m >> corners[i]) & 1;
-        if (!(ins[0] == ins[2] && ins[1] == ins[3] && ins[0] != ins[1])) continue;
-        // Local edges of this face (in this cell), edge i from corner i to corner i+1.
-        int edges[4];
-        for (int i = 0; i < 4; ++i) {
-          int p = corners[i], q = corners[(i + 1) & 3];
-          int diff = p ^ q, axis = diff == 1 ? 0 : (diff == 2 ? 1 : 2);
-          int lo = p & q, o1, o2;
-          other_axes(axis, &o1, &o2);
-          edges[i] = axis * 4 + (((lo >> o1) & 1) | (((lo >> o2) & 1) << 1));
-        }
-        const int k1 = ins[0] ? 0 : 1, k2 = k1 + 2;  // the inside corners
-        const int s1[2] = {edges[(k1 + 3) & 3], edges[k1]},
-                  s2[2] = {edges[(k2 + 3) & 3], edges[k2]};
-        if (table.comp[m][s1[0]] != table.comp[m][s2[0]]) continue;
+    std::vector<Placement> split_placements;
+    ProjectScratch split_scratch;
+    for (size_t r = 0; r < runs.size(); ++r) {
+      for (const FaceCandidate& fc : runs[r].faces) {
+        const size_t ci = cell_at[r] + fc.cell;
+        const int m = cells[ci].mask, a = fc.axis;
         int o[3] = {0, 0, 0};
         o[a] = 1;
         const uint32_t di = neighbour_cell(ci, o[0], o[1], o[2]);
@@ -929,329 +1202,124 @@ TriMesh mesh_field(const render::Field& field, const MeshOptions& options, MeshS
           if (o2 == a) v = 0;
           return ax * 4 + (u | (v << 1));
         };
-        if (table.comp[md][in_d(s1[0])] != table.comp[md][in_d(s2[0])]) continue;
-        const uint32_t pc = vbase[ci] + table.comp[m][s2[0]];
-        const uint32_t pd = vbase[di] + table.comp[md][in_d(s2[0])];
-        const uint32_t mv = uint32_t(ncellverts + split_edges.size());
-        const uint32_t ea = local_edge_index(ci, s2[0]), eb = local_edge_index(ci, s2[1]);
-        split_edges.push_back({ea, eb});
-        splits.push_back({ea, pc, pd, mv});
-        splits.push_back({eb, pc, pd, mv});
+        if (table.comp[md][in_d(fc.s1)] != table.comp[md][in_d(fc.s2[0])]) continue;
+        const uint32_t pc = vbase[ci] + uint32_t(table.comp[m][fc.s2[0]]);
+        const uint32_t pd = vbase[di] + uint32_t(table.comp[md][in_d(fc.s2[0])]);
+        const uint32_t mv = uint32_t(mesh.vertices.size());
+        splits.push_back({edge_key(ci, fc.s2[0]), pc, pd, mv});
+        splits.push_back({edge_key(ci, fc.s2[1]), pc, pd, mv});
+        mesh.vertices.push_back((fc.a + fc.b) * 0.5f);
+        Placement pl;
+        pl.near.extend(fc.a);
+        pl.near.extend(fc.b);
+        split_placements.push_back(pl);
       }
     }
     std::sort(splits.begin(), splits.end());
-    stats.split_faces = split_edges.size();
-    const size_t nverts = ncellverts + split_edges.size();
+    stats.split_faces = split_placements.size();
+    stats.projected_vertices += project_vertices(
+        capped, block_mesher.hmin(), split_placements.size(), mesh.vertices.data() + ncellverts,
+        split_placements.data(), &split_scratch);
+    std::vector<RunOut>().swap(runs);
+    const size_t nverts = mesh.vertices.size();
+    stats.seconds_join = join_timer.seconds();
+    if (cells.empty()) return;
 
-    // Placement, in chunks of cells: QEF, clamp, then Newton steps onto F = 0 where needed.
-    mesh.vertices.assign(nverts, Vec3{0, 0, 0});
-    std::vector<uint8_t> project(nverts, 0);
-    std::vector<Box> vcell(nverts);
-    // Flat patches (project 3): the mean edge normal and slope, for the first Newton step.
-    std::vector<Vec3> vdir(nverts);
-    std::vector<float> vslope(nverts);
-    std::atomic<size_t> sharp{0};
-    // The four patch vertices around each crossing edge, in the cycle order of kUV, written
-    // by the cell at that position (each slot by exactly one cell).
-    std::vector<uint32_t> quad(4 * nedges, ~uint32_t(0));
-    // Block by block: the cells a block's cells take edges from are its own and those of the
-    // layer at +1 of its neighbours, found once per block (kLocal positions, x fastest).
+    // --- 4. Faces: a quad per crossing edge (polygons where a face vertex was added). ---------
+    timer = Timer();
+    // Block by block: the four cells around an edge a block's cell owns are in the block or
+    // in the layer at -1 of its neighbours, found once per block (kLocal places, x fastest,
+    // shifted by one).
     constexpr int kLocalSide = kBlock + 1;
     constexpr int kLocal = kLocalSide * kLocalSide * kLocalSide;
-    parallel_chunks(blocks.size(), 64, [&](size_t bb, size_t be) {
-      size_t local_sharp = 0;
-      Vec3 pts[12], nrm[12];
-      float slp[12];
+    constexpr size_t kFaceGrain = 64;  // blocks
+    std::vector<std::vector<std::array<uint32_t, 3>>> chunk_tris((blocks.size() + kFaceGrain - 1) /
+                                                                 kFaceGrain);
+    parallel_chunks(blocks.size(), kFaceGrain, [&](size_t bb, size_t be) {
+      auto& tris = chunk_tris[bb / kFaceGrain];
       uint32_t local[kLocal];
       for (size_t bi = bb; bi < be; ++bi) {
         if (block_cmask[bi] == 0) continue;
         std::fill(local, local + kLocal, kNone);
         for (int n = 0; n < 8; ++n) {
-          // Neighbour n: +1 on each axis whose bit is set; only its cells at 0 on those axes.
-          const uint32_t bq = nbr.at[offset_index(n & 1, (n >> 1) & 1, n >> 2)][bi];
+          // Neighbour n: -1 on each axis whose bit is set; only its cells at kBlock - 1 on
+          // those axes.
+          const uint32_t bq = nbr.at[offset_index(-(n & 1), -((n >> 1) & 1), -(n >> 2))][bi];
           if (bq == kNone) continue;
           uint32_t ci = block_cell_base[bq];
           for (uint64_t bits = block_cmask[bq]; bits != 0; bits &= bits - 1, ++ci) {
             const int l = std::countr_zero(bits);
             const int p[3] = {l % kBlock, (l / kBlock) % kBlock, l / (kBlock * kBlock)};
-            if (((n & 1) && p[0] != 0) || ((n & 2) && p[1] != 0) || ((n & 4) && p[2] != 0))
-              continue;
-            const int x = p[0] + (n & 1) * kBlock, y = p[1] + ((n >> 1) & 1) * kBlock,
-                      z = p[2] + (n >> 2) * kBlock;
-            local[x + kLocalSide * (y + kLocalSide * z)] = ci;
+            bool keep = true;
+            int q[3];
+            for (int a = 0; a < 3; ++a) {
+              const bool shifted = (n >> a) & 1;
+              keep = keep && (!shifted || p[a] == kBlock - 1);
+              q[a] = shifted ? 0 : p[a] + 1;
+            }
+            if (keep) local[q[0] + kLocalSide * (q[1] + kLocalSide * q[2])] = ci;
           }
         }
-        size_t ci = block_cell_base[bi];
+        uint32_t ci = block_cell_base[bi];
         for (uint64_t bits = block_cmask[bi]; bits != 0; bits &= bits - 1, ++ci) {
           const int l = std::countr_zero(bits);
-          const int p[3] = {l % kBlock, (l / kBlock) % kBlock, l / (kBlock * kBlock)};
+          const int p[3] = {l % kBlock + 1, (l / kBlock) % kBlock + 1, l / (kBlock * kBlock) + 1};
           const int m = cells[ci].mask;
-          int c[3];
-          key_cell(cells[ci].key, c);
-          const Box cb_box(grid.node_point(c[0], c[1], c[2]),
-                           grid.node_point(c[0] + 1, c[1] + 1, c[2] + 1));
-          for (int comp = 0; comp < table.ncomp[m]; ++comp) {
-            int k = 0;
-            for (int e = 0; e < 12; ++e) {
-              if (table.comp[m][e] != comp) continue;
-              const int a = e / 4;
-              uint32_t gi;
-              if ((e & 3) == 0) {
-                gi = owned_edge_index(ci, a);
+          for (int a = 0; a < 3; ++a) {
+            if ((m & 1) == ((m >> (1 << a)) & 1)) continue;
+            int b, d;
+            other_axes(a, &b, &d);
+            // The cells at (u, v) behind the owner, in the cycle (0,0), (1,0), (1,1), (0,1).
+            static constexpr int kU[4] = {0, 1, 1, 0}, kV[4] = {0, 0, 1, 1};
+            uint32_t poly[8];
+            int np = 4;
+            for (int s = 0; s < 4; ++s) {
+              int q[3] = {p[0], p[1], p[2]};
+              q[b] -= kU[s];
+              q[d] -= kV[s];
+              const uint32_t cj = local[q[0] + kLocalSide * (q[1] + kLocalSide * q[2])];
+              HFRT_CHECK(cj != kNone);
+              const int e = a * 4 + (kU[s] | (kV[s] << 1));
+              poly[s] = vbase[cj] + uint32_t(table.comp[cells[cj].mask][e]);
+            }
+            // Outward: +a when the edge's low end is inside; the cycle's normal is +a for the
+            // x and z axes and -a for y.
+            const bool low_inside = m & 1;
+            const bool reverse = low_inside ? (a == 1) : (a != 1);
+            if (reverse) std::reverse(poly, poly + 4);
+            // Face vertices between consecutive patches.
+            const uint64_t key = uint64_t(ci) * 3 + uint64_t(a);
+            auto it = std::lower_bound(splits.begin(), splits.end(), Split{key, 0, 0, 0});
+            for (; it != splits.end() && it->edge == key; ++it) {
+              for (int i = 0; i < np; ++i) {
+                const uint32_t pv = poly[i], qv = poly[(i + 1) % np];
+                if ((pv == it->pc && qv == it->pd) || (pv == it->pd && qv == it->pc)) {
+                  std::copy_backward(poly + i + 1, poly + np, poly + np + 1);
+                  poly[i + 1] = it->m;
+                  ++np;
+                  break;
+                }
+              }
+            }
+            if (np == 4) {
+              const Vec3 v0 = mesh.vertices[poly[0]], v1 = mesh.vertices[poly[1]],
+                         v2 = mesh.vertices[poly[2]], v3 = mesh.vertices[poly[3]];
+              // The diagonal whose two triangles agree best (a flat quad either way; on a
+              // sharp edge the one along the edge).
+              const Vec3 na = normalize(cross(v1 - v0, v2 - v0)),
+                         nb = normalize(cross(v2 - v0, v3 - v0));
+              const Vec3 nc = normalize(cross(v2 - v1, v3 - v1)),
+                         nd = normalize(cross(v3 - v1, v0 - v1));
+              if (dot(nc, nd) > dot(na, nb) + 1e-6f) {
+                tris.push_back({poly[1], poly[2], poly[3]});
+                tris.push_back({poly[1], poly[3], poly[0]});
               } else {
-                int b, d;
-                other_axes(a, &b, &d);
-                int q[3] = {p[0], p[1], p[2]};
-                q[b] += e & 1;
-                q[d] += (e >> 1) & 1;
-                const uint32_t owner = local[q[0] + kLocalSide * (q[1] + kLocalSide * q[2])];
-                HFRT_CHECK(owner != kNone);
-                gi = owned_edge_index(owner, a);
+                tris.push_back({poly[0], poly[1], poly[2]});
+                tris.push_back({poly[0], poly[2], poly[3]});
               }
-              pts[k] = edge_point[gi];
-              nrm[k] = edge_normal[gi];
-              slp[k] = edge_slope[gi];
-              // This cell is at (u, v) = (e & 1, e >> 1 & 1) behind the edge's owner.
-              static constexpr int kSlot[4] = {0, 1, 3, 2};  // (u | v << 1) -> position in kUV
-              quad[4 * size_t(gi) + kSlot[e & 3]] = vbase[ci] + uint32_t(comp);
-              ++k;
-            }
-            int rank = 0;
-            Vec3 flat{0, 0, 0};
-            Vec3 v = solve_qef(pts, nrm, k, &rank, &flat);
-            if (!is_finite(v)) v = cb_box.center();
-            v = vmin(vmax(v, cb_box.lo), cb_box.hi);
-            const uint32_t vi = vbase[ci] + comp;
-            mesh.vertices[vi] = v;
-            vcell[vi] = cb_box;
-            project[vi] = rank <= 1 ? 2 : 1;  // 2: always; 1: only when off the surface
-            if (length2(flat) > 0) {
-              float sl = 0;
-              for (int i = 0; i < k; ++i) sl += slp[i];
-              sl /= float(k);
-              if (sl > 0 && std::isfinite(sl)) {
-                project[vi] = 3;  // always, first along the mean normal
-                vdir[vi] = flat;
-                vslope[vi] = sl;
-              }
-            }
-            if (rank >= 2) ++local_sharp;
-          }
-        }
-      }
-      sharp += local_sharp;
-    });
-    stats.sharp_vertices = sharp.load();
-    for (size_t s = 0; s < split_edges.size(); ++s) {
-      const Vec3 a = edge_point[split_edges[s][0]], b = edge_point[split_edges[s][1]];
-      const size_t vi = ncellverts + s;
-      mesh.vertices[vi] = (a + b) * 0.5f;
-      Box bx;
-      bx.extend(a);
-      bx.extend(b);
-      vcell[vi] = bx;
-      project[vi] = 2;
-    }
-    if (options.progress) options.progress(blocks.size() + blocks.size() / 2, blocks.size() * 2);
-
-    const float hmin = float(std::min({grid.h[0], grid.h[1], grid.h[2]}));
-    const float on_surface = 1e-4f * hmin;  // a vertex this close to F = 0 stays where it is
-    std::atomic<size_t> projected{0};
-    // Newton steps onto F = 0. A gradient is evaluated only where a step needs a direction;
-    // the point a step reaches is checked by a value alone (|F| reduced? close enough?), with
-    // the gradient's length at the step's origin as the slope. A flat patch's vertex (its
-    // edge normals within ~6 degrees) starts from a value alone too: its first step goes along
-    // the mean edge normal with the mean edge slope, both exact to first order at the mass
-    // point. Usually two values per smooth vertex, and no gradient.
-    enum : uint8_t { kDone, kNeedGradient, kNeedValue, kFlatStart };
-    parallel_chunks(nverts, 1024, [&](size_t vb, size_t ve) {
-      const size_t n = ve - vb;
-      std::vector<float> xs(n), ys(n), zs(n), fs(n);
-      std::vector<Vec3> g(n), start(n), prev(n), prev_step(n);
-      std::vector<uint8_t> state(n);
-      std::vector<float> last_f(n, std::numeric_limits<float>::infinity()), slope(n, 0),
-          scale(n, 1);
-      std::vector<uint32_t> idx;
-      for (size_t i = 0; i < n; ++i) {
-        start[i] = mesh.vertices[vb + i];
-        const uint8_t pr = project[vb + i];
-        state[i] = pr == 0 ? kDone : (pr == 3 ? kFlatStart : kNeedGradient);
-      }
-      // A step from the current point of vertex i along `step`, from a value `f` and slope.
-      auto take_step = [&](size_t i, float f, Vec3 step, float sl) {
-        const size_t vi = vb + i;
-        last_f[i] = std::abs(f);
-        slope[i] = sl;
-        prev[i] = mesh.vertices[vi];
-        const float len = length(step);
-        if (len > hmin) step = step * (hmin / len);
-        prev_step[i] = step;
-        scale[i] = 1;
-        mesh.vertices[vi] = mesh.vertices[vi] + step;
-        state[i] = kNeedValue;
-      };
-      // The vertices not done yet (shrinks each iteration; most finish after two).
-      std::vector<uint32_t> live;
-      for (size_t i = 0; i < n; ++i) {
-        if (state[i] != kDone) live.push_back(uint32_t(i));
-      }
-      for (int it = 0; it < kNewtonSteps && !live.empty(); ++it) {
-        const bool last = it == kNewtonSteps - 1;
-        // Gradients: the first evaluation of a vertex, or a direction from an accepted point.
-        idx.clear();
-        for (const uint32_t i : live) {
-          if (state[i] != kNeedGradient) continue;
-          const Vec3 p = mesh.vertices[vb + i];
-          xs[idx.size()] = p.x, ys[idx.size()] = p.y, zs[idx.size()] = p.z;
-          idx.push_back(uint32_t(i));
-        }
-        capped.eval_gradient(idx.size(), xs.data(), ys.data(), zs.data(), fs.data(), g.data());
-        for (size_t j = 0; j < idx.size(); ++j) {
-          const size_t i = idx[j], vi = vb + i;
-          const float g2 = length2(g[j]);
-          if (!std::isfinite(fs[j]) || !(g2 > 0) || !std::isfinite(g2)) {
-            mesh.vertices[vi] = start[i];  // no value or no direction: keep the QEF point
-            state[i] = kDone;
-            continue;
-          }
-          const float gl = std::sqrt(g2);
-          // A first evaluation may find the vertex on the surface already; a later point
-          // was checked by its value (not close enough) before its gradient was asked for.
-          if (last || (last_f[i] == std::numeric_limits<float>::infinity() &&
-                       std::abs(fs[j]) / gl <= on_surface)) {
-            state[i] = kDone;
-            continue;
-          }
-          take_step(i, fs[j], g[j] * (-fs[j] / g2), gl);
-        }
-        // Values: flat starts, and the points steps reached.
-        idx.clear();
-        for (const uint32_t i : live) {
-          if (state[i] != kNeedValue && state[i] != kFlatStart) continue;
-          const Vec3 p = mesh.vertices[vb + i];
-          xs[idx.size()] = p.x, ys[idx.size()] = p.y, zs[idx.size()] = p.z;
-          idx.push_back(uint32_t(i));
-        }
-        capped.eval(idx.size(), xs.data(), ys.data(), zs.data(), fs.data());
-        for (size_t j = 0; j < idx.size(); ++j) {
-          const size_t i = idx[j], vi = vb + i;
-          const float af = std::abs(fs[j]);
-          if (!std::isfinite(fs[j])) {
-            mesh.vertices[vi] = start[i];  // no value: keep the QEF point
-            state[i] = kDone;
-            continue;
-          }
-          if (state[i] == kFlatStart) {
-            const float sl = vslope[vi];
-            if (af <= on_surface * sl || last) {
-              state[i] = kDone;
-              continue;
-            }
-            take_step(i, fs[j], vdir[vi] * (-fs[j] / sl), sl);
-            continue;
-          }
-          if (!(af < last_f[i])) {
-            // The step did not reduce |F| (a kink of min/max, or rounding): a shorter one
-            // from the previous point, until it is too short to matter.
-            scale[i] *= 0.25f;
-            if (scale[i] < 1.0f / 64 || last) {
-              mesh.vertices[vi] = prev[i];
-              state[i] = kDone;
             } else {
-              mesh.vertices[vi] = prev[i] + prev_step[i] * scale[i];
+              for (int i = 1; i + 1 < np; ++i) tris.push_back({poly[0], poly[i], poly[i + 1]});
             }
-            continue;
-          }
-          // Close enough by the slope at the step's origin (half the bound: the slope at
-          // the new point may differ a little); otherwise a new direction there.
-          if (af <= 0.5f * on_surface * slope[i] || last) {
-            state[i] = kDone;
-            continue;
-          }
-          last_f[i] = af;
-          state[i] = kNeedGradient;
-        }
-        live.erase(
-            std::remove_if(live.begin(), live.end(), [&](uint32_t i) { return state[i] == kDone; }),
-            live.end());
-      }
-      // Keep a projection only when it stayed near its cell; otherwise the QEF point.
-      size_t moved = 0;
-      for (size_t i = 0; i < n; ++i) {
-        const size_t vi = vb + i;
-        Box near = vcell[vi];
-        near.lo = near.lo - Vec3{hmin, hmin, hmin};
-        near.hi = near.hi + Vec3{hmin, hmin, hmin};
-        if (!near.contains(mesh.vertices[vi]) || !is_finite(mesh.vertices[vi])) {
-          mesh.vertices[vi] = start[i];
-        }
-        const Vec3 v = mesh.vertices[vi];
-        if (v.x != start[i].x || v.y != start[i].y || v.z != start[i].z) ++moved;
-      }
-      projected += moved;
-    });
-    stats.projected_vertices = projected.load();
-
-    stats.seconds_vertices = timer.seconds();
-
-    // --- 5. Faces: a quad per crossing edge (polygons where a face vertex was added). ---------
-    timer = Timer();
-    std::vector<std::vector<std::array<uint32_t, 3>>> chunk_tris;
-    const size_t kFaceGrain = 2048;
-    chunk_tris.resize((cells.size() + kFaceGrain - 1) / kFaceGrain);
-    parallel_chunks(cells.size(), kFaceGrain, [&](size_t cb, size_t ce) {
-      auto& tris = chunk_tris[cb / kFaceGrain];
-      for (size_t ci = cb; ci < ce; ++ci) {
-        const int m = cells[ci].mask;
-        int c[3];
-        key_cell(cells[ci].key, c);
-        for (int a = 0; a < 3; ++a) {
-          if ((m & 1) == ((m >> (1 << a)) & 1)) continue;
-          const uint32_t gi = owned_edge_index(ci, a);
-          int b, d;
-          other_axes(a, &b, &d);
-          uint32_t poly[8];
-          int np = 4;
-          for (int p = 0; p < 4; ++p) {
-            poly[p] = quad[4 * size_t(gi) + p];
-            HFRT_CHECK(poly[p] != ~uint32_t(0));
-          }
-          // Outward: +a when the edge's low end is inside; the cycle's normal is +a for the x
-          // and z axes and -a for y.
-          const bool low_inside = m & 1;
-          const bool reverse = low_inside ? (a == 1) : (a != 1);
-          if (reverse) std::reverse(poly, poly + 4);
-          // Face vertices between consecutive patches.
-          auto it = std::lower_bound(splits.begin(), splits.end(), Split{gi, 0, 0, 0});
-          for (; it != splits.end() && it->edge == gi; ++it) {
-            for (int i = 0; i < np; ++i) {
-              const uint32_t p = poly[i], q = poly[(i + 1) % np];
-              if ((p == it->pc && q == it->pd) || (p == it->pd && q == it->pc)) {
-                std::copy_backward(poly + i + 1, poly + np, poly + np + 1);
-                poly[i + 1] = it->m;
-                ++np;
-                break;
-              }
-            }
-          }
-          if (np == 4) {
-            const Vec3 v0 = mesh.vertices[poly[0]], v1 = mesh.vertices[poly[1]],
-                       v2 = mesh.vertices[poly[2]], v3 = mesh.vertices[poly[3]];
-            // The diagonal whose two triangles agree best (a flat quad either way; on a
-            // sharp edge the one along the edge).
-            const Vec3 na = normalize(cross(v1 - v0, v2 - v0)),
-                       nb = normalize(cross(v2 - v0, v3 - v0));
-            const Vec3 nc = normalize(cross(v2 - v1, v3 - v1)),
-                       nd = normalize(cross(v3 - v1, v0 - v1));
-            if (dot(nc, nd) > dot(na, nb) + 1e-6f) {
-              tris.push_back({poly[1], poly[2], poly[3]});
-              tris.push_back({poly[1], poly[3], poly[0]});
-            } else {
-              tris.push_back({poly[0], poly[1], poly[2]});
-              tris.push_back({poly[0], poly[2], poly[3]});
-            }
-          } else {
-            for (int i = 1; i + 1 < np; ++i) tris.push_back({poly[0], poly[i], poly[i + 1]});
           }
         }
       }
@@ -1284,7 +1352,7 @@ TriMesh mesh_field(const render::Field& field, const MeshOptions& options, MeshS
       });
     }
     stats.seconds_faces = timer.seconds();
-    if (options.progress) options.progress(blocks.size() * 2, blocks.size() * 2);
+    if (options.progress) options.progress(octree_blocks + 1, octree_blocks + 1);
   });
   stats.seconds_total = total_timer.seconds();
   if (stats_out) *stats_out = stats;

@@ -69,8 +69,8 @@ struct MeshOptions {
   int threads = 0;
   /// Per-vertex colours from s[1..3] when the field has at least 3 attributes.
   bool colors = true;
-  /// Called now and then with the work done out of a total (blocks sampled, then vertices
-  /// placed); from the calling thread only.
+  /// Called now and then with the work done out of a total (blocks meshed, then the faces);
+  /// from the calling thread only.
   std::function<void(size_t done, size_t total)> progress;
 };
 
@@ -89,8 +89,13 @@ struct MeshStats {
   size_t closure_cells = 0;       ///< surface cells outside the sampled blocks (interval and
                                   ///< point evaluators disagreeing at a node; normally 0)
   size_t nan_samples = 0;         ///< grid nodes where F has no value
-  double seconds_octree = 0, seconds_sample = 0, seconds_edges = 0, seconds_vertices = 0,
-         seconds_faces = 0, seconds_total = 0;
+  /// Wall time of the steps: the octree; the blocks (sampling, edges and vertices, fused
+  /// run by run); the join of the runs (with closure rounds and face vertices); the faces.
+  double seconds_octree = 0, seconds_blocks = 0, seconds_join = 0, seconds_faces = 0,
+         seconds_total = 0;
+  /// Thread-seconds inside the blocks' runs, summed over threads: sampling and surface
+  /// cells, the crossing edges' zeros and normals, the vertices' placement.
+  double thread_seconds_sample = 0, thread_seconds_edges = 0, thread_seconds_vertices = 0;
   int threads = 0;
 };
 
