@@ -69,6 +69,11 @@ struct CubeTable {
   // the low face, 2 at the high face, 1 between (index c0 + 3 c1 + 9 c2). The closure needs
   // them all sampled.
   uint32_t reach[27][256];
+  // The +a faces (bit a) with four crossings whose two segments belong to one patch of the
+  // cell, and per such face its local edges: one of the first segment (around the inside
+  // corner first in the face's cycle), both of the second (see FaceCandidate).
+  uint8_t split_face[256];
+  int8_t split_edges[256][3][3];
 
   CubeTable() {
     for (int m = 0; m < 256; ++m) {
@@ -122,6 +127,34 @@ struct CubeTable {
       ncomp[m] = int8_t(next);
       cross[m] = 0;
       for (int e = 0; e < 12; ++e) cross[m] |= uint16_t(cross_e[e]) << e;
+      split_face[m] = 0;
+      for (int a = 0; a < 3; ++a) {
+        int b, d;
+        other_axes(a, &b, &d);
+        // The +a face: corners with bit a set, in cyclic order.
+        const int corners[4] = {1 << a, (1 << a) | (1 << b), (1 << a) | (1 << b) | (1 << d),
+                                (1 << a) | (1 << d)};
+        int ins[4];
+        for (int q = 0; q < 4; ++q) ins[q] = in(corners[q]);
+        if (!(ins[0] == ins[2] && ins[1] == ins[3] && ins[0] != ins[1])) continue;
+        // Local edges of this face, edge q from corner q to corner q+1.
+        int fe[4];
+        for (int q = 0; q < 4; ++q) {
+          const int p = corners[q], r = corners[(q + 1) & 3];
+          const int diff = p ^ r, axis = diff == 1 ? 0 : (diff == 2 ? 1 : 2);
+          const int lo = p & r;
+          int o1, o2;
+          other_axes(axis, &o1, &o2);
+          fe[q] = axis * 4 + (((lo >> o1) & 1) | (((lo >> o2) & 1) << 1));
+        }
+        const int k1 = ins[0] ? 0 : 1, k2 = k1 + 2;  // the inside corners
+        const int s1 = fe[(k1 + 3) & 3], s2a = fe[(k2 + 3) & 3], s2b = fe[k2];
+        if (comp[m][s1] != comp[m][s2a]) continue;
+        split_face[m] |= uint8_t(1 << a);
+        split_edges[m][a][0] = int8_t(s1);
+        split_edges[m][a][1] = int8_t(s2a);
+        split_edges[m][a][2] = int8_t(s2b);
+      }
       for (int place = 0; place < 27; ++place) {
         reach[place][m] = 0;
         for (int e = 0; e < 12; ++e) {
@@ -755,8 +788,7 @@ class BlockMesher {
   /// A surface cell of the run while it is being placed: its crossing edges' index in the
   /// run's edge batch, -1 where an edge does not cross.
   struct RunCell {
-    int p[3];  // place in its block
-    int32_t edge[12];
+    int16_t edge[12];  // a run has at most kBatchBlocks * 300 edges
   };
   /// Per thread: the run's buffers.
   struct Scratch {
@@ -809,7 +841,7 @@ void BlockMesher::run(const std::vector<BlockPos>& blocks, size_t first, size_t 
   capped_.eval(np, x, y, z, f, &out->nan_samples);
   // 2. The surface cells, and their crossing edges (each once per block: slot[] maps an
   // edge, by axis and low node, to its index in the batch).
-  int32_t slot[3 * kNodes];
+  int16_t slot[3 * kNodes];
   static constexpr int kPlace[kBlock] = {0, 1, 1, 2};  // see CubeTable::reach
   np = 0;
   for (size_t bi = first; bi < last; ++bi) {
@@ -821,7 +853,7 @@ void BlockMesher::run(const std::vector<BlockPos>& blocks, size_t first, size_t 
     uint8_t side[kNodes];
     for (size_t n = 0; n < size_t(nz) * sz; ++n) side[n] = uint8_t(inside(fb[n]));
     const size_t corner[8] = {0, 1, sy, sy + 1, sz, sz + 1, sz + sy, sz + sy + 1};
-    std::fill(slot, slot + 3 * kNodes, -1);
+    std::fill(slot, slot + 3 * kNodes, int16_t(-1));
     uint64_t cmask = 0;
     uint32_t reach = 0;
     for (int k = 0; k < cn[2]; ++k)
@@ -834,15 +866,15 @@ void BlockMesher::run(const std::vector<BlockPos>& blocks, size_t first, size_t 
           cmask |= uint64_t(1) << (l + kBlock * j + kBlock * kBlock * k);
           cells.push_back({cell_key(c0[0] + l, c0[1] + j, c0[2] + k), uint32_t(bi), uint8_t(m)});
           reach |= table_.reach[kPlace[l] + 3 * kPlace[j] + 9 * kPlace[k]][m];
-          RunCell rc{{l, j, k}, {}};
-          for (int e = 0; e < 12; ++e) {
-            rc.edge[e] = -1;
-            if (!((table_.cross[m] >> e) & 1)) continue;
+          RunCell rc;
+          std::fill(rc.edge, rc.edge + 12, int16_t(-1));
+          for (unsigned bits = table_.cross[m]; bits != 0; bits &= bits - 1) {
+            const int e = std::countr_zero(bits);
             const int a = e / 4, c = edge_corner(e, 0);
             const int q[3] = {l + (c & 1), j + ((c >> 1) & 1), k + (c >> 2)};
-            int32_t& s = slot[size_t(a) * kNodes + size_t(q[0] + kSide * (q[1] + kSide * q[2]))];
+            int16_t& s = slot[size_t(a) * kNodes + size_t(q[0] + kSide * (q[1] + kSide * q[2]))];
             if (s < 0) {
-              s = int32_t(edges.size());
+              s = int16_t(edges.size());
               const size_t n = size_t(q[2]) * sz + size_t(q[1]) * sy + size_t(q[0]);
               int h[3] = {c0[0] + q[0], c0[1] + q[1], c0[2] + q[2]};
               const Vec3 pa = grid_.node_point(h[0], h[1], h[2]);
@@ -850,8 +882,8 @@ void BlockMesher::run(const std::vector<BlockPos>& blocks, size_t first, size_t 
               edges.add(pa, grid_.node_point(h[0], h[1], h[2]), fb[n], fb[n + step[a]]);
             }
             rc.edge[e] = s;
-            out->crossing_edges += (e & 3) == 0;  // the edges it owns
           }
+          out->crossing_edges += unsigned(std::popcount(unsigned(table_.cross[m] & 0x111u)));
           run_cells.push_back(rc);
         }
     out->cmask.push_back(cmask);
@@ -901,34 +933,12 @@ void BlockMesher::run(const std::vector<BlockPos>& blocks, size_t first, size_t 
       if (rank >= 2) ++out->sharp;
     }
     // Faces with two segments of one patch (see FaceCandidate).
-    for (int a = 0; a < 3; ++a) {
-      int b, d;
-      other_axes(a, &b, &d);
-      // The +a face: corners with bit a set, in cyclic order.
-      const int corners[4] = {1 << a, (1 << a) | (1 << b), (1 << a) | (1 << b) | (1 << d),
-                              (1 << a) | (1 << d)};
-      int ins[4];
-      for (int q = 0; q < 4; ++q) ins[q] = (m >> corners[q]) & 1;
-      if (!(ins[0] == ins[2] && ins[1] == ins[3] && ins[0] != ins[1])) continue;
-      // Local edges of this face, edge q from corner q to corner q+1.
-      int fe[4];
-      for (int q = 0; q < 4; ++q) {
-        const int p = corners[q], r = corners[(q + 1) & 3];
-        const int diff = p ^ r, axis = diff == 1 ? 0 : (diff == 2 ? 1 : 2);
-        const int lo = p & r;
-        int o1, o2;
-        other_axes(axis, &o1, &o2);
-        fe[q] = axis * 4 + (((lo >> o1) & 1) | (((lo >> o2) & 1) << 1));
-      }
-      const int k1 = ins[0] ? 0 : 1, k2 = k1 + 2;  // the inside corners
-      const int s1 = fe[(k1 + 3) & 3], s2a = fe[(k2 + 3) & 3], s2b = fe[k2];
-      if (table_.comp[m][s1] != table_.comp[m][s2a]) continue;
-      out->faces.push_back({uint32_t(i),
-                            uint8_t(a),
-                            int8_t(s1),
-                            {int8_t(s2a), int8_t(s2b)},
-                            zeros.point[size_t(rc.edge[s2a])],
-                            zeros.point[size_t(rc.edge[s2b])]});
+    for (unsigned faces = table_.split_face[m]; faces != 0; faces &= faces - 1) {
+      const int a = std::countr_zero(faces);
+      const int8_t* fe = table_.split_edges[m][a];
+      out->faces.push_back({uint32_t(i), uint8_t(a), fe[0], {fe[1], fe[2]},
+                            zeros.point[size_t(rc.edge[fe[1]])],
+                            zeros.point[size_t(rc.edge[fe[2]])]});
     }
   }
   out->projected += project_vertices(capped_, hmin_, vertices.size(), vertices.data(),
