@@ -1243,13 +1243,26 @@ TriMesh mesh_field(const render::Field& field, const MeshOptions& options, MeshS
     constexpr int kLocalSide = kBlock + 1;
     constexpr int kLocal = kLocalSide * kLocalSide * kLocalSide;
     constexpr size_t kFaceGrain = 64;  // blocks
-    std::vector<std::vector<std::array<uint32_t, 3>>> chunk_tris((blocks.size() + kFaceGrain - 1) /
-                                                                 kFaceGrain);
+    // Each block's triangles go to a slot fixed in advance: two per crossing edge it owns,
+    // and one more per face vertex in one of those edges' polygons.
+    std::vector<size_t> tri_at(blocks.size() + 1, 0);
+    parallel_chunks(blocks.size(), 1024, [&](size_t bb, size_t be) {
+      for (size_t bi = bb; bi < be; ++bi) {
+        size_t n = 0;
+        for (uint32_t ci = block_cell_base[bi]; ci < block_cell_base[bi + 1]; ++ci) {
+          n += 2 * size_t(std::popcount(unsigned(table.cross[cells[ci].mask] & 0x111u)));
+        }
+        tri_at[bi + 1] = n;
+      }
+    });
+    for (const Split& sp : splits) ++tri_at[cells[size_t(sp.edge / 3)].block + 1];
+    for (size_t bi = 0; bi < blocks.size(); ++bi) tri_at[bi + 1] += tri_at[bi];
+    mesh.triangles.resize(tri_at.back());
     parallel_chunks(blocks.size(), kFaceGrain, [&](size_t bb, size_t be) {
-      auto& tris = chunk_tris[bb / kFaceGrain];
       uint32_t local[kLocal];
       for (size_t bi = bb; bi < be; ++bi) {
         if (block_cmask[bi] == 0) continue;
+        std::array<uint32_t, 3>* tris = mesh.triangles.data() + tri_at[bi];
         std::fill(local, local + kLocal, kNone);
         for (int n = 0; n < 8; ++n) {
           // Neighbour n: -1 on each axis whose bit is set; only its cells at kBlock - 1 on
@@ -1321,23 +1334,20 @@ TriMesh mesh_field(const render::Field& field, const MeshOptions& options, MeshS
               const Vec3 nc = normalize(cross(v2 - v1, v3 - v1)),
                          nd = normalize(cross(v3 - v1, v0 - v1));
               if (dot(nc, nd) > dot(na, nb) + 1e-6f) {
-                tris.push_back({poly[1], poly[2], poly[3]});
-                tris.push_back({poly[1], poly[3], poly[0]});
+                *tris++ = {poly[1], poly[2], poly[3]};
+                *tris++ = {poly[1], poly[3], poly[0]};
               } else {
-                tris.push_back({poly[0], poly[1], poly[2]});
-                tris.push_back({poly[0], poly[2], poly[3]});
+                *tris++ = {poly[0], poly[1], poly[2]};
+                *tris++ = {poly[0], poly[2], poly[3]};
               }
             } else {
-              for (int i = 1; i + 1 < np; ++i) tris.push_back({poly[0], poly[i], poly[i + 1]});
+              for (int i = 1; i + 1 < np; ++i) *tris++ = {poly[0], poly[i], poly[i + 1]};
             }
           }
         }
+        HFRT_CHECK(tris == mesh.triangles.data() + tri_at[bi + 1]);
       }
     });
-    size_t ntris = 0;
-    for (auto& t : chunk_tris) ntris += t.size();
-    mesh.triangles.reserve(ntris);
-    for (auto& t : chunk_tris) mesh.triangles.insert(mesh.triangles.end(), t.begin(), t.end());
 
     // Colours from s[1..3].
     if (options.colors && field.num_attributes() >= 3) {
