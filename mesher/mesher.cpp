@@ -9,6 +9,7 @@
 #include <numeric>
 
 #include "base/check.h"
+#include "base/memory.h"
 #include "base/parallel.h"
 #include "base/timer.h"
 
@@ -472,16 +473,23 @@ BlockNeighbours block_neighbours(const std::vector<BlockPos>& blocks) {
       std::iota(out.begin(), out.end(), 0u);
       return;
     }
+    // The shifted key by adding the offsets to the packed fields (no field leaves its range:
+    // a -1 at coordinate 0 is skipped, and a +1 stays below 2^kKeyBits).
+    uint64_t delta = 0, low_fields[3] = {0, 0, 0};  // low_fields: those that go down by 1
+    for (int a = 0; a < 3; ++a) {
+      const int o = offset_of(int(d), a);
+      delta += uint64_t(int64_t(o)) << (kKeyBits * a);
+      if (o < 0) low_fields[a] = kKeyMask << (kKeyBits * a);
+    }
     size_t j = 0;
     for (const auto& [key, i] : sorted) {
-      int q[3];
-      bool valid = true;
-      for (int a = 0; a < 3; ++a) {
-        q[a] = blocks[i].b[a] + offset_of(int(d), a);
-        valid = valid && q[a] >= 0;
+      // A field at 0 that would go to -1: no such block.
+      if (((key & low_fields[0]) == 0 && low_fields[0]) ||
+          ((key & low_fields[1]) == 0 && low_fields[1]) ||
+          ((key & low_fields[2]) == 0 && low_fields[2])) {
+        continue;
       }
-      if (!valid) continue;
-      const uint64_t t = cell_key(q[0], q[1], q[2]);
+      const uint64_t t = key + delta;
       while (j < sorted.size() && sorted[j].first < t) ++j;
       if (j < sorted.size() && sorted[j].first == t) out[i] = sorted[j].second;
     }
@@ -1159,9 +1167,15 @@ TriMesh mesh_field(const render::Field& field, const MeshOptions& options, MeshS
       stats.projected_vertices += o.projected;
     }
     const size_t ncellverts = vert_at.back();
-    std::vector<CellRec> cells(cell_at.back());
+    // (Huge pages for the large arrays filled here and in the faces: see base/memory.h.)
+    std::vector<CellRec> cells;
+    reserve_huge(cells, cell_at.back());
+    cells.resize(cell_at.back());
+    reserve_huge(mesh.vertices, ncellverts + ncellverts / 64);  // room for face vertices
     mesh.vertices.resize(ncellverts);
-    std::vector<uint32_t> vbase(cells.size() + 1, 0);  // a cell's first vertex
+    std::vector<uint32_t> vbase;  // a cell's first vertex
+    reserve_huge(vbase, cells.size() + 1);
+    vbase.resize(cells.size() + 1);
     parallel_chunks(runs.size(), 16, [&](size_t rb, size_t re) {
       for (size_t r = rb; r < re; ++r) {
         RunOut& o = runs[r];
@@ -1299,13 +1313,15 @@ TriMesh mesh_field(const render::Field& field, const MeshOptions& options, MeshS
     });
     for (const Split& sp : splits) ++tri_at[cells[size_t(sp.edge / 3)].block + 1];
     for (size_t bi = 0; bi < blocks.size(); ++bi) tri_at[bi + 1] += tri_at[bi];
+    reserve_huge(mesh.triangles, tri_at.back());
     mesh.triangles.resize(tri_at.back());
     parallel_chunks(blocks.size(), kFaceGrain, [&](size_t bb, size_t be) {
-      uint32_t local[kLocal];
+      // Per place: the cell's first vertex | its mask << 32 (0: no surface cell there).
+      uint64_t local[kLocal];
       for (size_t bi = bb; bi < be; ++bi) {
         if (block_cmask[bi] == 0) continue;
         std::array<uint32_t, 3>* tris = mesh.triangles.data() + tri_at[bi];
-        std::fill(local, local + kLocal, kNone);
+        std::fill(local, local + kLocal, uint64_t(0));
         for (int n = 0; n < 8; ++n) {
           // Neighbour n: -1 on each axis whose bit is set; only its cells at kBlock - 1 on
           // those axes.
@@ -1322,7 +1338,10 @@ TriMesh mesh_field(const render::Field& field, const MeshOptions& options, MeshS
               keep = keep && (!shifted || p[a] == kBlock - 1);
               q[a] = shifted ? 0 : p[a] + 1;
             }
-            if (keep) local[q[0] + kLocalSide * (q[1] + kLocalSide * q[2])] = ci;
+            if (keep) {
+              local[q[0] + kLocalSide * (q[1] + kLocalSide * q[2])] =
+                  vbase[ci] | (uint64_t(cells[ci].mask) << 32);
+            }
           }
         }
         uint32_t ci = block_cell_base[bi];
@@ -1342,10 +1361,10 @@ TriMesh mesh_field(const render::Field& field, const MeshOptions& options, MeshS
               int q[3] = {p[0], p[1], p[2]};
               q[b] -= kU[s];
               q[d] -= kV[s];
-              const uint32_t cj = local[q[0] + kLocalSide * (q[1] + kLocalSide * q[2])];
-              HFRT_CHECK(cj != kNone);
+              const uint64_t cj = local[q[0] + kLocalSide * (q[1] + kLocalSide * q[2])];
+              HFRT_CHECK(cj != 0);
               const int e = a * 4 + (kU[s] | (kV[s] << 1));
-              poly[s] = vbase[cj] + uint32_t(table.comp[cells[cj].mask][e]);
+              poly[s] = uint32_t(cj) + uint32_t(table.comp[cj >> 32][e]);
             }
             // Outward: +a when the edge's low end is inside; the cycle's normal is +a for the
             // x and z axes and -a for y.
@@ -1354,7 +1373,9 @@ TriMesh mesh_field(const render::Field& field, const MeshOptions& options, MeshS
             if (reverse) std::reverse(poly, poly + 4);
             // Face vertices between consecutive patches.
             const uint64_t key = uint64_t(ci) * 3 + uint64_t(a);
-            auto it = std::lower_bound(splits.begin(), splits.end(), Split{key, 0, 0, 0});
+            auto it = splits.empty()
+                          ? splits.end()
+                          : std::lower_bound(splits.begin(), splits.end(), Split{key, 0, 0, 0});
             for (; it != splits.end() && it->edge == key; ++it) {
               for (int i = 0; i < np; ++i) {
                 const uint32_t pv = poly[i], qv = poly[(i + 1) % np];
@@ -1371,11 +1392,15 @@ TriMesh mesh_field(const render::Field& field, const MeshOptions& options, MeshS
                          v2 = mesh.vertices[poly[2]], v3 = mesh.vertices[poly[3]];
               // The diagonal whose two triangles agree best (a flat quad either way; on a
               // sharp edge the one along the edge).
-              const Vec3 na = normalize(cross(v1 - v0, v2 - v0)),
-                         nb = normalize(cross(v2 - v0, v3 - v0));
-              const Vec3 nc = normalize(cross(v2 - v1, v3 - v1)),
-                         nd = normalize(cross(v3 - v1, v0 - v1));
-              if (dot(nc, nd) > dot(na, nb) + 1e-6f) {
+              // (Cosines as dot / sqrt(|a|^2 |b|^2): two roots instead of four normalisations;
+              // a degenerate triangle counts as cosine 0, as its zero normal did.)
+              auto cosine = [](Vec3 a, Vec3 b) {
+                const double l2 = double(length2(a)) * double(length2(b));  // no underflow
+                return l2 > 0 ? float(double(dot(a, b)) / std::sqrt(l2)) : 0.0f;
+              };
+              const float split02 = cosine(cross(v1 - v0, v2 - v0), cross(v2 - v0, v3 - v0));
+              const float split13 = cosine(cross(v2 - v1, v3 - v1), cross(v3 - v1, v0 - v1));
+              if (split13 > split02 + 1e-6f) {
                 *tris++ = {poly[1], poly[2], poly[3]};
                 *tris++ = {poly[1], poly[3], poly[0]};
               } else {
