@@ -58,6 +58,11 @@ int edge_corner(int e, int end) {
   return (end << a) | (u << b) | (v << c);
 }
 
+/// The low end of edge e relative to its cell's low corner (edge_corner(e, 0) as offsets).
+constexpr int kEdgeLow[12][3] = {{0, 0, 0}, {0, 1, 0}, {0, 0, 1}, {0, 1, 1},   // along x
+                                 {0, 0, 0}, {1, 0, 0}, {0, 0, 1}, {1, 0, 1},   // along y
+                                 {0, 0, 0}, {1, 0, 0}, {0, 1, 0}, {1, 1, 0}};  // along z
+
 /// For every corner mask: which patch (0..3) each crossing edge belongs to, -1 for edges that
 /// do not cross, and the number of patches. Faces with four crossings separate their inside
 /// corners (each inside corner's two edges form one segment).
@@ -65,6 +70,7 @@ struct CubeTable {
   int8_t comp[256][12];
   int8_t ncomp[256];
   uint16_t cross[256];  // bit e: edge e crosses
+  uint8_t owned[256];   // crossing edges the cell owns (at its low corner: e & 3 == 0)
   // The blocks the cells around the crossing edges lie in (bit (dx + 1) + 3 (dy + 1) +
   // 9 (dz + 1), dx etc. the block offsets), by the cell's place in its block: per axis 0 at
   // the low face, 2 at the high face, 1 between (index c0 + 3 c1 + 9 c2). The closure needs
@@ -128,6 +134,12 @@ struct CubeTable {
       ncomp[m] = int8_t(next);
       cross[m] = 0;
       for (int e = 0; e < 12; ++e) cross[m] |= uint16_t(cross_e[e]) << e;
+      owned[m] = uint8_t(cross_e[0] + cross_e[4] + cross_e[8]);
+      for (int e = 0; e < 12; ++e) {
+        const int c = edge_corner(e, 0);
+        HFRT_CHECK(kEdgeLow[e][0] == (c & 1) && kEdgeLow[e][1] == ((c >> 1) & 1) &&
+                   kEdgeLow[e][2] == (c >> 2));
+      }
       split_face[m] = 0;
       for (int a = 0; a < 3; ++a) {
         int b, d;
@@ -897,18 +909,29 @@ void BlockMesher::run(const std::vector<BlockPos>& blocks, size_t first, size_t 
     const int nx = cn[0] + 1, ny = cn[1] + 1, nz = cn[2] + 1;
     const size_t sy = size_t(nx), sz = size_t(nx) * ny, step[3] = {1, sy, sz};
     const float* fb = f + np;
-    uint8_t side[kNodes];
-    for (size_t n = 0; n < size_t(nz) * sz; ++n) side[n] = uint8_t(inside(fb[n]));
-    const size_t corner[8] = {0, 1, sy, sy + 1, sz, sz + 1, sz + sy, sz + sy + 1};
+    // The nodes' sides as one bit per node of each row along x (bit l: node l inside).
+    uint32_t rows[kSide * kSide];
+    for (int k = 0, n = 0; k < nz; ++k)
+      for (int j = 0; j < ny; ++j) {
+        uint32_t r = 0;
+        for (int l = 0; l < nx; ++l, ++n) r |= uint32_t(inside(fb[n])) << l;
+        rows[k * kSide + j] = r;
+      }
+    const uint32_t full = (uint32_t(1) << nx) - 1;
     std::fill(slot, slot + 3 * kNodes, int16_t(-1));
     uint64_t cmask = 0;
     uint32_t reach = 0;
     for (int k = 0; k < cn[2]; ++k)
-      for (int j = 0; j < cn[1]; ++j)
+      for (int j = 0; j < cn[1]; ++j) {
+        // The four rows of nodes around this row of cells; all out or all in: no surface.
+        const uint32_t r00 = rows[k * kSide + j], r10 = rows[k * kSide + j + 1],
+                       r01 = rows[(k + 1) * kSide + j], r11 = rows[(k + 1) * kSide + j + 1];
+        if ((r00 | r10 | r01 | r11) == 0 || (r00 & r10 & r01 & r11) == full) continue;
         for (int l = 0; l < cn[0]; ++l) {
-          const size_t n0 = size_t(k) * sz + size_t(j) * sy + size_t(l);
-          int m = 0;
-          for (int c = 0; c < 8; ++c) m |= side[n0 + corner[c]] << c;
+          // Corner c = cx | cy << 1 | cz << 2: bits 0-1 from row (j, k), 2-3 from (j + 1, k),
+          // 4-5 from (j, k + 1), 6-7 from (j + 1, k + 1).
+          const int m = int(((r00 >> l) & 3) | (((r10 >> l) & 3) << 2) | (((r01 >> l) & 3) << 4) |
+                            (((r11 >> l) & 3) << 6));
           if (m == 0 || m == 255) continue;
           cmask |= uint64_t(1) << (l + kBlock * j + kBlock * kBlock * k);
           cells.push_back({cell_key(c0[0] + l, c0[1] + j, c0[2] + k), uint32_t(bi), uint8_t(m)});
@@ -917,8 +940,8 @@ void BlockMesher::run(const std::vector<BlockPos>& blocks, size_t first, size_t 
           std::fill(rc.edge, rc.edge + 12, int16_t(-1));
           for (unsigned bits = table_.cross[m]; bits != 0; bits &= bits - 1) {
             const int e = std::countr_zero(bits);
-            const int a = e / 4, c = edge_corner(e, 0);
-            const int q[3] = {l + (c & 1), j + ((c >> 1) & 1), k + (c >> 2)};
+            const int a = e / 4;
+            const int q[3] = {l + kEdgeLow[e][0], j + kEdgeLow[e][1], k + kEdgeLow[e][2]};
             int16_t& s = slot[size_t(a) * kNodes + size_t(q[0] + kSide * (q[1] + kSide * q[2]))];
             if (s < 0) {
               s = int16_t(edges.size());
@@ -930,9 +953,10 @@ void BlockMesher::run(const std::vector<BlockPos>& blocks, size_t first, size_t 
             }
             rc.edge[e] = s;
           }
-          out->crossing_edges += unsigned(std::popcount(unsigned(table_.cross[m] & 0x111u)));
+          out->crossing_edges += size_t(table_.owned[m]);
           run_cells.push_back(rc);
         }
+      }
     out->cmask.push_back(cmask);
     out->reach.push_back(reach & ~(uint32_t(1) << kSelf));
     np += size_t(nz) * sz;
@@ -1306,7 +1330,7 @@ TriMesh mesh_field(const render::Field& field, const MeshOptions& options, MeshS
       for (size_t bi = bb; bi < be; ++bi) {
         size_t n = 0;
         for (uint32_t ci = block_cell_base[bi]; ci < block_cell_base[bi + 1]; ++ci) {
-          n += 2 * size_t(std::popcount(unsigned(table.cross[cells[ci].mask] & 0x111u)));
+          n += 2 * size_t(table.owned[cells[ci].mask]);
         }
         tri_at[bi + 1] = n;
       }
