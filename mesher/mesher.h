@@ -11,16 +11,18 @@
 //  2. An octree over blocks of 4^3 cells, subdivided level by level where the interval of Fc
 //     over the node contains 0 (batched Field::eval_intervals); blocks proven empty or full
 //     are dropped, so the work grows with the area of the surface, not the volume of the box.
-//  3. In the blocks left, F is sampled at every grid node (16 blocks per evaluation call); a
-//     cell whose corners disagree (inside: F >= 0; NaN counts as outside) is a surface cell.
+//  3. The blocks left are meshed in runs of 16, each run from its own data (steps 3-4): F is
+//     sampled at every node of its blocks in one evaluation call; a cell whose corners
+//     disagree (inside: F >= 0; NaN counts as outside) is a surface cell.
 //     Its crossing edges are grouped into patches as marching cubes would connect them
 //     (on a face with four crossings the inside corners are separated, a rule that only looks
 //     at the face, so both cells sharing it agree): one vertex per patch.
-//  4. Each crossing edge's zero is found by Illinois false-position steps (until |F| is below
-//     1e-5 of its change along the edge: one step on a plane, two on a smooth surface), its
-//     normal by the exact gradient; the patch vertex minimises the quadric error of those
-//     tangent planes (truncated pseudo-inverse around the mass point), clamped to its cell,
-//     so that sharp edges and corners of CSG are reproduced. A vertex that is then not on
+//  4. Each crossing edge's zero is found by a false-position step (enough on a plane: |F|
+//     below 1e-5 of its change along the edge), its normal by the exact gradient there, and
+//     on a smooth edge by one Newton step along the edge with that gradient (a kink of
+//     min/max takes two more false-position steps instead); the patch vertex minimises the quadric
+//     error of those tangent planes (truncated pseudo-inverse around the mass point), clamped to
+//     its cell, so that sharp edges and corners of CSG are reproduced. A vertex that is then not on
 //     F = 0 (a smooth region) is moved onto it by Newton steps: the point a step reaches is
 //     checked by F alone, and a flat patch's first step goes along its mean edge normal and
 //     slope, so that a smooth vertex usually costs two values of F and no gradient.
@@ -31,8 +33,11 @@
 // The result is a closed, oriented 2-manifold whenever the surface is closed inside the box
 // (always, thanks to the cap), with each edge shared by exactly two triangles.
 //
-// Parallel with TBB over octree nodes, blocks, edges and vertices; all results are written to
-// slots fixed by position in sorted order, so the mesh does not depend on the thread count.
+// Blocks whose cells a crossing edge needs but the octree pruned (interval and point values
+// disagreeing) are meshed too, round after round (the closure).
+//
+// Parallel with TBB over octree nodes, runs of blocks and blocks; all results are written to
+// slots fixed by position in block order, so the mesh does not depend on the thread count.
 
 #include <array>
 #include <cstddef>
@@ -86,8 +91,8 @@ struct MeshStats {
   size_t sharp_vertices = 0;      ///< vertices left on an edge or corner (QEF rank >= 2)
   size_t projected_vertices = 0;  ///< vertices moved onto F = 0 by Newton steps
   size_t split_faces = 0;         ///< face vertices added to keep the mesh manifold
-  size_t closure_cells = 0;       ///< surface cells outside the sampled blocks (interval and
-                                  ///< point evaluators disagreeing at a node; normally 0)
+  size_t closure_cells = 0;       ///< surface cells in blocks the octree had pruned (interval
+                                  ///< and point evaluators disagreeing at a node; normally 0)
   size_t nan_samples = 0;         ///< grid nodes where F has no value
   /// Wall time of the steps: the octree; the blocks (sampling, edges and vertices, fused
   /// run by run); the join of the runs (with closure rounds and face vertices); the faces.
