@@ -27,11 +27,13 @@ static_assert(kBlock == 4, "a block's surface cells are a 64-bit mask");
 constexpr int kKeyBits = 21;  // bits per axis of a cell key
 constexpr uint64_t kKeyMask = (uint64_t(1) << kKeyBits) - 1;
 constexpr int kMaxCells = (1 << kKeyBits) - 4;
-constexpr size_t kPad = 16;              // batches are padded to this many points
-constexpr float kRankCutoff = 0.02f;     // eigenvalues of A^T A below this * max are dropped
-constexpr int kRootSteps = 3;            // Illinois steps per crossing edge at most
-constexpr float kRootTolerance = 1e-5f;  // an edge is done at |F| below this * its change
-constexpr int kNewtonSteps = 10;         // gradient evaluations per vertex at most
+constexpr size_t kPad = 16;               // batches are padded to this many points
+constexpr float kRankCutoff = 0.02f;      // eigenvalues of A^T A below this * max are dropped
+constexpr int kRootSteps = 3;             // Illinois steps per crossing edge at most
+constexpr float kRootTolerance = 1e-5f;   // an edge is done at |F| below this * its change
+constexpr int kNewtonSteps = 10;          // gradient evaluations per vertex at most
+constexpr float kUncheckedStep = 0.005f;  // a flat patch's first step this short (in cells)
+                                          // is not checked by a value
 
 uint64_t cell_key(int i, int j, int k) {
   return uint64_t(i) | (uint64_t(j) << kKeyBits) | (uint64_t(k) << (2 * kKeyBits));
@@ -758,6 +760,12 @@ size_t project_vertices(const Capped& capped, float hmin, size_t n, Vec3* v,
           continue;
         }
         take_step(i, fs[j], placement[i].dir * (-fs[j] / sl), sl);
+        // A short first step is taken without a check: the mass point of a flat patch is
+        // within ~h^2 / 8R of the surface (R its radius of curvature), and the step lands
+        // within ~2 % of its length (the mean edge slope against the slope here), so a step
+        // under kUncheckedStep of a cell ends within ~1e-4 of a cell of F = 0. (On the
+        // 512^3 gyroid and blend the value it skips always passed: the files are the same.)
+        if (af <= kUncheckedStep * hmin * sl) state[i] = kDone;
         continue;
       }
       if (!(af < last_f[i])) {
