@@ -528,12 +528,6 @@ struct EdgeZeros {
   std::vector<float> slope;
 };
 
-/// The zero of every edge of `in` and the gradient there. Illinois false position (bisection
-/// where a value is not finite): superlinear on smooth edges, exact in one step where F is
-/// affine along the edge (planes of CSG). An edge is done once |F| at its newest point is
-/// below kRootTolerance of the change of F along the edge (then ~1e-5 of the edge from the
-/// zero): after one step on a plane, two on a smooth surface; only the edges not done are
-/// evaluated again.
 /// Scratch of solve_edges, one per thread. (Passed in: a function-local thread_local in this
 /// shared library costs a __tls_get_addr call per use, ~7 % of the mesher's time.)
 struct EdgeScratch {
@@ -543,6 +537,12 @@ struct EdgeScratch {
   std::vector<Vec3> g;
 };
 
+/// The zero of every edge of `in` and the gradient there: a false-position step from the
+/// sampled ends, evaluated with its gradient (exact where F is affine along the edge: planes
+/// of CSG); an edge not then within kRootTolerance of its change of F (~1e-5 of the edge
+/// from the zero) takes one Newton step along the edge with that gradient, or, at a kink of
+/// min/max, Illinois false-position steps (bisection where a value is not finite) and a new
+/// gradient.
 void solve_edges(const Capped& capped, const EdgeBatch& in, EdgeZeros* out, EdgeScratch* scratch) {
   const size_t n = in.size();
   out->point.resize(n);
@@ -564,46 +564,53 @@ void solve_edges(const Capped& capped, const EdgeBatch& in, EdgeZeros* out, Edge
     tol[i] = std::isfinite(d) ? kRootTolerance * d : 0.0f;
     active[i] = uint32_t(i);
   }
+  // The false-position point of edge i's bracket (its middle where a value is not finite).
+  auto propose = [&](size_t i) {
+    const float d = flo[i] - fhi[i];
+    float t = 0.5f * (tlo[i] + thi[i]);
+    if (std::isfinite(flo[i]) && std::isfinite(fhi[i]) && d != 0) {
+      t = tlo[i] + (thi[i] - tlo[i]) * (flo[i] / d);
+      const float lo = std::min(tlo[i], thi[i]), hi = std::max(tlo[i], thi[i]);
+      if (!(t > lo && t < hi)) t = 0.5f * (tlo[i] + thi[i]);
+    }
+    return t;
+  };
+  // Edge i's bracket after the value f at tm[i] (Illinois: an end kept twice has its value
+  // halved); true when f is within tolerance.
+  auto update = [&](size_t i, float f) {
+    if (inside(f) == inside(in.fa[i])) {
+      tlo[i] = tm[i], flo[i] = vlo[i] = f;
+      if (side[i] == 0) fhi[i] *= 0.5f;
+      side[i] = 0;
+    } else {
+      thi[i] = tm[i], fhi[i] = vhi[i] = f;
+      if (side[i] == 1) flo[i] *= 0.5f;
+      side[i] = 1;
+    }
+    return std::abs(f) <= tol[i];
+  };
   // One false-position step for the edges in `active`; those not within tolerance after it
   // are left in `active`.
   auto round = [&]() {
     const size_t na = active.size();
     for (size_t j = 0; j < na; ++j) {
       const size_t i = active[j];
-      const float d = flo[i] - fhi[i];
-      float t = 0.5f * (tlo[i] + thi[i]);
-      if (std::isfinite(flo[i]) && std::isfinite(fhi[i]) && d != 0) {
-        t = tlo[i] + (thi[i] - tlo[i]) * (flo[i] / d);
-        const float lo = std::min(tlo[i], thi[i]), hi = std::max(tlo[i], thi[i]);
-        if (!(t > lo && t < hi)) t = 0.5f * (tlo[i] + thi[i]);
-      }
-      tm[i] = t;
-      const Vec3 p = in.pa[i] + (in.pb[i] - in.pa[i]) * t;
+      tm[i] = propose(i);
+      const Vec3 p = in.pa[i] + (in.pb[i] - in.pa[i]) * tm[i];
       xs[j] = p.x, ys[j] = p.y, zs[j] = p.z;
     }
     capped.eval(na, xs.data(), ys.data(), zs.data(), fs.data());
     next_active.clear();
     for (size_t j = 0; j < na; ++j) {
-      const size_t i = active[j];
-      if (!(std::abs(fs[j]) <= tol[i])) next_active.push_back(uint32_t(i));
-      if (inside(fs[j]) == inside(in.fa[i])) {
-        tlo[i] = tm[i], flo[i] = vlo[i] = fs[j];
-        if (side[i] == 0) fhi[i] *= 0.5f;
-        side[i] = 0;
-      } else {
-        thi[i] = tm[i], fhi[i] = vhi[i] = fs[j];
-        if (side[i] == 1) flo[i] *= 0.5f;
-        side[i] = 1;
-      }
+      if (!update(active[j], fs[j])) next_active.push_back(active[j]);
     }
     active.swap(next_active);
   };
-  // The bracket's end with the smaller |F|, and the gradient there, for the edges `which`
-  // (all when null).
-  auto finish = [&](const std::vector<uint32_t>* which) {
-    const size_t m = which ? which->size() : n;
+  // The bracket's end with the smaller |F|, and the gradient there, for the edges `which`.
+  auto finish = [&](const std::vector<uint32_t>& which) {
+    const size_t m = which.size();
     for (size_t j = 0; j < m; ++j) {
-      const size_t i = which ? (*which)[j] : j;
+      const size_t i = which[j];
       const float t = std::abs(vlo[i]) <= std::abs(vhi[i]) ? tlo[i] : thi[i];
       const Vec3 p = in.pa[i] + (in.pb[i] - in.pa[i]) * t;
       out->point[i] = p;
@@ -612,30 +619,45 @@ void solve_edges(const Capped& capped, const EdgeBatch& in, EdgeZeros* out, Edge
     g.resize(m);
     capped.eval_gradient(m, xs.data(), ys.data(), zs.data(), fs.data(), g.data());
     for (size_t j = 0; j < m; ++j) {
-      const size_t i = which ? (*which)[j] : j;
+      const size_t i = which[j];
       const float l = length(g[j]);
       const bool valid = l > 0 && std::isfinite(l);
       out->normal[i] = valid ? g[j] / l : Vec3{0, 0, 0};
       out->slope[i] = valid ? l : 0.0f;
     }
   };
-  round();
-  finish(nullptr);
-  // The edges not done: one Newton step along the edge from the gradient just taken, where
-  // the gradient's slope along the edge agrees with the bracket's secant (F smooth along
-  // it). From within ~1 % of the edge of the zero (one false-position step) it lands
-  // within ~1e-4 of it, as two more false-position steps would, for no evaluation; the
-  // normal stays the one at the bracket's end, a hundredth of a cell away. Where the slopes
-  // disagree (a kink of min/max in the bracket) or the step leaves the bracket, the edge
-  // takes the further false-position steps and a new gradient.
+  // The first step: the false-position point from the sampled ends, its value and gradient
+  // from one evaluation (enough on a plane, where F is affine along the edge).
+  for (size_t i = 0; i < n; ++i) {
+    tm[i] = propose(i);
+    const Vec3 p = in.pa[i] + (in.pb[i] - in.pa[i]) * tm[i];
+    out->point[i] = p;
+    xs[i] = p.x, ys[i] = p.y, zs[i] = p.z;
+  }
+  g.resize(n);
+  capped.eval_gradient(n, xs.data(), ys.data(), zs.data(), fs.data(), g.data());
+  active.clear();
+  for (size_t i = 0; i < n; ++i) {
+    const float l = length(g[i]);
+    const bool valid = l > 0 && std::isfinite(l);
+    out->normal[i] = valid ? g[i] / l : Vec3{0, 0, 0};
+    out->slope[i] = valid ? l : 0.0f;
+    if (!update(i, fs[i])) active.push_back(uint32_t(i));
+  }
+  // The edges not done: one Newton step along the edge with that gradient, where the
+  // gradient's slope along the edge agrees with the bracket's secant (F smooth along it).
+  // From within ~1 % of the edge of the zero (one false-position step) it lands within
+  // ~1e-4 of it, as two more false-position steps would, for no evaluation; the normal stays
+  // the one at the first point, a hundredth of a cell away. Where the slopes disagree (a
+  // kink of min/max in the bracket) or the step leaves the bracket, the edge takes the
+  // further false-position steps and a new gradient at the end.
   std::vector<uint32_t>& retry = next_active;
   retry.clear();
   for (const uint32_t i : active) {
     const Vec3 e = in.pb[i] - in.pa[i];
     const float slope_t = dot(g[i], e);
     const float secant = (vhi[i] - vlo[i]) / (thi[i] - tlo[i]);
-    const float t0 = std::abs(vlo[i]) <= std::abs(vhi[i]) ? tlo[i] : thi[i];
-    const float t = t0 - fs[i] / slope_t;
+    const float t = tm[i] - fs[i] / slope_t;
     const float lo = std::min(tlo[i], thi[i]), hi = std::max(tlo[i], thi[i]);
     if (std::isfinite(t) && t > lo && t < hi &&
         std::abs(slope_t - secant) <= 0.25f * std::abs(secant)) {
@@ -648,7 +670,7 @@ void solve_edges(const Capped& capped, const EdgeBatch& in, EdgeZeros* out, Edge
     active.swap(retry);
     std::vector<uint32_t> again = active;
     for (int it = 1; it < kRootSteps && !active.empty(); ++it) round();
-    finish(&again);
+    finish(again);
   }
 }
 

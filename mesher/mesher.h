@@ -17,8 +17,9 @@
 //     Its crossing edges are grouped into patches as marching cubes would connect them
 //     (on a face with four crossings the inside corners are separated, a rule that only looks
 //     at the face, so both cells sharing it agree): one vertex per patch.
-//  4. Each crossing edge's zero is found by a false-position step (enough on a plane: |F|
-//     below 1e-5 of its change along the edge), its normal by the exact gradient there, and
+//  4. Each crossing edge's zero is found by a false-position step whose value and exact
+//     gradient (the normal) come from one evaluation (enough on a plane: |F| below 1e-5 of
+//     its change along the edge), and
 //     on a smooth edge by one Newton step along the edge with that gradient (a kink of
 //     min/max takes two more false-position steps instead); the patch vertex minimises the quadric
 //     error of those tangent planes (truncated pseudo-inverse around the mass point), clamped to
