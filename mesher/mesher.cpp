@@ -480,34 +480,37 @@ BlockNeighbours block_neighbours(const std::vector<BlockPos>& blocks) {
   for (size_t i = 0; i < blocks.size(); ++i) sorted[i] = {block_key(blocks[i]), uint32_t(i)};
   std::sort(sorted.begin(), sorted.end());
   BlockNeighbours nb;
-  par::parallel_for(kNeighbourhood, 1, [&](size_t d, size_t) {
-    std::vector<uint32_t>& out = nb.at[d];
-    out.assign(blocks.size(), kNone);
-    if (int(d) == kSelf) {
-      std::iota(out.begin(), out.end(), 0u);
-      return;
-    }
-    // The shifted key by adding the offsets to the packed fields (no field leaves its range:
-    // a -1 at coordinate 0 is skipped, and a +1 stays below 2^kKeyBits).
-    uint64_t delta = 0, low_fields[3] = {0, 0, 0};  // low_fields: those that go down by 1
-    for (int a = 0; a < 3; ++a) {
-      const int o = offset_of(int(d), a);
-      delta += uint64_t(int64_t(o)) << (kKeyBits * a);
-      if (o < 0) low_fields[a] = kKeyMask << (kKeyBits * a);
-    }
+  for (auto& v : nb.at) v.assign(blocks.size(), kNone);
+  std::iota(nb.at[kSelf].begin(), nb.at[kSelf].end(), 0u);
+  // One pass per (dy, dz): the three blocks at dx = -1, 0, 1 have consecutive keys, so they
+  // are consecutive in the sorted list where present. Keys are shifted by adding the offsets
+  // to the packed fields (no field leaves its range: a -1 at coordinate 0 is skipped, and a
+  // +1 stays below 2^kKeyBits).
+  par::parallel_for(9, 1, [&](size_t yz, size_t) {
+    const int dy = int(yz % 3) - 1, dz = int(yz / 3) - 1;
+    const uint64_t delta =
+        (uint64_t(int64_t(dy)) << kKeyBits) + (uint64_t(int64_t(dz)) << (2 * kKeyBits));
+    uint32_t* out[3];
+    for (int dx = -1; dx <= 1; ++dx) out[dx + 1] = nb.at[offset_index(dx, dy, dz)].data();
     size_t j = 0;
     for (const auto& [key, i] : sorted) {
-      // A field at 0 that would go to -1: no such block.
-      if (((key & low_fields[0]) == 0 && low_fields[0]) ||
-          ((key & low_fields[1]) == 0 && low_fields[1]) ||
-          ((key & low_fields[2]) == 0 && low_fields[2])) {
-        continue;
+      if ((dy < 0 && ((key >> kKeyBits) & kKeyMask) == 0) ||
+          (dz < 0 && ((key >> (2 * kKeyBits)) & kKeyMask) == 0)) {
+        continue;  // the row below or the slab below would be at -1
       }
-      const uint64_t t = key + delta;
-      while (j < sorted.size() && sorted[j].first < t) ++j;
-      if (j < sorted.size() && sorted[j].first == t) out[i] = sorted[j].second;
+      const uint64_t centre = key + delta;
+      const int dx0 = (key & kKeyMask) > 0 ? -1 : 0;
+      const uint64_t first = centre + uint64_t(int64_t(dx0));
+      while (j < sorted.size() && sorted[j].first < first) ++j;
+      size_t q = j;
+      for (int dx = dx0; dx <= 1; ++dx) {
+        if (q < sorted.size() && sorted[q].first == centre + uint64_t(int64_t(dx))) {
+          out[dx + 1][i] = sorted[q++].second;
+        }
+      }
     }
   });
+  // (The pass for dy = dz = 0 wrote dx = 0 too: the block itself, as kSelf already said.)
   return nb;
 }
 
