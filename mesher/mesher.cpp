@@ -1182,21 +1182,29 @@ TriMesh mesh_field(const render::Field& field, const MeshOptions& options, MeshS
       }
       if (first == 0) stats.seconds_blocks = timer.seconds();
       nbr = block_neighbours(blocks);
-      std::vector<uint64_t> missing;
-      for (size_t r = run0; r < runs.size(); ++r) {
-        const size_t b_lo = first + (r - run0) * kBatchBlocks;
-        for (size_t j = 0; j < runs[r].reach.size(); ++j) {
-          const size_t bi = b_lo + j;
-          for (uint32_t bits = runs[r].reach[j]; bits != 0; bits &= bits - 1) {
-            const int d = std::countr_zero(bits);
-            if (nbr.at[d][bi] != kNone) continue;
-            int q[3];
-            for (int a = 0; a < 3; ++a) q[a] = blocks[bi].b[a] + offset_of(d, a);
-            HFRT_CHECK(q[0] >= 0 && q[1] >= 0 && q[2] >= 0);
-            missing.push_back(cell_key(q[0], q[1], q[2]));
+      // The blocks reached but not sampled, per chunk of runs (almost always none).
+      constexpr size_t kCheckGrain = 256;  // runs
+      const size_t nnew = runs.size() - run0;
+      std::vector<std::vector<uint64_t>> missing_in((nnew + kCheckGrain - 1) / kCheckGrain);
+      parallel_chunks(nnew, kCheckGrain, [&](size_t rb, size_t re) {
+        std::vector<uint64_t>& miss = missing_in[rb / kCheckGrain];
+        for (size_t r = run0 + rb; r < run0 + re; ++r) {
+          const size_t b_lo = first + (r - run0) * kBatchBlocks;
+          for (size_t j = 0; j < runs[r].reach.size(); ++j) {
+            const size_t bi = b_lo + j;
+            for (uint32_t bits = runs[r].reach[j]; bits != 0; bits &= bits - 1) {
+              const int d = std::countr_zero(bits);
+              if (nbr.at[d][bi] != kNone) continue;
+              int q[3];
+              for (int a = 0; a < 3; ++a) q[a] = blocks[bi].b[a] + offset_of(d, a);
+              HFRT_CHECK(q[0] >= 0 && q[1] >= 0 && q[2] >= 0);
+              miss.push_back(cell_key(q[0], q[1], q[2]));
+            }
           }
         }
-      }
+      });
+      std::vector<uint64_t> missing;
+      for (const auto& m : missing_in) missing.insert(missing.end(), m.begin(), m.end());
       std::sort(missing.begin(), missing.end());
       missing.erase(std::unique(missing.begin(), missing.end()), missing.end());
       first = last;
