@@ -192,13 +192,48 @@ class Builder {
   }
 
   /// The centroid bounds of a range (its box bounds come from the parent's bins).
-  VBox centroid_bounds(uint32_t begin, uint32_t end) const {
-    VBox cb = VBox::empty();
-    for (uint32_t i = begin; i != end; ++i) {
-      const V4 c = refs_[i].center();
-      cb.extend(c, c);
+  /// std::partition of refs_[begin, end) by `left` (the same swaps as libstdc++'s, so the
+  /// same order), returning the split; the centroid bounds of both sides are gathered on the
+  /// way: no third pass over the primitives per node (1.04M triangles: 0.56-0.60 s -> 0.51-0.56
+  /// s on 2 threads, bench/README.md).
+  template <typename Pred>
+  uint32_t partition(uint32_t begin, uint32_t end, Pred&& left, VBox* left_centroids,
+                     VBox* right_centroids) {
+    PrimRef* first = refs_.data() + begin;
+    PrimRef* last = refs_.data() + end;
+    VBox lc = VBox::empty(), rc = VBox::empty();
+    auto add = [](VBox& b, const PrimRef& r) {
+      const V4 c = r.center();
+      b.extend(c, c);
+    };
+    while (true) {
+      while (true) {
+        if (first == last) {
+          *left_centroids = lc;
+          *right_centroids = rc;
+          return static_cast<uint32_t>(first - refs_.data());
+        }
+        if (!left(*first)) break;
+        add(lc, *first);
+        ++first;
+      }
+      --last;
+      while (true) {
+        if (first == last) {
+          add(rc, *first);  // *first failed `left`: the right side's first element
+          *left_centroids = lc;
+          *right_centroids = rc;
+          return static_cast<uint32_t>(first - refs_.data());
+        }
+        if (left(*last)) break;
+        add(rc, *last);
+        --last;
+      }
+      std::iter_swap(first, last);
+      add(lc, *first);
+      add(rc, *last);
+      ++first;
     }
-    return cb;
   }
 
   void fill_bins(uint32_t begin, uint32_t end, const Binning& binning, int nbins,
@@ -317,12 +352,11 @@ class Builder {
       return 1;
     }
     uint32_t mid = begin;
+    VBox left_centroids = VBox::empty(), right_centroids = VBox::empty();
     if (best_axis >= 0) {
-      PrimRef* first = refs_.data() + begin;
-      PrimRef* split = std::partition(first, refs_.data() + end, [&](const PrimRef& r) {
-        return binning.bins(r)[best_axis] < best_split;
-      });
-      mid = static_cast<uint32_t>(split - refs_.data());
+      mid = partition(
+          begin, end, [&](const PrimRef& r) { return binning.bins(r)[best_axis] < best_split; },
+          &left_centroids, &right_centroids);
     }
     RangeInfo left, right;
     if (best_axis < 0 || mid == begin || mid == end) {
@@ -332,8 +366,8 @@ class Builder {
       left = range_info(begin, mid);
       right = range_info(mid, end);
     } else {
-      left = {best_left, centroid_bounds(begin, mid)};
-      right = {best_right, centroid_bounds(mid, end)};
+      left = {best_left, left_centroids};
+      right = {best_right, right_centroids};
     }
     const uint32_t child = next_node_.fetch_add(2);
     HFRT_CHECK_LE(child + 1, node_capacity_ - 1);
