@@ -1,6 +1,7 @@
 #include "geom/mesh.h"
 
 #include <algorithm>
+#include <array>
 #include <cctype>
 #include <cerrno>
 #include <charconv>
@@ -14,6 +15,7 @@
 
 #include "base/file.h"
 #include "base/module.h"
+#include "base/parallel.h"
 #include "geom/mesh_import_module.h"
 
 namespace hfrt::geom {
@@ -82,100 +84,95 @@ std::optional<long long> parse_int(const std::string& tok) {
   return parse_int(tok.c_str(), tok.size());
 }
 
-// A text OFF file, read here rather than by Assimp (which reports malformed numbers without a
-// line, accepts out-of-range indices, and took 0.12-0.15 s for the 52000-triangle armadillo
-// against 0.028 s here): every error is located. The lines are scanned in place, numbers
-// parsed where they stand (parse_real, parse_int; a token ends at whitespace or '#'). Polygons
-// become fans (v0, vk, vk+1), as Assimp's triangulation of a convex polygon; faces of one or two
-// vertices (points and lines) are dropped, as the Assimp path drops them. COFF/NOFF/... headers and
-// extra columns (colours, normals) are accepted and ignored.
-Result<TriangleMesh> read_off(const std::string& path, const std::string& text,
-                              const Limits& limits) {
-  TriangleMesh mesh;
-  mesh.source = path;
-  enum { kHeader, kCounts, kVertices, kFaces, kDone } state = kHeader;
-  long long nv = 0, nf = 0, seen_v = 0, seen_f = 0;
-  const uint64_t max = static_cast<uint64_t>(limits.max_mesh_triangles);
-  uint64_t triangles = 0;
-  const char* p = text.c_str();
-  const char* const end = p + text.size();
-  size_t lineno = 0;
+// std::isspace of the "C" locale, inline: a call per character was a tenth of the load.
+inline bool off_space(char ch) {
+  return ch == ' ' || (ch >= '\t' && ch <= '\r');
+}
+
+/// The lines of an OFF body [begin, end) parsed from content line `first_content` on (a content
+/// line has a token before any '#'; content line c < nv is a vertex, then nf faces; the rest is
+/// not read). `first_line` is the file line number of the first line. Stops at the first error.
+struct OffBody {
+  std::vector<Vec3> vertices;
+  std::vector<std::array<uint32_t, 3>> triangles;
+  uint64_t triangle_count = 0;  ///< fan triangles, also those over the limit (not kept)
+  long long content = 0;        ///< content lines read (up to the last vertex or face needed)
+  size_t lines = 0;             ///< lines read
+  std::optional<Error> error;
+};
+
+void parse_off_body(const std::string& path, const char* p, const char* end, size_t first_line,
+                    long long first_content, long long nv, long long nf, uint64_t max,
+                    OffBody* out) {
   std::vector<const char*> tok;  // token starts of the current line
   std::vector<size_t> tok_len;
   auto token = [&](size_t k) { return std::string(tok[k], tok_len[k]); };
-  while (p < end && state != kDone) {
+  size_t lineno = first_line - 1;
+  long long c = first_content;
+  while (p < end && c < nv + nf) {
     ++lineno;
+    ++out->lines;
     const char* eol = static_cast<const char*>(std::memchr(p, '\n', size_t(end - p)));
     if (!eol) eol = end;
     const char* hash = static_cast<const char*>(std::memchr(p, '#', size_t(eol - p)));
     const char* stop = hash ? hash : eol;
     tok.clear();
     tok_len.clear();
-    // std::isspace of the "C" locale, inline: a call per character was a tenth of the load.
-    auto space = [](char ch) { return ch == ' ' || (ch >= '\t' && ch <= '\r'); };
     for (const char* q = p; q < stop;) {
-      while (q < stop && space(*q)) ++q;
+      while (q < stop && off_space(*q)) ++q;
       if (q == stop) break;
       const char* t = q;
-      while (q < stop && !space(*q)) ++q;
+      while (q < stop && !off_space(*q)) ++q;
       tok.push_back(t);
       tok_len.push_back(size_t(q - t));
     }
-    const std::string_view line(p, size_t(eol - p));
     p = eol + 1;
     if (tok.empty()) continue;
-    size_t first = 0;
-    if (state == kHeader) {
-      const std::string h = token(0);
-      if (h.size() < 3 || h.substr(h.size() - 3) != "OFF")
-        return located(path, lineno, "expected the OFF header, found '" + h + "'");
-      state = kCounts;
-      if (tok.size() == 1) continue;
-      first = 1;
-    }
-    if (state == kCounts) {
-      if (tok.size() - first < 2)
-        return located(path, lineno, "expected '#vertices #faces #edges'");
-      auto a = parse_int(tok[first], tok_len[first]),
-           b = parse_int(tok[first + 1], tok_len[first + 1]);
-      if (!a || !b || *a < 0 || *b < 0)
-        return located(path, lineno, "malformed vertex/face counts '" + std::string(line) + "'");
-      nv = *a;
-      nf = *b;
-      if (nf == 0) return located(path, lineno, "empty mesh (the header declares no faces)");
-      // Reserve no more than the file can hold (a header may lie).
-      mesh.vertices.reserve(size_t(std::min<long long>(nv, (long long)text.size() / 6)));
-      mesh.triangles.reserve(size_t(std::min<long long>(nf, (long long)text.size() / 8)));
-      state = nv > 0 ? kVertices : kFaces;
-      continue;
-    }
-    if (state == kVertices) {
-      if (tok.size() < 3) return located(path, lineno, "a vertex needs 3 coordinates");
+    ++out->content;
+    if (c++ < nv) {
+      if (tok.size() < 3) {
+        out->error = located(path, lineno, "a vertex needs 3 coordinates");
+        return;
+      }
       Vec3 v;
       for (int k = 0; k < 3; ++k) {
         const std::optional<double> x = parse_real(tok[k], tok_len[k]);
-        if (!x) return located(path, lineno, "malformed coordinate '" + token(k) + "'");
-        if (!std::isfinite(*x) || !std::isfinite(static_cast<float>(*x)))
-          return located(path, lineno, "non-finite coordinate '" + token(k) + "'");
+        if (!x) {
+          out->error = located(path, lineno, "malformed coordinate '" + token(k) + "'");
+          return;
+        }
+        if (!std::isfinite(*x) || !std::isfinite(static_cast<float>(*x))) {
+          out->error = located(path, lineno, "non-finite coordinate '" + token(k) + "'");
+          return;
+        }
         v[k] = static_cast<float>(*x);
       }
-      mesh.vertices.push_back(v);
-      if (++seen_v == nv) state = kFaces;
+      out->vertices.push_back(v);
       continue;
     }
-    // kFaces
     auto n = parse_int(tok[0], tok_len[0]);
-    if (!n || *n < 1) return located(path, lineno, "malformed face size '" + token(0) + "'");
-    if (*n > static_cast<long long>(tok.size()) - 1)
-      return located(path, lineno, "a face of " + token(0) + " vertices lists fewer indices");
+    if (!n || *n < 1) {
+      out->error = located(path, lineno, "malformed face size '" + token(0) + "'");
+      return;
+    }
+    if (*n > static_cast<long long>(tok.size()) - 1) {
+      out->error = located(path, lineno, "a face of " + token(0) + " vertices lists fewer indices");
+      return;
+    }
     uint32_t idx[3] = {0, 0, 0};
     for (long long k = 1; k <= *n; ++k) {
       const std::optional<long long> index = parse_int(tok[k], tok_len[k]);
-      if (!index) return located(path, lineno, "malformed vertex index '" + token(k) + "'");
+      if (!index) {
+        out->error = located(path, lineno, "malformed vertex index '" + token(k) + "'");
+        return;
+      }
       const long long i = *index;
-      if (i < 0 || i >= nv)
-        return located(path, lineno,
-                       "vertex index " + token(k) + " out of range 0.." + std::to_string(nv - 1));
+      if (i < 0 || i >= nv) {
+        out->error =
+            located(path, lineno,
+                    "vertex index " + token(k) + " out of range 0.." + std::to_string(nv - 1));
+        return;
+      }
       // A fan: (v0, v[k-1], v[k]) for k >= 3.
       if (k == 1) {
         idx[0] = uint32_t(i);
@@ -185,21 +182,136 @@ Result<TriangleMesh> read_off(const std::string& path, const std::string& text,
         idx[1] = idx[2];
         idx[2] = uint32_t(i);
         // Over the limit, the rest is only counted (for the message), not kept.
-        if (++triangles <= max) mesh.triangles.push_back({idx[0], idx[1], idx[2]});
+        if (++out->triangle_count <= max) out->triangles.push_back({idx[0], idx[1], idx[2]});
       }
     }
-    if (++seen_f == nf) state = kDone;
   }
-  if (state == kHeader) return Error{path + ": empty file (no OFF header)"};
-  if (state == kCounts) return located(path, lineno, "missing vertex/face counts");
-  if (state == kVertices)
+}
+
+}  // namespace
+
+// A text OFF file, read here rather than by Assimp (which reports malformed numbers without a
+// line, accepts out-of-range indices, and took 0.12-0.15 s for the 52000-triangle armadillo
+// against 0.028 s here): every error is located. The lines are scanned in place, numbers
+// parsed where they stand (parse_real, parse_int; a token ends at whitespace or '#'). Polygons
+// become fans (v0, vk, vk+1), as Assimp's triangulation of a convex polygon; faces of one or two
+// vertices (points and lines) are dropped, as the Assimp path drops them. COFF/NOFF/... headers and
+// extra columns (colours, normals) are accepted and ignored.
+Result<TriangleMesh> parse_off(const std::string& path, const std::string& text,
+                               const Limits& limits, size_t parallel_min_bytes) {
+  TriangleMesh mesh;
+  mesh.source = path;
+  const uint64_t max = static_cast<uint64_t>(limits.max_mesh_triangles);
+  const char* p = text.c_str();
+  const char* const end = p + text.size();
+  size_t lineno = 0;
+  // The header and the counts.
+  bool have_header = false;
+  long long nv = -1, nf = 0;
+  while (p < end && nv < 0) {
+    ++lineno;
+    const char* eol = static_cast<const char*>(std::memchr(p, '\n', size_t(end - p)));
+    if (!eol) eol = end;
+    const char* hash = static_cast<const char*>(std::memchr(p, '#', size_t(eol - p)));
+    const std::string_view line(p, size_t(eol - p));
+    std::vector<std::string> tok;
+    for (const char *q = p, *stop = hash ? hash : eol; q < stop;) {
+      while (q < stop && off_space(*q)) ++q;
+      if (q == stop) break;
+      const char* t = q;
+      while (q < stop && !off_space(*q)) ++q;
+      tok.emplace_back(t, size_t(q - t));
+    }
+    p = eol + 1;
+    if (tok.empty()) continue;
+    size_t first = 0;
+    if (!have_header) {
+      const std::string& h = tok[0];
+      if (h.size() < 3 || h.substr(h.size() - 3) != "OFF")
+        return located(path, lineno, "expected the OFF header, found '" + h + "'");
+      have_header = true;
+      if (tok.size() == 1) continue;
+      first = 1;
+    }
+    if (tok.size() - first < 2) return located(path, lineno, "expected '#vertices #faces #edges'");
+    auto a = parse_int(tok[first]), b = parse_int(tok[first + 1]);
+    if (!a || !b || *a < 0 || *b < 0)
+      return located(path, lineno, "malformed vertex/face counts '" + std::string(line) + "'");
+    nv = *a;
+    nf = *b;
+    if (nf == 0) return located(path, lineno, "empty mesh (the header declares no faces)");
+  }
+  if (!have_header) return Error{path + ": empty file (no OFF header)"};
+  if (nv < 0) return located(path, lineno, "missing vertex/face counts");
+  // The body: in parallel chunks of whole lines for a large file, each parsed from its first
+  // content line's index (counted in a first pass); the first error in file order wins, as
+  // in one pass.
+  const char* body = std::min(p, end);
+  const size_t bytes = size_t(end - body);
+  // Chunks of ~256 KiB (at least 2, at most 64), fixed by the size alone: the same chunks on
+  // any number of threads.
+  const size_t nchunks = bytes >= parallel_min_bytes ? std::clamp<size_t>(bytes >> 18, 2, 64) : 1;
+  std::vector<const char*> cut(nchunks + 1, end);
+  cut[0] = body;
+  for (size_t k = 1; k < nchunks; ++k) {
+    const char* at = body + bytes / nchunks * k;
+    const char* nl = static_cast<const char*>(std::memchr(at, '\n', size_t(end - at)));
+    cut[k] = std::max(cut[k - 1], nl ? nl + 1 : end);
+  }
+  std::vector<size_t> first_line(nchunks + 1, lineno + 1);
+  std::vector<long long> first_content(nchunks + 1, 0);
+  if (nchunks > 1) {
+    std::vector<size_t> lines(nchunks, 0);
+    std::vector<long long> content(nchunks, 0);
+    par::parallel_for(nchunks, 1, [&](size_t k, size_t) {
+      for (const char* q = cut[k]; q < cut[k + 1];) {
+        const char* eol = static_cast<const char*>(std::memchr(q, '\n', size_t(cut[k + 1] - q)));
+        if (!eol) eol = cut[k + 1];
+        ++lines[k];
+        for (const char* r = q; r < eol && *r != '#'; ++r) {
+          if (!off_space(*r)) {
+            ++content[k];
+            break;
+          }
+        }
+        q = eol + 1;
+      }
+    });
+    for (size_t k = 0; k < nchunks; ++k) {
+      first_line[k + 1] = first_line[k] + lines[k];
+      first_content[k + 1] = first_content[k] + content[k];
+    }
+  }
+  std::vector<OffBody> parts(nchunks);
+  // Reserve no more than the file can hold (a header may lie).
+  if (nchunks == 1) {
+    parts[0].vertices.reserve(size_t(std::min<long long>(nv, (long long)text.size() / 6)));
+    parts[0].triangles.reserve(size_t(std::min<long long>(nf, (long long)text.size() / 8)));
+  }
+  par::parallel_for(nchunks, 1, [&](size_t k, size_t) {
+    parse_off_body(path, cut[k], cut[k + 1], first_line[k], first_content[k], nv, nf, max,
+                   &parts[k]);
+  });
+  long long content = 0;
+  uint64_t triangles = 0;
+  size_t vcount = 0, tcount = 0;
+  lineno = first_line[0] - 1;
+  for (const OffBody& part : parts) {
+    if (part.error) return *part.error;
+    content += part.content;
+    lineno += part.lines;
+    triangles += part.triangle_count;
+    vcount += part.vertices.size();
+    tcount += part.triangles.size();
+  }
+  if (content < nv)
     return located(
         path, lineno,
-        "file ends after " + std::to_string(seen_v) + " of " + std::to_string(nv) + " vertices");
-  if (state == kFaces)
+        "file ends after " + std::to_string(content) + " of " + std::to_string(nv) + " vertices");
+  if (content < nv + nf)
     return located(
         path, lineno,
-        "file ends after " + std::to_string(seen_f) + " of " + std::to_string(nf) + " faces");
+        "file ends after " + std::to_string(content - nv) + " of " + std::to_string(nf) + " faces");
   if (triangles > max)
     return Error{path + ": " + std::to_string(triangles) + " triangles, more than the limit of " +
                      std::to_string(max),
@@ -208,8 +320,21 @@ Result<TriangleMesh> read_off(const std::string& path, const std::string& text,
     return Error{path + ": " + std::to_string(nv) + " vertices, more than the limit of " +
                      std::to_string(max),
                  limit_hint("max_mesh_triangles")};
+  if (nchunks == 1) {
+    mesh.vertices = std::move(parts[0].vertices);
+    mesh.triangles = std::move(parts[0].triangles);
+  } else {
+    mesh.vertices.reserve(vcount);
+    mesh.triangles.reserve(tcount);
+    for (OffBody& part : parts) {
+      mesh.vertices.insert(mesh.vertices.end(), part.vertices.begin(), part.vertices.end());
+      mesh.triangles.insert(mesh.triangles.end(), part.triangles.begin(), part.triangles.end());
+    }
+  }
   return mesh;
 }
+
+namespace {
 
 // Line-located checks of a text OBJ file: vertex coordinates and face indices (1-based, or
 // negative = relative to the last vertex so far, in the forms i, i/j, i//k, i/j/k).
@@ -500,7 +625,7 @@ Result<TriangleMesh> load_mesh(const std::string& path, const Limits& limits) {
   if (text->empty()) return Error{path + ": empty file"};
   // Text formats get line-located checks before Assimp sees them.
   if (ext == ".off") {
-    Result<TriangleMesh> mesh = read_off(path, *text, limits);
+    Result<TriangleMesh> mesh = parse_off(path, *text, limits);
     if (!mesh) return mesh.error();
     return finish_mesh(std::move(mesh).value());
   }

@@ -342,3 +342,109 @@ TEST_F(MeshFiles, TriangleCountHasALimit) {
 
 }  // namespace
 }  // namespace hfrt::geom
+
+namespace hfrt::geom {
+namespace {
+
+/// An OFF text of a strip of quads (as fans) with comments, blank lines, extra columns and
+/// CRLF line ends sprinkled in; `bad_line` (1-based, 0 for none) is replaced by `bad`.
+std::string strip_off(int quads, int bad_line = 0, const std::string& bad = "") {
+  std::vector<std::string> lines = {
+      "OFF", "# a strip", std::to_string(2 * (quads + 1)) + " " + std::to_string(quads) + " 0"};
+  for (int i = 0; i <= quads; ++i) {
+    lines.push_back(std::to_string(i) + " 0 0" + (i % 7 == 0 ? "  # bottom" : ""));
+    lines.push_back(std::to_string(i) + ".5 1 " + std::to_string(i % 3) + (i % 5 ? "" : "\r"));
+    if (i % 11 == 0) lines.push_back("");
+  }
+  for (int i = 0; i < quads; ++i) {
+    lines.push_back("4 " + std::to_string(2 * i) + " " + std::to_string(2 * i + 2) + " " +
+                    std::to_string(2 * i + 3) + " " + std::to_string(2 * i + 1) +
+                    (i % 13 ? "" : " 255 0 0"));
+    if (i % 17 == 0) lines.push_back("   # spacer");
+  }
+  std::string text;
+  for (size_t k = 0; k < lines.size(); ++k) {
+    text += (int(k) + 1 == bad_line ? bad : lines[k]) + "\n";
+  }
+  return text;
+}
+
+// The parallel parse of a large body (forced here by a threshold of 0 bytes: chunks of ~256
+// KiB, the same on any thread count) gives the mesh of one pass, and the same first error.
+TEST(OffParse, ChunkedParseEqualsOnePass) {
+  const std::string text = strip_off(40000);  // ~1.6 MB: 6 chunks
+  ASSERT_GT(text.size(), size_t(1) << 20);
+  const Result<TriangleMesh> one = parse_off("strip.off", text, {}, SIZE_MAX);
+  const Result<TriangleMesh> many = parse_off("strip.off", text, {}, 0);
+  ASSERT_TRUE(one.ok()) << one.error().message;
+  ASSERT_TRUE(many.ok()) << many.error().message;
+  ASSERT_EQ(one->vertices.size(), 80002u);
+  ASSERT_EQ(one->triangles.size(), 80000u);
+  ASSERT_EQ(many->vertices.size(), one->vertices.size());
+  ASSERT_EQ(many->triangles.size(), one->triangles.size());
+  for (size_t i = 0; i < one->vertices.size(); ++i) {
+    ASSERT_EQ(many->vertices[i].x, one->vertices[i].x) << i;
+    ASSERT_EQ(many->vertices[i].y, one->vertices[i].y) << i;
+    ASSERT_EQ(many->vertices[i].z, one->vertices[i].z) << i;
+  }
+  for (size_t i = 0; i < one->triangles.size(); ++i)
+    ASSERT_EQ(many->triangles[i], one->triangles[i]);
+  // A fan of the quad 0 2 3 1: (0, 2, 3), (0, 3, 1).
+  EXPECT_EQ(one->triangles[0], (std::array<uint32_t, 3>{0, 2, 3}));
+  EXPECT_EQ(one->triangles[1], (std::array<uint32_t, 3>{0, 3, 1}));
+}
+
+TEST(OffParse, ChunkedParseReportsTheFirstErrorAtItsLine) {
+  const int quads = 40000;
+  const std::string base = strip_off(quads);
+  const int nlines = int(std::count(base.begin(), base.end(), '\n'));
+  struct Case {
+    int line;
+    std::string bad, expect;
+  };
+  const std::vector<Case> cases = {
+      {nlines / 3, "1 2 x3", "malformed coordinate 'x3'"},
+      {nlines - 5, "4 1 2 3 99999999", "vertex index 99999999 out of range"},
+      {nlines - 1, "3 1 2", "a face of 3 vertices lists fewer indices"},
+  };
+  for (const Case& c : cases) {
+    const std::string text = strip_off(quads, c.line, c.bad);
+    const Result<TriangleMesh> one = parse_off("strip.off", text, {}, SIZE_MAX);
+    const Result<TriangleMesh> many = parse_off("strip.off", text, {}, 0);
+    ASSERT_FALSE(one.ok()) << c.bad;
+    ASSERT_FALSE(many.ok()) << c.bad;
+    EXPECT_EQ(many.error().message, one.error().message);
+    EXPECT_NE(one.error().message.find("strip.off:" + std::to_string(c.line) + ": "),
+              std::string::npos)
+        << one.error().message;
+    EXPECT_NE(one.error().message.find(c.expect), std::string::npos) << one.error().message;
+  }
+  // Two errors: the earlier one is reported, though the later one's chunk is parsed too.
+  std::string two = strip_off(quads, nlines - 3, "4 0 1 2 x");
+  two.replace(two.find("\n5 0 0\n"), 7, "\n5 0 y\n");
+  const Result<TriangleMesh> one = parse_off("strip.off", two, {}, SIZE_MAX);
+  const Result<TriangleMesh> many = parse_off("strip.off", two, {}, 0);
+  ASSERT_FALSE(one.ok());
+  EXPECT_EQ(many.error().message, one.error().message);
+  EXPECT_NE(one.error().message.find("malformed coordinate 'y'"), std::string::npos);
+  // The file ends early: the count and the last line, as one pass says.
+  const std::string cut = base.substr(0, base.rfind('\n', base.size() / 2) + 1);
+  const Result<TriangleMesh> a = parse_off("strip.off", cut, {}, SIZE_MAX);
+  const Result<TriangleMesh> b = parse_off("strip.off", cut, {}, 0);
+  ASSERT_FALSE(a.ok());
+  EXPECT_EQ(b.error().message, a.error().message);
+  EXPECT_NE(a.error().message.find("file ends after"), std::string::npos);
+  // Over the triangle limit.
+  Limits small;
+  small.max_mesh_triangles = 1000;
+  const Result<TriangleMesh> c = parse_off("strip.off", base, small, SIZE_MAX);
+  const Result<TriangleMesh> d = parse_off("strip.off", base, small, 0);
+  ASSERT_FALSE(c.ok());
+  EXPECT_EQ(d.error().message, c.error().message);
+  EXPECT_NE(c.error().message.find("80000 triangles, more than the limit of 1000"),
+            std::string::npos)
+      << c.error().message;
+}
+
+}  // namespace
+}  // namespace hfrt::geom
