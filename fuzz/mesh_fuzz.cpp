@@ -1,13 +1,15 @@
 // Fuzz target: the mesh loaders (geom::load_mesh: the OFF/OBJ line checks, then Assimp for
 // OFF, PLY, OBJ, STL). The first byte picks the file extension (0 .off, 1 .ply, 2 .obj,
 // 3 .stl; scripts/fuzz.sh prefixes the seeds with theirs), the rest is the file. A mesh that
-// loads must satisfy TriangleMesh's invariants and survive the BVH build and every query.
+// loads must satisfy TriangleMesh's invariants and survive the BVH build and every query; an
+// OFF text must parse the same in one pass and in parallel chunks.
 #include <unistd.h>
 
 #include <cmath>
 #include <cstddef>
 #include <cstdint>
 #include <cstdio>
+#include <cstring>
 #include <string>
 
 #include "base/check.h"
@@ -24,6 +26,23 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   HFRT_CHECK(f != nullptr);
   HFRT_CHECK(std::fwrite(data + 1, 1, size - 1, f) == size - 1);
   std::fclose(f);
+  if (data[0] % 4 == 0) {
+    // Differential: the OFF body in parallel chunks (forced: threshold 0) must give what one
+    // pass gives, the same mesh or the same first error.
+    const std::string text(reinterpret_cast<const char*>(data + 1), size - 1);
+    const Result<geom::TriangleMesh> one = geom::parse_off(path, text, {}, SIZE_MAX);
+    const Result<geom::TriangleMesh> many = geom::parse_off(path, text, {}, 0);
+    HFRT_CHECK(one.ok() == many.ok());
+    if (one.ok()) {
+      HFRT_CHECK(one->triangles == many->triangles);
+      HFRT_CHECK_EQ(one->vertices.size(), many->vertices.size());
+      for (size_t i = 0; i < one->vertices.size(); ++i) {
+        HFRT_CHECK(std::memcmp(&one->vertices[i], &many->vertices[i], sizeof(Vec3)) == 0);
+      }
+    } else {
+      HFRT_CHECK(one.error().message == many.error().message);
+    }
+  }
   Result<geom::TriangleMesh> mesh = geom::load_mesh(path);
   std::remove(path.c_str());
   if (!mesh) return 0;
