@@ -5,6 +5,7 @@
 #include <bit>
 #include <chrono>
 #include <cmath>
+#include <cstdint>
 #include <limits>
 #include <numeric>
 
@@ -65,6 +66,24 @@ constexpr int kEdgeLow[12][3] = {{0, 0, 0}, {0, 1, 0}, {0, 0, 1}, {0, 1, 1},   /
                                  {0, 0, 0}, {1, 0, 0}, {0, 0, 1}, {1, 0, 1},   // along y
                                  {0, 0, 0}, {1, 0, 0}, {0, 1, 0}, {1, 1, 0}};  // along z
 
+/// The face of a cell at coordinate `side` on `axis`: its corners in cyclic order and, edge q
+/// of the cycle from corner q to corner q + 1, its local edges.
+void face_cycle(int axis, int side, int corners[4], int edges[4]) {
+  int b, c;
+  other_axes(axis, &b, &c);
+  const int s = side << axis;
+  corners[0] = s, corners[1] = s | (1 << b), corners[2] = s | (1 << b) | (1 << c),
+  corners[3] = s | (1 << c);
+  for (int i = 0; i < 4; ++i) {
+    const int p = corners[i], q = corners[(i + 1) & 3];
+    const int diff = p ^ q, a = diff == 1 ? 0 : (diff == 2 ? 1 : 2);
+    const int lo = p & q;  // the end with 0 on `a`
+    int o1, o2;
+    other_axes(a, &o1, &o2);
+    edges[i] = a * 4 + (((lo >> o1) & 1) | (((lo >> o2) & 1) << 1));
+  }
+}
+
 /// For every corner mask: which patch (0..3) each crossing edge belongs to, -1 for edges that
 /// do not cross, and the number of patches. Faces with four crossings separate their inside
 /// corners (each inside corner's two edges form one segment).
@@ -85,6 +104,11 @@ struct CubeTable {
   int8_t split_edges[256][3][3];
 
   CubeTable() {
+    for (int e = 0; e < 12; ++e) {
+      const int c = edge_corner(e, 0);
+      HFRT_CHECK(kEdgeLow[e][0] == (c & 1) && kEdgeLow[e][1] == ((c >> 1) & 1) &&
+                 kEdgeLow[e][2] == (c >> 2));
+    }
     for (int m = 0; m < 256; ++m) {
       auto in = [m](int corner) { return (m >> corner) & 1; };
       int parent[12];
@@ -98,20 +122,8 @@ struct CubeTable {
       for (int e = 0; e < 12; ++e) cross_e[e] = in(edge_corner(e, 0)) != in(edge_corner(e, 1));
       for (int a = 0; a < 3; ++a) {
         for (int s = 0; s < 2; ++s) {
-          int b, c;
-          other_axes(a, &b, &c);
-          // The face's corners in cyclic order and the edge from corner i to corner i+1.
-          int corners[4] = {s << a, (s << a) | (1 << b), (s << a) | (1 << b) | (1 << c),
-                            (s << a) | (1 << c)};
-          int edges[4];
-          for (int i = 0; i < 4; ++i) {
-            int p = corners[i], q = corners[(i + 1) & 3];
-            int diff = p ^ q, axis = diff == 1 ? 0 : (diff == 2 ? 1 : 2);
-            int lo = p & q;  // the end with 0 on `axis`
-            int o1, o2;
-            other_axes(axis, &o1, &o2);
-            edges[i] = axis * 4 + (((lo >> o1) & 1) | (((lo >> o2) & 1) << 1));
-          }
+          int corners[4], edges[4];
+          face_cycle(a, s, corners, edges);
           int crossing[4], n = 0;
           for (int i = 0; i < 4; ++i)
             if (cross_e[edges[i]]) crossing[n++] = edges[i];
@@ -137,31 +149,13 @@ struct CubeTable {
       cross[m] = 0;
       for (int e = 0; e < 12; ++e) cross[m] |= uint16_t(cross_e[e]) << e;
       owned[m] = uint8_t(cross_e[0] + cross_e[4] + cross_e[8]);
-      for (int e = 0; e < 12; ++e) {
-        const int c = edge_corner(e, 0);
-        HFRT_CHECK(kEdgeLow[e][0] == (c & 1) && kEdgeLow[e][1] == ((c >> 1) & 1) &&
-                   kEdgeLow[e][2] == (c >> 2));
-      }
       split_face[m] = 0;
       for (int a = 0; a < 3; ++a) {
-        int b, d;
-        other_axes(a, &b, &d);
-        // The +a face: corners with bit a set, in cyclic order.
-        const int corners[4] = {1 << a, (1 << a) | (1 << b), (1 << a) | (1 << b) | (1 << d),
-                                (1 << a) | (1 << d)};
+        int corners[4], fe[4];  // the +a face
+        face_cycle(a, 1, corners, fe);
         int ins[4];
         for (int q = 0; q < 4; ++q) ins[q] = in(corners[q]);
         if (!(ins[0] == ins[2] && ins[1] == ins[3] && ins[0] != ins[1])) continue;
-        // Local edges of this face, edge q from corner q to corner q+1.
-        int fe[4];
-        for (int q = 0; q < 4; ++q) {
-          const int p = corners[q], r = corners[(q + 1) & 3];
-          const int diff = p ^ r, axis = diff == 1 ? 0 : (diff == 2 ? 1 : 2);
-          const int lo = p & r;
-          int o1, o2;
-          other_axes(axis, &o1, &o2);
-          fe[q] = axis * 4 + (((lo >> o1) & 1) | (((lo >> o2) & 1) << 1));
-        }
         const int k1 = ins[0] ? 0 : 1, k2 = k1 + 2;  // the inside corners
         const int s1 = fe[(k1 + 3) & 3], s2a = fe[(k2 + 3) & 3], s2b = fe[k2];
         if (comp[m][s1] != comp[m][s2a]) continue;
@@ -230,9 +224,10 @@ class Capped {
  public:
   Capped(const render::Field& field, const Box& box) : field_(field), box_(box) {}
 
-  float box_distance(Vec3 p) const {
-    return std::min({p.x - box_.lo.x, box_.hi.x - p.x, p.y - box_.lo.y, box_.hi.y - p.y,
-                     p.z - box_.lo.z, box_.hi.z - p.z});
+  float box_distance(float x, float y, float z) const {
+    return std::min(
+        std::min(std::min(x - box_.lo.x, box_.hi.x - x), std::min(y - box_.lo.y, box_.hi.y - y)),
+        std::min(z - box_.lo.z, box_.hi.z - z));
   }
 
   /// Fc at n points; counts NaN values of F in *nan_count when given.
@@ -243,28 +238,17 @@ class Capped {
     if (n % kPad == 0) {
       field_.eval(n, x, y, z, out);  // no padding needed: evaluated in place
     } else {
-      thread_local std::vector<float> buf;
-      const size_t m = (n + kPad - 1) / kPad * kPad;
-      buf.resize(4 * m);
-      float *px = buf.data(), *py = px + m, *pz = py + m, *pv = pz + m;
-      std::copy(x, x + n, px);
-      std::copy(y, y + n, py);
-      std::copy(z, z + n, pz);
-      for (size_t i = n; i < m; ++i) px[i] = x[n - 1], py[i] = y[n - 1], pz[i] = z[n - 1];
-      field_.eval(m, px, py, pz, pv);
-      pf = pv;
+      size_t m;
+      float* px = padded(n, x, y, z, 1, &m);
+      field_.eval(m, px, px + m, px + 2 * m, px + 3 * m);
+      pf = px + 3 * m;
     }
     size_t nans = 0;
-    const float lx = box_.lo.x, hx = box_.hi.x, ly = box_.lo.y, hy = box_.hi.y, lz = box_.lo.z,
-                hz = box_.hi.z;
     for (size_t i = 0; i < n; ++i) {
       float f = pf[i];
       nans += f != f;
       f = f != f ? -std::numeric_limits<float>::infinity() : f;
-      const float d =
-          std::min(std::min(std::min(x[i] - lx, hx - x[i]), std::min(y[i] - ly, hy - y[i])),
-                   std::min(z[i] - lz, hz - z[i]));
-      out[i] = std::min(f, d);
+      out[i] = std::min(f, box_distance(x[i], y[i], z[i]));
     }
     if (nan_count) *nan_count += nans;
   }
@@ -274,15 +258,9 @@ class Capped {
   void eval_gradient(size_t n, const float* x, const float* y, const float* z, float* f,
                      Vec3* g) const {
     if (n == 0) return;
-    thread_local std::vector<float> buf;
-    const size_t m = (n + kPad - 1) / kPad * kPad;
-    buf.resize(7 * m);
-    float *px = buf.data(), *py = px + m, *pz = py + m, *pf = pz + m, *gx = pf + m, *gy = gx + m,
-          *gz = gy + m;
-    std::copy(x, x + n, px);
-    std::copy(y, y + n, py);
-    std::copy(z, z + n, pz);
-    for (size_t i = n; i < m; ++i) px[i] = x[n - 1], py[i] = y[n - 1], pz[i] = z[n - 1];
+    size_t m;
+    float* px = padded(n, x, y, z, 4, &m);
+    float *py = px + m, *pz = py + m, *pf = pz + m, *gx = pf + m, *gy = gx + m, *gz = gy + m;
     field_.eval_gradient(m, px, py, pz, pf, gx, gy, gz);
     for (size_t i = 0; i < n; ++i) {
       Vec3 p{x[i], y[i], z[i]};
@@ -337,6 +315,22 @@ class Capped {
   }
 
  private:
+  /// The n points in this thread's buffer as x, y, z arrays of *m entries (n rounded up to a
+  /// multiple of kPad, padded with copies of the last point), followed by `outputs` more
+  /// arrays of *m entries for the results.
+  static float* padded(size_t n, const float* x, const float* y, const float* z, int outputs,
+                       size_t* m) {
+    thread_local std::vector<float> buf;
+    *m = (n + kPad - 1) / kPad * kPad;
+    buf.resize(size_t(3 + outputs) * *m);
+    float *px = buf.data(), *py = px + *m, *pz = py + *m;
+    std::copy(x, x + n, px);
+    std::copy(y, y + n, py);
+    std::copy(z, z + n, pz);
+    for (size_t i = n; i < *m; ++i) px[i] = x[n - 1], py[i] = y[n - 1], pz[i] = z[n - 1];
+    return px;
+  }
+
   const render::Field& field_;
   Box box_;
 };
@@ -458,7 +452,7 @@ uint64_t block_key(const BlockPos& p) {
   return cell_key(p.b[0], p.b[1], p.b[2]);
 }
 
-/// Offset d of a block's 27 neighbourhood (bit d of SampleOut::reach): (d % 3, d / 3 % 3,
+/// Offset d of a block's 27 neighbourhood (bit d of RunOut::reach): (d % 3, d / 3 % 3,
 /// d / 9) - 1 on the three axes; kSelf is the block itself.
 constexpr int kNeighbourhood = 27, kSelf = 13;
 int offset_of(int d, int axis) {
@@ -481,7 +475,6 @@ BlockNeighbours block_neighbours(const std::vector<BlockPos>& blocks) {
   std::sort(sorted.begin(), sorted.end());
   BlockNeighbours nb;
   for (auto& v : nb.at) v.assign(blocks.size(), kNone);
-  std::iota(nb.at[kSelf].begin(), nb.at[kSelf].end(), 0u);
   // One pass per (dy, dz): the three blocks at dx = -1, 0, 1 have consecutive keys, so they
   // are consecutive in the sorted list where present. Keys are shifted by adding the offsets
   // to the packed fields (no field leaves its range: a -1 at coordinate 0 is skipped, and a
@@ -510,7 +503,7 @@ BlockNeighbours block_neighbours(const std::vector<BlockPos>& blocks) {
       }
     }
   });
-  // (The pass for dy = dz = 0 wrote dx = 0 too: the block itself, as kSelf already said.)
+  // (The pass for dy = dz = 0 finds every block itself at dx = 0: at[kSelf][b] = b.)
   return nb;
 }
 
@@ -556,7 +549,6 @@ void solve_edges(const Capped& capped, const EdgeBatch& in, EdgeZeros* out, Edge
       *scratch;
   for (auto* v : {&tlo, &thi, &flo, &fhi, &vlo, &vhi, &tol, &xs, &ys, &zs, &fs, &tm}) v->resize(n);
   side.assign(n, 2);
-  active.resize(n);
   // flo, fhi: the values Illinois works with (halved when an end is kept twice); vlo, vhi:
   // the true values at the bracket's ends.
   for (size_t i = 0; i < n; ++i) {
@@ -565,7 +557,6 @@ void solve_edges(const Capped& capped, const EdgeBatch& in, EdgeZeros* out, Edge
     fhi[i] = vhi[i] = in.fb[i];
     const float d = std::abs(vlo[i] - vhi[i]);
     tol[i] = std::isfinite(d) ? kRootTolerance * d : 0.0f;
-    active[i] = uint32_t(i);
   }
   // The false-position point of edge i's bracket (its middle where a value is not finite).
   auto propose = [&](size_t i) {
@@ -609,6 +600,14 @@ void solve_edges(const Capped& capped, const EdgeBatch& in, EdgeZeros* out, Edge
     }
     active.swap(next_active);
   };
+  // Edge i's unit normal and slope from the gradient gr at its point (none where gr has no
+  // length).
+  auto set_normal = [&](size_t i, Vec3 gr) {
+    const float l = length(gr);
+    const bool valid = l > 0 && std::isfinite(l);
+    out->normal[i] = valid ? gr / l : Vec3{0, 0, 0};
+    out->slope[i] = valid ? l : 0.0f;
+  };
   // The bracket's end with the smaller |F|, and the gradient there, for the edges `which`.
   auto finish = [&](const std::vector<uint32_t>& which) {
     const size_t m = which.size();
@@ -621,13 +620,7 @@ void solve_edges(const Capped& capped, const EdgeBatch& in, EdgeZeros* out, Edge
     }
     g.resize(m);
     capped.eval_gradient(m, xs.data(), ys.data(), zs.data(), fs.data(), g.data());
-    for (size_t j = 0; j < m; ++j) {
-      const size_t i = which[j];
-      const float l = length(g[j]);
-      const bool valid = l > 0 && std::isfinite(l);
-      out->normal[i] = valid ? g[j] / l : Vec3{0, 0, 0};
-      out->slope[i] = valid ? l : 0.0f;
-    }
+    for (size_t j = 0; j < m; ++j) set_normal(which[j], g[j]);
   };
   // The first step: the false-position point from the sampled ends, its value and gradient
   // from one evaluation (enough on a plane, where F is affine along the edge).
@@ -641,10 +634,7 @@ void solve_edges(const Capped& capped, const EdgeBatch& in, EdgeZeros* out, Edge
   capped.eval_gradient(n, xs.data(), ys.data(), zs.data(), fs.data(), g.data());
   active.clear();
   for (size_t i = 0; i < n; ++i) {
-    const float l = length(g[i]);
-    const bool valid = l > 0 && std::isfinite(l);
-    out->normal[i] = valid ? g[i] / l : Vec3{0, 0, 0};
-    out->slope[i] = valid ? l : 0.0f;
+    set_normal(i, g[i]);
     if (!update(i, fs[i])) active.push_back(uint32_t(i));
   }
   // The edges not done: one Newton step along the edge with that gradient, where the
@@ -687,13 +677,6 @@ struct Placement {
   float slope = 0;
 };
 
-/// Newton steps onto F = 0 for n vertices v (in place); returns how many moved. A gradient is
-/// evaluated only where a step needs a direction; the point a step reaches is checked by a
-/// value alone (|F| reduced? close enough?), with the gradient's length at the step's origin
-/// as the slope. A flat patch's vertex (its edge normals within ~6 degrees) starts from a
-/// value alone too: its first step goes along the mean edge normal with the mean edge slope,
-/// both exact to first order at the mass point. Usually two values per smooth vertex, and no
-/// gradient. A vertex with no value or no direction keeps its QEF point.
 /// Scratch of project_vertices, one per thread (see EdgeScratch).
 struct ProjectScratch {
   std::vector<float> xs, ys, zs, fs, last_f, slope, scale;
@@ -702,6 +685,13 @@ struct ProjectScratch {
   std::vector<uint32_t> idx, live;
 };
 
+/// Newton steps onto F = 0 for n vertices v (in place); returns how many moved. A gradient is
+/// evaluated only where a step needs a direction; the point a step reaches is checked by a
+/// value alone (|F| reduced? close enough?), with the gradient's length at the step's origin
+/// as the slope. A flat patch's vertex (its edge normals within ~6 degrees) starts from a
+/// value alone too: its first step goes along the mean edge normal with the mean edge slope,
+/// both exact to first order at the mass point. Usually two values per smooth vertex, and no
+/// gradient. A vertex with no value or no direction keeps its QEF point.
 size_t project_vertices(const Capped& capped, float hmin, size_t n, Vec3* v,
                         const Placement* placement, ProjectScratch* scratch) {
   if (n == 0) return 0;
@@ -994,6 +984,7 @@ void BlockMesher::run(const std::vector<BlockPos>& blocks, size_t first, size_t 
     out->reach.push_back(reach & ~(uint32_t(1) << kSelf));
     np += size_t(nz) * sz;
   }
+  HFRT_CHECK_LE(edges.size(), size_t(INT16_MAX));  // RunCell's and slot[]'s edge indices
   const Clock::time_point t1 = Clock::now();
   // 3. The edges' zeros and normals.
   solve_edges(capped_, edges, &zeros, &edge_scratch);
