@@ -12,6 +12,7 @@
 #include <fstream>
 #include <optional>
 #include <sstream>
+#include <string_view>
 
 #include "base/file.h"
 #include "base/module.h"
@@ -89,6 +90,28 @@ inline bool off_space(char ch) {
   return ch == ' ' || (ch >= '\t' && ch <= '\r');
 }
 
+/// The next line of an OFF text at *p (*p is moved past it; the last line may lack its '\n'):
+/// the whole line, and in `tok` its tokens before any '#' comment (pointers into the text, so
+/// that numbers are parsed where they stand).
+std::string_view next_off_line(const char** p, const char* end,
+                               std::vector<std::string_view>* tok) {
+  const char* eol = static_cast<const char*>(std::memchr(*p, '\n', size_t(end - *p)));
+  if (!eol) eol = end;
+  const char* hash = static_cast<const char*>(std::memchr(*p, '#', size_t(eol - *p)));
+  const char* stop = hash ? hash : eol;
+  tok->clear();
+  for (const char* q = *p; q < stop;) {
+    while (q < stop && off_space(*q)) ++q;
+    if (q == stop) break;
+    const char* t = q;
+    while (q < stop && !off_space(*q)) ++q;
+    tok->emplace_back(t, size_t(q - t));
+  }
+  const std::string_view line(*p, size_t(eol - *p));
+  *p = eol + 1;
+  return line;
+}
+
 /// The lines of an OFF body [begin, end) parsed from content line `first_content` on (a content
 /// line has a token before any '#'; content line c < nv is a vertex, then nf faces; the rest is
 /// not read). `first_line` is the file line number of the first line. Stops at the first error.
@@ -104,29 +127,14 @@ struct OffBody {
 void parse_off_body(const std::string& path, const char* p, const char* end, size_t first_line,
                     long long first_content, long long nv, long long nf, uint64_t max,
                     OffBody* out) {
-  std::vector<const char*> tok;  // token starts of the current line
-  std::vector<size_t> tok_len;
-  auto token = [&](size_t k) { return std::string(tok[k], tok_len[k]); };
+  std::vector<std::string_view> tok;
+  auto token = [&](size_t k) { return std::string(tok[k]); };
   size_t lineno = first_line - 1;
   long long c = first_content;
   while (p < end && c < nv + nf) {
     ++lineno;
     ++out->lines;
-    const char* eol = static_cast<const char*>(std::memchr(p, '\n', size_t(end - p)));
-    if (!eol) eol = end;
-    const char* hash = static_cast<const char*>(std::memchr(p, '#', size_t(eol - p)));
-    const char* stop = hash ? hash : eol;
-    tok.clear();
-    tok_len.clear();
-    for (const char* q = p; q < stop;) {
-      while (q < stop && off_space(*q)) ++q;
-      if (q == stop) break;
-      const char* t = q;
-      while (q < stop && !off_space(*q)) ++q;
-      tok.push_back(t);
-      tok_len.push_back(size_t(q - t));
-    }
-    p = eol + 1;
+    next_off_line(&p, end, &tok);
     if (tok.empty()) continue;
     ++out->content;
     if (c++ < nv) {
@@ -136,7 +144,7 @@ void parse_off_body(const std::string& path, const char* p, const char* end, siz
       }
       Vec3 v;
       for (int k = 0; k < 3; ++k) {
-        const std::optional<double> x = parse_real(tok[k], tok_len[k]);
+        const std::optional<double> x = parse_real(tok[k].data(), tok[k].size());
         if (!x) {
           out->error = located(path, lineno, "malformed coordinate '" + token(k) + "'");
           return;
@@ -150,7 +158,7 @@ void parse_off_body(const std::string& path, const char* p, const char* end, siz
       out->vertices.push_back(v);
       continue;
     }
-    auto n = parse_int(tok[0], tok_len[0]);
+    auto n = parse_int(tok[0].data(), tok[0].size());
     if (!n || *n < 1) {
       out->error = located(path, lineno, "malformed face size '" + token(0) + "'");
       return;
@@ -161,7 +169,7 @@ void parse_off_body(const std::string& path, const char* p, const char* end, siz
     }
     uint32_t idx[3] = {0, 0, 0};
     for (long long k = 1; k <= *n; ++k) {
-      const std::optional<long long> index = parse_int(tok[k], tok_len[k]);
+      const std::optional<long long> index = parse_int(tok[k].data(), tok[k].size());
       if (!index) {
         out->error = located(path, lineno, "malformed vertex index '" + token(k) + "'");
         return;
@@ -208,25 +216,14 @@ Result<TriangleMesh> parse_off(const std::string& path, const std::string& text,
   // The header and the counts.
   bool have_header = false;
   long long nv = -1, nf = 0;
+  std::vector<std::string_view> tok;
   while (p < end && nv < 0) {
     ++lineno;
-    const char* eol = static_cast<const char*>(std::memchr(p, '\n', size_t(end - p)));
-    if (!eol) eol = end;
-    const char* hash = static_cast<const char*>(std::memchr(p, '#', size_t(eol - p)));
-    const std::string_view line(p, size_t(eol - p));
-    std::vector<std::string> tok;
-    for (const char *q = p, *stop = hash ? hash : eol; q < stop;) {
-      while (q < stop && off_space(*q)) ++q;
-      if (q == stop) break;
-      const char* t = q;
-      while (q < stop && !off_space(*q)) ++q;
-      tok.emplace_back(t, size_t(q - t));
-    }
-    p = eol + 1;
+    const std::string_view line = next_off_line(&p, end, &tok);
     if (tok.empty()) continue;
     size_t first = 0;
     if (!have_header) {
-      const std::string& h = tok[0];
+      const std::string h(tok[0]);
       if (h.size() < 3 || h.substr(h.size() - 3) != "OFF")
         return located(path, lineno, "expected the OFF header, found '" + h + "'");
       have_header = true;
@@ -234,7 +231,8 @@ Result<TriangleMesh> parse_off(const std::string& path, const std::string& text,
       first = 1;
     }
     if (tok.size() - first < 2) return located(path, lineno, "expected '#vertices #faces #edges'");
-    auto a = parse_int(tok[first]), b = parse_int(tok[first + 1]);
+    auto a = parse_int(tok[first].data(), tok[first].size()),
+         b = parse_int(tok[first + 1].data(), tok[first + 1].size());
     if (!a || !b || *a < 0 || *b < 0)
       return located(path, lineno, "malformed vertex/face counts '" + std::string(line) + "'");
     nv = *a;
