@@ -42,6 +42,13 @@ struct JitOptions {
   /// Keep the LLVM IR text (JitFunction::llvm_ir). Off by default: printing the module costs
   /// milliseconds (its vector constants above all), which every compile paid, cache hits too.
   bool keep_llvm_ir = false;
+  /// The light IR pipeline and code generation without machine optimisation for code with
+  /// more than this many calls in one function (PipelineOptions::fast_codegen_calls; 0:
+  /// never). Above it the calls (libm, hfrt helpers, one per lane) are the run time, and the
+  /// optimising compile costs seconds: a corpus model with 6440 calls compiled in 2.5 s, 0.8 s
+  /// this way, at the same evaluation speed (bench figures in docs/jit.md).
+  size_t fast_codegen_calls = kFastCodegenCalls;
+  static constexpr size_t kFastCodegenCalls = 1000;
 };
 
 /// Compile-latency figures of one JitFunction (`hfrt eval --stats`).
@@ -52,7 +59,9 @@ struct JitStats {
   int lanes = 0;
   size_t llvm_insts_before = 0;  ///< LLVM instructions before / after optimisation
   size_t llvm_insts_after = 0;
-  bool from_cache = false;  ///< the code came from the compile cache (hfrt/compile_cache.h)
+  size_t llvm_calls = 0;      ///< calls (not intrinsics) in the optimised code
+  bool fast_codegen = false;  ///< compiled without machine optimisation (too many calls)
+  bool from_cache = false;    ///< the code came from the compile cache (hfrt/compile_cache.h)
   double total_ms() const { return emit_ms + optimize_ms + codegen_ms; }
 };
 

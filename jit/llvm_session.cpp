@@ -92,6 +92,20 @@ size_t count_insts(const llvm::Module& m) {
   return n;
 }
 
+/// Calls of functions (not intrinsics) in `f`: each is a real call in the machine code.
+size_t count_calls(const llvm::Function& f) {
+  size_t n = 0;
+  for (const llvm::BasicBlock& bb : f) {
+    for (const llvm::Instruction& inst : bb) {
+      if (const auto* call = llvm::dyn_cast<llvm::CallInst>(&inst)) {
+        const llvm::Function* callee = call->getCalledFunction();
+        n += !callee || !callee->isIntrinsic();
+      }
+    }
+  }
+  return n;
+}
+
 PipelineOptions domain_pipeline(int opt_level) {
   PipelineOptions o;
   o.opt_level = opt_level;
@@ -282,6 +296,14 @@ Result<std::unique_ptr<CompiledCode>> LlvmSession::compile(ModuleUnit unit,
     }
   }
   if (stats) stats->llvm_insts_before = count_insts(module);
+  // Call-heavy code (PipelineOptions::fast_codegen_calls): the light IR pipeline and code
+  // generation at level None (fast instruction selection and the fast register allocator,
+  // which is chosen per module: optnone on a function alone keeps the greedy one).
+  size_t most_calls = 0;
+  for (const llvm::Function& f : module) most_calls = std::max(most_calls, count_calls(f));
+  const bool call_heavy = options.fast_codegen_calls > 0 && most_calls > options.fast_codegen_calls;
+  const bool light = options.light || call_heavy;
+  if (stats) stats->llvm_calls = most_calls, stats->fast_codegen = call_heavy;
 
   // The compile cache: the key is the IR before optimisation and everything else that shapes
   // the machine code.
@@ -296,9 +318,11 @@ Result<std::unique_ptr<CompiledCode>> LlvmSession::compile(ModuleUnit unit,
       llvm::WriteBitcodeToFile(module, bos);
       std::string ctx = "format " + std::to_string(kCacheFormat) + "\nllvm " LLVM_VERSION_STRING +
                         "\ncpu " + cpu_ + "\ntriple " + triple_ + "\nlayout " + data_layout_ +
-                        "\nopt " + std::to_string(options.opt_level) +
-                        (options.light ? " light" : "") + " codegen " +
-                        std::to_string(static_cast<int>(options.codegen)) + "\nfast";
+                        "\nopt " + std::to_string(options.opt_level) + (light ? " light" : "") +
+                        " codegen " +
+                        std::to_string(static_cast<int>(call_heavy ? llvm::CodeGenOptLevel::None
+                                                                   : options.codegen)) +
+                        "\nfast";
       for (llvm::Function* f : fast) ctx += " " + std::to_string(f == entry_fn ? 0 : 1);
       for (const std::string& feature : jtmb_.getFeatures().getFeatures()) ctx += "\n" + feature;
       llvm::BLAKE3 hash;
@@ -330,7 +354,7 @@ Result<std::unique_ptr<CompiledCode>> LlvmSession::compile(ModuleUnit unit,
       return Error{"cannot create the target machine: " + llvm_error_text(tm_or.takeError())};
     }
     std::unique_ptr<llvm::TargetMachine> tm = std::move(*tm_or);
-    tm->setOptLevel(options.codegen);
+    tm->setOptLevel(call_heavy ? llvm::CodeGenOptLevel::None : options.codegen);
 
     // --- Optimisation (new pass manager).
     {
@@ -349,7 +373,7 @@ Result<std::unique_ptr<CompiledCode>> LlvmSession::compile(ModuleUnit unit,
       pb.registerLoopAnalyses(lam);
       pb.crossRegisterProxies(lam, fam, cgam, mam);
       llvm::ModulePassManager mpm;
-      if (options.light) {
+      if (light) {
         // Promote slots to registers and share common subexpressions, but keep the emitter's
         // basic blocks (no SimplifyCFG, no instcombine).
         llvm::FunctionPassManager fpm;

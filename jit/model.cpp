@@ -645,6 +645,8 @@ ModelStats Model::stats() const {
     j.codegen_ms = js.codegen_ms;
     j.llvm_insts_before = js.llvm_insts_before;
     j.llvm_insts_after = js.llvm_insts_after;
+    j.llvm_calls = js.llvm_calls;
+    j.fast_codegen = js.fast_codegen;
   }
   auto domain = [](double compile_ms, int lanes, ModelStats::Domain* d) {
     d->compiled = true;

@@ -85,6 +85,63 @@ TEST(JitModelTest, BothBackendsAndPrecisionsAgree) {
   }
 }
 
+/// `calls` atan2 of different arguments, summed.
+std::string atan2_sum(int calls) {
+  std::string text = "m(x[3], a[1]) { t = 0;";
+  for (int i = 0; i < calls; ++i) {
+    text +=
+        " t = t + atan2(x[1] + " + std::to_string(i) + ", x[2] - " + std::to_string(2 * i) + ");";
+  }
+  return text + " m = 1 - 0.01 * t; }";
+}
+
+/// The JIT's values of `text` equal the interpreter's (f64 bit for bit, f32 closely); returns
+/// the JIT model's stats.
+ModelStats expect_jit_equals_interpreter(const std::string& text) {
+  CompileResult jit = Model::compile(text);
+  EXPECT_TRUE(jit.ok()) << jit.rendered;
+  ModelOptions interp_options;
+  interp_options.backend = Backend::kInterp;
+  CompileResult interp = Model::compile(text, interp_options);
+  EXPECT_TRUE(interp.ok()) << interp.rendered;
+  if (!jit.ok() || !interp.ok()) return {};
+  const int n = 37;
+  std::vector<double> xs(3 * n), f(n), want(n);
+  std::vector<float> xs32(3 * n), f32(n);
+  for (int i = 0; i < n; ++i) {
+    for (int k = 0; k < 3; ++k) xs[k * n + i] = xs32[k * n + i] = 0.3f * (i - 18) * (k + 1);
+  }
+  jit.model->eval_batch(n, xs.data(), f.data());
+  jit.model->eval_batch(n, xs32.data(), f32.data());
+  interp.model->eval_batch(n, xs.data(), want.data());
+  for (int i = 0; i < n; ++i) {
+    EXPECT_DOUBLE_EQ(f[i], want[i]) << i;
+    EXPECT_NEAR(f32[i], want[i], 1e-4 * (1 + std::fabs(want[i]))) << i;
+  }
+  return jit.model->stats();
+}
+
+TEST(JitModelTest, CallHeavyCodeTakesOneLaneAndFastCodeGeneration) {
+  // 160 atan2: 1280 calls at 8 f64 lanes, more than JitOptions::kFastCodegenCalls (1000):
+  // one lane, 160 calls, the optimising code generator.
+  ModelStats st = expect_jit_equals_interpreter(atan2_sum(160));
+  EXPECT_EQ(st.jit_f64.lanes, 1);
+  EXPECT_EQ(st.jit_f32.lanes, 1);
+  EXPECT_EQ(st.jit_f64.llvm_calls, 160u);
+  EXPECT_FALSE(st.jit_f64.fast_codegen);
+  // 1100 atan2: still more than 1000 calls at one lane: fast code generation too.
+  st = expect_jit_equals_interpreter(atan2_sum(1100));
+  EXPECT_EQ(st.jit_f64.lanes, 1);
+  EXPECT_GT(st.jit_f64.llvm_calls, 1000u);
+  EXPECT_TRUE(st.jit_f64.fast_codegen);
+  EXPECT_TRUE(st.jit_f32.fast_codegen);
+  // A few calls: the host's lanes.
+  st = expect_jit_equals_interpreter(atan2_sum(3));
+  EXPECT_GT(st.jit_f64.lanes, 1);
+  EXPECT_GT(st.jit_f32.lanes, 1);
+  EXPECT_FALSE(st.jit_f64.fast_codegen);
+}
+
 TEST(JitModelTest, RuntimeErrorsGiveNanAndTheMessage) {
   for (Backend backend : {Backend::kJit, Backend::kInterp}) {
     ModelOptions mo;

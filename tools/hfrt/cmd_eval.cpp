@@ -361,9 +361,10 @@ int run_eval(const EvalOptions& opts) {
       if (!j->compiled) continue;
       std::fprintf(stderr,
                    "stats: jit %s: %d lanes, emit %.3f ms, optimise %.3f ms, codegen %.3f ms, "
-                   "LLVM instructions %zu -> %zu\n",
+                   "LLVM instructions %zu -> %zu, %zu calls%s\n",
                    j == &st.jit_f64 ? "f64" : "f32", j->lanes, j->emit_ms, j->optimize_ms,
-                   j->codegen_ms, j->llvm_insts_before, j->llvm_insts_after);
+                   j->codegen_ms, j->llvm_insts_before, j->llvm_insts_after, j->llvm_calls,
+                   j->fast_codegen ? " (fast code generation: too many calls)" : "");
     }
     std::fprintf(stderr, "stats: evaluated %zu points in %.3f ms (%.1f ns/point, incl. output)\n",
                  n, eval_ms, n ? eval_ms * 1e6 / static_cast<double>(n) : 0.0);

@@ -190,6 +190,8 @@ struct ModelStats {
     int lanes = 0;
     double emit_ms = 0, optimize_ms = 0, codegen_ms = 0;
     size_t llvm_insts_before = 0, llvm_insts_after = 0;
+    size_t llvm_calls = 0;      ///< calls in the optimised code (libm and hfrt helpers, per lane)
+    bool fast_codegen = false;  ///< compiled without machine optimisation (too many calls)
   };
   Jit jit_f64, jit_f32;
   /// The interval and gradient JITs, once compiled (their compile time in total).
