@@ -470,7 +470,10 @@ Result<std::unique_ptr<GradientJit>> GradientJit::compile(const Function& fn,
   if (!session.ok()) return session.error();
   const bool f32 = options.precision == Precision::kF32;
   auto impl = std::make_unique<Impl>();
-  impl->lanes = options.lanes > 0 ? options.lanes : session.value()->lanes(f32 ? 4 : 8);
+  // (f32 sin and cos are vector code, GradientEmitter::sin_cos_f32; f64 ones call libm.)
+  impl->lanes = options.lanes > 0 ? options.lanes
+                                  : call_heavy_lanes(fn, session.value()->lanes(f32 ? 4 : 8), f32,
+                                                     kFastCodegenCalls);
   ModuleUnit unit = session.value()->new_module("hfrt_gradient");
   const std::string name = unit.name;
   auto t0 = std::chrono::steady_clock::now();
@@ -478,8 +481,9 @@ Result<std::unique_ptr<GradientJit>> GradientJit::compile(const Function& fn,
   impl->stats.emit_ms =
       std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
   impl->stats.lanes = impl->lanes;
-  auto code = session.value()->compile(std::move(unit), name, domain_pipeline(options.opt_level),
-                                       &impl->stats);
+  PipelineOptions pipeline = domain_pipeline(options.opt_level);
+  pipeline.fast_codegen_calls = kFastCodegenCalls;
+  auto code = session.value()->compile(std::move(unit), name, pipeline, &impl->stats);
   if (!code.ok()) return code.error();
   impl->code = std::move(code.value());
   impl->precision = options.precision;

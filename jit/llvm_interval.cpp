@@ -1097,6 +1097,9 @@ Result<std::unique_ptr<IntervalJit>> IntervalJit::compile(const Function& fn,
   Result<LlvmSession*> session = LlvmSession::get();
   if (!session.ok()) return session.error();
   auto impl = std::make_unique<Impl>();
+  // The host's lanes and the optimising code generator even for call-heavy code (unlike the
+  // point and gradient JITs): on a corpus model with 140 lane calls the renderer's batches of
+  // boxes ran ~10 % slower either way, for 0.6 s less compile of a 30 s render.
   impl->lanes = options.lanes > 0 ? options.lanes : session.value()->lanes(8);
   ModuleUnit unit = session.value()->new_module("hfrt_interval");
   const std::string name = unit.name;

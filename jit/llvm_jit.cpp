@@ -500,36 +500,17 @@ const std::string& JitFunction::llvm_ir() const {
   return impl_->llvm_ir;
 }
 
-namespace {
-
-/// The host's lanes, or one lane for call-heavy code: a per-lane libm or helper call costs
-/// the same at any width, and around each call a vector function extracts, inserts and
-/// spills every live vector. On four corpus models with 140-2900 such calls (gears,
-/// architecture, a garbled prospero) one lane compiled 3-12x faster and evaluated 1.5-3x
-/// faster than 8 or 16 (docs/jit.md).
-int lanes_for(const Function& fn, Precision precision, const JitOptions& options) {
-  const int host = host_lanes(precision);
-  if (options.fast_codegen_calls == 0) return host;
-  const bool f32 = precision == Precision::kF32;
-  size_t calls = 0;
-  for (const Inst& inst : fn.insts) {
-    const OpLane lane = op_lane(inst.op);
-    // (f32 sin and cos are vector code: VectorEmitter::sin_cos_f32.)
-    calls += (lane == OpLane::kLibm || lane == OpLane::kHelper) &&
-             !(f32 && (inst.op == Op::kSin || inst.op == Op::kCos));
-  }
-  return calls * size_t(host) > options.fast_codegen_calls ? 1 : host;
-}
-
-}  // namespace
-
 Result<std::unique_ptr<JitFunction>> JitFunction::compile(const Function& fn, Precision precision,
                                                           const JitOptions& options) {
   Result<LlvmSession*> session = LlvmSession::get();
   if (!session.ok()) return session.error();
   auto impl = std::make_unique<Impl>();
   impl->precision = precision;
-  const int lanes = options.lanes > 0 ? options.lanes : lanes_for(fn, precision, options);
+  // (f32 sin and cos are vector code: VectorEmitter::sin_cos_f32.)
+  const int lanes = options.lanes > 0
+                        ? options.lanes
+                        : call_heavy_lanes(fn, host_lanes(precision), precision == Precision::kF32,
+                                           options.fast_codegen_calls);
   impl->stats.lanes = lanes;
 
   ModuleUnit unit =

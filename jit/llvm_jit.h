@@ -30,6 +30,12 @@ enum class Precision : uint8_t {
 template <typename T>
 using BatchFn = void (*)(int64_t n, const T* xs, const T* a, T* out_f, T* out_s) noexcept;
 
+/// Per-lane calls (libm, hfrt helpers) above which code counts as call-heavy: the default of
+/// JitOptions::fast_codegen_calls and of the interval and gradient JITs. Above it the calls
+/// are the run time and the optimising compile costs seconds: a corpus model with 6440
+/// calls compiled in 2.5 s, 0.8 s as call-heavy code, and ran faster (docs/architecture.md).
+inline constexpr size_t kFastCodegenCalls = 1000;
+
 struct JitOptions {
   int opt_level = 2;  ///< new pass manager pipeline O0..O3 (and the codegen level to match)
   int lanes = 0;      ///< SIMD width in lanes; 0 = the host's (vector bytes / sizeof(T))
@@ -42,13 +48,10 @@ struct JitOptions {
   /// Keep the LLVM IR text (JitFunction::llvm_ir). Off by default: printing the module costs
   /// milliseconds (its vector constants above all), which every compile paid, cache hits too.
   bool keep_llvm_ir = false;
-  /// The light IR pipeline and code generation without machine optimisation for code with
-  /// more than this many calls in one function (PipelineOptions::fast_codegen_calls; 0:
-  /// never). Above it the calls (libm, hfrt helpers, one per lane) are the run time, and the
-  /// optimising compile costs seconds: a corpus model with 6440 calls compiled in 2.5 s, 0.8 s
-  /// this way, at the same evaluation speed (bench figures in docs/jit.md).
+  /// Call-heavy code (call_heavy_lanes in jit/llvm_session.h): one lane when the per-lane
+  /// calls exceed this, and above it after emission the light IR pipeline and code
+  /// generation at level None (PipelineOptions::fast_codegen_calls). 0: never.
   size_t fast_codegen_calls = kFastCodegenCalls;
-  static constexpr size_t kFastCodegenCalls = 1000;
 };
 
 /// Compile-latency figures of one JitFunction (`hfrt eval --stats`).

@@ -106,6 +106,17 @@ size_t count_calls(const llvm::Function& f) {
   return n;
 }
 
+int call_heavy_lanes(const ir::Function& fn, int host, bool trig_inline, size_t limit) {
+  if (limit == 0) return host;
+  size_t calls = 0;
+  for (const ir::Inst& inst : fn.insts) {
+    const ir::OpLane lane = ir::op_lane(inst.op);
+    calls += (lane == ir::OpLane::kLibm || lane == ir::OpLane::kHelper) &&
+             !(trig_inline && (inst.op == ir::Op::kSin || inst.op == ir::Op::kCos));
+  }
+  return calls * size_t(std::max(host, 1)) > limit ? 1 : host;
+}
+
 PipelineOptions domain_pipeline(int opt_level) {
   PipelineOptions o;
   o.opt_level = opt_level;

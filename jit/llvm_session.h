@@ -28,8 +28,9 @@
 #include <vector>
 
 #include "base/result.h"
+#include "ir/ir.h"
 #include "jit/llvm_includes.h"
-#include "jit/llvm_jit.h"  // JitStats
+#include "jit/llvm_jit.h"  // JitStats, kFastCodegenCalls
 
 namespace hfrt::jit {
 
@@ -71,6 +72,15 @@ struct PipelineOptions {
   /// Keep the optimised IR text (JitFunction::llvm_ir).
   bool keep_ir = false;
 };
+
+/// The lanes to emit `fn` with: `host`, or one for call-heavy code, where the ops that call
+/// libm or an hfrt helper lane by lane (OpLane kLibm, kHelper; sin and cos too unless
+/// `trig_inline`: the f32 and interval emitters' own kernels) times `host` exceed `limit`
+/// (0: never). A lane call costs the same at any width, and around each call a vector
+/// function extracts, inserts and spills every live vector. On four corpus models with
+/// 140-2900 such calls (gears, architecture, a garbled prospero) one lane compiled 3-12x
+/// faster and evaluated 1.5-3x faster than 8 or 16 (docs/architecture.md).
+int call_heavy_lanes(const ir::Function& fn, int host, bool trig_inline, size_t limit);
 
 /// The pipeline of the wide domain emitters (interval, gradient) for their opt_level option:
 /// 0 = O0, 1 = the light pipeline, 2 and 3 = LLVM's default O2 / O3 pipelines.

@@ -118,6 +118,17 @@ ModelStats expect_jit_equals_interpreter(const std::string& text) {
     EXPECT_DOUBLE_EQ(f[i], want[i]) << i;
     EXPECT_NEAR(f32[i], want[i], 1e-4 * (1 + std::fabs(want[i]))) << i;
   }
+  // Gradients: f, df/dx, df/dy, df/dz per point.
+  std::vector<double> g(4 * n), want_g(4 * n);
+  jit.model->eval_gradient_batch(n, xs.data(), g.data());
+  interp.model->eval_gradient_batch(n, xs.data(), want_g.data());
+  for (int i = 0; i < 4 * n; ++i) {
+    if (std::isnan(want_g[i])) {
+      EXPECT_TRUE(std::isnan(g[i])) << i;  // atan2(0, 0)'s derivative
+    } else {
+      EXPECT_NEAR(g[i], want_g[i], 1e-12 * (1 + std::fabs(want_g[i]))) << i;
+    }
+  }
   return jit.model->stats();
 }
 
@@ -129,6 +140,7 @@ TEST(JitModelTest, CallHeavyCodeTakesOneLaneAndFastCodeGeneration) {
   EXPECT_EQ(st.jit_f32.lanes, 1);
   EXPECT_EQ(st.jit_f64.llvm_calls, 160u);
   EXPECT_FALSE(st.jit_f64.fast_codegen);
+  EXPECT_EQ(st.gradient_f64.lanes, 1);
   // 1100 atan2: still more than 1000 calls at one lane: fast code generation too.
   st = expect_jit_equals_interpreter(atan2_sum(1100));
   EXPECT_EQ(st.jit_f64.lanes, 1);
@@ -139,6 +151,7 @@ TEST(JitModelTest, CallHeavyCodeTakesOneLaneAndFastCodeGeneration) {
   st = expect_jit_equals_interpreter(atan2_sum(3));
   EXPECT_GT(st.jit_f64.lanes, 1);
   EXPECT_GT(st.jit_f32.lanes, 1);
+  EXPECT_GT(st.gradient_f64.lanes, 1);
   EXPECT_FALSE(st.jit_f64.fast_codegen);
 }
 
