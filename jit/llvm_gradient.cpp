@@ -473,7 +473,7 @@ Result<std::unique_ptr<GradientJit>> GradientJit::compile(const Function& fn,
   // (f32 sin and cos are vector code, GradientEmitter::sin_cos_f32; f64 ones call libm.)
   impl->lanes = options.lanes > 0 ? options.lanes
                                   : call_heavy_lanes(fn, session.value()->lanes(f32 ? 4 : 8), f32,
-                                                     kFastCodegenCalls);
+                                                     kCallHeavyLaneCalls);
   ModuleUnit unit = session.value()->new_module("hfrt_gradient");
   const std::string name = unit.name;
   auto t0 = std::chrono::steady_clock::now();

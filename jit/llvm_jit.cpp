@@ -510,7 +510,7 @@ Result<std::unique_ptr<JitFunction>> JitFunction::compile(const Function& fn, Pr
   const int lanes = options.lanes > 0
                         ? options.lanes
                         : call_heavy_lanes(fn, host_lanes(precision), precision == Precision::kF32,
-                                           options.fast_codegen_calls);
+                                           options.call_heavy_lane_calls);
   impl->stats.lanes = lanes;
 
   ModuleUnit unit =

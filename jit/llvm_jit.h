@@ -30,11 +30,15 @@ enum class Precision : uint8_t {
 template <typename T>
 using BatchFn = void (*)(int64_t n, const T* xs, const T* a, T* out_f, T* out_s) noexcept;
 
-/// Per-lane calls (libm, hfrt helpers) above which code counts as call-heavy: the default of
-/// JitOptions::fast_codegen_calls and of the interval and gradient JITs. Above it the calls
-/// are the run time and the optimising compile costs seconds: a corpus model with 6440
-/// calls compiled in 2.5 s, 0.8 s as call-heavy code, and ran faster (docs/architecture.md).
-inline constexpr size_t kFastCodegenCalls = 1000;
+/// Call-heavy code (docs/architecture.md): the point and gradient JITs emit one lane when an
+/// object's per-lane calls (libm, hfrt helpers) times the host's lanes exceed this and the
+/// calls are at least 1/16 of its instructions (call_heavy_lanes in jit/llvm_session.h).
+inline constexpr size_t kCallHeavyLaneCalls = 1000;
+/// A function with more calls than this after emission gets the light IR pipeline and code
+/// generation at level None (PipelineOptions::fast_codegen_calls): the calls are the run
+/// time, and the optimising compile costs seconds (a corpus gear with 805 calls: 1.45 s ->
+/// 0.2 s, the same evaluation speed).
+inline constexpr size_t kFastCodegenCalls = 500;
 
 struct JitOptions {
   int opt_level = 2;  ///< new pass manager pipeline O0..O3 (and the codegen level to match)
@@ -48,9 +52,9 @@ struct JitOptions {
   /// Keep the LLVM IR text (JitFunction::llvm_ir). Off by default: printing the module costs
   /// milliseconds (its vector constants above all), which every compile paid, cache hits too.
   bool keep_llvm_ir = false;
-  /// Call-heavy code (call_heavy_lanes in jit/llvm_session.h): one lane when the per-lane
-  /// calls exceed this, and above it after emission the light IR pipeline and code
-  /// generation at level None (PipelineOptions::fast_codegen_calls). 0: never.
+  /// Call-heavy code: one lane above this many per-lane calls x lanes (0: never), and fast
+  /// code generation above that many calls after emission (0: never).
+  size_t call_heavy_lane_calls = kCallHeavyLaneCalls;
   size_t fast_codegen_calls = kFastCodegenCalls;
 };
 

@@ -114,7 +114,8 @@ int call_heavy_lanes(const ir::Function& fn, int host, bool trig_inline, size_t 
     calls += (lane == ir::OpLane::kLibm || lane == ir::OpLane::kHelper) &&
              !(trig_inline && (inst.op == ir::Op::kSin || inst.op == ir::Op::kCos));
   }
-  return calls * size_t(std::max(host, 1)) > limit ? 1 : host;
+  const bool heavy = calls * size_t(std::max(host, 1)) > limit && calls * 16 >= fn.insts.size();
+  return heavy ? 1 : host;
 }
 
 PipelineOptions domain_pipeline(int opt_level) {

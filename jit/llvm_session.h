@@ -30,7 +30,7 @@
 #include "base/result.h"
 #include "ir/ir.h"
 #include "jit/llvm_includes.h"
-#include "jit/llvm_jit.h"  // JitStats, kFastCodegenCalls
+#include "jit/llvm_jit.h"  // JitStats, kCallHeavyLaneCalls, kFastCodegenCalls
 
 namespace hfrt::jit {
 
@@ -62,7 +62,8 @@ struct PipelineOptions {
   /// optnone after the IR pipeline, which still optimises them): for huge functions that
   /// are mostly calls, where the optimising code generator costs seconds and gains nothing.
   std::vector<std::string> fast_codegen;
-  /// Call-heavy modules: when one function makes more than this many calls (0: never), the
+  /// Call-heavy modules (kFastCodegenCalls): when one function makes more than this many
+  /// calls (0: never), the
   /// whole module takes the light IR pipeline and code generation at level None. Each call
   /// clobbers every vector register, so the greedy register allocator's interference checks
   /// grow with calls x live values: a model of 1221 `^` and ~2000 atan2 (8 and 16 lanes:
@@ -76,10 +77,11 @@ struct PipelineOptions {
 /// The lanes to emit `fn` with: `host`, or one for call-heavy code, where the ops that call
 /// libm or an hfrt helper lane by lane (OpLane kLibm, kHelper; sin and cos too unless
 /// `trig_inline`: the f32 and interval emitters' own kernels) times `host` exceed `limit`
-/// (0: never). A lane call costs the same at any width, and around each call a vector
-/// function extracts, inserts and spills every live vector. On four corpus models with
-/// 140-2900 such calls (gears, architecture, a garbled prospero) one lane compiled 3-12x
-/// faster and evaluated 1.5-3x faster than 8 or 16 (docs/architecture.md).
+/// (0: never) and are at least 1/16 of the instructions (a few calls among thousands of
+/// arithmetic ops keep the vector width that the arithmetic needs). A lane call costs the same at
+/// any width, and around each call a vector function extracts, inserts and spills every live
+/// vector. On four corpus models with 140-2900 such calls (gears, architecture, a garbled prospero)
+/// one lane compiled 3-12x faster and evaluated 1.5-3x faster than 8 or 16 (docs/architecture.md).
 int call_heavy_lanes(const ir::Function& fn, int host, bool trig_inline, size_t limit);
 
 /// The pipeline of the wide domain emitters (interval, gradient) for their opt_level option:

@@ -85,14 +85,15 @@ TEST(JitModelTest, BothBackendsAndPrecisionsAgree) {
   }
 }
 
-/// `calls` atan2 of different arguments, summed.
-std::string atan2_sum(int calls) {
-  std::string text = "m(x[3], a[1]) { t = 0;";
+/// `calls` atan2 of different arguments, summed, and `arith` more multiply-adds.
+std::string atan2_sum(int calls, int arith = 0) {
+  std::string text = "m(x[3], a[1]) { t = 0; u = 0;";
   for (int i = 0; i < calls; ++i) {
     text +=
         " t = t + atan2(x[1] + " + std::to_string(i) + ", x[2] - " + std::to_string(2 * i) + ");";
   }
-  return text + " m = 1 - 0.01 * t; }";
+  for (int i = 0; i < arith; ++i) text += " u = u * 0.5 + x[1];";
+  return text + " m = 1 - 0.01 * t - 1e-9 * u; }";
 }
 
 /// The JIT's values of `text` equal the interpreter's (f64 bit for bit, f32 closely); returns
@@ -133,18 +134,19 @@ ModelStats expect_jit_equals_interpreter(const std::string& text) {
 }
 
 TEST(JitModelTest, CallHeavyCodeTakesOneLaneAndFastCodeGeneration) {
-  // 160 atan2: 1280 calls at 8 f64 lanes, more than JitOptions::kFastCodegenCalls (1000):
-  // one lane, 160 calls, the optimising code generator.
+  // 160 atan2: 1280 calls at 8 f64 lanes, more than jit::kCallHeavyLaneCalls (1000), and
+  // most of the instructions: one lane, 160 calls, under jit::kFastCodegenCalls (500): the
+  // optimising code generator.
   ModelStats st = expect_jit_equals_interpreter(atan2_sum(160));
   EXPECT_EQ(st.jit_f64.lanes, 1);
   EXPECT_EQ(st.jit_f32.lanes, 1);
+  EXPECT_EQ(st.gradient_f64.lanes, 1);
   EXPECT_EQ(st.jit_f64.llvm_calls, 160u);
   EXPECT_FALSE(st.jit_f64.fast_codegen);
-  EXPECT_EQ(st.gradient_f64.lanes, 1);
-  // 1100 atan2: still more than 1000 calls at one lane: fast code generation too.
-  st = expect_jit_equals_interpreter(atan2_sum(1100));
+  // 600 atan2: more than 500 calls at one lane: fast code generation too.
+  st = expect_jit_equals_interpreter(atan2_sum(600));
   EXPECT_EQ(st.jit_f64.lanes, 1);
-  EXPECT_GT(st.jit_f64.llvm_calls, 1000u);
+  EXPECT_GT(st.jit_f64.llvm_calls, 500u);
   EXPECT_TRUE(st.jit_f64.fast_codegen);
   EXPECT_TRUE(st.jit_f32.fast_codegen);
   // A few calls: the host's lanes.
@@ -153,6 +155,10 @@ TEST(JitModelTest, CallHeavyCodeTakesOneLaneAndFastCodeGeneration) {
   EXPECT_GT(st.jit_f32.lanes, 1);
   EXPECT_GT(st.gradient_f64.lanes, 1);
   EXPECT_FALSE(st.jit_f64.fast_codegen);
+  // 160 calls among 4000 multiply-adds (< 1/16 of the instructions): the host's lanes.
+  st = expect_jit_equals_interpreter(atan2_sum(160, 4000));
+  EXPECT_GT(st.jit_f64.lanes, 1);
+  EXPECT_GT(st.jit_f32.lanes, 1);
 }
 
 TEST(JitModelTest, RuntimeErrorsGiveNanAndTheMessage) {
