@@ -261,19 +261,23 @@ llvm::Value* VectorEmitter::sin_cos_f32(llvm::Value* a, bool cos) {
   llvm::BasicBlock* join = new_block("trig_join");
   b_.CreateCondBr(any(beyond), slow, join);
   b_.SetInsertPoint(slow);
-  auto* fty = llvm::FunctionType::get(b_.getDoubleTy(), {b_.getDoubleTy()}, false);
-  llvm::FunctionCallee f = m_.getOrInsertFunction(cos ? "cos" : "sin", fty);
+  // Every lane by libm's double function, in one call of a host helper (llvm_jit.cpp's
+  // hfrt_jit_trig_lanes_f32): per-lane calls here made each sin or cos w_ calls of code.
+  llvm::Type* i32 = b_.getInt32Ty();
+  auto* fty =
+      llvm::FunctionType::get(b_.getVoidTy(), {b_.getPtrTy(), b_.getPtrTy(), i32, i32}, false);
+  llvm::FunctionCallee f = m_.getOrInsertFunction("hfrt_jit_trig_lanes_f32", fty);
   if (auto* fn = llvm::dyn_cast<llvm::Function>(f.getCallee())) {
     fn->setDoesNotThrow();
     fn->setWillReturn();
-    fn->setMemoryEffects(llvm::MemoryEffects::none());
   }
-  llvm::Value* libm = llvm::PoisonValue::get(vt_);
-  for (int i = 0; i < w_; ++i) {
-    llvm::CallInst* call = b_.CreateCall(f, {b_.CreateExtractElement(d, uint64_t(i))});
-    call->setDoesNotThrow();
-    libm = b_.CreateInsertElement(libm, b_.CreateFPTrunc(call, st_), uint64_t(i));
-  }
+  llvm::AllocaInst* in = entry_alloca(dt, "trig.in");
+  llvm::AllocaInst* out = entry_alloca(vt_, "trig.out");
+  b_.CreateStore(d, in);
+  llvm::CallInst* call = b_.CreateCall(
+      f, {in, out, llvm::ConstantInt::get(i32, w_), llvm::ConstantInt::get(i32, cos ? 1 : 0)});
+  call->setDoesNotThrow();
+  llvm::Value* libm = b_.CreateLoad(vt_, out);
   llvm::Value* mixed = b_.CreateSelect(beyond, libm, fast);
   llvm::BasicBlock* slow_end = b_.GetInsertBlock();
   b_.CreateBr(join);

@@ -44,6 +44,16 @@ float hfrt_jit_powhf_f32(float b, float e) noexcept {
   return hfrt::jit::hf_pow_t<float>(b, e);
 }
 
+/// f32 sin or cos (`cos` != 0) of n doubles by libm's double function, rounded to float: the
+/// trig kernel's slow path (VectorEmitter::sin_cos_f32), one call for all lanes instead of
+/// one per lane, which cost every use of sin or cos 8-16 calls of code to compile (the
+/// gyroid's f32 code: 96 calls).
+void hfrt_jit_trig_lanes_f32(const double* in, float* out, int32_t n, int32_t cos) noexcept {
+  for (int32_t i = 0; i < n; ++i) {
+    out[i] = static_cast<float>(cos ? std::cos(in[i]) : std::sin(in[i]));
+  }
+}
+
 }  // extern "C"
 
 namespace hfrt::jit {
@@ -53,6 +63,7 @@ using namespace ::hfrt::ir;
 const HostSymbol kScalarSymbols[] = {
     {"hfrt_jit_powhf_f64", reinterpret_cast<void*>(&hfrt_jit_powhf_f64)},
     {"hfrt_jit_powhf_f32", reinterpret_cast<void*>(&hfrt_jit_powhf_f32)},
+    {"hfrt_jit_trig_lanes_f32", reinterpret_cast<void*>(&hfrt_jit_trig_lanes_f32)},
 };
 std::span<const HostSymbol> scalar_jit_symbols() {
   return kScalarSymbols;
