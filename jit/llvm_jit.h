@@ -66,7 +66,7 @@ struct JitStats {
   int lanes = 0;
   size_t llvm_insts_before = 0;  ///< LLVM instructions before / after optimisation
   size_t llvm_insts_after = 0;
-  size_t llvm_calls = 0;      ///< calls (not intrinsics) in the optimised code
+  size_t llvm_calls = 0;      ///< calls (not intrinsics) of the emitted module's busiest function
   bool fast_codegen = false;  ///< compiled without machine optimisation (too many calls)
   bool from_cache = false;    ///< the code came from the compile cache (hfrt/compile_cache.h)
   double total_ms() const { return emit_ms + optimize_ms + codegen_ms; }

@@ -62,13 +62,13 @@ struct PipelineOptions {
   /// optnone after the IR pipeline, which still optimises them): for huge functions that
   /// are mostly calls, where the optimising code generator costs seconds and gains nothing.
   std::vector<std::string> fast_codegen;
-  /// Call-heavy modules (kFastCodegenCalls): when one function makes more than this many
-  /// calls (0: never), the
-  /// whole module takes the light IR pipeline and code generation at level None. Each call
-  /// clobbers every vector register, so the greedy register allocator's interference checks
-  /// grow with calls x live values: a model of 1221 `^` and ~2000 atan2 (8 and 16 lanes:
-  /// tens of thousands of libm calls) took 7.6 s (f64) and ~24 s (f32) to code-generate,
-  /// for code whose time is in libm anyway.
+  /// Call-heavy modules (kFastCodegenCalls): when one emitted function makes more than this
+  /// many calls (0: never), the whole module takes the light IR pipeline and code generation
+  /// at level None. (Not `fast_codegen`'s optnone: the register allocator is chosen per
+  /// module, and optnone functions keep the greedy one.) Each call clobbers every vector
+  /// register, so the greedy allocator's interference checks grow with calls x live values:
+  /// a model of 1221 `^` and ~2000 atan2 (8 and 16 lanes: tens of thousands of libm calls)
+  /// took 7.6 s (f64) and ~24 s (f32) to code-generate, for code whose time is in libm.
   size_t fast_codegen_calls = 0;
   /// Keep the optimised IR text (JitFunction::llvm_ir).
   bool keep_ir = false;

@@ -190,7 +190,7 @@ struct ModelStats {
     int lanes = 0;
     double emit_ms = 0, optimize_ms = 0, codegen_ms = 0;
     size_t llvm_insts_before = 0, llvm_insts_after = 0;
-    size_t llvm_calls = 0;      ///< calls in the optimised code (libm and hfrt helpers, per lane)
+    size_t llvm_calls = 0;      ///< calls in the emitted code's busiest function (one per lane)
     bool fast_codegen = false;  ///< compiled without machine optimisation (too many calls)
   };
   Jit jit_f64, jit_f32;
