@@ -315,7 +315,10 @@ Result<std::unique_ptr<CompiledCode>> LlvmSession::compile(ModuleUnit unit,
   for (const llvm::Function& f : module) most_calls = std::max(most_calls, count_calls(f));
   const bool call_heavy = options.fast_codegen_calls > 0 && most_calls > options.fast_codegen_calls;
   const bool light = options.light || call_heavy;
-  if (stats) stats->llvm_calls = most_calls, stats->fast_codegen = call_heavy;
+  if (stats) {
+    stats->llvm_calls = most_calls;
+    stats->fast_codegen = call_heavy;
+  }
 
   // The compile cache: the key is the IR before optimisation and everything else that shapes
   // the machine code.
