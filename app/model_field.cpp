@@ -294,7 +294,10 @@ PreparedCode prepare_render_code(const Model& model, bool interval, bool gradien
   bool ok[3] = {true, true, true};
   {
     std::thread interval_worker, gradient_worker;
-    if (interval)
+    // A large object's interval code compiles in the background while the tape VM answers
+    // with the same bits (Model::start_interval_compile): the render starts once the point
+    // and gradient code are ready, and the interval JIT takes over when it is.
+    if (interval && !model.start_interval_compile())
       interval_worker = std::thread([&] { ok[1] = model.prepare_interval(&errors[1]); });
     if (gradient) {
       gradient_worker =
@@ -316,6 +319,14 @@ PreparedCode prepare_render_code(const Model& model, bool interval, bool gradien
   return out;
 }
 
+std::string background_compile_warning(const Model& model) {
+  if (!model.stats().interval.background || model.interval_engine() == DomainEngine::kJit) {
+    return "";
+  }
+  return "hfrt: warning: interval JIT failed (compiled in the background); the tape VM answered "
+         "instead";
+}
+
 std::string describe_domain_engines(const Model& model) {
   ModelStats st = model.stats();
   auto one = [&](const char* name, DomainEngine engine, const ModelStats::Domain& d) {
@@ -324,8 +335,15 @@ std::string describe_domain_engines(const Model& model) {
       std::snprintf(buf, sizeof buf,
                     "%s JIT (%d lanes, shared: compiled for an earlier edit in %.1f ms)", name,
                     d.lanes, d.compile_ms);
+    } else if (engine == DomainEngine::kJit && d.compiled && d.background) {
+      std::snprintf(buf, sizeof buf,
+                    "%s JIT (%d lanes, %.1f ms in the background, the tape VM until then)", name,
+                    d.lanes, d.compile_ms);
     } else if (engine == DomainEngine::kJit && d.compiled) {
       std::snprintf(buf, sizeof buf, "%s JIT (%d lanes, %.1f ms)", name, d.lanes, d.compile_ms);
+    } else if (engine == DomainEngine::kJit && d.background) {
+      std::snprintf(buf, sizeof buf, "%s JIT (compiling in the background; the tape VM until then)",
+                    name);
     } else if (engine == DomainEngine::kJit) {
       std::snprintf(buf, sizeof buf, "%s JIT (not compiled)", name);
     } else if (engine == DomainEngine::kTapeVm) {

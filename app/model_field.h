@@ -128,6 +128,10 @@ struct PreparedCode {
 /// `interval` and `gradient` choose those domains (`hfrt slice` needs no gradients).
 PreparedCode prepare_render_code(const Model& model, bool interval = true, bool gradient = true);
 
+/// The warning for an interval JIT that failed in the background (Model::start_interval_compile;
+/// the tape VM answered instead), or "" when it did not. Read after the work that used it.
+std::string background_compile_warning(const Model& model);
+
 /// One line describing the engines of the interval and gradient domains with their compile
 /// times, e.g. "interval JIT (4 lanes, 85.2 ms), gradient f32 JIT (8 lanes, 40.1 ms)".
 std::string describe_domain_engines(const Model& model);

@@ -100,8 +100,14 @@ void ScalarEngine::eval_batch_sign(int64_t n, const float* xs, const std::vector
 IntervalEngine::IntervalEngine(const Function& fn, const EngineOptions& options)
     : fn_(fn), options_(options), pool_(fn) {}
 
+IntervalEngine::~IntervalEngine() {
+  std::lock_guard<std::mutex> lock(background_mutex_);
+  if (background_.joinable()) background_.join();
+}
+
 const IntervalJit* IntervalEngine::code() const {
   if (!options_.interval_jit) return nullptr;
+  // (While a background compile runs, call_once makes this wait for it.)
   return jit_.get([&] {
     // O1: the interval code is large (three values per op, rounding); O2 buys little over
     // O1 and costs much compile time (see llvm_interval.cpp).
@@ -112,10 +118,29 @@ const IntervalJit* IntervalEngine::code() const {
   });
 }
 
+const IntervalJit* IntervalEngine::ready_code() const {
+  if (background_started_.load(std::memory_order_acquire)) return jit_.peek();
+  return code();
+}
+
+bool IntervalEngine::compile_in_background(const std::vector<double>& a) const {
+  if (!options_.interval_jit || options_.background_interval_min_insts < 0) return false;
+  std::lock_guard<std::mutex> lock(background_mutex_);
+  if (background_started_.load(std::memory_order_relaxed)) return true;
+  if (jit_.state.load(std::memory_order_acquire) != 0) return false;  // compiled or failed
+  if (static_cast<int64_t>(fn_.insts.size()) < options_.background_interval_min_insts) {
+    return false;
+  }
+  if (!tape_form(a)) return false;  // the interpreter would answer: ~15x slower than the VM
+  background_ = std::thread([this] { code(); });
+  background_started_.store(true, std::memory_order_release);
+  return true;
+}
+
 Interval IntervalEngine::eval(std::span<const double> lo, std::span<const double> hi,
                               const std::vector<double>& a, std::vector<uint8_t>* choices) const {
   const int nx = fn_.num_inputs;
-  if (const IntervalJit* jit = code()) {
+  if (const IntervalJit* jit = ready_code()) {
     // One box: the JIT pads its SIMD block with copies of it (the per-lane helpers of the
     // libm-based ops compute a copy once), from the caller's buffers, so no call allocates.
     double out_lo = 0, out_hi = 0;
@@ -141,7 +166,15 @@ Interval IntervalEngine::eval(std::span<const double> lo, std::span<const double
 }
 
 std::shared_ptr<const Tape> IntervalEngine::tape(const std::vector<double>& a) const {
-  if (!options_.use_jit || uses_jit()) return nullptr;
+  if (!options_.use_jit) return nullptr;
+  // The JIT answers once it is compiled, or (without a background compile) from the first
+  // call on, when code() compiles it.
+  if (background_started_.load(std::memory_order_acquire) ? jit_.peek() != nullptr : uses_jit())
+    return nullptr;
+  return tape_form(a);
+}
+
+std::shared_ptr<const Tape> IntervalEngine::tape_form(const std::vector<double>& a) const {
   std::shared_ptr<const TapeEntry> e = tape_entry_.load(std::memory_order_acquire);
   if (e && e->params == a) return e->tape;
   std::lock_guard<std::mutex> lock(tape_mutex_);
@@ -159,7 +192,7 @@ void IntervalEngine::eval_batch(int64_t n, const double* lo, const double* hi,
   const size_t ninsts = fn_.insts.size();
   if (choices) std::memset(choices, 0, ninsts);
   if (n <= 0) return;
-  if (const IntervalJit* jit = code()) {
+  if (const IntervalJit* jit = ready_code()) {
     jit->eval(n, lo, hi, a, out_lo, out_hi, out_nan, choices);
     return;
   }

@@ -11,6 +11,7 @@
 #include <mutex>
 #include <span>
 #include <string>
+#include <thread>
 #include <vector>
 
 #include "base/interval.h"
@@ -114,6 +115,9 @@ struct EngineOptions {
   int interval_lanes = 0;     ///< interval JIT lanes (0: host width)
   bool interval_jit = false;  ///< the interval domain uses the JIT (else the interpreter)
   bool gradient_jit = false;  ///< the gradient domain uses the JIT
+  /// IntervalEngine::compile_in_background starts nothing below this many IR instructions
+  /// (-1: never): ModelOptions::background_interval_min_insts.
+  int background_interval_min_insts = -1;
 };
 
 /// The scalar domain: F and s[] at points, f64 and f32.
@@ -154,10 +158,26 @@ class ScalarEngine {
 class IntervalEngine {
  public:
   IntervalEngine(const Function& fn, const EngineOptions& options);
-  /// The JIT, or null when the interpreter must be used (compiles on first call).
+  /// Waits for a compile started by compile_in_background().
+  ~IntervalEngine();
+  /// The JIT, or null when the interpreter must be used (compiles on first call, or waits
+  /// for the compile that compile_in_background() started).
   const IntervalJit* code() const;
   const IntervalJit* peek() const { return jit_.peek(); }
   bool uses_jit() const { return options_.interval_jit && jit_.state.load() != 2; }
+  /// Starts the JIT's compile on a thread of its own and returns at once, when the JIT is
+  /// wanted and not compiled yet, the object has at least
+  /// EngineOptions::background_interval_min_insts instructions and a tape form (for the
+  /// parameters `a`). Until the code is ready, eval() and eval_batch() take the tape VM (or,
+  /// for a trace of choices, the interpreter): their intervals and traces are the JIT's bit
+  /// for bit (all three are the interval interpreter's: tests/jit/interval_jit_test.cpp,
+  /// tape_test.cpp), so whatever a caller decides from them does not depend on which one
+  /// answered, nor on the machine's speed. A renderer thus starts at once instead of waiting
+  /// for the slowest of the JITs (a 551-instruction model: ~300 ms). True when a compile was
+  /// started (now or before).
+  bool compile_in_background(const std::vector<double>& a) const;
+  /// A compile was started by compile_in_background().
+  bool background() const { return background_started_.load(std::memory_order_acquire); }
   /// The tape (jit/tape.h) that evaluates boxes in place of the interpreter when the JIT is
   /// wanted but not used (an object above ModelOptions::interval_jit_max_insts, or a failed
   /// compile): the tape VM's batched pass is ~15x the interpreter's boxes per second on
@@ -176,6 +196,11 @@ class IntervalEngine {
                   double* out_lo, double* out_hi, uint8_t* out_nan, uint8_t* choices) const;
 
  private:
+  /// The code the evaluations take now: code(), except while a background compile runs
+  /// (then null: the tape VM or the interpreter answers).
+  const IntervalJit* ready_code() const;
+  /// The object's tape for `a` (cached), whatever the engine; null without a tape form.
+  std::shared_ptr<const Tape> tape_form(const std::vector<double>& a) const;
   const Function& fn_;
   EngineOptions options_;
   mutable LazySlot<IntervalJit> jit_;
@@ -188,6 +213,10 @@ class IntervalEngine {
   };
   mutable std::mutex tape_mutex_;
   mutable std::atomic<std::shared_ptr<const TapeEntry>> tape_entry_;
+  /// compile_in_background(): the compile's thread (joined by the destructor), started once.
+  mutable std::mutex background_mutex_;
+  mutable std::thread background_;
+  mutable std::atomic<bool> background_started_{false};
 };
 
 /// The gradient domain: F and dF/dx[1..3] by forward-mode AD (jit/gradient.h).

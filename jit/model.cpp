@@ -167,6 +167,7 @@ struct Model::Impl {
     eo.interval_lanes = options.interval_lanes;
     eo.interval_jit = eo.use_jit && within(options.interval_jit_max_insts);
     eo.gradient_jit = eo.use_jit && within(options.gradient_jit_max_insts);
+    eo.background_interval_min_insts = options.background_interval_min_insts;
     c->scalar.emplace(c->fn, eo);
     c->interval.emplace(c->fn, eo);
     c->gradient.emplace(c->fn, eo);
@@ -430,6 +431,10 @@ bool Model::prepare_interval(std::string* error) const {
   return false;
 }
 
+bool Model::start_interval_compile() const {
+  return impl_->compiled->interval->compile_in_background(impl_->params_f64);
+}
+
 // --- Gradient domain ------------------------------------------------------------------------
 
 GradientValue Model::eval_gradient(std::span<const double> x) const {
@@ -656,6 +661,7 @@ ModelStats Model::stats() const {
   if (const jit::IntervalJit* code = c.interval->peek()) {
     domain(c.interval->compile_ms(), code->lanes(), &s.interval);
   }
+  s.interval.background = c.interval->background();
   if (const jit::PolyJit* code = c.poly->peek()) {
     domain(c.poly->compile_ms(), code->lanes(), &s.polynomial);
   }

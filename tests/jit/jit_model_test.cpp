@@ -571,6 +571,110 @@ TEST(JitModelTest, TapeVmEngineEqualsTheJitInBatchesFromManyThreads) {
   }
 }
 
+/// Interval ends: the same bits up to the sign of zero (what the interval JIT and the
+/// interpreter promise: tests/jit/interval_jit_test.cpp).
+bool same_end(double a, double b) {
+  return a == b || (std::isnan(a) && std::isnan(b));
+}
+
+TEST(JitModelTest, BackgroundIntervalCompileGivesTheJitsBitsFromTheStart) {
+  // Model::start_interval_compile: the interval JIT compiles on a thread of its own while
+  // the tape VM (batches, single boxes) and the interpreter (a trace of choices) answer.
+  // Every answer, before, during and after the compile, from several threads, equals the
+  // JIT's of a model compiled the usual way, bit for bit; so does the trace.
+  ModelOptions mo;
+  mo.eager_f64 = false;
+  mo.background_interval_min_insts = 0;  // the torus is small: the threshold off
+  CompileResult bg = Model::compile(kTorusModel, mo);
+  ASSERT_TRUE(bg.ok()) << bg.rendered;
+  const Model ref = compile_or_die(kTorusModel, Backend::kJit);
+  ASSERT_TRUE(ref.prepare_interval());
+  ASSERT_TRUE(bg.model->start_interval_compile());
+  EXPECT_TRUE(bg.model->start_interval_compile());  // started once; says so again
+  EXPECT_EQ(bg.model->interval_engine(), DomainEngine::kJit);
+  EXPECT_TRUE(bg.model->stats().interval.background);
+
+  constexpr int64_t kN = 100;
+  std::vector<double> lo(3 * kN), hi(3 * kN);
+  for (int64_t i = 0; i < kN; ++i) {
+    for (int k = 0; k < 3; ++k) {
+      lo[k * kN + i] = -4.5 + 0.09 * double((i * (7 + 5 * k)) % kN);
+      hi[k * kN + i] = lo[k * kN + i] + 0.05 * double(i % 17);
+    }
+  }
+  std::vector<double> ref_lo(kN), ref_hi(kN);
+  std::vector<uint8_t> ref_nan(kN), ref_trace;
+  ref.eval_interval_batch(kN, lo.data(), hi.data(), ref_lo.data(), ref_hi.data(), ref_nan.data());
+  const double tlo[3] = {2.5, -0.5, 0.5}, thi[3] = {3.5, 0.5, 1.5};
+  const IntervalValue ref_one = ref.eval_interval(tlo, thi, &ref_trace);
+  std::vector<std::thread> threads;
+  std::vector<int> bad(3, 0), before(3, 0);
+  for (int t = 0; t < 3; ++t) {
+    threads.emplace_back([&, t] {
+      std::vector<double> out_lo(kN), out_hi(kN);
+      std::vector<uint8_t> out_nan(kN), trace;
+      for (int round = 0; round < 200; ++round) {
+        before[t] += !bg.model->stats().interval.compiled;
+        bg.model->eval_interval_batch(kN, lo.data(), hi.data(), out_lo.data(), out_hi.data(),
+                                      out_nan.data());
+        for (int64_t i = 0; i < kN; ++i) {
+          bad[t] += !(same_end(out_lo[i], ref_lo[i]) && same_end(out_hi[i], ref_hi[i]) &&
+                      out_nan[i] == ref_nan[i]);
+        }
+        const IntervalValue one = bg.model->eval_interval(tlo, thi, round % 2 ? &trace : nullptr);
+        bad[t] += !(same_end(one.lo, ref_one.lo) && same_end(one.hi, ref_one.hi));
+        if (round % 2) bad[t] += trace != ref_trace;
+      }
+    });
+  }
+  for (auto& th : threads) th.join();
+  for (int t = 0; t < 3; ++t) EXPECT_EQ(bad[t], 0) << "thread " << t;
+  std::printf("background interval compile: %d, %d, %d of 200 rounds began before it was ready\n",
+              before[0], before[1], before[2]);
+  // prepare_interval waits for the compile; then the JIT answers.
+  std::string error;
+  EXPECT_TRUE(bg.model->prepare_interval(&error)) << error;
+  const ModelStats st = bg.model->stats();
+  EXPECT_TRUE(st.interval.compiled);
+  EXPECT_TRUE(st.interval.background);
+  EXPECT_GT(st.interval.compile_ms, 0);
+  EXPECT_EQ(bg.model->interval_engine(), DomainEngine::kJit);
+}
+
+TEST(JitModelTest, BackgroundIntervalCompileOnlyForLargeStraightLineObjects) {
+  ModelOptions mo;
+  mo.eager_f64 = false;
+  // The default threshold: the torus compiles its intervals the usual way.
+  CompileResult small = Model::compile(kTorusModel, mo);
+  ASSERT_TRUE(small.ok());
+  EXPECT_FALSE(small.model->start_interval_compile());
+  EXPECT_FALSE(small.model->stats().interval.background);
+  // Control flow has no tape form: the interpreter would answer meanwhile, ~15x the VM's cost.
+  mo.background_interval_min_insts = 0;
+  CompileResult branchy = Model::compile(
+      "my_model(x[3], a[1]) {\n  r = 1;\n  if (x[1] > 0) then\n    r = 1 - x[1];\n  else\n"
+      "    r = 1 + x[2];\n  endif;\n  my_model = r;\n}\n",
+      mo);
+  ASSERT_TRUE(branchy.ok()) << branchy.rendered;
+  EXPECT_FALSE(branchy.model->start_interval_compile());
+  // A compiled JIT is not compiled again; the interpreter backend has none.
+  CompileResult done = Model::compile(kTorusModel, mo);
+  ASSERT_TRUE(done.ok());
+  ASSERT_TRUE(done.model->prepare_interval());
+  EXPECT_FALSE(done.model->start_interval_compile());
+  mo.backend = Backend::kInterp;
+  CompileResult interp = Model::compile(kTorusModel, mo);
+  ASSERT_TRUE(interp.ok());
+  EXPECT_FALSE(interp.model->start_interval_compile());
+  // A model destroyed while its compile runs waits for it (no crash, no leak under ASan).
+  mo.backend = Backend::kJit;
+  for (int i = 0; i < 3; ++i) {
+    CompileResult gone = Model::compile(kTorusModel, mo);
+    ASSERT_TRUE(gone.ok());
+    EXPECT_TRUE(gone.model->start_interval_compile());
+  }
+}
+
 TEST(JitModelTest, ManyThreadsEvaluateDomainsAtOnce) {
   for (Backend backend : {Backend::kJit, Backend::kInterp}) {
     // `m` compiles its domain code lazily, under contention; `ref`, a second model of the

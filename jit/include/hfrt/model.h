@@ -83,6 +83,14 @@ struct ModelOptions {
   int interval_jit_max_insts = 2000;
   /// The same for the gradient evaluator.
   int gradient_jit_max_insts = 2000;
+  /// Model::start_interval_compile compiles the interval JIT in the background (the tape VM
+  /// answering until it is ready) for objects of at least this many IR instructions; -1:
+  /// never. Measured on 2 cores (bench/README.md, "Interval code compiled in the
+  /// background"): a 551-instruction model's render, whose interval compile takes 0.4-0.5 s,
+  /// starts ~0.3 s sooner and ends ~0.35 s sooner; c1_gear (255 instructions, 0.27 s of
+  /// interval compile for a 0.26 s render) gains nothing, since the render threads and the
+  /// compile then share the two cores and the tape VM's boxes cost more than the JIT's.
+  int background_interval_min_insts = 500;
   /// Boxes per SIMD block of the interval JIT (a power of two; 0 = the host's f64 width).
   /// The host's width by default: a block costs about the same at 1 and 8 lanes (s3_blend:
   /// 133 ns and 143 ns), so batches of boxes (the renderer's) go up to 8x faster, and a single
@@ -199,6 +207,9 @@ struct ModelStats {
     bool compiled = false;
     int lanes = 0;
     double compile_ms = 0;
+    /// Compiled (or, while !compiled, being compiled) on a thread of its own while another
+    /// engine answered (Model::start_interval_compile).
+    bool background = false;
   };
   Domain interval, gradient_f64, gradient_f32;
   /// The polynomial JIT (analytic ray tracing), once compiled on the first ray_polynomials.
@@ -342,6 +353,15 @@ class Model {
   /// the interpreter.
   bool prepare_interval(std::string* error = nullptr) const;
   bool prepare_gradient(Precision precision, std::string* error = nullptr) const;
+  /// Starts the interval JIT's compile on a thread of its own and returns at once, for an
+  /// object of at least ModelOptions::background_interval_min_insts instructions with a
+  /// tape form. Until the code is ready, intervals come from the tape VM (or, for a trace of
+  /// choices, the interval interpreter), whose results are the JIT's bit for bit: a caller's
+  /// decisions do not depend on which engine answered. interval_engine() says kJit meanwhile.
+  /// False when nothing was started (the JIT is not wanted, is compiled already, or the
+  /// object is small or has no tape form): prepare_interval() then compiles as usual. The
+  /// Model's (last sharer's) destructor waits for the compile.
+  bool start_interval_compile() const;
 
   /// Compiles the JIT code of a precision now instead of on first use. Returns false (with
   /// `error`) when the JIT fails; evaluation then falls back to the interpreter.
