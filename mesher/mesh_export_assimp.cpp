@@ -12,9 +12,25 @@
 namespace hfrt::mesher::mesh_export {
 namespace {
 
-/// A one-mesh Assimp scene (owned by the aiScene destructor) of `mesh`.
-std::unique_ptr<aiScene> make_scene(const TriMesh& mesh) {
-  auto scene = std::make_unique<aiScene>();
+/// A one-mesh Assimp scene of `mesh`. Its faces' indices are one block, `indices` (3 per
+/// triangle), where Assimp gives each aiFace an array of its own: 1.25M allocations and as
+/// many frees for the 512^3 blend, ~20 % of the writing time. The faces point into the
+/// block, so release() must be called before the scene is destroyed (~aiFace would
+/// delete[] each pointer).
+struct Scene {
+  std::unique_ptr<aiScene> scene;
+  std::unique_ptr<unsigned[]> indices;
+
+  Scene(const Scene&) = delete;
+  Scene& operator=(const Scene&) = delete;
+  explicit Scene(const TriMesh& mesh);
+  ~Scene() {
+    aiMesh* m = scene->mMeshes[0];
+    for (unsigned i = 0; i < m->mNumFaces; ++i) m->mFaces[i].mIndices = nullptr;
+  }
+};
+
+Scene::Scene(const TriMesh& mesh) : scene(std::make_unique<aiScene>()) {
   scene->mRootNode = new aiNode();
   scene->mRootNode->mName = "hfrt_mesh";
   scene->mRootNode->mNumMeshes = 1;
@@ -44,21 +60,23 @@ std::unique_ptr<aiScene> make_scene(const TriMesh& mesh) {
       m->mColors[0][i] = aiColor4D(c.x, c.y, c.z, 1.0f);
     }
   }
-  m->mNumFaces = unsigned(mesh.triangles.size());
-  m->mFaces = new aiFace[mesh.triangles.size()];
-  for (size_t i = 0; i < mesh.triangles.size(); ++i) {
-    aiFace& f = m->mFaces[i];
-    f.mNumIndices = 3;
-    f.mIndices = new unsigned[3]{mesh.triangles[i][0], mesh.triangles[i][1], mesh.triangles[i][2]};
+  const size_t nt = mesh.triangles.size();
+  indices.reset(new unsigned[3 * nt]);
+  m->mNumFaces = unsigned(nt);
+  m->mFaces = new aiFace[nt];
+  for (size_t i = 0; i < nt; ++i) {
+    unsigned* idx = indices.get() + 3 * i;
+    for (int k = 0; k < 3; ++k) idx[k] = mesh.triangles[i][k];
+    m->mFaces[i].mNumIndices = 3;
+    m->mFaces[i].mIndices = idx;
   }
-  return scene;
 }
 
 bool write(const std::string& path, const std::string& format, const TriMesh& mesh,
            std::string* error) {
-  std::unique_ptr<aiScene> scene = make_scene(mesh);
+  const Scene scene(mesh);
   Assimp::Exporter exporter;
-  if (exporter.Export(scene.get(), format, path) != aiReturn_SUCCESS) {
+  if (exporter.Export(scene.scene.get(), format, path) != aiReturn_SUCCESS) {
     *error = exporter.GetErrorString();
     return false;
   }
