@@ -22,6 +22,9 @@
 namespace hfrt::tools {
 namespace {
 
+/// The session's ModelOptions::background_interval_min_insts (see Session::model_for).
+constexpr int kBackgroundIntervalInsts = 200;
+
 /// Gives a cached model the parameters and time of one render or mesh (-a, --time) and its own
 /// back when the scope ends.
 class ScopedModelSettings {
@@ -244,6 +247,13 @@ const Model* Session::model_for(const std::string& source, const std::string& ob
   // Numbers as hidden parameters: an edit that changes only numbers (a radius, a blend
   // factor) gets the code of the model it was edited from, compiled or not, and costs no JIT.
   mo.hoist_constants = true;
+  // A lower bar than the command line's for compiling the interval code in the background
+  // (the tape VM answering meanwhile, with the same bits): the terminal shows a coarse picture
+  // first, and a structural edit of c1_gear (255 instructions, ~0.3 s of interval compile)
+  // showed it after 124-163 ms instead of 317-349 ms, the full image at about the same time
+  // (`hfrt_bench_repl --only c1_gear`, bench/README.md). Small models compile in a few tens of
+  // ms: the JIT from the first box serves them better.
+  mo.background_interval_min_insts = kBackgroundIntervalInsts;
   auto t0 = std::chrono::steady_clock::now();
   CompileResult r = Model::compile(source, mo, "<session>");
   ++compiles_;
