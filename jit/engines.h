@@ -173,7 +173,7 @@ class IntervalEngine {
   /// for bit (all three are the interval interpreter's: tests/jit/interval_jit_test.cpp,
   /// tape_test.cpp), so whatever a caller decides from them does not depend on which one
   /// answered, nor on the machine's speed. A renderer thus starts at once instead of waiting
-  /// for the slowest of the JITs (a 551-instruction model: ~300 ms). True when a compile was
+  /// for the slowest of the JITs (a 551-instruction model: 0.4-0.5 s). True when a compile was
   /// started (now or before).
   bool compile_in_background(const std::vector<double>& a) const;
   /// A compile was started by compile_in_background().
@@ -181,9 +181,10 @@ class IntervalEngine {
   /// The tape (jit/tape.h) that evaluates boxes in place of the interpreter when the JIT is
   /// wanted but not used (an object above ModelOptions::interval_jit_max_insts, or a failed
   /// compile): the tape VM's batched pass is ~15x the interpreter's boxes per second on
-  /// prospero (hfrt_bench_interval). Null with the interpreter backend, while the JIT is
-  /// used, or for an object without a tape form (control flow, tables, surfaces). Built
-  /// for the parameters `a` on first use and again when they change.
+  /// prospero (hfrt_bench_interval); also while compile_in_background()'s compile runs. Null
+  /// with the interpreter backend, while the JIT is used, or for an object without a tape
+  /// form (control flow, tables, surfaces). Built for the parameters `a` on first use and
+  /// again when they change.
   std::shared_ptr<const Tape> tape(const std::vector<double>& a) const;
   bool wants_jit() const { return options_.interval_jit; }
   const std::string& error() const { return jit_.error; }
