@@ -315,6 +315,7 @@ Result<std::unique_ptr<CompiledCode>> LlvmSession::compile(ModuleUnit unit,
   for (const llvm::Function& f : module) most_calls = std::max(most_calls, count_calls(f));
   const bool call_heavy = options.fast_codegen_calls > 0 && most_calls > options.fast_codegen_calls;
   const bool light = options.light || call_heavy;
+  const llvm::CodeGenOptLevel codegen = call_heavy ? llvm::CodeGenOptLevel::None : options.codegen;
   if (stats) {
     stats->llvm_calls = most_calls;
     stats->fast_codegen = call_heavy;
@@ -334,10 +335,7 @@ Result<std::unique_ptr<CompiledCode>> LlvmSession::compile(ModuleUnit unit,
       std::string ctx = "format " + std::to_string(kCacheFormat) + "\nllvm " LLVM_VERSION_STRING +
                         "\ncpu " + cpu_ + "\ntriple " + triple_ + "\nlayout " + data_layout_ +
                         "\nopt " + std::to_string(options.opt_level) + (light ? " light" : "") +
-                        " codegen " +
-                        std::to_string(static_cast<int>(call_heavy ? llvm::CodeGenOptLevel::None
-                                                                   : options.codegen)) +
-                        "\nfast";
+                        " codegen " + std::to_string(static_cast<int>(codegen)) + "\nfast";
       for (llvm::Function* f : fast) ctx += " " + std::to_string(f == entry_fn ? 0 : 1);
       for (const std::string& feature : jtmb_.getFeatures().getFeatures()) ctx += "\n" + feature;
       llvm::BLAKE3 hash;
@@ -369,7 +367,7 @@ Result<std::unique_ptr<CompiledCode>> LlvmSession::compile(ModuleUnit unit,
       return Error{"cannot create the target machine: " + llvm_error_text(tm_or.takeError())};
     }
     std::unique_ptr<llvm::TargetMachine> tm = std::move(*tm_or);
-    tm->setOptLevel(call_heavy ? llvm::CodeGenOptLevel::None : options.codegen);
+    tm->setOptLevel(codegen);
 
     // --- Optimisation (new pass manager).
     {

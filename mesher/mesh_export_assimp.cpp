@@ -15,8 +15,8 @@ namespace {
 /// A one-mesh Assimp scene of `mesh`. Its faces' indices are one block, `indices` (3 per
 /// triangle), where Assimp gives each aiFace an array of its own: 1.25M allocations and as
 /// many frees for the 512^3 blend, ~20 % of the writing time. The faces point into the
-/// block, so release() must be called before the scene is destroyed (~aiFace would
-/// delete[] each pointer).
+/// block, so ~Scene takes the pointers back before the aiScene is destroyed (~aiFace would
+/// delete[] each one).
 struct Scene {
   std::unique_ptr<aiScene> scene;
   std::unique_ptr<unsigned[]> indices;

@@ -525,6 +525,20 @@ TEST(JitModelTest, HeavyObjectsUseTheDomainInterpreters) {
   EXPECT_EQ(a.hi, b.hi);
 }
 
+/// n boxes around kTorusModel's torus (radii 3 and 1, centre (0, 0, 1)), structure of arrays
+/// over x, y, z: lower corners `step` apart from -4.5 in a scrambled order per axis, sizes 0
+/// (a few points among them) to 0.8.
+void torus_boxes(int64_t n, double step, std::vector<double>* lo, std::vector<double>* hi) {
+  lo->assign(size_t(3 * n), 0.0);
+  hi->assign(size_t(3 * n), 0.0);
+  for (int64_t i = 0; i < n; ++i) {
+    for (int k = 0; k < 3; ++k) {
+      (*lo)[k * n + i] = -4.5 + step * double((i * (7 + 5 * k)) % n);
+      (*hi)[k * n + i] = (*lo)[k * n + i] + 0.05 * double(i % 17);
+    }
+  }
+}
+
 TEST(JitModelTest, TapeVmEngineEqualsTheJitInBatchesFromManyThreads) {
   // interval_jit_max_insts = 0 puts the torus on the tape VM (eval_interval_batch: its
   // batched pass, kLanes boxes at a time); the interval JIT is the reference, box for box.
@@ -536,14 +550,8 @@ TEST(JitModelTest, TapeVmEngineEqualsTheJitInBatchesFromManyThreads) {
   const Model jit = compile_or_die(kTorusModel, Backend::kJit);
   ASSERT_EQ(jit.interval_engine(), DomainEngine::kJit);
   constexpr int64_t kN = 300;  // several passes of the VM's lanes, the last one partial
-  std::vector<double> lo(3 * kN), hi(3 * kN);
-  for (int64_t i = 0; i < kN; ++i) {
-    for (int k = 0; k < 3; ++k) {
-      // Boxes around the torus (radii 3 and 1, centre (0, 0, 1)), a few points among them.
-      lo[k * kN + i] = -4.5 + 0.03 * double((i * (7 + 5 * k)) % kN);
-      hi[k * kN + i] = lo[k * kN + i] + 0.05 * double(i % 17);
-    }
-  }
+  std::vector<double> lo, hi;
+  torus_boxes(kN, 0.03, &lo, &hi);
   std::vector<double> ref_lo(kN), ref_hi(kN);
   std::vector<uint8_t> ref_nan(kN);
   jit.eval_interval_batch(kN, lo.data(), hi.data(), ref_lo.data(), ref_hi.data(), ref_nan.data());
@@ -595,13 +603,8 @@ TEST(JitModelTest, BackgroundIntervalCompileGivesTheJitsBitsFromTheStart) {
   EXPECT_TRUE(bg.model->stats().interval.background);
 
   constexpr int64_t kN = 100;
-  std::vector<double> lo(3 * kN), hi(3 * kN);
-  for (int64_t i = 0; i < kN; ++i) {
-    for (int k = 0; k < 3; ++k) {
-      lo[k * kN + i] = -4.5 + 0.09 * double((i * (7 + 5 * k)) % kN);
-      hi[k * kN + i] = lo[k * kN + i] + 0.05 * double(i % 17);
-    }
-  }
+  std::vector<double> lo, hi;
+  torus_boxes(kN, 0.09, &lo, &hi);
   std::vector<double> ref_lo(kN), ref_hi(kN);
   std::vector<uint8_t> ref_nan(kN), ref_trace;
   ref.eval_interval_batch(kN, lo.data(), hi.data(), ref_lo.data(), ref_hi.data(), ref_nan.data());

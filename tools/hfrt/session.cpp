@@ -250,9 +250,9 @@ const Model* Session::model_for(const std::string& source, const std::string& ob
   // A lower bar than the command line's for compiling the interval code in the background
   // (the tape VM answering meanwhile, with the same bits): the terminal shows a coarse picture
   // first, and a structural edit of c1_gear (255 instructions, ~0.3 s of interval compile)
-  // showed it after 124-163 ms instead of 317-349 ms, the full image at about the same time
-  // (`hfrt_bench_repl --only c1_gear`, bench/README.md). Small models compile in a few tens of
-  // ms: the JIT from the first box serves them better.
+  // showed it after 123-140 ms instead of 347-365 ms, the full image after 529-557 ms instead
+  // of 686-696 ms (`HFRT_NO_CACHE=1 hfrt_bench_repl --only c1_gear`, bench/README.md). Small
+  // models compile in a few tens of ms: the JIT from the first box serves them better.
   mo.background_interval_min_insts = kBackgroundIntervalInsts;
   auto t0 = std::chrono::steady_clock::now();
   CompileResult r = Model::compile(source, mo, "<session>");
