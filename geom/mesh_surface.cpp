@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <bit>
 #include <chrono>
+#include <limits>
 #include <numbers>
 
 #include "base/check.h"
@@ -161,7 +162,6 @@ std::unique_ptr<MeshSurface> MeshSurface::build(const TriangleMesh& mesh, const 
     for (int k = 0; k < 3; ++k) s->corners_[3 * slot + k] = mesh.corner(s->prim_order_[slot], k);
   s->beta_ = options.winding_beta;
   s->build_dipoles();
-  s->wide_ = WideBvh::collapse(s->nodes_);
   const auto end = std::chrono::steady_clock::now();
 
   s->stats_.source = mesh.source;
@@ -175,12 +175,15 @@ std::unique_ptr<MeshSurface> MeshSurface::build(const TriangleMesh& mesh, const 
 }
 
 void MeshSurface::build_dipoles() {
-  dipoles_.assign(nodes_.size(), Dipole{});
+  // Per binary node: the area-weighted centroid and the summed area normal (children are
+  // always allocated after their parent, so a reverse sweep is bottom-up) ...
+  struct Dipole {
+    Vec3 center, area_normal;
+  };
+  std::vector<Dipole> dipoles(nodes_.size());
   std::vector<double> area(nodes_.size(), 0.0);
-  // Children are always allocated after their parent, so a reverse sweep is bottom-up.
   for (size_t i = nodes_.size(); i-- > 0;) {
     const BvhNode& node = nodes_[i];
-    Dipole& d = dipoles_[i];
     double a_sum = 0, cx = 0, cy = 0, cz = 0, nx = 0, ny = 0, nz = 0;
     if (node.is_leaf()) {
       for (uint32_t s = node.index; s < node.index + node.count; ++s) {
@@ -196,16 +199,31 @@ void MeshSurface::build_dipoles() {
       for (uint32_t c = node.index; c < node.index + 2; ++c) {
         const double ar = area[c];
         a_sum += ar;
-        cx += ar * dipoles_[c].center.x, cy += ar * dipoles_[c].center.y,
-            cz += ar * dipoles_[c].center.z;
-        nx += dipoles_[c].area_normal.x, ny += dipoles_[c].area_normal.y,
-            nz += dipoles_[c].area_normal.z;
+        cx += ar * dipoles[c].center.x, cy += ar * dipoles[c].center.y,
+            cz += ar * dipoles[c].center.z;
+        nx += dipoles[c].area_normal.x, ny += dipoles[c].area_normal.y,
+            nz += dipoles[c].area_normal.z;
       }
     }
     area[i] = a_sum;
-    d.center = a_sum > 0 ? Vec3(float(cx / a_sum), float(cy / a_sum), float(cz / a_sum))
-                         : node.bounds().center();
-    d.area_normal = Vec3(float(nx), float(ny), float(nz));
+    dipoles[i].center = a_sum > 0 ? Vec3(float(cx / a_sum), float(cy / a_sum), float(cz / a_sum))
+                                  : node.bounds().center();
+    dipoles[i].area_normal = Vec3(float(nx), float(ny), float(nz));
+  }
+  // ... then laid out per 4-wide node, four children side by side (an empty slot: zeros; its
+  // box is empty, so it is never far).
+  std::vector<uint32_t> kids;
+  wide_ = WideBvh::collapse(nodes_, &kids);
+  dipoles_.assign(wide_.nodes.size(), WideDipole{});
+  for (size_t w = 0; w < wide_.nodes.size(); ++w) {
+    WideDipole& d = dipoles_[w];
+    for (int k = 0; k < 4; ++k) {
+      const uint32_t b = kids[4 * w + k];
+      if (b == WideBvh::kEmpty) continue;
+      const Dipole& s = dipoles[b];
+      d.cx[k] = s.center.x, d.cy[k] = s.center.y, d.cz[k] = s.center.z;
+      d.nx[k] = s.area_normal.x, d.ny[k] = s.area_normal.y, d.nz[k] = s.area_normal.z;
+    }
   }
 }
 
@@ -496,34 +514,71 @@ SurfaceTopology MeshSurface::topology() const {
   return topology_;
 }
 
-double MeshSurface::winding_number(Vec3 p) const {
+double MeshSurface::leaf_solid_angle(const BvhNode& n, Vec3 p) const {
   double omega = 0;
-  uint32_t stack[kStackSize];
+  for (uint32_t s = n.index; s < n.index + n.count; ++s)
+    omega += solid_angle(p, corners_[3 * s], corners_[3 * s + 1], corners_[3 * s + 2]);
+  return omega;
+}
+
+double MeshSurface::winding_number(Vec3 p) const {
+  // A mesh of one leaf: every triangle exactly.
+  if (wide_.empty()) return leaf_solid_angle(nodes_[0], p) / (4 * std::numbers::pi);
+  // Through the 4-wide tree, four children per step in SSE (float): a child farther than
+  // beta times its radius counts as one dipole (first order of Barill et al. 2018), a near
+  // leaf adds its triangles' exact solid angles (double), a near inner node is opened. The
+  // far field is accumulated per lane and summed once; its rounding (~1e-6) is far below
+  // the dipoles' own error (~0.08 at beta = 2 on the armadillo).
+  const __m128 px = _mm_set1_ps(p.x), py = _mm_set1_ps(p.y), pz = _mm_set1_ps(p.z);
+  const __m128 beta2 = _mm_set1_ps(float(beta_ * beta_));
+  // A child's squared radius: per axis the larger distance from the centre to its box's two
+  // planes (an empty box, lo = +inf and hi = -inf: +inf, never far).
+  auto reach2 = [](__m128 c, const float* lo, const float* hi) {
+    const __m128 r = _mm_max_ps(_mm_sub_ps(c, _mm_load_ps(lo)), _mm_sub_ps(_mm_load_ps(hi), c));
+    return _mm_mul_ps(r, r);
+  };
+  __m128 far = _mm_setzero_ps();
+  double near = 0;
+  uint32_t stack[WideBvh::kWideStackSize];
   int sp = 0;
-  stack[sp++] = 0;
-  const double beta2 = beta_ * beta_;
-  while (sp > 0) {
-    const uint32_t i = stack[--sp];
-    const Dipole& d = dipoles_[i];
-    const double rx = double(d.center.x) - p.x, ry = double(d.center.y) - p.y,
-                 rz = double(d.center.z) - p.z;
-    const double dist2 = rx * rx + ry * ry + rz * rz;
-    const BvhNode& n = nodes_[i];
-    if (dist2 > beta2 * n.bounds().max_distance2(d.center)) {
-      // Far field: the node seen as one dipole (first order of Barill et al. 2018).
-      omega += (d.area_normal.x * rx + d.area_normal.y * ry + d.area_normal.z * rz) /
-               (dist2 * std::sqrt(dist2));
-      continue;
+  uint32_t ref = 0;
+  while (true) {
+    const WideDipole& d = dipoles_[ref];
+    const WideNode& w = wide_.nodes[ref];
+    const __m128 cx = _mm_load_ps(d.cx), cy = _mm_load_ps(d.cy), cz = _mm_load_ps(d.cz);
+    const __m128 radius2 =
+        _mm_add_ps(_mm_add_ps(reach2(cx, w.lo_x, w.hi_x), reach2(cy, w.lo_y, w.hi_y)),
+                   reach2(cz, w.lo_z, w.hi_z));
+    const __m128 rx = _mm_sub_ps(cx, px), ry = _mm_sub_ps(cy, py), rz = _mm_sub_ps(cz, pz);
+    const __m128 dist2 =
+        _mm_add_ps(_mm_add_ps(_mm_mul_ps(rx, rx), _mm_mul_ps(ry, ry)), _mm_mul_ps(rz, rz));
+    const __m128 accept = _mm_cmpgt_ps(dist2, _mm_mul_ps(beta2, radius2));
+    const int accepted = _mm_movemask_ps(accept);
+    if (accepted) {
+      const __m128 dot = _mm_add_ps(
+          _mm_add_ps(_mm_mul_ps(_mm_load_ps(d.nx), rx), _mm_mul_ps(_mm_load_ps(d.ny), ry)),
+          _mm_mul_ps(_mm_load_ps(d.nz), rz));
+      const __m128 term = _mm_div_ps(dot, _mm_mul_ps(dist2, _mm_sqrt_ps(dist2)));
+      far = _mm_add_ps(far, _mm_and_ps(accept, term));
     }
-    if (n.is_leaf()) {
-      for (uint32_t s = n.index; s < n.index + n.count; ++s)
-        omega += solid_angle(p, corners_[3 * s], corners_[3 * s + 1], corners_[3 * s + 2]);
-    } else {
-      HFRT_CHECK_LT(sp + 1, kStackSize);
-      stack[sp++] = n.index;
-      stack[sp++] = n.index + 1;
+    const uint32_t* child = w.child;
+    for (int rest = ~accepted & 0xf; rest != 0; rest &= rest - 1) {
+      const uint32_t c = child[std::countr_zero(unsigned(rest))];
+      if (c == WideBvh::kEmpty) continue;
+      if (c & WideBvh::kLeafBit) {
+        near += leaf_solid_angle(nodes_[c & ~WideBvh::kLeafBit], p);
+      } else {
+        HFRT_CHECK_LT(sp, WideBvh::kWideStackSize);
+        stack[sp++] = c;
+      }
     }
+    if (sp == 0) break;
+    ref = stack[--sp];
   }
+  alignas(16) float lanes[4];
+  _mm_store_ps(lanes, far);
+  const double omega =
+      near + (double(lanes[0]) + double(lanes[1])) + (double(lanes[2]) + double(lanes[3]));
   return omega / (4 * std::numbers::pi);
 }
 
@@ -630,7 +685,7 @@ SurfaceStats MeshSurface::stats() const {
 
 size_t MeshSurface::memory_bytes() const {
   return sizeof(*this) + nodes_.capacity() * sizeof(BvhNode) + corners_.capacity() * sizeof(Vec3) +
-         prim_order_.capacity() * sizeof(uint32_t) + dipoles_.capacity() * sizeof(Dipole) +
+         prim_order_.capacity() * sizeof(uint32_t) + dipoles_.capacity() * sizeof(WideDipole) +
          wide_.memory_bytes();
 }
 

@@ -4,11 +4,12 @@
 // generalised winding number (fast, hierarchical) and the signed distance with its bounds
 // over a box. Built once per file; immutable and thread-safe afterwards.
 //
-// Memory (measured by memory_bytes(), ~99 bytes per triangle on the armadillo): the BVH
+// Memory (measured by memory_bytes(), ~98 bytes per triangle on the armadillo): the BVH
 // nodes (32 bytes each), a 4-wide copy of their upper levels for rays (geom/wide_bvh.h, ~19
 // bytes per triangle), the triangle corners copied in leaf order (36 bytes per triangle, so a
 // leaf's triangles are contiguous and no index indirection happens in the inner loop), the
-// original index of each (4 bytes), and one 24-byte dipole per node for the winding number.
+// original index of each (4 bytes), and the dipoles of the 4-wide nodes' children for the
+// winding number (96 bytes per wide node).
 // The indexed TriangleMesh it was built from is not kept.
 
 #include <memory>
@@ -78,20 +79,23 @@ class MeshSurface final : public Surface {
  private:
   MeshSurface() = default;
 
-  // 24 bytes; the radius (farthest corner of the node's box from `center`) is recomputed
-  // from the node's bounds when needed rather than stored.
-  struct Dipole {
-    Vec3 center;       ///< area-weighted centroid of the node's triangles
-    Vec3 area_normal;  ///< sum of area * unit normal = half the sum of the cross products
+  /// The far-field data of a wide node's four children (96 bytes, lanes as in WideNode; a
+  /// child's radius, the farthest corner of its box from the centre, comes from the wide
+  /// node's boxes when needed rather than stored).
+  struct alignas(16) WideDipole {
+    float cx[4], cy[4], cz[4];  ///< area-weighted centroid of the child's triangles
+    float nx[4], ny[4], nz[4];  ///< sum of area * unit normal = half the sum of the crosses
   };
 
   void build_dipoles();
+  /// The solid angle of the triangles of binary leaf `n`, summed exactly.
+  double leaf_solid_angle(const BvhNode& n, Vec3 p) const;
 
   std::vector<BvhNode> nodes_;
   std::vector<Vec3> corners_;         // 3 per triangle, in leaf order, + 1 padding Vec3
   std::vector<uint32_t> prim_order_;  // leaf order -> original index
-  std::vector<Dipole> dipoles_;       // one per node
-  WideBvh wide_;                      // 4-wide upper levels, for rays
+  WideBvh wide_;                      // 4-wide upper levels, for rays and winding numbers
+  std::vector<WideDipole> dipoles_;   // one per wide node
   double beta_ = 2.0;
   SurfaceStats stats_;
   mutable std::once_flag topology_once_;

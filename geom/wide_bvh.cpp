@@ -4,10 +4,12 @@
 
 namespace hfrt::geom {
 
-WideBvh WideBvh::collapse(const std::vector<BvhNode>& binary) {
+WideBvh WideBvh::collapse(const std::vector<BvhNode>& binary,
+                          std::vector<uint32_t>* binary_children) {
   WideBvh out;
   std::vector<WideNode>& wide = out.nodes;
   wide.clear();
+  if (binary_children) binary_children->clear();
   if (binary[0].is_leaf()) return out;
   // Collapse: each wide node takes a binary inner node's children, then repeatedly opens the
   // inner child with the largest surface area until it has four.
@@ -37,6 +39,10 @@ WideBvh WideBvh::collapse(const std::vector<BvhNode>& binary) {
       kids[best] = binary[open].index;
       kids[n++] = binary[open].index + 1;
     }
+    if (binary_children) {
+      if (binary_children->size() < 4 * wide.size()) binary_children->resize(4 * wide.size());
+      for (int k = 0; k < 4; ++k) (*binary_children)[4 * t.wide + k] = k < n ? kids[k] : kEmpty;
+    }
     for (int k = 0; k < 4; ++k) {
       WideNode& w = wide[t.wide];
       if (k >= n) {
@@ -59,6 +65,7 @@ WideBvh WideBvh::collapse(const std::vector<BvhNode>& binary) {
     }
   }
   wide.shrink_to_fit();
+  if (binary_children) binary_children->resize(4 * wide.size(), kEmpty);
   return out;
 }
 

@@ -32,7 +32,11 @@ class WideBvh {
 
   /// Collapses `binary` (each wide node takes an inner node's children, then opens the inner
   /// child of largest area until it has four). Empty when the binary root is a leaf.
-  static WideBvh collapse(const std::vector<BvhNode>& binary);
+  /// `binary_children`, when given, receives four entries per wide node: the binary node
+  /// index of each child slot (kEmpty for an empty slot), for per-child data kept beside the
+  /// wide nodes (MeshSurface's winding-number dipoles).
+  static WideBvh collapse(const std::vector<BvhNode>& binary,
+                          std::vector<uint32_t>* binary_children = nullptr);
 
   bool empty() const { return nodes.empty(); }
   size_t memory_bytes() const { return nodes.capacity() * sizeof(WideNode); }

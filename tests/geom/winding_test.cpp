@@ -69,6 +69,47 @@ TEST(Winding, HierarchicalConvergesToTheExactSum) {
   }
 }
 
+// The hierarchical sum (4-wide, float far field) on an open surface, next to it and away
+// from it: within the dipoles' error of the exact sum, and on the exact sum's side of 1/2
+// wherever that is more than the error away. The armadillo with its top cut off (an open
+// surface whose winding number takes every value between 0 and 1 near the cut).
+TEST(Winding, HierarchicalMatchesTheExactSumOnAnOpenMesh) {
+  const TriangleMesh& full = testing::armadillo();
+  const Box fb = full.bounds();
+  const float cut = fb.lo.y + 0.7f * (fb.hi.y - fb.lo.y);
+  TriangleMesh open = full;
+  open.triangles.clear();
+  for (size_t i = 0; i < full.triangles.size(); ++i) {
+    if (full.corner(i, 0).y < cut || full.corner(i, 1).y < cut || full.corner(i, 2).y < cut)
+      open.triangles.push_back(full.triangles[i]);
+  }
+  ASSERT_LT(open.triangles.size(), full.triangles.size() * 9 / 10);
+  const auto s = MeshSurface::build(open);
+  EXPECT_FALSE(s->topology().closed);
+  std::mt19937 rng(31);
+  const Box box = testing::grown(s->bounds(), 0.1f);
+  double worst = 0;
+  int fractional = 0;
+  for (int i = 0; i < 600; ++i) {
+    // A third next to the surface (a vertex plus a small offset), a third near the cut.
+    Vec3 p = testing::random_point(rng, box);
+    if (i % 3 == 0) {
+      p = open.vertices[open.triangles[rng() % open.triangles.size()][0]] +
+          testing::random_direction(rng) * 0.3f;
+    } else if (i % 3 == 1) {
+      p.y = cut + (p.y - box.lo.y) / (box.hi.y - box.lo.y) * 20 - 10;
+    }
+    const double w = s->winding_number(p), exact = s->winding_number_exact(p);
+    worst = std::max(worst, std::abs(w - exact));
+    if (std::abs(exact - 0.5) > 0.1) {
+      EXPECT_EQ(w >= 0.5, exact >= 0.5) << "p=(" << p.x << "," << p.y << "," << p.z << ")";
+    }
+    fractional += std::abs(exact - std::round(exact)) > 0.1;
+  }
+  EXPECT_LT(worst, 0.1);
+  EXPECT_GT(fractional, 50);  // the open part was reached
+}
+
 // Brute-force distance: every triangle.
 float brute_distance(const TriangleMesh& m, Vec3 p) {
   float best = kInf;
