@@ -91,7 +91,14 @@ std::vector<Token> tokenize(const std::string& text) {
 
 }  // namespace
 
-DVec3 BezierPatch::eval(double u, double v, DVec3* pu, DVec3* pv) const {
+namespace {
+
+// The patch point and its partial derivatives, for degrees (du, dv) given at compile time
+// (DU, DV > 0: the loops unrolled, for the bicubic patches Newton evaluates on every ray) or
+// at run time (DU = DV = 0). The same operations in the same order either way.
+template <int DU, int DV>
+DVec3 eval_patch(const BezierPatch& patch, double u, double v, DVec3* pu, DVec3* pv) {
+  const int du = DU > 0 ? DU : patch.du, dv = DV > 0 ? DV : patch.dv;
   double bu[4], dbu[4], bv[4], dbv[4];
   bernstein(du, u, bu, dbu);
   bernstein(dv, v, bv, dbv);
@@ -100,7 +107,7 @@ DVec3 BezierPatch::eval(double u, double v, DVec3* pu, DVec3* pv) const {
     // Row j contracted along u: its point and u-derivative.
     double rx = 0, ry = 0, rz = 0, sx = 0, sy = 0, sz = 0;
     for (int i = 0; i <= du; ++i) {
-      const Vec3 c = cp[j * (du + 1) + i];
+      const Vec3 c = patch.cp[j * (du + 1) + i];
       rx += bu[i] * c.x, ry += bu[i] * c.y, rz += bu[i] * c.z;
       sx += dbu[i] * c.x, sy += dbu[i] * c.y, sz += dbu[i] * c.z;
     }
@@ -111,6 +118,13 @@ DVec3 BezierPatch::eval(double u, double v, DVec3* pu, DVec3* pv) const {
   if (pu) *pu = a;
   if (pv) *pv = b;
   return p;
+}
+
+}  // namespace
+
+DVec3 BezierPatch::eval(double u, double v, DVec3* pu, DVec3* pv) const {
+  if (du == 3 && dv == 3) return eval_patch<3, 3>(*this, u, v, pu, pv);
+  return eval_patch<0, 0>(*this, u, v, pu, pv);
 }
 
 Box BezierPatch::control_bounds() const {

@@ -452,6 +452,9 @@ ClosestPoint MeshSurface::closest_point(Vec3 p, float max_distance) const {
 }
 
 SurfaceTopology MeshSurface::topology() const {
+  // Asked on every ray of the analytic search: settled, it skips call_once (which sets
+  // thread-local variables, a __tls_get_addr each, on every call).
+  if (topology_known_.load(std::memory_order_acquire)) return topology_;
   std::call_once(topology_once_, [this] {
     // Vertices are identified by their coordinates' bits (an STL file repeats them per
     // triangle); -0 and +0 are one vertex. An open-addressing table of corner indices
@@ -510,6 +513,7 @@ SurfaceTopology MeshSurface::topology() const {
     }
     topology_.closed = boundary == 0;
     topology_.boundary_edges = boundary;
+    topology_known_.store(true, std::memory_order_release);
   });
   return topology_;
 }

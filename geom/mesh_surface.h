@@ -12,6 +12,7 @@
 // winding number (96 bytes per wide node).
 // The indexed TriangleMesh it was built from is not kept.
 
+#include <atomic>
 #include <memory>
 #include <mutex>
 #include <vector>
@@ -100,6 +101,7 @@ class MeshSurface final : public Surface {
   SurfaceStats stats_;
   mutable std::once_flag topology_once_;
   mutable SurfaceTopology topology_;
+  mutable std::atomic<bool> topology_known_{false};  ///< topology_ is set
 };
 
 }  // namespace hfrt::geom

@@ -286,9 +286,12 @@ PolyEngine::PolyEngine(const Function& fn, const EngineOptions& options)
     : fn_(fn), options_(options) {}
 
 const PolyAnalysis& PolyEngine::analysis() const {
+  // Asked on every ray of the analytic search: settled, it skips call_once (see LazySlot::get).
+  if (analysed_.load(std::memory_order_acquire)) return analysis_;
   std::call_once(once_, [&] {
     analysis_ = analyze_polynomial(fn_);
     interp_ = std::make_unique<PolyInterpreter>(fn_, analysis_.program);
+    analysed_.store(true, std::memory_order_release);
   });
   return analysis_;
 }
