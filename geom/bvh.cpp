@@ -311,8 +311,9 @@ class Builder {
         if (!(cb.hi[a] > cb.lo[a])) continue;
         const AxisBins& bins = set.axis[a];
         // Sweep from the right, then from the left.
+        // (Areas only where both sides hold primitives: the splits with an empty side, which
+        // most bins of a small node give, are never costed.)
         VBox right_box[kMaxBins];
-        float right_area[kMaxBins];
         uint32_t right_count[kMaxBins];
         VBox acc = VBox::empty();
         uint32_t cnt = 0;
@@ -320,7 +321,6 @@ class Builder {
           acc.extend(bins.bounds[k]);
           cnt += bins.count[k];
           right_box[k] = acc;
-          right_area[k] = acc.half_area();
           right_count[k] = cnt;
         }
         acc = VBox::empty();
@@ -329,7 +329,7 @@ class Builder {
           acc.extend(bins.bounds[k - 1]);
           cnt += bins.count[k - 1];
           if (cnt == 0 || right_count[k] == 0) continue;
-          float cost = acc.half_area() * cnt + right_area[k] * right_count[k];
+          float cost = acc.half_area() * cnt + right_box[k].half_area() * right_count[k];
           if (cost < best_cost) {
             best_cost = cost;
             best_axis = a;
