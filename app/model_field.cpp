@@ -64,12 +64,27 @@ inline render::Interval to_render_interval(const IntervalValue& r, bool* maybe_n
 
 /// Packs up to three coordinate arrays into the structure-of-arrays layout of the model
 /// (x[1..3]; x[4] is the model's time, further coordinates are held at 0).
+/// `v` holds at least `size` elements; it never shrinks. (resize() to a call's own size
+/// value-initialised the tail again whenever a larger call followed a smaller one: the
+/// renderer's batches vary from one box or point to thousands, and the memsets were ~4 % of a
+/// small model's render, callgrind of s3_blend.)
+template <typename T>
+T* at_least(std::vector<T>& v, size_t size) {
+  if (v.size() < size) v.resize(size);
+  return v.data();
+}
+
+/// x, y, z (and x[4] = time, further coordinates 0) as the model's coordinate arrays of n.
 void pack(int dims, double time, size_t n, const float* x, const float* y, const float* z,
           std::vector<float>* xs) {
-  xs->assign(size_t(std::max(dims, 1)) * n, 0.0f);
+  const size_t rows = size_t(std::max(dims, 1));
+  float* out = at_least(*xs, rows * n);
   const float* src[3] = {x, y, z};
-  for (int k = 0; k < std::min(dims, 3); ++k) std::copy(src[k], src[k] + n, xs->data() + k * n);
-  if (dims > 3) std::fill_n(xs->data() + 3 * n, n, float(time));
+  const size_t given = size_t(std::clamp(dims, 0, 3));
+  for (size_t k = 0; k < given; ++k) std::copy(src[k], src[k] + n, out + k * n);
+  if (dims > 3) std::fill_n(out + 3 * n, n, float(time));
+  const size_t set = dims > 3 ? 4 : given;
+  if (rows > set) std::fill(out + set * n, out + rows * n, 0.0f);
 }
 
 }  // namespace
@@ -219,35 +234,35 @@ void ModelField::eval_intervals(size_t n, const render::Box* boxes, render::Inte
   // Structure of arrays over the model's coordinates; x[4] is the time (a point), any
   // further ones are held at 0.
   const size_t dims = size_t(std::max(dims_, 1));
-  sc.lo.resize(dims * n);
-  sc.hi.resize(dims * n);
+  double* const lo_all = at_least(sc.lo, dims * n);
+  double* const hi_all = at_least(sc.hi, dims * n);
   if (dims_ != 3) {
-    std::fill(sc.lo.begin(), sc.lo.end(), 0.0);
-    std::fill(sc.hi.begin(), sc.hi.end(), 0.0);
+    std::fill(lo_all, lo_all + dims * n, 0.0);
+    std::fill(hi_all, hi_all + dims * n, 0.0);
   }
   if (dims_ > 3) {
-    std::fill_n(sc.lo.data() + 3 * n, n, model_.time());
-    std::fill_n(sc.hi.data() + 3 * n, n, model_.time());
+    std::fill_n(lo_all + 3 * n, n, model_.time());
+    std::fill_n(hi_all + 3 * n, n, model_.time());
   }
   for (size_t k = 0; k < std::min<size_t>(size_t(dims_), 3); ++k) {
-    double* lo = sc.lo.data() + k * n;
-    double* hi = sc.hi.data() + k * n;
+    double* lo = lo_all + k * n;
+    double* hi = hi_all + k * n;
     for (size_t i = 0; i < n; ++i) {
       lo[i] = boxes[i].lo[int(k)];
       hi[i] = boxes[i].hi[int(k)];
     }
   }
-  sc.out_lo.resize(n);
-  sc.out_hi.resize(n);
-  sc.out_nan.resize(n);
-  model_.eval_interval_batch(int64_t(n), sc.lo.data(), sc.hi.data(), sc.out_lo.data(),
-                             sc.out_hi.data(), sc.out_nan.data());
+  const double* out_lo = at_least(sc.out_lo, n);
+  const double* out_hi = at_least(sc.out_hi, n);
+  const uint8_t* out_nan = at_least(sc.out_nan, n);
+  model_.eval_interval_batch(int64_t(n), lo_all, hi_all, sc.out_lo.data(), sc.out_hi.data(),
+                             sc.out_nan.data());
   for (size_t i = 0; i < n; ++i) {
     // Field by field: a whole render::Interval built on the stack and copied out was read back
     // as one 8-byte load after two 4-byte stores, a store-forwarding stall per box (40 % of
     // this function's time in `perf annotate` of an s3_blend render).
     const render::Interval r =
-        to_render_interval({sc.out_lo[i], sc.out_hi[i], sc.out_nan[i] != 0}, &maybe_nan[i]);
+        to_render_interval({out_lo[i], out_hi[i], out_nan[i] != 0}, &maybe_nan[i]);
     out[i].lo = r.lo;
     out[i].hi = r.hi;
     out[i].maybe_nan = r.maybe_nan;
@@ -259,12 +274,12 @@ void ModelField::eval_gradient(size_t n, const float* x, const float* y, const f
   if (n == 0) return;
   Scratch& sc = t_scratch;
   pack(dims_, model_.time(), n, x, y, z, &sc.xs);
-  sc.out.resize(4 * n);
+  const float* out = at_least(sc.out, 4 * n);
   model_.eval_gradient_batch(int64_t(n), sc.xs.data(), sc.out.data());
-  std::copy(&sc.out[0], &sc.out[n], f);
-  std::copy(&sc.out[n], &sc.out[2 * n], dx);
-  std::copy(&sc.out[2 * n], &sc.out[3 * n], dy);
-  std::copy(&sc.out[3 * n], &sc.out[4 * n], dz);
+  std::copy(out, out + n, f);
+  std::copy(out + n, out + 2 * n, dx);
+  std::copy(out + 2 * n, out + 3 * n, dy);
+  std::copy(out + 3 * n, out + 4 * n, dz);
 }
 
 void ModelField::eval_attributes(size_t n, const float* x, const float* y, const float* z,
