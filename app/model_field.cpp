@@ -62,8 +62,6 @@ inline render::Interval to_render_interval(const IntervalValue& r, bool* maybe_n
   return {round_down(r.lo), round_up(r.hi)};
 }
 
-/// Packs up to three coordinate arrays into the structure-of-arrays layout of the model
-/// (x[1..3]; x[4] is the model's time, further coordinates are held at 0).
 /// `v` holds at least `size` elements; it never shrinks. (resize() to a call's own size
 /// value-initialised the tail again whenever a larger call followed a smaller one: the
 /// renderer's batches vary from one box or point to thousands, and the memsets were ~4 % of a
@@ -74,7 +72,8 @@ T* at_least(std::vector<T>& v, size_t size) {
   return v.data();
 }
 
-/// x, y, z (and x[4] = time, further coordinates 0) as the model's coordinate arrays of n.
+/// Packs up to three coordinate arrays into the structure-of-arrays layout of the model
+/// (x[1..3]; x[4] is the model's time, further coordinates are held at 0).
 void pack(int dims, double time, size_t n, const float* x, const float* y, const float* z,
           std::vector<float>* xs) {
   const size_t rows = size_t(std::max(dims, 1));
