@@ -632,17 +632,17 @@ class TileRenderer {
           br.any_hit = true;
           int ray = rs.batch_add_ray(br);
           ts.batch_index[k * nl + li] = ray;
-          // Pieces growing away from the surface (one march step, then doubling), over what the
-          // tile's bundle culling left of the ray.
+          // Pieces growing away from the surface (one march step, then by kShadowGrowth), over what
+          // the tile's bundle culling left of the ray.
           const std::vector<Span>* spans =
               bundles && light.kind == Light::Kind::kDirectional ? &ts.shadow_spans[li] : nullptr;
           if (!spans) {
-            rs.batch_add_growing(ray, te, tx, step_, 2, false);
+            rs.batch_add_growing(ray, te, tx, step_, RootSearcher::kShadowGrowth, false);
             continue;
           }
           for (const Span& span : *spans) {
             float a = std::max(span.a, te), b = std::min(span.b, tx);
-            if (a <= b) rs.batch_add_growing(ray, a, b, step_, 2, false);
+            if (a <= b) rs.batch_add_growing(ray, a, b, step_, RootSearcher::kShadowGrowth, false);
           }
         }
       }

@@ -84,6 +84,13 @@ class RootSearcher {
   /// kVerifyGrowth away from the root (bisected as usual where not excluded).
   static constexpr float kVerifyGap = 4;
   static constexpr float kVerifyGrowth = 3;
+  /// Shadow rays (any hit) are covered by pieces that start one march step long at their
+  /// origin and grow by this factor away from it. A longer piece is proven empty by one
+  /// interval as often as not on these models, and an occluder is found by the march of a
+  /// piece anyway: 8 instead of 2 takes 4-7 % fewer interval evaluations and 4-5.5 % fewer
+  /// instructions for the whole render of s2_csg and c1_gear (s3_blend +0.6 %; callgrind,
+  /// 256x256, one thread, the same images); 16 gains nothing more.
+  static constexpr float kShadowGrowth = 8;
   /// With `on`, interval_search without any_hit is the plain bisection of [t0, t1] (no march
   /// first): what RenderOptions::interval_march_first = false asks for.
   void set_plain_bisection(bool on) { plain_bisection_ = on; }

@@ -359,7 +359,7 @@ class SceneTracer {
       br.any_hit = any_hit;
       if (any_hit) {
         int ray = rs.batch_add_ray(br);
-        rs.batch_add_growing(ray, q.a, q.b, step, 2, false);
+        rs.batch_add_growing(ray, q.a, q.b, step, RootSearcher::kShadowGrowth, false);
         ts.batch_index[i] = ray;
         continue;
       }
