@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <bit>
 #include <chrono>
+#include <cmath>
 #include <limits>
 #include <numbers>
 
@@ -177,8 +178,14 @@ std::unique_ptr<MeshSurface> MeshSurface::build(const TriangleMesh& mesh, const 
 void MeshSurface::build_dipoles() {
   // Per binary node: the area-weighted centroid and the summed area normal (children are
   // always allocated after their parent, so a reverse sweep is bottom-up) ...
+  struct DVec {
+    double x, y, z;
+    DVec(double x_, double y_, double z_) : x(x_), y(y_), z(z_) {}
+    explicit DVec(Vec3 v) : x(v.x), y(v.y), z(v.z) {}
+    DVec() : x(0), y(0), z(0) {}
+  };
   struct Dipole {
-    Vec3 center, area_normal;
+    DVec center, area_normal;  // double: areas of large meshes overflow float
   };
   std::vector<Dipole> dipoles(nodes_.size());
   std::vector<double> area(nodes_.size(), 0.0);
@@ -187,13 +194,16 @@ void MeshSurface::build_dipoles() {
     double a_sum = 0, cx = 0, cy = 0, cz = 0, nx = 0, ny = 0, nz = 0;
     if (node.is_leaf()) {
       for (uint32_t s = node.index; s < node.index + node.count; ++s) {
+        // In double: a float cross product overflows for coordinates past ~1e19.
         const Vec3 a = corners_[3 * s], b = corners_[3 * s + 1], c = corners_[3 * s + 2];
-        const Vec3 cr = cross(b - a, c - a);
-        const double ar = 0.5 * length(cr);
-        const Vec3 m = (a + b + c) / 3.0f;
+        const double ux = double(b.x) - a.x, uy = double(b.y) - a.y, uz = double(b.z) - a.z;
+        const double vx = double(c.x) - a.x, vy = double(c.y) - a.y, vz = double(c.z) - a.z;
+        const double crx = uy * vz - uz * vy, cry = uz * vx - ux * vz, crz = ux * vy - uy * vx;
+        const double ar = 0.5 * std::sqrt(crx * crx + cry * cry + crz * crz);
         a_sum += ar;
-        cx += ar * m.x, cy += ar * m.y, cz += ar * m.z;
-        nx += 0.5 * cr.x, ny += 0.5 * cr.y, nz += 0.5 * cr.z;
+        cx += ar * ((double(a.x) + b.x + c.x) / 3), cy += ar * ((double(a.y) + b.y + c.y) / 3),
+            cz += ar * ((double(a.z) + b.z + c.z) / 3);
+        nx += 0.5 * crx, ny += 0.5 * cry, nz += 0.5 * crz;
       }
     } else {
       for (uint32_t c = node.index; c < node.index + 2; ++c) {
@@ -206,12 +216,17 @@ void MeshSurface::build_dipoles() {
       }
     }
     area[i] = a_sum;
-    dipoles[i].center = a_sum > 0 ? Vec3(float(cx / a_sum), float(cy / a_sum), float(cz / a_sum))
-                                  : node.bounds().center();
-    dipoles[i].area_normal = Vec3(float(nx), float(ny), float(nz));
+    dipoles[i].center =
+        a_sum > 0 ? DVec(cx / a_sum, cy / a_sum, cz / a_sum) : DVec(node.bounds().center());
+    dipoles[i].area_normal = DVec(nx, ny, nz);
   }
   // ... then laid out per 4-wide node, four children side by side (an empty slot: zeros; its
   // box is empty, so it is never far).
+  // (The box's largest side, not its diagonal: a length squares the sides, which overflows
+  // float for exactly the meshes this is for.)
+  const float size = nodes_[0].bounds().max_extent();
+  winding_scale_ = size > 0 && std::isfinite(size) ? std::ldexp(1.0f, -std::ilogb(size)) : 1.0f;
+  const double s1 = winding_scale_, s2 = s1 * s1;
   std::vector<uint32_t> kids;
   wide_ = WideBvh::collapse(nodes_, &kids);
   dipoles_.assign(wide_.nodes.size(), WideDipole{});
@@ -221,8 +236,10 @@ void MeshSurface::build_dipoles() {
       const uint32_t b = kids[4 * w + k];
       if (b == WideBvh::kEmpty) continue;
       const Dipole& s = dipoles[b];
-      d.cx[k] = s.center.x, d.cy[k] = s.center.y, d.cz[k] = s.center.z;
-      d.nx[k] = s.area_normal.x, d.ny[k] = s.area_normal.y, d.nz[k] = s.area_normal.z;
+      d.cx[k] = float(s.center.x * s1), d.cy[k] = float(s.center.y * s1),
+      d.cz[k] = float(s.center.z * s1);
+      d.nx[k] = float(s.area_normal.x * s2), d.ny[k] = float(s.area_normal.y * s2),
+      d.nz[k] = float(s.area_normal.z * s2);
     }
   }
 }
@@ -556,6 +573,7 @@ double MeshSurface::leaf_solid_angle(const BvhNode& n, Vec3 p) const {
   // of the double one except within ~1e-6 of the triangle's size from it, where the winding
   // number jumps by 1 anyway.
   const __m128 px = _mm_set1_ps(p.x), py = _mm_set1_ps(p.y), pz = _mm_set1_ps(p.z);
+  const __m128 scale = _mm_set1_ps(winding_scale_);
   __m128 sum = _mm_setzero_ps();
   for (uint32_t s = n.index, end = n.index + n.count; s < end; s += 4) {
     const uint32_t k = std::min<uint32_t>(4, end - s);
@@ -573,6 +591,10 @@ double MeshSurface::leaf_solid_angle(const BvhNode& n, Vec3 p) const {
     _MM_TRANSPOSE4_PS(v0[0], v0[1], v0[2], v0[3]);
     _MM_TRANSPOSE4_PS(v1[0], v1[1], v1[2], v1[3]);
     _MM_TRANSPOSE4_PS(v2[0], v2[1], v2[2], v2[3]);
+    for (int c = 0; c < 3; ++c) {
+      v0[c] = _mm_mul_ps(v0[c], scale), v1[c] = _mm_mul_ps(v1[c], scale);
+      v2[c] = _mm_mul_ps(v2[c], scale);
+    }
     const __m128 ax = _mm_sub_ps(v0[0], px), ay = _mm_sub_ps(v0[1], py), az = _mm_sub_ps(v0[2], pz);
     const __m128 bx = _mm_sub_ps(v1[0], px), by = _mm_sub_ps(v1[1], py), bz = _mm_sub_ps(v1[2], pz);
     const __m128 cx = _mm_sub_ps(v2[0], px), cy = _mm_sub_ps(v2[1], py), cz = _mm_sub_ps(v2[2], pz);
@@ -602,19 +624,23 @@ double MeshSurface::leaf_solid_angle(const BvhNode& n, Vec3 p) const {
 }
 
 double MeshSurface::winding_number(Vec3 p) const {
+  // In units of winding_scale_ (exact: a power of two).
+  const Vec3 ps = p * winding_scale_;
   // A mesh of one leaf: every triangle exactly.
-  if (wide_.empty()) return leaf_solid_angle(nodes_[0], p) / (4 * std::numbers::pi);
+  if (wide_.empty()) return leaf_solid_angle(nodes_[0], ps) / (4 * std::numbers::pi);
   // Through the 4-wide tree, four children per step in SSE (float): a child farther than
   // beta times its radius counts as one dipole (first order of Barill et al. 2018), a near
-  // leaf adds its triangles' exact solid angles (double), a near inner node is opened. The
-  // far field is accumulated per lane and summed once; its rounding (~1e-6) is far below
-  // the dipoles' own error (~0.08 at beta = 2 on the armadillo).
-  const __m128 px = _mm_set1_ps(p.x), py = _mm_set1_ps(p.y), pz = _mm_set1_ps(p.z);
+  // leaf adds its triangles' solid angles (float SSE, leaf_solid_angle), a near inner node is
+  // opened. The far field is accumulated per lane and summed once; its rounding (~1e-6) is
+  // far below the dipoles' own error (~0.08 at beta = 2 on the armadillo).
+  const __m128 px = _mm_set1_ps(ps.x), py = _mm_set1_ps(ps.y), pz = _mm_set1_ps(ps.z);
   const __m128 beta2 = _mm_set1_ps(float(beta_ * beta_));
+  const __m128 scale = _mm_set1_ps(winding_scale_);
   // A child's squared radius: per axis the larger distance from the centre to its box's two
   // planes (an empty box, lo = +inf and hi = -inf: +inf, never far).
-  auto reach2 = [](__m128 c, const float* lo, const float* hi) {
-    const __m128 r = _mm_max_ps(_mm_sub_ps(c, _mm_load_ps(lo)), _mm_sub_ps(_mm_load_ps(hi), c));
+  auto reach2 = [&](__m128 c, const float* lo, const float* hi) {
+    const __m128 r = _mm_max_ps(_mm_sub_ps(c, _mm_mul_ps(_mm_load_ps(lo), scale)),
+                                _mm_sub_ps(_mm_mul_ps(_mm_load_ps(hi), scale), c));
     return _mm_mul_ps(r, r);
   };
   __m128 far = _mm_setzero_ps();
@@ -646,7 +672,7 @@ double MeshSurface::winding_number(Vec3 p) const {
       const uint32_t c = child[std::countr_zero(unsigned(rest))];
       if (c == WideBvh::kEmpty) continue;
       if (c & WideBvh::kLeafBit) {
-        near += leaf_solid_angle(nodes_[c & ~WideBvh::kLeafBit], p);
+        near += leaf_solid_angle(nodes_[c & ~WideBvh::kLeafBit], ps);
       } else {
         HFRT_CHECK_LT(sp, WideBvh::kWideStackSize);
         stack[sp++] = c;

@@ -82,7 +82,7 @@ class MeshSurface final : public Surface {
 
   /// The far-field data of a wide node's four children (96 bytes, lanes as in WideNode; a
   /// child's radius, the farthest corner of its box from the centre, comes from the wide
-  /// node's boxes when needed rather than stored).
+  /// node's boxes when needed rather than stored). In units of winding_scale_.
   struct alignas(16) WideDipole {
     float cx[4], cy[4], cz[4];  ///< area-weighted centroid of the child's triangles
     float nx[4], ny[4], nz[4];  ///< sum of area * unit normal = half the sum of the crosses
@@ -90,6 +90,7 @@ class MeshSurface final : public Surface {
 
   void build_dipoles();
   /// The solid angle of the triangles of binary leaf `n`, summed exactly.
+  /// `p` is in units of winding_scale_ (p * winding_scale_), as the corners are scaled here.
   double leaf_solid_angle(const BvhNode& n, Vec3 p) const;
 
   std::vector<BvhNode> nodes_;
@@ -98,6 +99,10 @@ class MeshSurface final : public Surface {
   WideBvh wide_;                      // 4-wide upper levels, for rays and winding numbers
   std::vector<WideDipole> dipoles_;   // one per wide node
   double beta_ = 2.0;
+  /// The winding number's float arithmetic works in these units: the power of two that makes
+  /// the mesh's largest side about 1, so that squared and cubed distances neither underflow nor
+  /// overflow float for meshes of any size (the scaling is exact: results are unchanged).
+  float winding_scale_ = 1;
   SurfaceStats stats_;
   mutable std::once_flag topology_once_;
   mutable SurfaceTopology topology_;

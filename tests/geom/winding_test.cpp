@@ -135,6 +135,38 @@ TEST(Winding, NearFieldTrianglesInFloatMatchTheExactSum) {
   EXPECT_LT(worst, 1e-5);
 }
 
+// The hierarchy's float arithmetic works in units of the mesh's size (a power of two): the
+// armadillo scaled by 2^-64 (coordinates ~1e-18, cubed distances ~1e-54, below float's range)
+// and by 2^64 (areas ~1e42, above it) has, at the same scaled points, the winding numbers of
+// the armadillo itself up to the dipoles' error (the BVH's SAH, in float, is not the same
+// tree at those scales) and the same sides.
+TEST(Winding, MeshesOfAnySizeHaveTheSameWindingNumbers) {
+  const TriangleMesh& m = testing::armadillo();
+  const MeshSurface& s = testing::armadillo_surface();
+  std::mt19937 rng(3);
+  std::vector<Vec3> points;
+  const Box box = testing::grown(s.bounds(), 0.3f);
+  for (int i = 0; i < 200; ++i) {
+    // Half of them next to the surface (a vertex plus a small offset): about half inside.
+    points.push_back(i % 2 ? testing::random_point(rng, box)
+                           : m.vertices[rng() % m.vertices.size()] +
+                                 testing::random_direction(rng) * 0.7f);
+  }
+  for (const float scale : {std::ldexp(1.0f, -64), std::ldexp(1.0f, 64)}) {
+    TriangleMesh scaled = m;
+    for (Vec3& v : scaled.vertices) v = v * scale;
+    const auto t = MeshSurface::build(scaled);
+    int inside = 0;
+    for (const Vec3 p : points) {
+      const double w = s.winding_number(p), ws = t->winding_number(p * scale);
+      ASSERT_NEAR(ws, w, 0.15) << "scale " << scale;
+      ASSERT_EQ(ws >= 0.5, w >= 0.5) << "scale " << scale;
+      inside += w >= 0.5;
+    }
+    EXPECT_GT(inside, 10);
+  }
+}
+
 // Brute-force distance: every triangle.
 float brute_distance(const TriangleMesh& m, Vec3 p) {
   float best = kInf;
