@@ -220,8 +220,7 @@ void MeshSurface::build_dipoles() {
         a_sum > 0 ? DVec(cx / a_sum, cy / a_sum, cz / a_sum) : DVec(node.bounds().center());
     dipoles[i].area_normal = DVec(nx, ny, nz);
   }
-  // ... then laid out per 4-wide node, four children side by side (an empty slot: zeros; its
-  // box is empty, so it is never far).
+  // ... then laid out per 4-wide node, four children side by side.
   // (The box's largest side, not its diagonal: a length squares the sides, which overflows
   // float for exactly the meshes this is for.)
   const float size = nodes_[0].bounds().max_extent();
@@ -230,16 +229,28 @@ void MeshSurface::build_dipoles() {
   std::vector<uint32_t> kids;
   wide_ = WideBvh::collapse(nodes_, &kids);
   dipoles_.assign(wide_.nodes.size(), WideDipole{});
+  const double beta2 = beta_ * beta_;
   for (size_t w = 0; w < wide_.nodes.size(); ++w) {
     WideDipole& d = dipoles_[w];
     for (int k = 0; k < 4; ++k) {
       const uint32_t b = kids[4 * w + k];
-      if (b == WideBvh::kEmpty) continue;
+      if (b == WideBvh::kEmpty) {
+        d.r2[k] = std::numeric_limits<float>::infinity();
+        continue;
+      }
       const Dipole& s = dipoles[b];
       d.cx[k] = float(s.center.x * s1), d.cy[k] = float(s.center.y * s1),
       d.cz[k] = float(s.center.z * s1);
       d.nx[k] = float(s.area_normal.x * s2), d.ny[k] = float(s.area_normal.y * s2),
       d.nz[k] = float(s.area_normal.z * s2);
+      const Box box = nodes_[b].bounds();
+      double radius2 = 0;
+      for (int a = 0; a < 3; ++a) {
+        const double c = a == 0 ? s.center.x : a == 1 ? s.center.y : s.center.z;
+        const double r = std::max(c - box.lo[a], double(box.hi[a]) - c) * s1;
+        radius2 += r * r;
+      }
+      d.r2[k] = float(beta2 * radius2);
     }
   }
 }
@@ -634,15 +645,7 @@ double MeshSurface::winding_number(Vec3 p) const {
   // opened. The far field is accumulated per lane and summed once; its rounding (~1e-6) is
   // far below the dipoles' own error (~0.08 at beta = 2 on the armadillo).
   const __m128 px = _mm_set1_ps(ps.x), py = _mm_set1_ps(ps.y), pz = _mm_set1_ps(ps.z);
-  const __m128 beta2 = _mm_set1_ps(float(beta_ * beta_));
-  const __m128 scale = _mm_set1_ps(winding_scale_);
-  // A child's squared radius: per axis the larger distance from the centre to its box's two
-  // planes (an empty box, lo = +inf and hi = -inf: +inf, never far).
-  auto reach2 = [&](__m128 c, const float* lo, const float* hi) {
-    const __m128 r = _mm_max_ps(_mm_sub_ps(c, _mm_mul_ps(_mm_load_ps(lo), scale)),
-                                _mm_sub_ps(_mm_mul_ps(_mm_load_ps(hi), scale), c));
-    return _mm_mul_ps(r, r);
-  };
+
   __m128 far = _mm_setzero_ps();
   double near = 0;
   uint32_t stack[WideBvh::kWideStackSize];
@@ -650,15 +653,11 @@ double MeshSurface::winding_number(Vec3 p) const {
   uint32_t ref = 0;
   while (true) {
     const WideDipole& d = dipoles_[ref];
-    const WideNode& w = wide_.nodes[ref];
     const __m128 cx = _mm_load_ps(d.cx), cy = _mm_load_ps(d.cy), cz = _mm_load_ps(d.cz);
-    const __m128 radius2 =
-        _mm_add_ps(_mm_add_ps(reach2(cx, w.lo_x, w.hi_x), reach2(cy, w.lo_y, w.hi_y)),
-                   reach2(cz, w.lo_z, w.hi_z));
     const __m128 rx = _mm_sub_ps(cx, px), ry = _mm_sub_ps(cy, py), rz = _mm_sub_ps(cz, pz);
     const __m128 dist2 =
         _mm_add_ps(_mm_add_ps(_mm_mul_ps(rx, rx), _mm_mul_ps(ry, ry)), _mm_mul_ps(rz, rz));
-    const __m128 accept = _mm_cmpgt_ps(dist2, _mm_mul_ps(beta2, radius2));
+    const __m128 accept = _mm_cmpgt_ps(dist2, _mm_load_ps(d.r2));
     const int accepted = _mm_movemask_ps(accept);
     if (accepted) {
       const __m128 dot = _mm_add_ps(
@@ -667,7 +666,7 @@ double MeshSurface::winding_number(Vec3 p) const {
       const __m128 term = _mm_div_ps(dot, _mm_mul_ps(dist2, _mm_sqrt_ps(dist2)));
       far = _mm_add_ps(far, _mm_and_ps(accept, term));
     }
-    const uint32_t* child = w.child;
+    const uint32_t* child = wide_.nodes[ref].child;
     for (int rest = ~accepted & 0xf; rest != 0; rest &= rest - 1) {
       const uint32_t c = child[std::countr_zero(unsigned(rest))];
       if (c == WideBvh::kEmpty) continue;

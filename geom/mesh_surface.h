@@ -4,12 +4,12 @@
 // generalised winding number (fast, hierarchical) and the signed distance with its bounds
 // over a box. Built once per file; immutable and thread-safe afterwards.
 //
-// Memory (measured by memory_bytes(), ~98 bytes per triangle on the armadillo): the BVH
+// Memory (measured by memory_bytes(), ~101 bytes per triangle on the armadillo): the BVH
 // nodes (32 bytes each), a 4-wide copy of their upper levels for rays (geom/wide_bvh.h, ~19
 // bytes per triangle), the triangle corners copied in leaf order (36 bytes per triangle, so a
 // leaf's triangles are contiguous and no index indirection happens in the inner loop), the
 // original index of each (4 bytes), and the dipoles of the 4-wide nodes' children for the
-// winding number (96 bytes per wide node).
+// winding number (112 bytes per wide node).
 // The indexed TriangleMesh it was built from is not kept.
 
 #include <atomic>
@@ -80,12 +80,14 @@ class MeshSurface final : public Surface {
  private:
   MeshSurface() = default;
 
-  /// The far-field data of a wide node's four children (96 bytes, lanes as in WideNode; a
-  /// child's radius, the farthest corner of its box from the centre, comes from the wide
-  /// node's boxes when needed rather than stored). In units of winding_scale_.
+  /// The far-field data of a wide node's four children (112 bytes, lanes as in WideNode), in
+  /// units of winding_scale_.
   struct alignas(16) WideDipole {
     float cx[4], cy[4], cz[4];  ///< area-weighted centroid of the child's triangles
     float nx[4], ny[4], nz[4];  ///< sum of area * unit normal = half the sum of the crosses
+    /// (beta x the farthest corner of the child's box from the centroid)^2: farther than
+    /// that, the child is one dipole. +inf for an empty slot (never far).
+    float r2[4];
   };
 
   void build_dipoles();

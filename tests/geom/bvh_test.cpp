@@ -238,7 +238,10 @@ TEST(Bvh, CrossingsEqualBruteForceOnTheArmadillo) {
 TEST(Bvh, ArmadilloMemoryPerTriangle) {
   const MeshSurface& s = testing::armadillo_surface();
   const double per_tri = double(s.memory_bytes()) / s.num_triangles();
-  EXPECT_LT(per_tri, 100.0);
+  // 100.7 measured: the winding number's wide dipoles keep each child's radius (16 bytes per
+  // wide node, 1.7 per triangle; a winding number on the teapot takes 29 % fewer instructions
+  // than with the radius recomputed from the boxes).
+  EXPECT_LT(per_tri, 102.0);
   RecordProperty("bytes_per_triangle", std::to_string(per_tri));
   SurfaceStats st = s.stats();
   EXPECT_EQ(st.triangles, s.num_triangles());
