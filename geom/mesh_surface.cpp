@@ -56,6 +56,28 @@ struct PacketRay {
         sz(_mm_set1_ps(r.sz)) {}
 };
 
+/// Up to four triangles from slot s of `corners` (n of them), one register per corner and
+/// coordinate: v0[c] holds corner 0's coordinate c of each. Rows (x0 y0 z0 x1), (x1 y1 z1 x2),
+/// (x2 y2 z2 *) are loaded per triangle and transposed; lanes past n repeat triangle s (the
+/// caller masks them out). `corners` must be readable one float past its last triangle
+/// (MeshSurface pads it).
+[[gnu::always_inline]] inline void load_triangles4(const Vec3* corners, uint32_t s, uint32_t n,
+                                                   __m128 v0[4], __m128 v1[4], __m128 v2[4]) {
+  const float* p0 = &corners[3 * s].x;
+  const float* p1 = n > 1 ? p0 + 9 : p0;
+  const float* p2 = n > 2 ? p0 + 18 : p0;
+  const float* p3 = n > 3 ? p0 + 27 : p0;
+  v0[0] = _mm_loadu_ps(p0), v0[1] = _mm_loadu_ps(p1), v0[2] = _mm_loadu_ps(p2),
+  v0[3] = _mm_loadu_ps(p3);
+  v1[0] = _mm_loadu_ps(p0 + 3), v1[1] = _mm_loadu_ps(p1 + 3), v1[2] = _mm_loadu_ps(p2 + 3),
+  v1[3] = _mm_loadu_ps(p3 + 3);
+  v2[0] = _mm_loadu_ps(p0 + 6), v2[1] = _mm_loadu_ps(p1 + 6), v2[2] = _mm_loadu_ps(p2 + 6),
+  v2[3] = _mm_loadu_ps(p3 + 6);
+  _MM_TRANSPOSE4_PS(v0[0], v0[1], v0[2], v0[3]);
+  _MM_TRANSPOSE4_PS(v1[0], v1[1], v1[2], v1[3]);
+  _MM_TRANSPOSE4_PS(v2[0], v2[1], v2[2], v2[3]);
+}
+
 // intersect_triangle() on the triangles in slots [s, s + n) (n <= 4) at once, one per SSE
 // lane, with tmin < t < tmax; each hit goes to `accept(slot, hit)` in slot order (a nearest-hit
 // caller shrinks its own limit there and rejects t >= it, as the scalar loop over a leaf would
@@ -69,20 +91,8 @@ template <typename Accept>
 [[gnu::always_inline]] inline void intersect_packet(const WatertightRay& r, const PacketRay& pr,
                                                     const Vec3* corners, uint32_t s, uint32_t n,
                                                     float tmin, float tmax, Accept&& accept) {
-  // Rows: triangle i's corners as (x0 y0 z0 x1), (x1 y1 z1 x2), (x2 y2 z2 *); transposed to
-  // one register per coordinate. Lanes past n repeat triangle s and are masked out.
-  const float* p0 = &corners[3 * s].x;
-  const float* p1 = n > 1 ? p0 + 9 : p0;
-  const float* p2 = n > 2 ? p0 + 18 : p0;
-  const float* p3 = n > 3 ? p0 + 27 : p0;
-  __m128 v0[4] = {_mm_loadu_ps(p0), _mm_loadu_ps(p1), _mm_loadu_ps(p2), _mm_loadu_ps(p3)};
-  __m128 v1[4] = {_mm_loadu_ps(p0 + 3), _mm_loadu_ps(p1 + 3), _mm_loadu_ps(p2 + 3),
-                  _mm_loadu_ps(p3 + 3)};
-  __m128 v2[4] = {_mm_loadu_ps(p0 + 6), _mm_loadu_ps(p1 + 6), _mm_loadu_ps(p2 + 6),
-                  _mm_loadu_ps(p3 + 6)};
-  _MM_TRANSPOSE4_PS(v0[0], v0[1], v0[2], v0[3]);
-  _MM_TRANSPOSE4_PS(v1[0], v1[1], v1[2], v1[3]);
-  _MM_TRANSPOSE4_PS(v2[0], v2[1], v2[2], v2[3]);
+  __m128 v0[4], v1[4], v2[4];
+  load_triangles4(corners, s, n, v0, v1, v2);
   // a = v0 - org in the permuted frame, then the shear, as in intersect_triangle().
   const __m128 akx = _mm_sub_ps(v0[pr.kx], pr.okx), aky = _mm_sub_ps(v0[pr.ky], pr.oky),
                akz = _mm_sub_ps(v0[pr.kz], pr.okz);
@@ -588,20 +598,8 @@ double MeshSurface::leaf_solid_angle(const BvhNode& n, Vec3 p) const {
   __m128 sum = _mm_setzero_ps();
   for (uint32_t s = n.index, end = n.index + n.count; s < end; s += 4) {
     const uint32_t k = std::min<uint32_t>(4, end - s);
-    const float* p0 = &corners_[3 * s].x;
-    const float* p1 = k > 1 ? p0 + 9 : p0;
-    const float* p2 = k > 2 ? p0 + 18 : p0;
-    const float* p3 = k > 3 ? p0 + 27 : p0;
-    // Rows (x0 y0 z0 x1), (x1 y1 z1 x2), (x2 y2 z2 *) per triangle, transposed (corners_ is
-    // padded by one Vec3 for the last row's fourth float).
-    __m128 v0[4] = {_mm_loadu_ps(p0), _mm_loadu_ps(p1), _mm_loadu_ps(p2), _mm_loadu_ps(p3)};
-    __m128 v1[4] = {_mm_loadu_ps(p0 + 3), _mm_loadu_ps(p1 + 3), _mm_loadu_ps(p2 + 3),
-                    _mm_loadu_ps(p3 + 3)};
-    __m128 v2[4] = {_mm_loadu_ps(p0 + 6), _mm_loadu_ps(p1 + 6), _mm_loadu_ps(p2 + 6),
-                    _mm_loadu_ps(p3 + 6)};
-    _MM_TRANSPOSE4_PS(v0[0], v0[1], v0[2], v0[3]);
-    _MM_TRANSPOSE4_PS(v1[0], v1[1], v1[2], v1[3]);
-    _MM_TRANSPOSE4_PS(v2[0], v2[1], v2[2], v2[3]);
+    __m128 v0[4], v1[4], v2[4];
+    load_triangles4(corners_.data(), s, k, v0, v1, v2);
     for (int c = 0; c < 3; ++c) {
       v0[c] = _mm_mul_ps(v0[c], scale), v1[c] = _mm_mul_ps(v1[c], scale);
       v2[c] = _mm_mul_ps(v2[c], scale);
