@@ -254,6 +254,8 @@ void MeshSurface::build_dipoles() {
       d.nx[k] = float(s.area_normal.x * s2), d.ny[k] = float(s.area_normal.y * s2),
       d.nz[k] = float(s.area_normal.z * s2);
       const Box box = nodes_[b].bounds();
+      // Box::max_distance2 in double and scaled: its float squares overflow for the very
+      // large meshes that winding_scale_ is for.
       double radius2 = 0;
       for (int a = 0; a < 3; ++a) {
         const double c = a == 0 ? s.center.x : a == 1 ? s.center.y : s.center.z;
