@@ -6,7 +6,9 @@
 #include <optional>
 #include <sstream>
 
+#include "base/check.h"
 #include "base/file.h"
+#include "geom/bvh.h"
 
 namespace hfrt::geom {
 namespace {
@@ -306,8 +308,17 @@ Result<PatchSet> patches_from_array(std::span<const double> p, const std::string
   return set;
 }
 
-TriangleMesh tessellate(const PatchSet& set, int n, float* max_error) {
+TriangleMesh tessellate(const PatchSet& set, int n, float* max_error, std::vector<uint64_t>* keys) {
+  HFRT_CHECK(n >= 1 && n < (1 << 16));
   TriangleMesh mesh;
+  if (keys) keys->clear();
+  // The quads in Morton order, so that each quadtree node of a patch's grid is a contiguous
+  // run of triangles (build_bvh_grouped).
+  std::vector<std::array<uint32_t, 3>> quad_order;  // (Morton code, i, j)
+  quad_order.reserve(size_t(n) * n);
+  for (uint32_t j = 0; j < uint32_t(n); ++j)
+    for (uint32_t i = 0; i < uint32_t(n); ++i) quad_order.push_back({morton2(i, j), i, j});
+  std::sort(quad_order.begin(), quad_order.end());
   mesh.source =
       set.source + " (tessellated " + std::to_string(n) + "x" + std::to_string(n) + " per patch)";
   float err = 0;
@@ -320,60 +331,63 @@ TriangleMesh tessellate(const PatchSet& set, int n, float* max_error) {
       for (int i = 0; i <= n; ++i)
         mesh.vertices.push_back(to_f(patch.eval(double(i) / n, double(j) / n)));
     auto idx = [&](int i, int j) { return base + static_cast<uint32_t>(j * (n + 1) + i); };
-    for (int j = 0; j < n; ++j)
-      for (int i = 0; i < n; ++i) {
-        const Trim::Cover cover = trim ? trim->classify(double(i) / n, double(i + 1) / n,
-                                                        double(j) / n, double(j + 1) / n)
-                                       : Trim::Cover::kKept;
-        if (cover == Trim::Cover::kRemoved) continue;
-        if (cover == Trim::Cover::kPartial) {
-          // The kept part of the quad, exactly in (u, v); its own vertices (a T-junction
-          // with the neighbouring quads is harmless to distances and winding numbers).
-          clipped.clear();
-          trim->clip(double(i) / n, double(i + 1) / n, double(j) / n, double(j + 1) / n, &clipped);
-          for (const std::array<UV, 3>& tri : clipped) {
-            const uint32_t first = static_cast<uint32_t>(mesh.vertices.size());
-            Vec3 q[3];
+    for (const auto& [code, qi, qj] : quad_order) {
+      const int i = int(qi), j = int(qj);
+      const uint64_t key = (uint64_t(p) << 32) | code;
+      const Trim::Cover cover =
+          trim ? trim->classify(double(i) / n, double(i + 1) / n, double(j) / n, double(j + 1) / n)
+               : Trim::Cover::kKept;
+      if (cover == Trim::Cover::kRemoved) continue;
+      if (cover == Trim::Cover::kPartial) {
+        // The kept part of the quad, exactly in (u, v); its own vertices (a T-junction
+        // with the neighbouring quads is harmless to distances and winding numbers).
+        clipped.clear();
+        trim->clip(double(i) / n, double(i + 1) / n, double(j) / n, double(j + 1) / n, &clipped);
+        for (const std::array<UV, 3>& tri : clipped) {
+          const uint32_t first = static_cast<uint32_t>(mesh.vertices.size());
+          Vec3 q[3];
+          for (int k = 0; k < 3; ++k) {
+            q[k] = to_f(patch.eval(tri[k].u, tri[k].v));
+            mesh.vertices.push_back(q[k]);
+          }
+          mesh.triangles.push_back({first, first + 1, first + 2});
+          if (keys) keys->push_back(key);
+          if (max_error) {
+            // Edge midpoints and the centroid against the flat triangle.
             for (int k = 0; k < 3; ++k) {
-              q[k] = to_f(patch.eval(tri[k].u, tri[k].v));
-              mesh.vertices.push_back(q[k]);
+              const UV a = tri[k], b = tri[(k + 1) % 3];
+              const Vec3 m = to_f(patch.eval(0.5 * (a.u + b.u), 0.5 * (a.v + b.v)));
+              err = std::max(err, length(m - (q[k] + q[(k + 1) % 3]) * 0.5f));
             }
-            mesh.triangles.push_back({first, first + 1, first + 2});
-            if (max_error) {
-              // Edge midpoints and the centroid against the flat triangle.
-              for (int k = 0; k < 3; ++k) {
-                const UV a = tri[k], b = tri[(k + 1) % 3];
-                const Vec3 m = to_f(patch.eval(0.5 * (a.u + b.u), 0.5 * (a.v + b.v)));
-                err = std::max(err, length(m - (q[k] + q[(k + 1) % 3]) * 0.5f));
-              }
-              const Vec3 c = to_f(patch.eval((tri[0].u + tri[1].u + tri[2].u) / 3,
-                                             (tri[0].v + tri[1].v + tri[2].v) / 3));
-              err = std::max(err, length(c - (q[0] + q[1] + q[2]) * (1.0f / 3)));
-            }
+            const Vec3 c = to_f(patch.eval((tri[0].u + tri[1].u + tri[2].u) / 3,
+                                           (tri[0].v + tri[1].v + tri[2].v) / 3));
+            err = std::max(err, length(c - (q[0] + q[1] + q[2]) * (1.0f / 3)));
           }
-          continue;
         }
-        mesh.triangles.push_back({idx(i, j), idx(i + 1, j), idx(i + 1, j + 1)});
-        mesh.triangles.push_back({idx(i, j), idx(i + 1, j + 1), idx(i, j + 1)});
-        if (max_error) {
-          // Deviation at the quad centre (from the diagonal midpoint) and at the edge midpoints.
-          const Vec3 c = to_f(patch.eval((i + 0.5) / n, (j + 0.5) / n));
-          const Vec3 d = (mesh.vertices[idx(i, j)] + mesh.vertices[idx(i + 1, j + 1)]) * 0.5f;
-          const Vec3 e = to_f(patch.eval((i + 0.5) / n, double(j) / n));
-          const Vec3 f = (mesh.vertices[idx(i, j)] + mesh.vertices[idx(i + 1, j)]) * 0.5f;
-          const Vec3 g = to_f(patch.eval(double(i) / n, (j + 0.5) / n));
-          const Vec3 h = (mesh.vertices[idx(i, j)] + mesh.vertices[idx(i, j + 1)]) * 0.5f;
-          err = std::max({err, length(c - d), length(e - f), length(g - h)});
-          if (trim) {
-            // The top and right edges too: the neighbour that samples them may be trimmed.
-            const Vec3 k = to_f(patch.eval((i + 0.5) / n, double(j + 1) / n));
-            const Vec3 l = (mesh.vertices[idx(i, j + 1)] + mesh.vertices[idx(i + 1, j + 1)]) * 0.5f;
-            const Vec3 m = to_f(patch.eval(double(i + 1) / n, (j + 0.5) / n));
-            const Vec3 q = (mesh.vertices[idx(i + 1, j)] + mesh.vertices[idx(i + 1, j + 1)]) * 0.5f;
-            err = std::max({err, length(k - l), length(m - q)});
-          }
+        continue;
+      }
+      mesh.triangles.push_back({idx(i, j), idx(i + 1, j), idx(i + 1, j + 1)});
+      mesh.triangles.push_back({idx(i, j), idx(i + 1, j + 1), idx(i, j + 1)});
+      if (keys) keys->insert(keys->end(), 2, key);
+      if (max_error) {
+        // Deviation at the quad centre (from the diagonal midpoint) and at the edge midpoints.
+        const Vec3 c = to_f(patch.eval((i + 0.5) / n, (j + 0.5) / n));
+        const Vec3 d = (mesh.vertices[idx(i, j)] + mesh.vertices[idx(i + 1, j + 1)]) * 0.5f;
+        const Vec3 e = to_f(patch.eval((i + 0.5) / n, double(j) / n));
+        const Vec3 f = (mesh.vertices[idx(i, j)] + mesh.vertices[idx(i + 1, j)]) * 0.5f;
+        const Vec3 g = to_f(patch.eval(double(i) / n, (j + 0.5) / n));
+        const Vec3 h = (mesh.vertices[idx(i, j)] + mesh.vertices[idx(i, j + 1)]) * 0.5f;
+        err = std::max({err, length(c - d), length(e - f), length(g - h)});
+        if (trim) {
+          // The top and right edges too: the neighbour that samples them may be trimmed.
+          const Vec3 k = to_f(patch.eval((i + 0.5) / n, double(j + 1) / n));
+          const Vec3 l = (mesh.vertices[idx(i, j + 1)] + mesh.vertices[idx(i + 1, j + 1)]) * 0.5f;
+          const Vec3 m = to_f(patch.eval(double(i + 1) / n, (j + 0.5) / n));
+          const Vec3 q = (mesh.vertices[idx(i + 1, j)] + mesh.vertices[idx(i + 1, j + 1)]) * 0.5f;
+          err = std::max({err, length(k - l), length(m - q)});
         }
       }
+    }
   }
   if (max_error) *max_error = err;
   return mesh;

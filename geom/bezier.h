@@ -101,6 +101,9 @@ Result<PatchSet> patches_from_array(std::span<const double> p,
 /// through the patch). `max_error`, when not null, receives an estimate of the largest
 /// distance between the (trimmed) patches and the triangles (sampled at quad centres and edge
 /// midpoints; for clipped triangles, at their edge midpoints and centroids).
-TriangleMesh tessellate(const PatchSet& set, int n, float* max_error = nullptr);
+/// The quads of a patch come in Morton order of their (i, j); `keys`, when not null, receives
+/// per triangle (patch << 32) | Morton code of its quad: the keys of build_bvh_grouped.
+TriangleMesh tessellate(const PatchSet& set, int n, float* max_error = nullptr,
+                        std::vector<uint64_t>* keys = nullptr);
 
 }  // namespace hfrt::geom

@@ -402,6 +402,128 @@ Bvh build_bvh(std::span<const Box> prim_bounds, const BvhBuildOptions& options) 
   return bvh;
 }
 
+uint32_t morton2(uint32_t i, uint32_t j) {
+  HFRT_CHECK(i < (1u << 16) && j < (1u << 16));
+  auto spread = [](uint32_t x) {
+    x = (x | (x << 8)) & 0x00ff00ffu;
+    x = (x | (x << 4)) & 0x0f0f0f0fu;
+    x = (x | (x << 2)) & 0x33333333u;
+    x = (x | (x << 1)) & 0x55555555u;
+    return x;
+  };
+  return spread(i) | (spread(j) << 1);
+}
+
+namespace {
+
+/// build_bvh_grouped's emitter: nodes are appended top-down, children as adjacent pairs.
+class GroupedBuilder {
+ public:
+  GroupedBuilder(std::span<const Box> bounds, std::span<const uint64_t> keys, int max_leaf,
+                 Bvh* out)
+      : bounds_(bounds), keys_(keys), max_leaf_(uint32_t(std::max(1, max_leaf))), out_(out) {}
+
+  /// Node `slot` over the sorted primitives [first, last) of one group: a quadtree split at the
+  /// highest differing bit of the cell codes; primitives go to prim_order as leaves are made.
+  Box cells(uint32_t slot, uint32_t first, uint32_t last, int depth) {
+    out_->depth = std::max(out_->depth, depth);
+    const uint32_t n = last - first;
+    if (n <= max_leaf_) {
+      Box b;
+      const uint32_t at = uint32_t(out_->prim_order.size());
+      for (uint32_t i = first; i < last; ++i) {
+        b.extend(bounds_[i]);
+        out_->prim_order.push_back(i);
+      }
+      set(slot, b, at, n);
+      return b;
+    }
+    const uint32_t a = uint32_t(keys_[first]), z = uint32_t(keys_[last - 1]);
+    uint32_t mid = first + n / 2;  // one cell holding many primitives: halved by count
+    if (a != z) {
+      // The first primitive with the highest differing bit set (keys are sorted).
+      const uint32_t bit = uint32_t(1) << (31 - std::countl_zero(a ^ z));
+      const uint32_t prefix = z & ~(bit - 1);
+      mid = uint32_t(std::partition_point(keys_.begin() + first, keys_.begin() + last,
+                                          [&](uint64_t k) { return uint32_t(k) < prefix; }) -
+                     keys_.begin());
+    }
+    const uint32_t kids = alloc_pair();
+    Box b = cells(kids, first, mid, depth + 1);
+    b.extend(cells(kids + 1, mid, last, depth + 1));
+    set(slot, b, kids, 0);
+    return b;
+  }
+
+  /// Node `slot` as node `top` of the groups' SAH tree, whose primitives are groups.
+  Box groups(const Bvh& top, const std::vector<uint32_t>& group_start, uint32_t slot, uint32_t node,
+             int depth) {
+    const BvhNode& t = top.nodes[node];
+    if (t.is_leaf()) {
+      HFRT_CHECK_EQ(t.count, 1u);  // max_leaf_size 1
+      const uint32_t g = top.prim_order[t.index];
+      return cells(slot, group_start[g], group_start[g + 1], depth);
+    }
+    const uint32_t kids = alloc_pair();
+    Box b = groups(top, group_start, kids, t.index, depth + 1);
+    b.extend(groups(top, group_start, kids + 1, t.index + 1, depth + 1));
+    set(slot, b, kids, 0);
+    return b;
+  }
+
+  uint32_t alloc_pair() {
+    const uint32_t at = uint32_t(out_->nodes.size());
+    out_->nodes.resize(out_->nodes.size() + 2);
+    return at;
+  }
+
+ private:
+  void set(uint32_t slot, const Box& b, uint32_t index, uint32_t count) {
+    BvhNode& nd = out_->nodes[slot];
+    for (int k = 0; k < 3; ++k) nd.lo[k] = b.lo[k], nd.hi[k] = b.hi[k];
+    nd.index = index;
+    nd.count = count;
+  }
+
+  std::span<const Box> bounds_;
+  std::span<const uint64_t> keys_;
+  uint32_t max_leaf_;
+  Bvh* out_;
+};
+
+}  // namespace
+
+Bvh build_bvh_grouped(std::span<const Box> prim_bounds, std::span<const uint64_t> keys,
+                      const BvhBuildOptions& options) {
+  HFRT_CHECK(!prim_bounds.empty());
+  HFRT_CHECK_EQ(prim_bounds.size(), keys.size());
+  HFRT_CHECK_LT(prim_bounds.size(), size_t{1} << 31);
+  // The groups: contiguous runs of one key >> 32, with their boxes.
+  std::vector<uint32_t> group_start;
+  std::vector<Box> group_box;
+  for (uint32_t i = 0; i < keys.size(); ++i) {
+    HFRT_CHECK(i == 0 || keys[i - 1] <= keys[i]);
+    if (i == 0 || (keys[i - 1] >> 32) != (keys[i] >> 32)) {
+      group_start.push_back(i);
+      group_box.push_back(Box{});
+    }
+    group_box.back().extend(prim_bounds[i]);
+  }
+  group_start.push_back(uint32_t(keys.size()));
+  BvhBuildOptions top_options = options;
+  top_options.max_leaf_size = 1;
+  top_options.parallel = false;
+  const Bvh top = build_bvh(group_box, top_options);
+  Bvh bvh;
+  // About two nodes per primitive over max_leaf_size / 2 (leaves are half full on average).
+  bvh.nodes.reserve(4 * prim_bounds.size() / size_t(std::max(1, options.max_leaf_size)) + 4);
+  bvh.prim_order.reserve(prim_bounds.size());
+  bvh.nodes.resize(1);
+  GroupedBuilder builder(prim_bounds, keys, options.max_leaf_size, &bvh);
+  builder.groups(top, group_start, 0, 0, 1);
+  return bvh;
+}
+
 double sah_cost(const Bvh& bvh, const BvhBuildOptions& options) {
   const double root = bvh.nodes[0].bounds().half_area();
   double cost = 0;

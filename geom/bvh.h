@@ -54,6 +54,23 @@ struct Bvh {
 /// Builds a BVH over `prim_bounds` (at least one, all non-empty). Deterministic shape.
 Bvh build_bvh(std::span<const Box> prim_bounds, const BvhBuildOptions& options = {});
 
+/// Builds a BVH over primitives that come in groups of parametric cells, without a surface
+/// area search below the groups: the tessellation of Bézier patches and their split pieces,
+/// whose (u, v) quadtree already is a good hierarchy. keys[i] is primitive i's group (bits
+/// 32-63) and the Morton code of its cell in the group's (u, v) grid (bits 0-31); the keys must
+/// be non-decreasing (each group contiguous, its cells in Morton order). The groups are
+/// arranged by the binned SAH over their boxes; inside a group every node splits at the
+/// highest bit of the cell code in which its primitives differ (a quadtree split, two levels
+/// per quadtree level), and cells holding more than options.max_leaf_size primitives are halved
+/// by count. Linear in the primitives after the groups' SAH: 2-3 ms against build_bvh's 21 ms
+/// on the teapot's field tessellation (65k triangles). Deterministic and serial. The same contract
+/// as build_bvh's result (children adjacent, after their parent; leaves at most max_leaf_size).
+Bvh build_bvh_grouped(std::span<const Box> prim_bounds, std::span<const uint64_t> keys,
+                      const BvhBuildOptions& options = {});
+
+/// The Morton code of cell (i, j) (bits of i in the even positions), i, j < 2^16.
+uint32_t morton2(uint32_t i, uint32_t j);
+
 /// The SAH cost of a built tree (relative units): for tests and statistics.
 double sah_cost(const Bvh& bvh, const BvhBuildOptions& options = {});
 

@@ -574,7 +574,8 @@ bool is_degenerate(const TriangleMesh& m, const std::array<uint32_t, 3>& t) {
 
 }  // namespace
 
-Result<TriangleMesh> finish_mesh(TriangleMesh mesh) {
+Result<TriangleMesh> finish_mesh(TriangleMesh mesh, std::vector<uint64_t>* tags) {
+  HFRT_CHECK(!tags || tags->size() == mesh.triangles.size());
   for (size_t i = 0; i < mesh.vertices.size(); ++i) {
     if (!is_finite(mesh.vertices[i]))
       return Error{mesh.source + ": vertex " + std::to_string(i + 1) +
@@ -593,6 +594,7 @@ Result<TriangleMesh> finish_mesh(TriangleMesh mesh) {
       ++mesh.degenerate_skipped;
       continue;
     }
+    if (tags) (*tags)[kept.size()] = (*tags)[i];
     kept.push_back(t);
   }
   if (kept.empty()) {
@@ -602,6 +604,7 @@ Result<TriangleMesh> finish_mesh(TriangleMesh mesh) {
     return Error{mesh.source + ": empty mesh (" + why + ")"};
   }
   mesh.triangles = std::move(kept);
+  if (tags) tags->resize(mesh.triangles.size());
   return mesh;
 }
 

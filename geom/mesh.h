@@ -66,6 +66,7 @@ Result<TriangleMesh> mesh_from_arrays(std::span<const double> v, std::span<const
 
 /// Validates and cleans a mesh built in memory (finite coordinates, in-range indices, drops
 /// degenerate triangles and counts them). Used by both loaders and by tessellated patches.
-Result<TriangleMesh> finish_mesh(TriangleMesh mesh);
+/// `tags`, when not null, holds one value per triangle and is filtered in step with them.
+Result<TriangleMesh> finish_mesh(TriangleMesh mesh, std::vector<uint64_t>* tags = nullptr);
 
 }  // namespace hfrt::geom

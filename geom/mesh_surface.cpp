@@ -153,6 +153,18 @@ template <typename Accept>
 }  // namespace
 
 std::unique_ptr<MeshSurface> MeshSurface::build(const TriangleMesh& mesh, const Options& options) {
+  return build(mesh, options, {});
+}
+
+std::unique_ptr<MeshSurface> MeshSurface::build_grouped(const TriangleMesh& mesh,
+                                                        std::span<const uint64_t> keys,
+                                                        const Options& options) {
+  HFRT_CHECK_EQ(keys.size(), mesh.triangles.size());
+  return build(mesh, options, keys);
+}
+
+std::unique_ptr<MeshSurface> MeshSurface::build(const TriangleMesh& mesh, const Options& options,
+                                                std::span<const uint64_t> keys) {
   HFRT_CHECK(!mesh.triangles.empty());
   const auto start = std::chrono::steady_clock::now();
   std::unique_ptr<MeshSurface> s(new MeshSurface());
@@ -163,7 +175,8 @@ std::unique_ptr<MeshSurface> MeshSurface::build(const TriangleMesh& mesh, const 
     for (int k = 0; k < 3; ++k) b.extend(mesh.corner(i, k));
     boxes[i] = b;
   }
-  Bvh bvh = build_bvh(boxes, options.bvh);
+  Bvh bvh =
+      keys.empty() ? build_bvh(boxes, options.bvh) : build_bvh_grouped(boxes, keys, options.bvh);
   boxes = {};
   s->nodes_ = std::move(bvh.nodes);
   s->prim_order_ = std::move(bvh.prim_order);

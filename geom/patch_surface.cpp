@@ -168,10 +168,19 @@ std::unique_ptr<PatchSurface> PatchSurface::build(const PatchSet& set, const Opt
   auto build_field = [&] {
     // The field goes through a tessellation (clipped to the trims). Nothing left of it (every
     // patch trimmed away or degenerate): an empty surface.
-    TriangleMesh mesh = tessellate(set, options.field_tessellation, &err);
+    // Its BVH follows the patches' quad grids (build_bvh_grouped) instead of an SAH search
+    // over every triangle: the teapot's 65k triangles take 2-3 ms instead of 21. Leaves of one
+    // quad (2 triangles): with leaves of up to 4, as the SAH tree has, the winding numbers of
+    // a teapot frame cost 30 % more instructions (their near leaves); with 2, 14 % more, and
+    // the closest points 2 % fewer, for 33 % more nodes (a frame, callgrind: 1.77G -> 1.66G
+    // instructions in all).
+    std::vector<uint64_t> keys;
+    TriangleMesh mesh = tessellate(set, options.field_tessellation, &err, &keys);
     all_triangles = mesh.triangles.size();
-    clean = finish_mesh(std::move(mesh));
-    if (clean.ok()) s->field_ = MeshSurface::build(*clean);
+    clean = finish_mesh(std::move(mesh), &keys);
+    MeshSurface::Options field_options;
+    field_options.bvh.max_leaf_size = 2;
+    if (clean.ok()) s->field_ = MeshSurface::build_grouped(*clean, keys, field_options);
   };
   par::parallel_invoke(build_pieces, build_field);
   s->field_error_ = err;

@@ -235,5 +235,80 @@ TEST(PatchSurface, FieldIsTheTessellationsWithinItsError) {
   EXPECT_GT(st.triangles, 32u * 32 * 32);
 }
 
+// The field tessellation's keys (tessellate, finish_mesh) name each triangle's patch and quad,
+// in Morton order, and stay in step with the triangles when degenerate ones are dropped.
+TEST(PatchSurface, TessellationKeysNameEachTrianglesQuad) {
+  const int n = 8;
+  std::vector<uint64_t> keys;
+  TriangleMesh mesh = tessellate(teapot(), n, nullptr, &keys);
+  ASSERT_EQ(keys.size(), mesh.triangles.size());
+  const std::vector<std::array<uint32_t, 3>> all = mesh.triangles;
+  const std::vector<uint64_t> all_keys = keys;
+  Result<TriangleMesh> clean = finish_mesh(std::move(mesh), &keys);
+  ASSERT_TRUE(clean.ok());
+  EXPECT_GT(clean->degenerate_skipped, 0u);  // the lid's and the bottom's poles
+  ASSERT_EQ(keys.size(), clean->triangles.size());
+  // The kept triangles are the non-degenerate ones in order, each with its own key.
+  size_t at = 0;
+  for (size_t i = 0; i < all.size() && at < keys.size(); ++i) {
+    if (all[i] == clean->triangles[at]) {
+      EXPECT_EQ(keys[at++], all_keys[i]) << "triangle " << i;
+    }
+  }
+  EXPECT_EQ(at, keys.size());
+  const uint32_t side = n + 1;
+  for (size_t t = 0; t < keys.size(); ++t) {
+    if (t > 0) {
+      EXPECT_LE(keys[t - 1], keys[t]);
+    }
+    const uint32_t patch = uint32_t(keys[t] >> 32), code = uint32_t(keys[t]);
+    uint32_t i = 0, j = 0;
+    for (int b = 0; b < 16; ++b) {
+      i |= ((code >> (2 * b)) & 1u) << b;
+      j |= ((code >> (2 * b + 1)) & 1u) << b;
+    }
+    ASSERT_EQ(morton2(i, j), code);
+    for (uint32_t v : clean->triangles[t]) {
+      // An untrimmed patch's grid vertices: patch * side^2 + row * side + column.
+      ASSERT_EQ(v / (side * side), patch);
+      const uint32_t col = v % side, row = v / side % side;
+      EXPECT_TRUE(col == i || col == i + 1) << "triangle " << t;
+      EXPECT_TRUE(row == j || row == j + 1) << "triangle " << t;
+    }
+  }
+}
+
+// The field's BVH follows the quad grids (build_bvh_grouped); its winding numbers stay within
+// the hierarchy's error of the exact sum over the tessellation (no farther than those of the
+// SAH tree over the same triangles), and on the same side.
+TEST(PatchSurface, FieldWindingNumbersOfTheGroupedTreeMatchTheExactSum) {
+  const MeshSurface& field = teapot_surface().field_mesh();
+  Result<TriangleMesh> mesh = finish_mesh(tessellate(teapot(), 32));
+  ASSERT_TRUE(mesh.ok());
+  const std::unique_ptr<MeshSurface> sah = MeshSurface::build(*mesh);
+  ASSERT_EQ(sah->num_triangles(), field.num_triangles());
+  double worst_sah = 0;
+  std::mt19937 rng(5);
+  const Box box = testing::grown(field.bounds(), 0.2f);
+  std::uniform_real_distribution<float> u(0, 1);
+  double worst = 0;
+  int inside = 0;
+  for (int i = 0; i < 400; ++i) {
+    const Vec3 p{box.lo.x + u(rng) * (box.hi.x - box.lo.x),
+                 box.lo.y + u(rng) * (box.hi.y - box.lo.y),
+                 box.lo.z + u(rng) * (box.hi.z - box.lo.z)};
+    const double w = field.winding_number(p), exact = field.winding_number_exact(p);
+    worst = std::max(worst, std::abs(w - exact));
+    worst_sah = std::max(worst_sah, std::abs(sah->winding_number(p) - exact));
+    if (std::abs(exact - 0.5) > 0.05) {
+      EXPECT_EQ(w >= 0.5, exact >= 0.5);
+    }
+    inside += exact >= 0.5;
+  }
+  EXPECT_LT(worst, 0.06);  // (0.040 here; the SAH tree's 0.051)
+  EXPECT_LE(worst, 1.25 * worst_sah);
+  EXPECT_GT(inside, 40);
+}
+
 }  // namespace
 }  // namespace hfrt::geom

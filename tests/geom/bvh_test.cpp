@@ -249,5 +249,65 @@ TEST(Bvh, ArmadilloMemoryPerTriangle) {
   EXPECT_GT(st.bvh_depth, 10);
 }
 
+TEST(BvhGrouped, MortonCodes) {
+  EXPECT_EQ(morton2(0, 0), 0u);
+  EXPECT_EQ(morton2(1, 0), 1u);
+  EXPECT_EQ(morton2(0, 1), 2u);
+  EXPECT_EQ(morton2(3, 5), 39u);  // i = 011 on bits 0, 2; j = 101 on bits 1, 5
+  EXPECT_EQ(morton2(65535, 65535), 0xffffffffu);
+}
+
+// Three groups of an 8 x 8 grid of cells (two primitives a cell, one cell empty, one holding
+// seven): the invariants of build_bvh, each group a subtree of its own, and below the groups
+// every node a quadtree block: its primitives are exactly those whose cell codes share the
+// node's prefix.
+TEST(BvhGrouped, GroupsAreSubtreesAndCellsFormAQuadtree) {
+  std::vector<Box> boxes;
+  std::vector<uint64_t> keys;
+  for (uint32_t g = 0; g < 3; ++g) {
+    std::vector<std::pair<uint32_t, Box>> cells;
+    for (uint32_t j = 0; j < 8; ++j)
+      for (uint32_t i = 0; i < 8; ++i) {
+        if (i == 3 && j == 5) continue;
+        const int copies = i == 6 && j == 1 ? 7 : 2;
+        const Vec3 lo{float(i) + 20.0f * float(g), float(j), float(g % 2)};
+        for (int c = 0; c < copies; ++c)
+          cells.push_back({morton2(i, j), Box(lo, lo + Vec3{1, 1, 1})});
+      }
+    std::stable_sort(cells.begin(), cells.end(),
+                     [](const auto& a, const auto& b) { return a.first < b.first; });
+    for (const auto& [code, b] : cells) {
+      keys.push_back((uint64_t(g) << 32) | code);
+      boxes.push_back(b);
+    }
+  }
+  const Bvh bvh = build_bvh_grouped(boxes, keys, {.max_leaf_size = 2});
+  check_invariants(bvh, boxes, 2);
+  // The keys of each node's primitives (a subtree's leaves are contiguous in prim_order).
+  std::function<std::pair<uint32_t, uint32_t>(uint32_t)> range = [&](uint32_t i) {
+    const BvhNode& n = bvh.nodes[i];
+    if (n.is_leaf()) return std::pair{n.index, n.index + n.count};
+    const auto a = range(n.index), b = range(n.index + 1);
+    EXPECT_EQ(a.second, b.first);
+    return std::pair{a.first, b.second};
+  };
+  int group_roots = 0;
+  for (uint32_t i = 0; i < bvh.nodes.size(); ++i) {
+    const auto [first, last] = range(i);
+    const uint64_t lo = keys[bvh.prim_order[first]], hi = keys[bvh.prim_order[last - 1]];
+    if ((lo >> 32) != (hi >> 32)) continue;  // above the groups
+    // The prefix the node's cells share, and every primitive of the group with that prefix.
+    const uint32_t diff = uint32_t(lo) ^ uint32_t(hi);
+    const uint32_t mask = diff == 0 ? ~0u : ~((uint32_t(2) << (31 - std::countl_zero(diff))) - 1);
+    size_t expected = 0;
+    for (const uint64_t k : keys)
+      expected += (k >> 32) == (lo >> 32) && (uint32_t(k) & mask) == (uint32_t(lo) & mask);
+    if (diff == 0 && last - first < expected) continue;  // a crowded cell halved by count
+    EXPECT_EQ(last - first, expected) << "node " << i;
+    group_roots += expected == 62 * 2 + 7;  // a whole group
+  }
+  EXPECT_EQ(group_roots, 3);
+}
+
 }  // namespace
 }  // namespace hfrt::geom
