@@ -41,6 +41,7 @@ class MeshSurface final : public Surface {
   static std::unique_ptr<MeshSurface> build(const TriangleMesh& mesh) {
     return build(mesh, Options{});
   }
+  ~MeshSurface() override;
   /// The same surface over build_bvh_grouped's hierarchy instead of the SAH search (keys: one
   /// per triangle, as build_bvh_grouped takes them): for tessellations whose parametric grid
   /// already is a good hierarchy (patches' field meshes), ~20x faster to build.
@@ -52,6 +53,12 @@ class MeshSurface final : public Surface {
   bool intersect(const Ray& ray, float tmin, float tmax, SurfaceHit* hit) const override;
   void crossings(const Ray& ray, float tmin, float tmax, std::vector<Crossing>* out) const override;
   double winding_number(Vec3 p) const override;
+  /// winding_number(p) >= 1/2 through a grid of cells over the mesh's bounds, filled on first
+  /// use: a cell that no triangle's box meets takes the side of its centre (one winding number
+  /// per cell instead of one per point: the renderer's sign samples of open meshes and
+  /// patches, which the crossings of a ray cannot decide), any other point its own winding
+  /// number. Thread-safe (cells are atomic; two threads may compute the same cell).
+  bool inside(Vec3 p) const override;
   float signed_distance(Vec3 p, Vec3* gradient = nullptr) const override;
   DistanceBounds signed_distance_bounds(const Box& box) const override;
   SurfaceStats stats() const override;
@@ -86,6 +93,17 @@ class MeshSurface final : public Surface {
 
  private:
   MeshSurface() = default;
+
+  /// inside()'s cells: kUnknown until asked, then kNear (a triangle's box meets the cell) or
+  /// the side of the cell's centre.
+  struct SideGrid {
+    enum : uint8_t { kUnknown = 0, kNear = 1, kInside = 2, kOutside = 3 };
+    Vec3 lo;
+    float h = 0, inv_h = 0;
+    int n[3] = {0, 0, 0};
+    std::unique_ptr<std::atomic<uint8_t>[]> cells;
+  };
+  const SideGrid& side_grid() const;
   static std::unique_ptr<MeshSurface> build(const TriangleMesh& mesh, const Options& options,
                                             std::span<const uint64_t> keys);
 
@@ -117,7 +135,8 @@ class MeshSurface final : public Surface {
   SurfaceStats stats_;
   mutable std::once_flag topology_once_;
   mutable SurfaceTopology topology_;
-  mutable std::atomic<bool> topology_known_{false};  ///< topology_ is set
+  mutable std::atomic<bool> topology_known_{false};    ///< topology_ is set
+  mutable std::atomic<SideGrid*> side_grid_{nullptr};  ///< made on first inside(); owned
 };
 
 }  // namespace hfrt::geom

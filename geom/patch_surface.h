@@ -51,6 +51,8 @@ class PatchSurface final : public Surface {
   bool intersect(const Ray& ray, float tmin, float tmax, SurfaceHit* hit) const override;
   void crossings(const Ray& ray, float tmin, float tmax, std::vector<Crossing>* out) const override;
   double winding_number(Vec3 p) const override { return field_ ? field_->winding_number(p) : 0.0; }
+  /// The field tessellation's side (MeshSurface::inside: a grid of cells, filled on first use).
+  bool inside(Vec3 p) const override { return field_ && field_->inside(p); }
   float signed_distance(Vec3 p, Vec3* gradient = nullptr) const override;
   DistanceBounds signed_distance_bounds(const Box& box) const override;
   /// The field tessellation's closest point (within field_error() of the patches'); none

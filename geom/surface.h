@@ -90,8 +90,15 @@ class Surface {
   /// Generalised winding number at p (about 1 inside a closed outward surface, 0 outside).
   virtual double winding_number(Vec3 p) const = 0;
 
-  /// Signed distance: +distance to the closest surface point when winding_number(p) >= 1/2,
-  /// -distance otherwise. When `gradient` is not null it receives the gradient of that field:
+  /// The side of p: winding_number(p) >= 1/2, except that a surface may answer a point in a
+  /// region that touches no primitive by the side of another point of that region (exact for
+  /// closed surfaces, whose winding number is constant there; for open ones the assumption
+  /// signed_distance_bounds already makes). signed_distance's sign and the renderer's sign
+  /// samples use this test.
+  virtual bool inside(Vec3 p) const { return winding_number(p) >= 0.5; }
+
+  /// Signed distance: +distance to the closest surface point when inside(p), -distance
+  /// otherwise. When `gradient` is not null it receives the gradient of that field:
   /// the unit vector from the closest point (pointing into the solid, as HyperFun's).
   virtual float signed_distance(Vec3 p, Vec3* gradient = nullptr) const = 0;
 

@@ -92,7 +92,7 @@ Dual surface_dual(const geom::Surface& s, const Dual& x, const Dual& y, const Du
     inside = ::hfrt::dot(p - c.point, c.normal) <= 0;
   } else {
     // Off the surface: signed_distance's value and gradient, from the same closest point.
-    inside = s.winding_number(p) >= 0.5;
+    inside = s.inside(p);
     const geom::Vec3 away = (p - c.point) / c.distance;
     g = inside ? away : -away;
   }
@@ -286,9 +286,8 @@ float hfrt_surface_sign_f32(const void* s, float x, float y, float z) noexcept {
   }
   hfrt::jit::t_sides.counts.winding++;
   // The same test as signed_distance's sign (geom/surface.h), without the distance query.
-  const double w =
-      static_cast<const hfrt::geom::Surface*>(s)->winding_number(hfrt::geom::Vec3(x, y, z));
-  return w >= 0.5 ? 1.0f : -1.0f;
+  return static_cast<const hfrt::geom::Surface*>(s)->inside(hfrt::geom::Vec3(x, y, z)) ? 1.0f
+                                                                                       : -1.0f;
 }
 
 void hfrt_surface_interval(const void* s, const double* in, double* out) noexcept {

@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include <random>
+#include <thread>
 
 #include "geom/mesh_surface.h"
 #include "geom/triangle.h"
@@ -46,6 +47,43 @@ TEST(Winding, ArmadilloWindingAgreesWithCrossingParity) {
     inside += parity;
   }
   EXPECT_GT(inside, n / 20);  // enough points inside for the test to mean something
+}
+
+// inside() answers points of cells that no triangle's box meets from one winding number per
+// cell: on a closed mesh (a constant winding number there) it is the point's own side, for
+// points far from, near and on the surface, asked from two threads at once; the cells it made
+// count in memory_bytes().
+TEST(Winding, InsideFromTheCellGridIsThePointsSideOnAClosedMesh) {
+  const std::unique_ptr<MeshSurface> s = MeshSurface::build(testing::armadillo());
+  const size_t before = s->memory_bytes();
+  const TriangleMesh& mesh = testing::armadillo();
+  std::mt19937 rng(12);
+  const Box box = testing::grown(s->bounds(), 0.1f);
+  std::vector<Vec3> points;
+  for (int i = 0; i < 6000; ++i) {
+    Vec3 p = testing::random_point(rng, box);
+    if (i % 3 == 0) {  // next to the surface
+      p = mesh.vertices[mesh.triangles[rng() % mesh.triangles.size()][0]] +
+          testing::random_direction(rng) * (0.01f + 2.0f * float(i % 7));
+    }
+    points.push_back(p);
+  }
+  std::vector<int> side(points.size());
+  std::thread other([&] {
+    for (size_t i = 0; i < points.size(); i += 2) side[i] = s->inside(points[i]);
+  });
+  for (size_t i = 1; i < points.size(); i += 2) side[i] = s->inside(points[i]);
+  other.join();
+  int inside = 0;
+  for (size_t i = 0; i < points.size(); ++i) {
+    const Vec3 p = points[i];
+    ASSERT_EQ(side[i] != 0, s->winding_number(p) >= 0.5)
+        << "p=(" << p.x << "," << p.y << "," << p.z << ")";
+    EXPECT_EQ(s->signed_distance(p) > 0, side[i] != 0);
+    inside += side[i];
+  }
+  EXPECT_GT(inside, 300);
+  EXPECT_GT(s->memory_bytes(), before);  // the cells, made on first use
 }
 
 TEST(Winding, HierarchicalConvergesToTheExactSum) {
