@@ -5,6 +5,8 @@
 
 #include <gtest/gtest.h>
 
+#include <cmath>
+#include <cstring>
 #include <random>
 
 #include "geom/patch_surface.h"
@@ -233,6 +235,28 @@ TEST(PatchSurface, FieldIsTheTessellationsWithinItsError) {
   const SurfaceStats st = s.stats();
   EXPECT_EQ(st.patches, 32u);
   EXPECT_GT(st.triangles, 32u * 32 * 32);
+}
+
+// tessellate evaluates each patch on its half-step grid (rows contracted once per u): its
+// vertices are BezierPatch::eval's bit for bit, for bicubic and mixed-degree patches.
+TEST(PatchSurface, TessellationVerticesAreTheEvaluatedPatchBitForBit) {
+  PatchSet set = teapot();
+  BezierPatch mixed;
+  mixed.du = 2, mixed.dv = 1;
+  for (int k = 0; k < mixed.num_control_points(); ++k)
+    mixed.cp[k] = {0.3f * float(k), std::sin(float(k)), 0.1f * float(k * k)};
+  set.patches.push_back(mixed);
+  const int n = 7;
+  const TriangleMesh mesh = tessellate(set, n);
+  ASSERT_EQ(mesh.vertices.size(), set.patches.size() * (n + 1) * (n + 1));
+  for (size_t p = 0; p < set.patches.size(); ++p)
+    for (int j = 0; j <= n; ++j)
+      for (int i = 0; i <= n; ++i) {
+        const Vec3 want = to_f(set.patches[p].eval(double(i) / n, double(j) / n));
+        const Vec3 got = mesh.vertices[p * (n + 1) * (n + 1) + size_t(j) * (n + 1) + size_t(i)];
+        ASSERT_EQ(std::memcmp(&want, &got, sizeof want), 0)
+            << "patch " << p << " (" << i << ", " << j << ")";
+      }
 }
 
 // The field tessellation's keys (tessellate, finish_mesh) name each triangle's patch and quad,
