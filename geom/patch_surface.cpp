@@ -270,9 +270,8 @@ void PatchSurface::solve_piece(const Ray& ray, const double plane[2][4], uint32_
   const double eps = kHitTolerance * patch_size_[patch_id];
   const double wu = u1 - u0, wv = v1 - v0;
   bool converged = false;
-  DVec3 p;
+  DVec3 p, pu, pv;
   for (int it = 0; it < kMaxNewton; ++it) {
-    DVec3 pu, pv;
     p = patch.eval(u, v, &pu, &pv);
     const double f1 = plane[0][0] * p.x + plane[0][1] * p.y + plane[0][2] * p.z + plane[0][3];
     const double f2 = plane[1][0] * p.x + plane[1][1] * p.y + plane[1][2] * p.z + plane[1][3];
@@ -298,8 +297,21 @@ void PatchSurface::solve_piece(const Ray& ray, const double plane[2][4], uint32_
   if (inside) {
     const double dd = d.x * d.x + d.y * d.y + d.z * d.z;
     const double th = ((p.x - o.x) * d.x + (p.y - o.y) * d.y + (p.z - o.z) * d.z) / dd;
-    if (th > tmin && th < tmax)
-      visit(RawHit{th, std::clamp(u, 0.0, 1.0), std::clamp(v, 0.0, 1.0), patch_id});
+    if (th > tmin && th < tmax) {
+      RawHit h{th, std::clamp(u, 0.0, 1.0), std::clamp(v, 0.0, 1.0), patch_id, false, {}};
+      if (h.u == u && h.v == v) {
+        // normal()'s first attempt, from the derivatives at this very (u, v).
+        const double nx = pu.y * pv.z - pu.z * pv.y, ny = pu.z * pv.x - pu.x * pv.z,
+                     nz = pu.x * pv.y - pu.y * pv.x;
+        const double len = std::sqrt(nx * nx + ny * ny + nz * nz);
+        const double size = patch_size_[patch_id];
+        if (len > 1e-10 * size * size) {
+          h.has_normal = true;
+          h.n = {float(nx / len), float(ny / len), float(nz / len)};
+        }
+      }
+      visit(h);
+    }
     return;
   }
   // Converged to a root outside the piece: the piece that owns it reports it (a ray passing
@@ -391,34 +403,50 @@ bool PatchSurface::intersect(const Ray& ray, float tmin, float tmax, SurfaceHit*
   hit->prim = best.patch;
   hit->u = static_cast<float>(best.u);
   hit->v = static_cast<float>(best.v);
-  hit->normal = normal(best.patch, best.u, best.v);
+  hit->normal = hit_normal(best);
   return true;
 }
 
 void PatchSurface::crossings(const Ray& ray, float tmin, float tmax,
                              std::vector<Crossing>* out) const {
   out->clear();
-  std::vector<RawHit> raw;
+  // The roots in a buffer on the stack (a ray meets a few; more spill to the heap), sorted,
+  // then compacted in place: no allocation per ray.
+  constexpr size_t kInline = 32;
+  RawHit inline_hits[kInline];
+  std::vector<RawHit> spill;
+  size_t count = 0;
   float limit = tmax;
-  trace(ray, tmin, &limit, [&](const RawHit& h) { raw.push_back(h); });
-  std::sort(raw.begin(), raw.end(), [](const RawHit& a, const RawHit& b) { return a.t < b.t; });
+  trace(ray, tmin, &limit, [&](const RawHit& h) {
+    if (count < kInline) {
+      inline_hits[count++] = h;
+      return;
+    }
+    if (spill.empty()) spill.assign(inline_hits, inline_hits + kInline);
+    spill.push_back(h);
+    ++count;
+  });
+  RawHit* raw = spill.empty() ? inline_hits : spill.data();
+  std::sort(raw, raw + count, [](const RawHit& a, const RawHit& b) { return a.t < b.t; });
   const double dl = length(ray.dir);
-  std::vector<RawHit> kept;
-  for (const RawHit& h : raw) {
-    const Vec3 n = normal(h.patch, h.u, h.v);
-    const int facing = dot(n, ray.dir) < 0 ? 1 : -1;
+  int facings[kInline];
+  std::vector<int> spill_facings(count > kInline ? count : 0);
+  int* facing_of = count > kInline ? spill_facings.data() : facings;
+  size_t kept = 0;  // raw[0, kept): the roots kept, with facing_of[] their facings
+  for (size_t i = 0; i < count; ++i) {
+    const RawHit h = raw[i];
+    const int facing = dot(hit_normal(h), ray.dir) < 0 ? 1 : -1;
     bool dup = false;
     // The same point found by two pieces (on their shared border) or by two patches sharing
     // an edge: same facing, same place.
-    for (size_t k = kept.size(); k-- > 0;) {
-      const RawHit& q = kept[k];
+    for (size_t k = kept; k-- > 0;) {
       const double tol = 1e-6 * patch_size_[h.patch] / std::max(dl, 1e-30);
-      if (h.t - q.t > tol) break;
-      const int qf = dot(normal(q.patch, q.u, q.v), ray.dir) < 0 ? 1 : -1;
-      if (qf == facing) dup = true;
+      if (h.t - raw[k].t > tol) break;
+      if (facing_of[k] == facing) dup = true;
     }
     if (dup) continue;
-    kept.push_back(h);
+    raw[kept] = h;
+    facing_of[kept++] = facing;
     out->push_back({static_cast<float>(h.t), facing, h.patch});
   }
 }

@@ -96,7 +96,13 @@ class PatchSurface final : public Surface {
   struct RawHit {
     double t, u, v;
     uint32_t patch;
+    /// normal(patch, u, v), when Newton's last derivatives gave it (has_normal): the same
+    /// operations at the same (u, v), without evaluating the patch again.
+    bool has_normal = false;
+    Vec3 n;
   };
+  /// normal(h.patch, h.u, h.v), from the hit when it carries it.
+  Vec3 hit_normal(const RawHit& h) const { return h.has_normal ? h.n : normal(h.patch, h.u, h.v); }
   template <typename Visit>
   // Visits every root in the pieces whose boxes the ray meets up to *tmax; a visitor that
   // lowers *tmax (nearest hit) prunes the rest of the traversal.

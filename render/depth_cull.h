@@ -46,8 +46,9 @@ inline SlabTest interval_slab_test(const Field& field, const Box& box, bool uncl
 
 /// Bisects [t0, t1] front to back. Each piece is judged by `test(a, b)` (a SlabTest); a piece
 /// that is not empty and not inside is halved while it is longer than `width(b)` and less than
-/// 20 halvings deep; every other non-empty piece goes to `keep(a, b)`, in increasing depth. The
-/// walk ends after a piece that hides what lies behind it. `stack` is the caller's scratch.
+/// 20 halvings deep; every other non-empty piece goes to `keep(a, b, test)`, in increasing
+/// depth, with its SlabTest (whether it was proven inside). The walk ends after a piece that
+/// hides what lies behind it. `stack` is the caller's scratch.
 template <typename Test, typename Width, typename Keep>
 void bisect_depths(float t0, float t1, std::vector<DepthPiece>* stack, Test&& test, Width&& width,
                    Keep&& keep) {
@@ -66,7 +67,7 @@ void bisect_depths(float t0, float t1, std::vector<DepthPiece>* stack, Test&& te
         continue;
       }
     }
-    keep(p.a, p.b);
+    keep(p.a, p.b, s);
     if (s.hides) break;
   }
 }

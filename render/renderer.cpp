@@ -61,6 +61,9 @@ struct ThreadState {
   RootSearcher searcher;
   std::vector<Sample> samples;
   std::vector<Span> spans;
+  /// Where the tile's last span turns proven inside (F >= 0 for every ray of the tile from
+  /// there to the span's end: its last culling piece was an inside one); +inf when it does not.
+  float inside_from = std::numeric_limits<float>::infinity();
   std::vector<DepthPiece> stack;  // scratch of bisect_depths
   std::vector<float> hx, hy, hz, f, gx, gy, gz, attrs;
   std::vector<int> hit_index;
@@ -129,6 +132,7 @@ class TileRenderer {
     ts.accum.assign(npix * 8, 0.0f);
     // 1. Which depths can hold the surface for any ray of this tile.
     ts.spans.clear();
+    ts.inside_from = std::numeric_limits<float>::infinity();
     if (t_min_ <= t_max_) {
       if (cull_) {
         cull_tile(tx0, ty0, tx1, ty1, ts);
@@ -181,7 +185,11 @@ class TileRenderer {
         // Split along depth while the slab is deeper than it is wide: past that, halving the
         // depth no longer shrinks the box much.
         [&](float b) { return tile_px * (footprint_a_ + footprint_b_ * b); },
-        [&](float a, float b) { append_span(&ts.spans, a, b); });
+        [&](float a, float b, const SlabTest& s) {
+          append_span(&ts.spans, a, b);
+          // F >= 0 from `a` on when this piece, so far the last, was proven inside.
+          ts.inside_from = s.inside ? a : std::numeric_limits<float>::infinity();
+        });
   }
 
   void make_samples(int tx0, int ty0, int tx1, int ty1, ThreadState& ts) {
@@ -234,7 +242,10 @@ class TileRenderer {
       // A span that starts inside the box starts where a culled slab ends: every point of
       // that slab's box, this ray's point at a included, has F < 0.
       const bool start_outside = a > te && a == ts.spans.front().a;
-      RootHit h = ts.searcher.analytic_search(s.ray, a, b, start_outside);
+      // Likewise the last span may end in a piece proven inside (the walk stops after one
+      // that hides the rest): the gap that reaches it is inside without a sample.
+      const bool end_inside = ts.inside_from < b;
+      RootHit h = ts.searcher.analytic_search(s.ray, a, b, start_outside, end_inside);
       h.at_start = h.at_start && a == te;
       if (h.hit) set_hit(s, h);
       return;
@@ -493,7 +504,8 @@ class TileRenderer {
           // or not.
           return SlabTest{.empty = interval_slab_test(field_, box, false, &c.interval_calls).empty};
         },
-        [&](float) { return width; }, [&](float a, float b) { append_span(spans, a, b); });
+        [&](float) { return width; },
+        [&](float a, float b, const SlabTest&) { append_span(spans, a, b); });
   }
 
   /// The unit direction from surface point p towards `light`.

@@ -244,7 +244,8 @@ RootHit RootSearcher::bisect(const Ray& ray, float t0, float eps, float fallback
   return {};
 }
 
-RootHit RootSearcher::analytic_search(const Ray& ray, float t0, float t1, bool start_outside) {
+RootHit RootSearcher::analytic_search(const Ray& ray, float t0, float t1, bool start_outside,
+                                      bool end_inside) {
   if (!(t0 <= t1)) return {};
   std::vector<double>& c = candidates_;
   c.clear();
@@ -260,15 +261,24 @@ RootHit RootSearcher::analytic_search(const Ray& ray, float t0, float t1, bool s
     c[n++] = t;
   }
   c.resize(n);
-  // Samples: t0 (unless known outside), then the midpoint of each gap (c[k], c[k+1]) with
-  // c[n] = t1. F keeps its sign on each gap (every sign change is at a candidate), so one
-  // sample per gap decides it.
-  const size_t first = start_outside ? 0 : 1;  // index of gap 0's sample
-  const size_t m = first + n;
-  if (m == 0) return {};
+  // Samples: gap 0 [t0, c[0]) (unless known outside), then the midpoint of each gap
+  // (c[k], c[k+1]) with c[n] = t1. F keeps its sign on each gap (every sign change is at a candidate), so one
+  // sample per gap decides it. The last gap (c[n-1], t1], or [t0, t1] without candidates,
+  // is known inside with end_inside (unless that contradicts start_outside: then sampled).
+  const bool last_known = end_inside && (n == 0 ? !start_outside : c[n - 1] < double(t1));
+  if (n == 0 && last_known) return {true, t0, true};
+  const size_t first = start_outside ? 0 : 1;     // index of gap 0's sample
+  const size_t sampled = last_known ? n - 1 : n;  // gaps after a candidate that get a sample
+  const size_t m = first + sampled;
+  if (m == 0) return last_known ? RootHit{true, float(c[0]), false} : RootHit{};
   if (ts_.size() < m) ts_.resize(m);
-  if (!start_outside) ts_[0] = t0;
-  for (size_t k = 0; k < n; ++k) {
+  // Gap 0's sample at its midpoint rather than at t0 (the same side: no candidate lies in
+  // between): t0 is often next to a surface (a shadow ray's biased origin, a culled slab's
+  // end), where a mesh or patch leaf's side costs its own winding number, while the midpoint
+  // of a long gap is usually in a region of the leaf's cell grid that has one for all its
+  // points (geom::MeshSurface::inside).
+  if (!start_outside) ts_[0] = float(0.5 * (double(t0) + (n > 0 ? c[0] : double(t1))));
+  for (size_t k = 0; k < sampled; ++k) {
     double next = k + 1 < n ? c[k + 1] : double(t1);
     ts_[first + k] = float(0.5 * (c[k] + next));
   }
@@ -277,9 +287,10 @@ RootHit RootSearcher::analytic_search(const Ray& ray, float t0, float t1, bool s
   eval_params(ray, 1);
   if (m > 1 && !(fs_[0] >= 0)) eval_params(ray, m - 1, 1);  // NaN counts as outside
   if (!start_outside && fs_[0] >= 0) return {true, t0, true};
-  for (size_t k = 0; k < n; ++k) {
+  for (size_t k = 0; k < sampled; ++k) {
     if (fs_[first + k] >= 0) return {true, float(c[k]), false};
   }
+  if (last_known) return {true, float(c[n - 1]), false};
   return {};
 }
 

@@ -104,14 +104,19 @@ class RootSearcher {
   static constexpr int kPrunedSpan = 32;
 
   /// Analytic search (needs field.has_ray_candidates()): gathers the candidates in [t0, t1],
-  /// sorts them, evaluates F at t0 and at the midpoints between consecutive candidates (and
-  /// between the last one and t1) in two calls (the first sample, then the others when it is
-  /// outside), and reports the first candidate after
-  /// which F >= 0, or t0 itself (at_start) when F(t0) >= 0. A candidate where F only touches 0
+  /// sorts them, evaluates F at the midpoints of the gaps between t0, the candidates and t1
+  /// in two calls (the first sample, then the others when it is outside), and reports the
+  /// first candidate after which F >= 0, or t0 itself (at_start) when F >= 0 before the first
+  /// candidate. A candidate where F only touches 0
   /// (a tangent ray) is not a hit. Shadow rays use it unchanged: there is nothing to refine.
   /// `start_outside`: the caller has proven F < 0 at t0 (the end of a culled slab), so F(t0)
   /// is not evaluated (for a mesh or patch leaf that sample may cost a winding number).
-  RootHit analytic_search(const Ray& ray, float t0, float t1, bool start_outside = false);
+  /// `end_inside`: the caller has proven F >= 0 on a piece of the ray that ends at t1 (a
+  /// culling piece proven inside), so the last gap, which reaches into it, is inside without
+  /// a sample: a ray that enters a solid once needs no sample at all (the teapot's camera rays:
+  /// one winding number each before).
+  RootHit analytic_search(const Ray& ray, float t0, float t1, bool start_outside = false,
+                          bool end_inside = false);
 
   /// Batched interval search: the bisection of interval_search for many rays at once. Every
   /// ray has pieces of its range, added front to back or in any order; the pieces of all rays

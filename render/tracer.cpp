@@ -446,7 +446,7 @@ class SceneTracer {
                   field, ob, world.contains(slab) && obj.bbox.contains(padded), &c.interval_calls);
             },
             [&](float b) { return tile_px * (footprint_a_ + footprint_b_ * b); },
-            [&](float a, float b) {
+            [&](float a, float b, const SlabTest&) {
               lo = std::min(lo, a);
               hi = std::max(hi, b);
             });

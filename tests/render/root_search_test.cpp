@@ -301,6 +301,38 @@ TEST(RootSearch, AnalyticStartKnownOutsideSkipsOneSample) {
   EXPECT_EQ(s.counters().eval_calls, calls);
 }
 
+TEST(RootSearch, AnalyticEndKnownInsideSkipsTheLastGap) {
+  // The renderer passes end_inside when the tile's last culling piece was proven inside: the
+  // gap reaching t1 is inside without a sample. A ray entering once then needs none at all.
+  SphereField sphere({0, 0, 0}, 3);
+  RootSearcher s(sphere);
+  const Ray ray{{0.5f, 1.0f, 20}, {0, 0, -1}};
+  const float t_in = 20 - std::sqrt(9.0f - 0.25f - 1.0f);
+  const RootHit full = s.analytic_search(ray, 0, 19);  // ends inside the ball
+  uint64_t before = s.counters().eval_points;
+  const RootHit both = s.analytic_search(ray, 0, 19, true, true);
+  EXPECT_EQ(s.counters().eval_points, before);
+  ASSERT_TRUE(full.hit && both.hit);
+  EXPECT_EQ(full.t, both.t);
+  EXPECT_NEAR(both.t, t_in, 2e-6);
+  EXPECT_FALSE(both.at_start);
+  // t0 not known outside: only gap 0 is sampled.
+  before = s.counters().eval_points;
+  const RootHit end = s.analytic_search(ray, 0, 19, false, true);
+  EXPECT_EQ(s.counters().eval_points - before, 1u);
+  EXPECT_EQ(end.t, full.t);
+  // No candidate in an inside range: a hit at its start, without a sample.
+  before = s.counters().eval_points;
+  const RootHit in = s.analytic_search(ray, 18, 19, false, true);
+  EXPECT_TRUE(in.hit && in.at_start);
+  EXPECT_EQ(in.t, 18);
+  EXPECT_EQ(s.counters().eval_points, before);
+  // Two candidates (through the ball) and the range ending past it: the gaps are sampled.
+  const RootHit through = s.analytic_search(ray, 0, 40, true, false);
+  ASSERT_TRUE(through.hit);
+  EXPECT_EQ(through.t, full.t);
+}
+
 TEST(RootSearch, AnalyticMissStartInsideAndTangent) {
   SphereField sphere({0, 0, 0}, 2);
   RootSearcher s(sphere);
