@@ -464,7 +464,85 @@ void MeshSurface::crossings(const Ray& ray, float tmin, float tmax,
   }
 }
 
+namespace {
+
+/// Squared distances from p (broadcast in px, py, pz) to a wide node's four child boxes, as
+/// Box::distance2 computes them (an empty slot's box gives +inf).
+inline __m128 wide_box_distance2(const WideNode& w, __m128 px, __m128 py, __m128 pz) {
+  const __m128 zero = _mm_setzero_ps();
+  auto axis = [&](const float* lo, const float* hi, __m128 q) {
+    const __m128 d = _mm_max_ps(_mm_max_ps(_mm_sub_ps(_mm_load_ps(lo), q), zero),
+                                _mm_sub_ps(q, _mm_load_ps(hi)));
+    return _mm_mul_ps(d, d);
+  };
+  return _mm_add_ps(_mm_add_ps(axis(w.lo_x, w.hi_x, px), axis(w.lo_y, w.hi_y, py)),
+                    axis(w.lo_z, w.hi_z, pz));
+}
+
+}  // namespace
+
 ClosestPoint MeshSurface::closest_point(Vec3 p, float max_distance) const {
+  if (wide_.empty()) return closest_point_binary(p, max_distance);
+  // Through the 4-wide tree, nearest child first: four box distances per step in SSE (the
+  // binary walk tested two per step and pushed twice as many entries; a teapot frame's
+  // shading normals 125M -> ~70M instructions).
+  ClosestPoint best;
+  float best_d2 = max_distance < std::numeric_limits<float>::infinity()
+                      ? max_distance * max_distance
+                      : std::numeric_limits<float>::infinity();
+  const __m128 px = _mm_set1_ps(p.x), py = _mm_set1_ps(p.y), pz = _mm_set1_ps(p.z);
+  DistanceEntry stack[WideBvh::kWideStackSize];
+  int sp = 0;
+  stack[sp++] = {0, nodes_[0].bounds().distance2(p)};
+  uint32_t best_slot = ~0u;
+  while (sp > 0) {
+    const DistanceEntry e = stack[--sp];
+    if (e.d2 >= best_d2) continue;
+    if (e.node & WideBvh::kLeafBit) {
+      const BvhNode& n = nodes_[e.node & ~WideBvh::kLeafBit];
+      for (uint32_t s = n.index; s < n.index + n.count; ++s) {
+        const Vec3 q =
+            closest_point_on_triangle(p, corners_[3 * s], corners_[3 * s + 1], corners_[3 * s + 2]);
+        const float d2 = length2(q - p);
+        if (d2 < best_d2) {
+          best_d2 = d2;
+          best.point = q;
+          best_slot = s;
+        }
+      }
+      continue;
+    }
+    const WideNode& w = wide_.nodes[e.node];
+    alignas(16) float d2[4];
+    _mm_store_ps(d2, wide_box_distance2(w, px, py, pz));
+    // The children within the bound, pushed farthest first so that the nearest is searched
+    // next and tightens the bound for the others.
+    DistanceEntry kids[4];
+    int nk = 0;
+    for (int k = 0; k < 4; ++k) {
+      if (!(d2[k] < best_d2)) continue;
+      DistanceEntry c{w.child[k], d2[k]};
+      int j = nk++;
+      while (j > 0 && kids[j - 1].d2 < c.d2) {
+        kids[j] = kids[j - 1];
+        --j;
+      }
+      kids[j] = c;
+    }
+    HFRT_CHECK_LE(sp + nk, WideBvh::kWideStackSize);
+    for (int k = 0; k < nk; ++k) stack[sp++] = kids[k];
+  }
+  if (best_slot != ~0u) {
+    best.prim = prim_order_[best_slot];
+    best.distance = std::sqrt(best_d2);
+    const Vec3 a = corners_[3 * best_slot], b = corners_[3 * best_slot + 1],
+               c = corners_[3 * best_slot + 2];
+    best.normal = normalize(cross(b - a, c - a));
+  }
+  return best;
+}
+
+ClosestPoint MeshSurface::closest_point_binary(Vec3 p, float max_distance) const {
   ClosestPoint best;
   float best_d2 = max_distance < std::numeric_limits<float>::infinity()
                       ? max_distance * max_distance
@@ -788,13 +866,49 @@ float MeshSurface::signed_distance(Vec3 p, Vec3* gradient) const {
 float MeshSurface::distance_lower_bound(const Box& box, Vec3* near_vertex) const {
   float best = std::numeric_limits<float>::infinity();
   uint32_t best_slot = 0;
-  DistanceEntry stack[kStackSize];
+  DistanceEntry stack[WideBvh::kWideStackSize];
   int sp = 0;
-  stack[sp++] = {0, nodes_[0].bounds().distance2(box)};
+  // Through the 4-wide tree when there is one (four box distances per step in SSE, nearest
+  // first), else the binary one; entries are wide nodes or kLeafBit | a binary leaf.
+  const bool wide = !wide_.empty();
+  stack[sp++] = {wide ? 0u : WideBvh::kLeafBit, nodes_[0].bounds().distance2(box)};
+  const __m128 zero = _mm_setzero_ps();
+  const __m128 blx = _mm_set1_ps(box.lo.x), bly = _mm_set1_ps(box.lo.y),
+               blz = _mm_set1_ps(box.lo.z);
+  const __m128 bhx = _mm_set1_ps(box.hi.x), bhy = _mm_set1_ps(box.hi.y),
+               bhz = _mm_set1_ps(box.hi.z);
   while (sp > 0) {
     const DistanceEntry e = stack[--sp];
     if (e.d2 >= best) continue;
-    const BvhNode& n = nodes_[e.node];
+    if (!(e.node & WideBvh::kLeafBit)) {
+      // Box::distance2(const Box&) of the four children, as it computes it.
+      const WideNode& w = wide_.nodes[e.node];
+      auto axis = [&](const float* lo, const float* hi, __m128 b_lo, __m128 b_hi) {
+        const __m128 d = _mm_max_ps(_mm_max_ps(_mm_sub_ps(_mm_load_ps(lo), b_hi), zero),
+                                    _mm_sub_ps(b_lo, _mm_load_ps(hi)));
+        return _mm_mul_ps(d, d);
+      };
+      alignas(16) float d2[4];
+      _mm_store_ps(
+          d2, _mm_add_ps(_mm_add_ps(axis(w.lo_x, w.hi_x, blx, bhx), axis(w.lo_y, w.hi_y, bly, bhy)),
+                         axis(w.lo_z, w.hi_z, blz, bhz)));
+      DistanceEntry kids[4];
+      int nk = 0;
+      for (int k = 0; k < 4; ++k) {
+        if (!(d2[k] < best)) continue;
+        DistanceEntry c{w.child[k], d2[k]};
+        int j = nk++;
+        while (j > 0 && kids[j - 1].d2 < c.d2) {
+          kids[j] = kids[j - 1];
+          --j;
+        }
+        kids[j] = c;
+      }
+      HFRT_CHECK_LE(sp + nk, WideBvh::kWideStackSize);
+      for (int k = 0; k < nk; ++k) stack[sp++] = kids[k];
+      continue;
+    }
+    const BvhNode& n = nodes_[e.node & ~WideBvh::kLeafBit];
     if (n.is_leaf()) {
       for (uint32_t s = n.index; s < n.index + n.count; ++s) {
         Box tb;
@@ -819,9 +933,11 @@ float MeshSurface::distance_lower_bound(const Box& box, Vec3* near_vertex) const
         return 0;
       }
     } else {
+      // The binary walk (no wide tree): children as leaf-bit entries.
       const uint32_t c0 = n.index, c1 = n.index + 1;
       const float d0 = nodes_[c0].bounds().distance2(box), d1 = nodes_[c1].bounds().distance2(box);
-      push_nearer_on_top(stack, sp, c0, d0, c1, d1);
+      HFRT_CHECK_LE(sp + 2, WideBvh::kWideStackSize);
+      push_nearer_on_top(stack, sp, c0 | WideBvh::kLeafBit, d0, c1 | WideBvh::kLeafBit, d1);
     }
   }
   if (near_vertex) *near_vertex = corners_[3 * best_slot];

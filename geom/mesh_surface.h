@@ -72,6 +72,11 @@ class MeshSurface final : public Surface {
   /// occluded() through the binary BVH, one triangle at a time: for tests.
   bool occluded_binary(const Ray& ray, float tmin, float tmax) const;
 
+  /// closest_point() through the binary BVH (the 4-wide one is the default): for tests, and
+  /// meshes of one leaf.
+  ClosestPoint closest_point_binary(
+      Vec3 p, float max_distance = std::numeric_limits<float>::infinity()) const;
+
   /// The closest point of the mesh to p among points closer than `max_distance`.
   ClosestPoint closest_point(
       Vec3 p, float max_distance = std::numeric_limits<float>::infinity()) const override;

@@ -241,6 +241,41 @@ TEST(SignedDistance, ArmadilloEqualsBruteForce) {
   }
 }
 
+// closest_point and distance_lower_bound walk the 4-wide tree: the same distances as the
+// binary walk (closest_point_binary) and as brute force over the triangles' boxes, with and
+// without a search limit.
+TEST(SignedDistance, WideDistanceQueriesEqualTheBinaryWalkAndBruteForce) {
+  const TriangleMesh& m = testing::armadillo();
+  const MeshSurface& s = testing::armadillo_surface();
+  std::mt19937 rng(41);
+  const Box box = testing::grown(s.bounds(), 0.2f);
+  int limited = 0;
+  for (int i = 0; i < 300; ++i) {
+    const Vec3 p =
+        i % 2 ? testing::random_point(rng, box)
+              : m.vertices[rng() % m.vertices.size()] + testing::random_direction(rng) * 0.5f;
+    for (const float limit : {std::numeric_limits<float>::infinity(), 1.0f, 0.3f}) {
+      const ClosestPoint w = s.closest_point(p, limit), b = s.closest_point_binary(p, limit);
+      ASSERT_EQ(w.prim == ~0u, b.prim == ~0u) << i;
+      if (w.prim == ~0u) continue;
+      EXPECT_EQ(w.distance, b.distance) << i;
+      limited += limit < 1e30f;
+    }
+    // A box around p: the distance to the nearest triangle's box, by brute force.
+    const Vec3 half{0.5f * float(i % 5), 0.3f, 0.2f * float(i % 3)};
+    const Box q(p - half, p + half);
+    float best = std::numeric_limits<float>::infinity();
+    for (size_t t = 0; t < m.triangles.size(); ++t) {
+      Box tb;
+      for (int k = 0; k < 3; ++k) tb.extend(m.corner(t, k));
+      best = std::min(best, tb.distance2(q));
+    }
+    const float want = best == 0 ? 0.0f : std::sqrt(best) * (1.0f - 1e-6f);
+    EXPECT_EQ(s.distance_lower_bound(q), want) << i;
+  }
+  EXPECT_GT(limited, 100);  // the limited searches found points
+}
+
 TEST(SignedDistance, GradientMatchesFiniteDifferences) {
   const MeshSurface& s = testing::armadillo_surface();
   std::mt19937 rng(4);
