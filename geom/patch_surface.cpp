@@ -40,12 +40,16 @@ bool start_triangle(const DVec3& o, const DVec3& d, Vec3 a, Vec3 b, Vec3 c, doub
 // distance from the bilinear patch through the corners (the patch lies in their hull), plus the
 // bilinear patch's largest distance from the triangles (at the quad centre, where the two
 // diagonals' midpoints differ), with a 1% + tiny margin for rounding.
-float piece_delta(const BezierPatch& b) {
+/// `flatness`: b.flatness(), when the caller has it.
+float piece_delta(const BezierPatch& b, float flatness) {
   const Vec3 p00 = b.control(0, 0), p10 = b.control(b.du, 0), p01 = b.control(0, b.dv),
              p11 = b.control(b.du, b.dv);
   const float twist = 0.5f * length((p00 + p11) * 0.5f - (p10 + p01) * 0.5f);
   const float size = length(b.control_bounds().diagonal());
-  return (b.flatness() + twist) * 1.01f + 1e-6f * size;
+  return (flatness + twist) * 1.01f + 1e-6f * size;
+}
+float piece_delta(const BezierPatch& b) {
+  return piece_delta(b, b.flatness());
 }
 
 // The distance between the line o + t d (d unit) and the segment [a, b], and the segment
@@ -128,7 +132,8 @@ std::unique_ptr<PatchSurface> PatchSurface::build(const PatchSet& set, const Opt
         todo.pop_back();
         BezierPatch sub = patch;
         for (int k = 0; k < patch.num_control_points(); ++k) sub.cp[k] = to_f(t.cp[k]);
-        if (t.depth < options.max_split_depth && sub.flatness() > options.flatness * size) {
+        const float flat = sub.flatness();
+        if (t.depth < options.max_split_depth && flat > options.flatness * size) {
           const float um = 0.5f * (t.u0 + t.u1), vm = 0.5f * (t.v0 + t.v1);
           std::array<DVec3, 16> q[2][2];  // [v half][u half]
           halve_patch(patch.du, patch.dv, t.cp, q);
@@ -143,7 +148,7 @@ std::unique_ptr<PatchSurface> PatchSurface::build(const PatchSet& set, const Opt
             trim ? trim->classify(t.u0, t.u1, t.v0, t.v1) : Trim::Cover::kKept;
         if (cover == Trim::Cover::kRemoved) continue;  // never hit: not in the BVH
         pieces.push_back(
-            {p, t.u0, t.u1, t.v0, t.v1, piece_delta(sub), cover == Trim::Cover::kPartial});
+            {p, t.u0, t.u1, t.v0, t.v1, piece_delta(sub, flat), cover == Trim::Cover::kPartial});
         piece_cp.push_back(sub);
       }
     }
