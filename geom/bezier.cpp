@@ -124,6 +124,38 @@ DVec3 eval_patch(const BezierPatch& patch, double u, double v, DVec3* pu, DVec3*
 
 }  // namespace
 
+static_assert(alignof(BicubicD) == 32, "eval_bicubic's AVX2 clone loads the lanes aligned");
+
+BicubicD::BicubicD(const BezierPatch& p) {
+  HFRT_CHECK(p.du == 3 && p.dv == 3);
+  for (int k = 0; k < 16; ++k) cp[k] = V4d{p.cp[k].x, p.cp[k].y, p.cp[k].z, 0};
+}
+
+__attribute__((target_clones("avx2", "default"))) DVec3 eval_bicubic(const BicubicD& patch,
+                                                                     double u, double v, DVec3* pu,
+                                                                     DVec3* pv) {
+  using V4d = BicubicD::V4d;
+  double bu[4], dbu[4], bv[4], dbv[4];
+  bernstein(3, u, bu, dbu);
+  bernstein(3, v, bv, dbv);
+  // eval_patch<3, 3> with x, y, z as lanes: each lane's sums are that function's, term by term.
+  V4d p = {0, 0, 0, 0}, a = p, b = p;
+  for (int j = 0; j <= 3; ++j) {
+    V4d r = {0, 0, 0, 0}, sd = r;
+    for (int i = 0; i <= 3; ++i) {
+      const V4d c = patch.cp[j * 4 + i];
+      r += bu[i] * c;
+      sd += dbu[i] * c;
+    }
+    p += bv[j] * r;
+    a += bv[j] * sd;
+    b += dbv[j] * r;
+  }
+  if (pu) *pu = {a[0], a[1], a[2]};
+  if (pv) *pv = {b[0], b[1], b[2]};
+  return {p[0], p[1], p[2]};
+}
+
 DVec3 BezierPatch::eval(double u, double v, DVec3* pu, DVec3* pv) const {
   if (du == 3 && dv == 3) return eval_patch<3, 3>(*this, u, v, pu, pv);
   return eval_patch<0, 0>(*this, u, v, pu, pv);

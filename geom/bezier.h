@@ -62,6 +62,21 @@ struct BezierPatch {
   float flatness() const;
 };
 
+/// A bicubic patch's control points in double, four lanes each (x, y, z, 0): what Newton's
+/// method on every ray evaluates (eval_bicubic).
+struct alignas(32) BicubicD {
+  // Aligned to 32 explicitly: without AVX enabled the compiler aligns a 32-byte vector type
+  // to 16 only, while eval_bicubic's AVX2 clone loads it aligned.
+  using V4d = double __attribute__((vector_size(32), aligned(32)));
+  V4d cp[16];
+  explicit BicubicD(const BezierPatch& p);
+};
+
+/// BezierPatch::eval of a bicubic patch (du = dv = 3) from its double control points: the
+/// same operations in the same order on the x, y and z lanes, so the same bits, in vector
+/// instructions.
+DVec3 eval_bicubic(const BicubicD& patch, double u, double v, DVec3* pu, DVec3* pv);
+
 /// A set of patches, their trimming regions and where they came from.
 struct PatchSet {
   std::vector<BezierPatch> patches;

@@ -107,6 +107,11 @@ std::unique_ptr<PatchSurface> PatchSurface::build(const PatchSet& set, const Opt
   std::unique_ptr<PatchSurface> s(new PatchSurface());
   s->set_ = set;
   s->bounds_ = set.bounds();
+  for (const BezierPatch& patch : set.patches) {
+    const bool bicubic = patch.du == 3 && patch.dv == 3;
+    s->bicubic_index_.push_back(bicubic ? int32_t(s->bicubic_.size()) : -1);
+    if (bicubic) s->bicubic_.emplace_back(patch);
+  }
   // The two halves are independent (the pieces and their BVH for rays; the field's
   // tessellation, its BVH and dipoles): built side by side, each on its own thread of TBB.
   int bvh_depth = 0;
@@ -207,11 +212,10 @@ std::unique_ptr<PatchSurface> PatchSurface::build(const PatchSet& set, const Opt
 }
 
 Vec3 PatchSurface::normal(uint32_t prim, double u, double v) const {
-  const BezierPatch& patch = set_.patches[prim];
   const double size = patch_size_[prim];
   for (int attempt = 0; attempt < 4; ++attempt) {
     DVec3 pu, pv;
-    patch.eval(u, v, &pu, &pv);
+    eval_patch(prim, u, v, &pu, &pv);
     const double nx = pu.y * pv.z - pu.z * pv.y, ny = pu.z * pv.x - pu.x * pv.z,
                  nz = pu.x * pv.y - pu.y * pv.x;
     const double len = std::sqrt(nx * nx + ny * ny + nz * nz);
@@ -228,7 +232,6 @@ void PatchSurface::solve_piece(const Ray& ray, const double plane[2][4], uint32_
                                double u0, double u1, double v0, double v1, const BezierPatch& sub,
                                float delta, int depth, float tmin, float tmax,
                                Visit&& visit) const {
-  const BezierPatch& patch = set_.patches[patch_id];
   const DVec3 o = to_d(ray.org), d = to_d(ray.dir);
   // Start where the ray meets the corner quad's two triangles, else at the centre.
   const Vec3 p00 = sub.control(0, 0), p10 = sub.control(sub.du, 0), p01 = sub.control(0, sub.dv),
@@ -277,7 +280,7 @@ void PatchSurface::solve_piece(const Ray& ray, const double plane[2][4], uint32_
   bool converged = false;
   DVec3 p, pu, pv;
   for (int it = 0; it < kMaxNewton; ++it) {
-    p = patch.eval(u, v, &pu, &pv);
+    p = eval_patch(patch_id, u, v, &pu, &pv);
     const double f1 = plane[0][0] * p.x + plane[0][1] * p.y + plane[0][2] * p.z + plane[0][3];
     const double f2 = plane[1][0] * p.x + plane[1][1] * p.y + plane[1][2] * p.z + plane[1][3];
     if (std::abs(f1) < eps && std::abs(f2) < eps) {

@@ -115,6 +115,16 @@ class PatchSurface final : public Surface {
 
   PatchSet set_;
   std::vector<float> patch_size_;
+  /// Per patch: its index in bicubic_ (the double control points Newton evaluates), or -1
+  /// for a patch of other degrees.
+  std::vector<int32_t> bicubic_index_;
+  std::vector<BicubicD> bicubic_;
+  /// patch.eval(u, v, pu, pv) of patch `id`, through bicubic_ when it has an entry.
+  DVec3 eval_patch(uint32_t id, double u, double v, DVec3* pu, DVec3* pv) const {
+    const int32_t b = bicubic_index_[id];
+    return b >= 0 ? eval_bicubic(bicubic_[size_t(b)], u, v, pu, pv)
+                  : set_.patches[id].eval(u, v, pu, pv);
+  }
   std::vector<BvhNode> nodes_;
   WideBvh wide_;                       // 4-wide upper levels of nodes_, for rays
   std::vector<Piece> pieces_;          // in leaf order

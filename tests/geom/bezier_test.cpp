@@ -237,6 +237,23 @@ TEST(PatchSurface, FieldIsTheTessellationsWithinItsError) {
   EXPECT_GT(st.triangles, 32u * 32 * 32);
 }
 
+// Newton's evaluator (eval_bicubic: double control points, x, y, z in vector lanes) gives
+// BezierPatch::eval's point and derivatives bit for bit.
+TEST(Bezier, VectorBicubicEvaluationIsTheScalarOneBitForBit) {
+  std::mt19937 rng(8);
+  std::uniform_real_distribution<double> t(0, 1);
+  for (const BezierPatch& patch : teapot().patches) {
+    const BicubicD d(patch);
+    for (int k = 0; k < 50; ++k) {
+      const double u = k == 0 ? 0.0 : k == 1 ? 1.0 : t(rng), v = k == 0 ? 1.0 : t(rng);
+      DVec3 pu, pv, qu, qv;
+      const DVec3 p = patch.eval(u, v, &pu, &pv), q = eval_bicubic(d, u, v, &qu, &qv);
+      for (const auto& [a, b] : {std::pair{p, q}, std::pair{pu, qu}, std::pair{pv, qv}})
+        ASSERT_TRUE(std::memcmp(&a, &b, sizeof a) == 0) << u << " " << v;
+    }
+  }
+}
+
 // tessellate evaluates each patch on its half-step grid (rows contracted once per u): its
 // vertices are BezierPatch::eval's bit for bit, for bicubic and mixed-degree patches.
 TEST(PatchSurface, TessellationVerticesAreTheEvaluatedPatchBitForBit) {
