@@ -784,9 +784,10 @@ MeshSurface::~MeshSurface() {
 
 const MeshSurface::SideGrid& MeshSurface::side_grid() const {
   if (const SideGrid* g = side_grid_.load(std::memory_order_acquire)) return *g;
-  // Cells of 1/48 of the bounds' largest side, over the bounds grown by a cell: a sign
-  // sample of the teapot's renders is ~0.1-1 of its size from the surface, and a cell as
-  // large as its tessellation's quads is mostly clear of them (~45k cells, one byte each).
+  // Cells of 1/48 of the bounds' largest side, over the bounds grown by a cell (the teapot:
+  // ~45k cells of five bytes). On a teapot frame 48 asks the fewest winding numbers of 32,
+  // 48 and 96 with the images unchanged (96: 1 % fewer instructions, one pixel different,
+  // where the lid's gap makes w fractional).
   auto grid = std::make_unique<SideGrid>();
   const Box b = bounds();
   const float extent = b.max_extent();
@@ -800,6 +801,7 @@ const MeshSurface::SideGrid& MeshSurface::side_grid() const {
       total *= size_t(grid->n[a]);
     }
     grid->cells = std::make_unique<std::atomic<uint8_t>[]>(total);  // value-initialised: 0
+    grid->ball_r2 = std::make_unique<float[]>(total);
   }
   SideGrid* expected = nullptr;
   SideGrid* mine = grid.get();
@@ -820,25 +822,47 @@ bool MeshSurface::inside(Vec3 p) const {
     if (!(f >= 0 && f < float(g.n[a]))) return winding_number(p) >= 0.5;
     c[a] = std::min(int(f), g.n[a] - 1);
   }
-  std::atomic<uint8_t>& cell = g.cells[(size_t(c[2]) * g.n[1] + c[1]) * g.n[0] + c[0]];
-  uint8_t state = cell.load(std::memory_order_relaxed);
+  const size_t index = (size_t(c[2]) * g.n[1] + c[1]) * g.n[0] + c[0];
+  std::atomic<uint8_t>& cell = g.cells[index];
+  const Vec3 centre{g.lo.x + (float(c[0]) + 0.5f) * g.h, g.lo.y + (float(c[1]) + 0.5f) * g.h,
+                    g.lo.z + (float(c[2]) + 0.5f) * g.h};
+  uint8_t state = cell.load(std::memory_order_acquire);
   if (state == SideGrid::kUnknown) {
-    // The cell's box, grown by a hundredth of a cell so that it surely holds every point the
-    // index computation above puts in it; clear when no triangle's box meets it.
-    Box box;
-    for (int a = 0; a < 3; ++a) {
-      box.lo[a] = g.lo[a] + (float(c[a]) - 0.01f) * g.h;
-      box.hi[a] = g.lo[a] + (float(c[a]) + 1.01f) * g.h;
-    }
-    if (distance_lower_bound(box) > 0) {
-      state = winding_number(box.center()) >= 0.5 ? SideGrid::kInside : SideGrid::kOutside;
+    // Every point the index computation above puts in the cell is within half the diagonal
+    // of a cell grown by a hundredth of a cell of its centre. With no surface in that ball
+    // the whole cell has the centre's side (the segment to the centre meets no triangle);
+    // otherwise the ball of radius d, the centre's distance to the surface, still does
+    // (shrunk for the rounding of d) when it is not too small to be worth a winding number.
+    const float half_diag = 0.5f * std::sqrt(3.0f) * 1.02f * g.h;
+    const ClosestPoint near = closest_point(centre, half_diag);
+    const bool clear = near.prim == ~0u;
+    const float r = clear ? half_diag : near.distance * (1.0f - 1e-5f);
+    if (clear || r > 0.1f * g.h) {
+      const bool in = winding_number(centre) >= 0.5;
+      if (clear) {
+        state = in ? SideGrid::kInside : SideGrid::kOutside;
+      } else {
+        g.ball_r2[index] = r * r;
+        state = in ? SideGrid::kBallInside : SideGrid::kBallOutside;
+      }
     } else {
       state = SideGrid::kNear;
     }
-    cell.store(state, std::memory_order_relaxed);
+    cell.store(state, std::memory_order_release);
   }
-  if (state == SideGrid::kNear) return winding_number(p) >= 0.5;
-  return state == SideGrid::kInside;
+  switch (state) {
+    case SideGrid::kInside:
+      return true;
+    case SideGrid::kOutside:
+      return false;
+    case SideGrid::kBallInside:
+    case SideGrid::kBallOutside:
+      if (length2(p - centre) < g.ball_r2[index]) return state == SideGrid::kBallInside;
+      break;
+    default:
+      break;
+  }
+  return winding_number(p) >= 0.5;
 }
 
 double MeshSurface::winding_number_exact(Vec3 p) const {
@@ -983,7 +1007,7 @@ SurfaceStats MeshSurface::stats() const {
 size_t MeshSurface::memory_bytes() const {
   size_t grid = 0;  // inside()'s cells, once made
   if (const SideGrid* g = side_grid_.load(std::memory_order_acquire); g && g->cells)
-    grid = sizeof(SideGrid) + size_t(g->n[0]) * g->n[1] * g->n[2];
+    grid = sizeof(SideGrid) + size_t(g->n[0]) * g->n[1] * g->n[2] * (1 + sizeof(float));
   return sizeof(*this) + nodes_.capacity() * sizeof(BvhNode) + corners_.capacity() * sizeof(Vec3) +
          prim_order_.capacity() * sizeof(uint32_t) + dipoles_.capacity() * sizeof(WideDipole) +
          wide_.memory_bytes() + grid;

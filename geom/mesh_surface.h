@@ -54,7 +54,8 @@ class MeshSurface final : public Surface {
   void crossings(const Ray& ray, float tmin, float tmax, std::vector<Crossing>* out) const override;
   double winding_number(Vec3 p) const override;
   /// winding_number(p) >= 1/2 through a grid of cells over the mesh's bounds, filled on first
-  /// use: a cell that no triangle's box meets takes the side of its centre (one winding number
+  /// use: a point within the distance from its cell's centre to the mesh (the whole cell when
+  /// that exceeds half the cell's diagonal) takes the side of the centre (one winding number
   /// per cell instead of one per point: the renderer's sign samples of open meshes and
   /// patches, which the crossings of a ray cannot decide), any other point its own winding
   /// number. Thread-safe (cells are atomic; two threads may compute the same cell).
@@ -99,14 +100,24 @@ class MeshSurface final : public Surface {
  private:
   MeshSurface() = default;
 
-  /// inside()'s cells: kUnknown until asked, then kNear (a triangle's box meets the cell) or
-  /// the side of the cell's centre.
+  /// inside()'s cells: kUnknown until asked, then the side of the cell's centre for the whole
+  /// cell (no surface within half its diagonal of the centre), or for the ball around the
+  /// centre that holds no surface (its squared radius in ball_r2; kBall* states), or kNear
+  /// (the surface passes next to the centre: nothing kept).
   struct SideGrid {
-    enum : uint8_t { kUnknown = 0, kNear = 1, kInside = 2, kOutside = 3 };
+    enum : uint8_t {
+      kUnknown = 0,
+      kNear = 1,
+      kInside = 2,
+      kOutside = 3,
+      kBallInside = 4,
+      kBallOutside = 5
+    };
     Vec3 lo;
     float h = 0, inv_h = 0;
     int n[3] = {0, 0, 0};
     std::unique_ptr<std::atomic<uint8_t>[]> cells;
+    std::unique_ptr<float[]> ball_r2;  ///< written before its cell's state (release)
   };
   const SideGrid& side_grid() const;
   static std::unique_ptr<MeshSurface> build(const TriangleMesh& mesh, const Options& options,
