@@ -15,27 +15,6 @@ constexpr int kMaxRefine = 3;  // extra on-the-fly splits of a piece where Newto
 constexpr int kMaxNewton = 10;
 constexpr double kHitTolerance = 1e-7;  // residual, relative to the patch size
 
-// Ray vs triangle in double (Möller–Trumbore), only for Newton's starting point: no need to be
-// watertight, a miss just means starting from the piece's centre.
-bool start_triangle(const DVec3& o, const DVec3& d, Vec3 a, Vec3 b, Vec3 c, double* b1,
-                    double* b2) {
-  const double e1x = double(b.x) - a.x, e1y = double(b.y) - a.y, e1z = double(b.z) - a.z;
-  const double e2x = double(c.x) - a.x, e2y = double(c.y) - a.y, e2z = double(c.z) - a.z;
-  const double px = d.y * e2z - d.z * e2y, py = d.z * e2x - d.x * e2z, pz = d.x * e2y - d.y * e2x;
-  const double det = e1x * px + e1y * py + e1z * pz;
-  if (std::abs(det) < 1e-30) return false;
-  const double inv = 1 / det;
-  const double tx = o.x - a.x, ty = o.y - a.y, tz = o.z - a.z;
-  const double u = (tx * px + ty * py + tz * pz) * inv;
-  if (u < 0 || u > 1) return false;
-  const double qx = ty * e1z - tz * e1y, qy = tz * e1x - tx * e1z, qz = tx * e1y - ty * e1x;
-  const double v = (d.x * qx + d.y * qy + d.z * qz) * inv;
-  if (v < 0 || u + v > 1) return false;
-  *b1 = u;
-  *b2 = v;
-  return true;
-}
-
 // How far a (sub)patch can be from the two triangles of its corner quad: the control points'
 // distance from the bilinear patch through the corners (the patch lies in their hull), plus the
 // bilinear patch's largest distance from the triangles (at the quad centre, where the two
@@ -50,24 +29,6 @@ float piece_delta(const BezierPatch& b, float flatness) {
 }
 float piece_delta(const BezierPatch& b) {
   return piece_delta(b, b.flatness());
-}
-
-// The distance between the line o + t d (d unit) and the segment [a, b], and the segment
-// parameter of the nearest point.
-double line_segment_distance(const DVec3& o, const DVec3& d, Vec3 a, Vec3 b, double* s_out) {
-  const double ex = double(b.x) - a.x, ey = double(b.y) - a.y, ez = double(b.z) - a.z;
-  const double wx = double(a.x) - o.x, wy = double(a.y) - o.y, wz = double(a.z) - o.z;
-  const double dd = 1.0, de = d.x * ex + d.y * ey + d.z * ez, ee = ex * ex + ey * ey + ez * ez;
-  const double dw = d.x * wx + d.y * wy + d.z * wz, ew = ex * wx + ey * wy + ez * wz;
-  const double den = dd * ee - de * de;
-  double s = den > 1e-30 * ee ? (de * dw - dd * ew) / den : 0.0;
-  s = std::clamp(s, 0.0, 1.0);
-  // The nearest line point to the segment point a + s e.
-  const double px = wx + s * ex, py = wy + s * ey, pz = wz + s * ez;
-  const double t = d.x * px + d.y * py + d.z * pz;
-  const double rx = px - t * d.x, ry = py - t * d.y, rz = pz - t * d.z;
-  *s_out = s;
-  return std::sqrt(rx * rx + ry * ry + rz * rz);
 }
 
 // De Casteljau at 1/2 of the n + 1 points p[0], p[stride], ...: the left half's points into
@@ -233,46 +194,66 @@ void PatchSurface::solve_piece(const Ray& ray, const double plane[2][4], uint32_
                                float delta, int depth, float tmin, float tmax,
                                Visit&& visit) const {
   const DVec3 o = to_d(ray.org), d = to_d(ray.dir);
-  // Start where the ray meets the corner quad's two triangles, else at the centre.
   const Vec3 p00 = sub.control(0, 0), p10 = sub.control(sub.du, 0), p01 = sub.control(0, sub.dv),
              p11 = sub.control(sub.du, sub.dv);
   // The piece lies within delta of the hull of its four corners, and the two planes are unit
   // distances whose zero set is the ray: a piece whose corners are all more than delta on one
-  // side of either plane cannot meet the ray (the tests below would reject it too, after two
-  // triangle tests and five line-segment distances; this rejects 3 of every 4 pieces the
-  // teapot's rays reach, on a box test of the piece's control points).
+  // side of either plane cannot meet the ray (the tests below would reject it too; this
+  // rejects 3 of every 4 pieces the teapot's rays reach).
+  // f[k][q]: corner q's (00, 10, 01, 11) signed distance from plane k. The planes are
+  // orthonormal and meet in the ray, so (f[0][q], f[1][q]) is the corner projected along the
+  // ray, with the ray at the origin: the tests below are 2-D and reuse these values.
+  double f[2][4];
   for (int k = 0; k < 2; ++k) {
-    auto f = [&](Vec3 q) {
+    auto dist = [&](Vec3 q) {
       return plane[k][0] * q.x + plane[k][1] * q.y + plane[k][2] * q.z + plane[k][3];
     };
-    const double f00 = f(p00), f10 = f(p10), f01 = f(p01), f11 = f(p11);
-    if (std::min({f00, f10, f01, f11}) > delta || std::max({f00, f10, f01, f11}) < -delta) return;
+    f[k][0] = dist(p00), f[k][1] = dist(p10), f[k][2] = dist(p01), f[k][3] = dist(p11);
+    if (std::min({f[k][0], f[k][1], f[k][2], f[k][3]}) > delta ||
+        std::max({f[k][0], f[k][1], f[k][2], f[k][3]}) < -delta)
+      return;
   }
+  // Newton starts where the ray meets the corner quad's two triangles: the barycentrics of
+  // the origin in the projected triangle (corners a, b, c), as a 3-D ray-triangle test would
+  // find them.
+  auto triangle = [&](int a, int b, int c, double* b1, double* b2) {
+    const double e1x = f[0][b] - f[0][a], e1y = f[1][b] - f[1][a];
+    const double e2x = f[0][c] - f[0][a], e2y = f[1][c] - f[1][a];
+    const double det = e1x * e2y - e1y * e2x;
+    if (!(std::abs(det) > 1e-300)) return false;
+    const double px = -f[0][a], py = -f[1][a];
+    *b1 = (px * e2y - py * e2x) / det;
+    *b2 = (e1x * py - e1y * px) / det;
+    return *b1 >= 0 && *b2 >= 0 && *b1 + *b2 <= 1;
+  };
   double s = 0.5, t = 0.5, b1, b2;
-  if (start_triangle(o, d, p00, p10, p11, &b1, &b2)) {
+  if (triangle(0, 1, 3, &b1, &b2)) {
     s = b1 + b2, t = b2;
-  } else if (start_triangle(o, d, p00, p11, p01, &b1, &b2)) {
+  } else if (triangle(0, 3, 2, &b1, &b2)) {
     s = b1, t = b1 + b2;
   } else {
     // The ray misses the quad: the piece (within delta of it) can only be hit if the ray
-    // passes within delta of the quad's border; start from the nearest border point.
-    const double dl = std::sqrt(d.x * d.x + d.y * d.y + d.z * d.z);
-    const DVec3 dn{d.x / dl, d.y / dl, d.z / dl};
-    const Vec3 e0[5] = {p00, p10, p11, p01, p00};
-    const Vec3 e1[5] = {p10, p11, p01, p00, p11};
+    // passes within delta of the quad's border; start from the nearest border point (the
+    // distance from the origin to the projected edges and diagonal).
+    static constexpr int kEdge[5][2] = {{0, 1}, {1, 3}, {3, 2}, {2, 0}, {0, 3}};
     // (s, t) of each edge's start and end in the piece's parameter square.
-    const double es[5][4] = {{0, 0, 1, 0}, {1, 0, 1, 1}, {1, 1, 0, 1}, {0, 1, 0, 0}, {0, 0, 1, 1}};
-    double best = std::numeric_limits<double>::infinity();
+    static constexpr double kEs[5][4] = {
+        {0, 0, 1, 0}, {1, 0, 1, 1}, {1, 1, 0, 1}, {0, 1, 0, 0}, {0, 0, 1, 1}};
+    double best2 = std::numeric_limits<double>::infinity();
     for (int k = 0; k < 5; ++k) {
-      double a;
-      const double dist = line_segment_distance(o, dn, e0[k], e1[k], &a);
-      if (dist < best) {
-        best = dist;
-        s = es[k][0] + a * (es[k][2] - es[k][0]);
-        t = es[k][1] + a * (es[k][3] - es[k][1]);
+      const int a = kEdge[k][0], b = kEdge[k][1];
+      const double ax = f[0][a], ay = f[1][a], ex = f[0][b] - ax, ey = f[1][b] - ay;
+      const double ee = ex * ex + ey * ey;
+      const double w = ee > 0 ? std::clamp(-(ax * ex + ay * ey) / ee, 0.0, 1.0) : 0.0;
+      const double qx = ax + w * ex, qy = ay + w * ey;
+      const double d2 = qx * qx + qy * qy;
+      if (d2 < best2) {
+        best2 = d2;
+        s = kEs[k][0] + w * (kEs[k][2] - kEs[k][0]);
+        t = kEs[k][1] + w * (kEs[k][3] - kEs[k][1]);
       }
     }
-    if (best > delta) return;
+    if (best2 > double(delta) * delta) return;
   }
   double u = u0 + s * (u1 - u0), v = v0 + t * (v1 - v0);
   const double eps = kHitTolerance * patch_size_[patch_id];
