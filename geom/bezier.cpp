@@ -391,10 +391,12 @@ class HalfGrid {
 
 }  // namespace
 
-TriangleMesh tessellate(const PatchSet& set, int n, float* max_error, std::vector<uint64_t>* keys) {
+TriangleMesh tessellate(const PatchSet& set, int n, float* max_error, std::vector<uint64_t>* keys,
+                        std::vector<TriangleUV>* uvs) {
   HFRT_CHECK(n >= 1 && n < (1 << 16));
   TriangleMesh mesh;
   if (keys) keys->clear();
+  if (uvs) uvs->clear();
   // The quads in Morton order, so that each quadtree node of a patch's grid is a contiguous
   // run of triangles (build_bvh_grouped).
   std::vector<std::array<uint32_t, 3>> quad_order;  // (Morton code, i, j)
@@ -435,6 +437,11 @@ TriangleMesh tessellate(const PatchSet& set, int n, float* max_error, std::vecto
           }
           mesh.triangles.push_back({first, first + 1, first + 2});
           if (keys) keys->push_back(key);
+          if (uvs) {
+            TriangleUV t{uint32_t(p)};
+            for (int k = 0; k < 3; ++k) t.u[k] = float(tri[k].u), t.v[k] = float(tri[k].v);
+            uvs->push_back(t);
+          }
           if (max_error) {
             // Edge midpoints and the centroid against the flat triangle.
             for (int k = 0; k < 3; ++k) {
@@ -452,6 +459,12 @@ TriangleMesh tessellate(const PatchSet& set, int n, float* max_error, std::vecto
       mesh.triangles.push_back({idx(i, j), idx(i + 1, j), idx(i + 1, j + 1)});
       mesh.triangles.push_back({idx(i, j), idx(i + 1, j + 1), idx(i, j + 1)});
       if (keys) keys->insert(keys->end(), 2, key);
+      if (uvs) {
+        const float ua = float(double(i) / n), ub = float(double(i + 1) / n);
+        const float va = float(double(j) / n), vb = float(double(j + 1) / n);
+        uvs->push_back({uint32_t(p), {ua, ub, ub}, {va, va, vb}});
+        uvs->push_back({uint32_t(p), {ua, ub, ua}, {va, vb, vb}});
+      }
       if (max_error) {
         // Deviation at the quad centre (from the diagonal midpoint) and at the edge midpoints.
         const Vec3 c = grid.at(2 * i + 1, 2 * j + 1);

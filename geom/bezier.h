@@ -118,7 +118,13 @@ Result<PatchSet> patches_from_array(std::span<const double> p,
 /// midpoints; for clipped triangles, at their edge midpoints and centroids).
 /// The quads of a patch come in Morton order of their (i, j); `keys`, when not null, receives
 /// per triangle (patch << 32) | Morton code of its quad: the keys of build_bvh_grouped.
+/// `uvs`, when not null, receives per triangle its patch and its corners' (u, v).
+struct TriangleUV {
+  uint32_t patch = 0;
+  float u[3] = {0, 0, 0}, v[3] = {0, 0, 0};
+};
 TriangleMesh tessellate(const PatchSet& set, int n, float* max_error = nullptr,
-                        std::vector<uint64_t>* keys = nullptr);
+                        std::vector<uint64_t>* keys = nullptr,
+                        std::vector<TriangleUV>* uvs = nullptr);
 
 }  // namespace hfrt::geom

@@ -466,6 +466,26 @@ void MeshSurface::crossings(const Ray& ray, float tmin, float tmax,
 
 namespace {
 
+/// q = a + b1 (b - a) + b2 (c - a) for q in the triangle's plane (least squares in double);
+/// 0, 0 for a degenerate triangle.
+void barycentrics(Vec3 q, Vec3 a, Vec3 b, Vec3 c, float* b1, float* b2) {
+  const double e1[3] = {double(b.x) - a.x, double(b.y) - a.y, double(b.z) - a.z};
+  const double e2[3] = {double(c.x) - a.x, double(c.y) - a.y, double(c.z) - a.z};
+  const double w[3] = {double(q.x) - a.x, double(q.y) - a.y, double(q.z) - a.z};
+  auto dot3 = [](const double* x, const double* y) {
+    return x[0] * y[0] + x[1] * y[1] + x[2] * y[2];
+  };
+  const double d00 = dot3(e1, e1), d01 = dot3(e1, e2), d11 = dot3(e2, e2);
+  const double d20 = dot3(w, e1), d21 = dot3(w, e2);
+  const double den = d00 * d11 - d01 * d01;
+  if (!(den > 0)) {
+    *b1 = *b2 = 0;
+    return;
+  }
+  *b1 = float((d11 * d20 - d01 * d21) / den);
+  *b2 = float((d00 * d21 - d01 * d20) / den);
+}
+
 /// Squared distances from p (broadcast in px, py, pz) to a wide node's four child boxes, as
 /// Box::distance2 computes them (an empty slot's box gives +inf).
 inline __m128 wide_box_distance2(const WideNode& w, __m128 px, __m128 py, __m128 pz) {
@@ -538,6 +558,7 @@ ClosestPoint MeshSurface::closest_point(Vec3 p, float max_distance) const {
     const Vec3 a = corners_[3 * best_slot], b = corners_[3 * best_slot + 1],
                c = corners_[3 * best_slot + 2];
     best.normal = normalize(cross(b - a, c - a));
+    barycentrics(best.point, a, b, c, &best.b1, &best.b2);
   }
   return best;
 }
@@ -578,6 +599,7 @@ ClosestPoint MeshSurface::closest_point_binary(Vec3 p, float max_distance) const
     const Vec3 a = corners_[3 * best_slot], b = corners_[3 * best_slot + 1],
                c = corners_[3 * best_slot + 2];
     best.normal = normalize(cross(b - a, c - a));
+    barycentrics(best.point, a, b, c, &best.b1, &best.b2);
   }
   return best;
 }

@@ -55,12 +55,12 @@ class PatchSurface final : public Surface {
   bool inside(Vec3 p) const override { return field_ && field_->inside(p); }
   float signed_distance(Vec3 p, Vec3* gradient = nullptr) const override;
   DistanceBounds signed_distance_bounds(const Box& box) const override;
-  /// The field tessellation's closest point (within field_error() of the patches'); none
-  /// (prim ~0u) without a field.
+  /// The field tessellation's closest point (within field_error() of the patches'), with the
+  /// normal of the patch itself there (Pu x Pv at the (u, v) of that point, oriented as the
+  /// triangle's): the gradient at a ray hit, the renderer's shading normal, is the patch's,
+  /// smooth across the tessellation's edges. None (prim ~0u) without a field.
   ClosestPoint closest_point(
-      Vec3 p, float max_distance = std::numeric_limits<float>::infinity()) const override {
-    return field_ ? field_->closest_point(p, max_distance) : ClosestPoint{};
-  }
+      Vec3 p, float max_distance = std::numeric_limits<float>::infinity()) const override;
   /// Never closed: Newton's roots on two patches that share a seam are not watertight (a ray
   /// through the seam may be found on both or neither), so crossings cannot replace the
   /// winding number even when the patches close up (boundary_edges is not counted).
@@ -130,6 +130,7 @@ class PatchSurface final : public Surface {
   std::vector<Piece> pieces_;          // in leaf order
   std::vector<BezierPatch> piece_cp_;  // control points of each piece (for on-the-fly refinement)
   std::unique_ptr<MeshSurface> field_;
+  std::vector<TriangleUV> field_uv_;  // per field triangle: its patch and corners' (u, v)
   float field_error_ = 0;
   Box bounds_;
   SurfaceStats stats_;

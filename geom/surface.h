@@ -55,6 +55,9 @@ struct ClosestPoint {
   /// the direction into the solid (the field's gradient on the surface).
   Vec3 normal;
   uint32_t prim = ~0u;  ///< original triangle index; ~0u when nothing within the limit
+  /// `point` = corner 0 + b1 (corner 1 - corner 0) + b2 (corner 2 - corner 0) of the
+  /// triangle (meshes; 0 for others).
+  float b1 = 0, b2 = 0;
 };
 
 /// How the inside of a surface can be decided along a ray (Surface::topology()).
