@@ -486,6 +486,27 @@ void barycentrics(Vec3 q, Vec3 a, Vec3 b, Vec3 c, float* b1, float* b2) {
   *b2 = float((d00 * d21 - d01 * d20) / den);
 }
 
+/// Pushes the children of wide node `w` whose squared distance d2[k] is below `bound` onto a
+/// stack of WideBvh::kWideStackSize entries, farthest first, so that the nearest is searched
+/// next and tightens the bound for the others (the wide distance searches).
+inline void push_wide_children(const WideNode& w, const float d2[4], float bound,
+                               DistanceEntry* stack, int& sp) {
+  DistanceEntry kids[4];
+  int nk = 0;
+  for (int k = 0; k < 4; ++k) {
+    if (!(d2[k] < bound)) continue;
+    DistanceEntry c{w.child[k], d2[k]};
+    int j = nk++;
+    while (j > 0 && kids[j - 1].d2 < c.d2) {
+      kids[j] = kids[j - 1];
+      --j;
+    }
+    kids[j] = c;
+  }
+  HFRT_CHECK_LE(sp + nk, WideBvh::kWideStackSize);
+  for (int k = 0; k < nk; ++k) stack[sp++] = kids[k];
+}
+
 /// Squared distances from p (broadcast in px, py, pz) to a wide node's four child boxes, as
 /// Box::distance2 computes them (an empty slot's box gives +inf).
 inline __m128 wide_box_distance2(const WideNode& w, __m128 px, __m128 py, __m128 pz) {
@@ -501,15 +522,43 @@ inline __m128 wide_box_distance2(const WideNode& w, __m128 px, __m128 py, __m128
 
 }  // namespace
 
+float MeshSurface::distance_limit2(float max_distance) {
+  return max_distance < std::numeric_limits<float>::infinity()
+             ? max_distance * max_distance
+             : std::numeric_limits<float>::infinity();
+}
+
+void MeshSurface::closest_in_leaf(const BvhNode& n, Vec3 p, float* best_d2, Vec3* best_point,
+                                  uint32_t* best_slot) const {
+  for (uint32_t s = n.index; s < n.index + n.count; ++s) {
+    const Vec3 q =
+        closest_point_on_triangle(p, corners_[3 * s], corners_[3 * s + 1], corners_[3 * s + 2]);
+    const float d2 = length2(q - p);
+    if (d2 < *best_d2) {
+      *best_d2 = d2;
+      *best_point = q;
+      *best_slot = s;
+    }
+  }
+}
+
+void MeshSurface::finish_closest(float best_d2, uint32_t best_slot, ClosestPoint* best) const {
+  if (best_slot == ~0u) return;
+  best->prim = prim_order_[best_slot];
+  best->distance = std::sqrt(best_d2);
+  const Vec3 a = corners_[3 * best_slot], b = corners_[3 * best_slot + 1],
+             c = corners_[3 * best_slot + 2];
+  best->normal = normalize(cross(b - a, c - a));
+  barycentrics(best->point, a, b, c, &best->b1, &best->b2);
+}
+
 ClosestPoint MeshSurface::closest_point(Vec3 p, float max_distance) const {
   if (wide_.empty()) return closest_point_binary(p, max_distance);
   // Through the 4-wide tree, nearest child first: four box distances per step in SSE (the
   // binary walk tested two per step and pushed twice as many entries; a teapot frame's
   // shading normals 125M -> ~70M instructions).
   ClosestPoint best;
-  float best_d2 = max_distance < std::numeric_limits<float>::infinity()
-                      ? max_distance * max_distance
-                      : std::numeric_limits<float>::infinity();
+  float best_d2 = distance_limit2(max_distance);
   const __m128 px = _mm_set1_ps(p.x), py = _mm_set1_ps(p.y), pz = _mm_set1_ps(p.z);
   DistanceEntry stack[WideBvh::kWideStackSize];
   int sp = 0;
@@ -520,54 +569,21 @@ ClosestPoint MeshSurface::closest_point(Vec3 p, float max_distance) const {
     if (e.d2 >= best_d2) continue;
     if (e.node & WideBvh::kLeafBit) {
       const BvhNode& n = nodes_[e.node & ~WideBvh::kLeafBit];
-      for (uint32_t s = n.index; s < n.index + n.count; ++s) {
-        const Vec3 q =
-            closest_point_on_triangle(p, corners_[3 * s], corners_[3 * s + 1], corners_[3 * s + 2]);
-        const float d2 = length2(q - p);
-        if (d2 < best_d2) {
-          best_d2 = d2;
-          best.point = q;
-          best_slot = s;
-        }
-      }
+      closest_in_leaf(n, p, &best_d2, &best.point, &best_slot);
       continue;
     }
     const WideNode& w = wide_.nodes[e.node];
     alignas(16) float d2[4];
     _mm_store_ps(d2, wide_box_distance2(w, px, py, pz));
-    // The children within the bound, pushed farthest first so that the nearest is searched
-    // next and tightens the bound for the others.
-    DistanceEntry kids[4];
-    int nk = 0;
-    for (int k = 0; k < 4; ++k) {
-      if (!(d2[k] < best_d2)) continue;
-      DistanceEntry c{w.child[k], d2[k]};
-      int j = nk++;
-      while (j > 0 && kids[j - 1].d2 < c.d2) {
-        kids[j] = kids[j - 1];
-        --j;
-      }
-      kids[j] = c;
-    }
-    HFRT_CHECK_LE(sp + nk, WideBvh::kWideStackSize);
-    for (int k = 0; k < nk; ++k) stack[sp++] = kids[k];
+    push_wide_children(w, d2, best_d2, stack, sp);
   }
-  if (best_slot != ~0u) {
-    best.prim = prim_order_[best_slot];
-    best.distance = std::sqrt(best_d2);
-    const Vec3 a = corners_[3 * best_slot], b = corners_[3 * best_slot + 1],
-               c = corners_[3 * best_slot + 2];
-    best.normal = normalize(cross(b - a, c - a));
-    barycentrics(best.point, a, b, c, &best.b1, &best.b2);
-  }
+  finish_closest(best_d2, best_slot, &best);
   return best;
 }
 
 ClosestPoint MeshSurface::closest_point_binary(Vec3 p, float max_distance) const {
   ClosestPoint best;
-  float best_d2 = max_distance < std::numeric_limits<float>::infinity()
-                      ? max_distance * max_distance
-                      : std::numeric_limits<float>::infinity();
+  float best_d2 = distance_limit2(max_distance);
   DistanceEntry stack[kStackSize];
   int sp = 0;
   stack[sp++] = {0, nodes_[0].bounds().distance2(p)};
@@ -577,30 +593,14 @@ ClosestPoint MeshSurface::closest_point_binary(Vec3 p, float max_distance) const
     if (e.d2 >= best_d2) continue;
     const BvhNode& n = nodes_[e.node];
     if (n.is_leaf()) {
-      for (uint32_t s = n.index; s < n.index + n.count; ++s) {
-        const Vec3 q =
-            closest_point_on_triangle(p, corners_[3 * s], corners_[3 * s + 1], corners_[3 * s + 2]);
-        const float d2 = length2(q - p);
-        if (d2 < best_d2) {
-          best_d2 = d2;
-          best.point = q;
-          best_slot = s;
-        }
-      }
+      closest_in_leaf(n, p, &best_d2, &best.point, &best_slot);
     } else {
       const uint32_t c0 = n.index, c1 = n.index + 1;
       const float d0 = nodes_[c0].bounds().distance2(p), d1 = nodes_[c1].bounds().distance2(p);
       push_nearer_on_top(stack, sp, c0, d0, c1, d1);
     }
   }
-  if (best_slot != ~0u) {
-    best.prim = prim_order_[best_slot];
-    best.distance = std::sqrt(best_d2);
-    const Vec3 a = corners_[3 * best_slot], b = corners_[3 * best_slot + 1],
-               c = corners_[3 * best_slot + 2];
-    best.normal = normalize(cross(b - a, c - a));
-    barycentrics(best.point, a, b, c, &best.b1, &best.b2);
-  }
+  finish_closest(best_d2, best_slot, &best);
   return best;
 }
 
@@ -938,20 +938,7 @@ float MeshSurface::distance_lower_bound(const Box& box, Vec3* near_vertex) const
       _mm_store_ps(
           d2, _mm_add_ps(_mm_add_ps(axis(w.lo_x, w.hi_x, blx, bhx), axis(w.lo_y, w.hi_y, bly, bhy)),
                          axis(w.lo_z, w.hi_z, blz, bhz)));
-      DistanceEntry kids[4];
-      int nk = 0;
-      for (int k = 0; k < 4; ++k) {
-        if (!(d2[k] < best)) continue;
-        DistanceEntry c{w.child[k], d2[k]};
-        int j = nk++;
-        while (j > 0 && kids[j - 1].d2 < c.d2) {
-          kids[j] = kids[j - 1];
-          --j;
-        }
-        kids[j] = c;
-      }
-      HFRT_CHECK_LE(sp + nk, WideBvh::kWideStackSize);
-      for (int k = 0; k < nk; ++k) stack[sp++] = kids[k];
+      push_wide_children(w, d2, best, stack, sp);
       continue;
     }
     const BvhNode& n = nodes_[e.node & ~WideBvh::kLeafBit];

@@ -134,6 +134,12 @@ class MeshSurface final : public Surface {
   };
 
   void build_dipoles();
+  /// The closest-point searches' shared steps: the squared search limit, a leaf's triangles
+  /// against the best so far, and the result from the best triangle (slot ~0u: none).
+  static float distance_limit2(float max_distance);
+  void closest_in_leaf(const BvhNode& n, Vec3 p, float* best_d2, Vec3* best_point,
+                       uint32_t* best_slot) const;
+  void finish_closest(float best_d2, uint32_t best_slot, ClosestPoint* best) const;
   /// The solid angle of the triangles of binary leaf `n`, summed exactly.
   /// `p` is in units of winding_scale_ (p * winding_scale_), as the corners are scaled here.
   double leaf_solid_angle(const BvhNode& n, Vec3 p) const;
