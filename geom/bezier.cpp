@@ -131,9 +131,12 @@ BicubicD::BicubicD(const BezierPatch& p) {
   for (int k = 0; k < 16; ++k) cp[k] = V4d{p.cp[k].x, p.cp[k].y, p.cp[k].z, 0};
 }
 
-__attribute__((target_clones("avx2", "default"))) DVec3 eval_bicubic(const BicubicD& patch,
-                                                                     double u, double v, DVec3* pu,
-                                                                     DVec3* pv) {
+namespace {
+
+// eval_bicubic's body, inlined into a generic copy and an AVX2 one (eval_bicubic picks one
+// for the CPU; both run the same operations, so they give the same bits).
+[[gnu::always_inline]] inline DVec3 eval_bicubic_body(const BicubicD& patch, double u, double v,
+                                                      DVec3* pu, DVec3* pv) {
   using V4d = BicubicD::V4d;
   double bu[4], dbu[4], bv[4], dbv[4];
   bernstein(3, u, bu, dbu);
@@ -154,6 +157,32 @@ __attribute__((target_clones("avx2", "default"))) DVec3 eval_bicubic(const Bicub
   if (pu) *pu = {a[0], a[1], a[2]};
   if (pv) *pv = {b[0], b[1], b[2]};
   return {p[0], p[1], p[2]};
+}
+
+DVec3 eval_bicubic_generic(const BicubicD& patch, double u, double v, DVec3* pu, DVec3* pv) {
+  return eval_bicubic_body(patch, u, v, pu, pv);
+}
+
+__attribute__((target("avx2"))) DVec3 eval_bicubic_avx2(const BicubicD& patch, double u, double v,
+                                                        DVec3* pu, DVec3* pv) {
+  return eval_bicubic_body(patch, u, v, pu, pv);
+}
+
+bool cpu_has_avx2() {
+  __builtin_cpu_init();  // needed before __builtin_cpu_supports in a static initialiser
+  return __builtin_cpu_supports("avx2");
+}
+
+// Chosen once at start-up, not by a target_clones ifunc: its resolver runs while the dynamic
+// loader relocates, before a sanitizer's runtime is up (the TSan build crashed there). Code
+// that runs before this initialiser gets the generic copy, which gives the same bits.
+const bool kHasAvx2 = cpu_has_avx2();
+
+}  // namespace
+
+DVec3 eval_bicubic(const BicubicD& patch, double u, double v, DVec3* pu, DVec3* pv) {
+  return kHasAvx2 ? eval_bicubic_avx2(patch, u, v, pu, pv)
+                  : eval_bicubic_generic(patch, u, v, pu, pv);
 }
 
 DVec3 BezierPatch::eval(double u, double v, DVec3* pu, DVec3* pv) const {

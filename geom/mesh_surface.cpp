@@ -823,7 +823,7 @@ const MeshSurface::SideGrid& MeshSurface::side_grid() const {
       total *= size_t(grid->n[a]);
     }
     grid->cells = std::make_unique<std::atomic<uint8_t>[]>(total);  // value-initialised: 0
-    grid->ball_r2 = std::make_unique<float[]>(total);
+    grid->ball_r2 = std::make_unique<std::atomic<float>[]>(total);
   }
   SideGrid* expected = nullptr;
   SideGrid* mine = grid.get();
@@ -864,7 +864,7 @@ bool MeshSurface::inside(Vec3 p) const {
       if (clear) {
         state = in ? SideGrid::kInside : SideGrid::kOutside;
       } else {
-        g.ball_r2[index] = r * r;
+        g.ball_r2[index].store(r * r, std::memory_order_relaxed);
         state = in ? SideGrid::kBallInside : SideGrid::kBallOutside;
       }
     } else {
@@ -879,7 +879,8 @@ bool MeshSurface::inside(Vec3 p) const {
       return false;
     case SideGrid::kBallInside:
     case SideGrid::kBallOutside:
-      if (length2(p - centre) < g.ball_r2[index]) return state == SideGrid::kBallInside;
+      if (length2(p - centre) < g.ball_r2[index].load(std::memory_order_relaxed))
+        return state == SideGrid::kBallInside;
       break;
     default:
       break;

@@ -117,7 +117,9 @@ class MeshSurface final : public Surface {
     float h = 0, inv_h = 0;
     int n[3] = {0, 0, 0};
     std::unique_ptr<std::atomic<uint8_t>[]> cells;
-    std::unique_ptr<float[]> ball_r2;  ///< written before its cell's state (release)
+    /// Written before its cell's state (release); atomic because two threads may compute the
+    /// same cell at once (the same value: relaxed).
+    std::unique_ptr<std::atomic<float>[]> ball_r2;
   };
   const SideGrid& side_grid() const;
   static std::unique_ptr<MeshSurface> build(const TriangleMesh& mesh, const Options& options,
