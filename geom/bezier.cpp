@@ -159,10 +159,6 @@ namespace {
   return {p[0], p[1], p[2]};
 }
 
-DVec3 eval_bicubic_generic(const BicubicD& patch, double u, double v, DVec3* pu, DVec3* pv) {
-  return eval_bicubic_body(patch, u, v, pu, pv);
-}
-
 __attribute__((target("avx2"))) DVec3 eval_bicubic_avx2(const BicubicD& patch, double u, double v,
                                                         DVec3* pu, DVec3* pv) {
   return eval_bicubic_body(patch, u, v, pu, pv);
@@ -179,6 +175,10 @@ bool cpu_has_avx2() {
 const bool kHasAvx2 = cpu_has_avx2();
 
 }  // namespace
+
+DVec3 eval_bicubic_generic(const BicubicD& patch, double u, double v, DVec3* pu, DVec3* pv) {
+  return eval_bicubic_body(patch, u, v, pu, pv);
+}
 
 DVec3 eval_bicubic(const BicubicD& patch, double u, double v, DVec3* pu, DVec3* pv) {
   return kHasAvx2 ? eval_bicubic_avx2(patch, u, v, pu, pv)

@@ -76,6 +76,8 @@ struct alignas(32) BicubicD {
 /// same operations in the same order on the x, y and z lanes, so the same bits, in vector
 /// instructions.
 DVec3 eval_bicubic(const BicubicD& patch, double u, double v, DVec3* pu, DVec3* pv);
+/// eval_bicubic's copy for CPUs without AVX2 (eval_bicubic picks it there): for tests.
+DVec3 eval_bicubic_generic(const BicubicD& patch, double u, double v, DVec3* pu, DVec3* pv);
 
 /// A set of patches, their trimming regions and where they came from.
 struct PatchSet {
