@@ -507,100 +507,101 @@ inline void push_wide_children(const WideNode& w, const float d2[4], float bound
   for (int k = 0; k < nk; ++k) stack[sp++] = kids[k];
 }
 
-/// Squared distances from p (broadcast in px, py, pz) to a wide node's four child boxes, as
-/// Box::distance2 computes them (an empty slot's box gives +inf).
-inline __m128 wide_box_distance2(const WideNode& w, __m128 px, __m128 py, __m128 pz) {
+/// A query box broadcast for wide_box_distance2: a point is the box lo = hi = p.
+struct WideQuery {
+  __m128 lo[3], hi[3];
+  explicit WideQuery(const Box& b) {
+    for (int a = 0; a < 3; ++a) lo[a] = _mm_set1_ps(b.lo[a]), hi[a] = _mm_set1_ps(b.hi[a]);
+  }
+};
+
+/// Squared distances from the query to a wide node's four child boxes, as Box::distance2
+/// computes them (for a point: the same operations as Box::distance2(Vec3)); an empty
+/// slot's box gives +inf.
+inline __m128 wide_box_distance2(const WideNode& w, const WideQuery& q) {
   const __m128 zero = _mm_setzero_ps();
-  auto axis = [&](const float* lo, const float* hi, __m128 q) {
-    const __m128 d = _mm_max_ps(_mm_max_ps(_mm_sub_ps(_mm_load_ps(lo), q), zero),
-                                _mm_sub_ps(q, _mm_load_ps(hi)));
+  auto axis = [&](const float* lo, const float* hi, int a) {
+    const __m128 d = _mm_max_ps(_mm_max_ps(_mm_sub_ps(_mm_load_ps(lo), q.hi[a]), zero),
+                                _mm_sub_ps(q.lo[a], _mm_load_ps(hi)));
     return _mm_mul_ps(d, d);
   };
-  return _mm_add_ps(_mm_add_ps(axis(w.lo_x, w.hi_x, px), axis(w.lo_y, w.hi_y, py)),
-                    axis(w.lo_z, w.hi_z, pz));
+  return _mm_add_ps(_mm_add_ps(axis(w.lo_x, w.hi_x, 0), axis(w.lo_y, w.hi_y, 1)),
+                    axis(w.lo_z, w.hi_z, 2));
 }
 
 }  // namespace
 
-float MeshSurface::distance_limit2(float max_distance) {
-  return max_distance < std::numeric_limits<float>::infinity()
-             ? max_distance * max_distance
-             : std::numeric_limits<float>::infinity();
-}
-
-void MeshSurface::closest_in_leaf(const BvhNode& n, Vec3 p, float* best_d2, Vec3* best_point,
-                                  uint32_t* best_slot) const {
-  for (uint32_t s = n.index; s < n.index + n.count; ++s) {
-    const Vec3 q =
-        closest_point_on_triangle(p, corners_[3 * s], corners_[3 * s + 1], corners_[3 * s + 2]);
-    const float d2 = length2(q - p);
-    if (d2 < *best_d2) {
-      *best_d2 = d2;
-      *best_point = q;
-      *best_slot = s;
+template <typename Leaf>
+void MeshSurface::walk_by_distance(const Box& query, bool wide, const float* bound,
+                                   Leaf&& leaf) const {
+  // Entries are wide nodes, or kLeafBit | a binary node: the binary tree's leaves, and every
+  // node of the binary walk. A point's query box is lo = hi = p, whose Box::distance2 is
+  // Box::distance2(p) operation for operation.
+  const WideQuery wq(query);
+  DistanceEntry stack[WideBvh::kWideStackSize];
+  int sp = 0;
+  stack[sp++] = {wide ? 0u : WideBvh::kLeafBit, nodes_[0].bounds().distance2(query)};
+  while (sp > 0) {
+    const DistanceEntry e = stack[--sp];
+    if (e.d2 >= *bound) continue;
+    if (!(e.node & WideBvh::kLeafBit)) {
+      const WideNode& w = wide_.nodes[e.node];
+      alignas(16) float d2[4];
+      _mm_store_ps(d2, wide_box_distance2(w, wq));
+      push_wide_children(w, d2, *bound, stack, sp);
+      continue;
     }
+    const BvhNode& n = nodes_[e.node & ~WideBvh::kLeafBit];
+    if (n.is_leaf()) {
+      if (!leaf(n)) return;
+      continue;
+    }
+    const uint32_t c0 = n.index, c1 = n.index + 1;
+    const float d0 = nodes_[c0].bounds().distance2(query),
+                d1 = nodes_[c1].bounds().distance2(query);
+    HFRT_CHECK_LE(sp + 2, WideBvh::kWideStackSize);
+    push_nearer_on_top(stack, sp, c0 | WideBvh::kLeafBit, d0, c1 | WideBvh::kLeafBit, d1);
   }
-}
-
-void MeshSurface::finish_closest(float best_d2, uint32_t best_slot, ClosestPoint* best) const {
-  if (best_slot == ~0u) return;
-  best->prim = prim_order_[best_slot];
-  best->distance = std::sqrt(best_d2);
-  const Vec3 a = corners_[3 * best_slot], b = corners_[3 * best_slot + 1],
-             c = corners_[3 * best_slot + 2];
-  best->normal = normalize(cross(b - a, c - a));
-  barycentrics(best->point, a, b, c, &best->b1, &best->b2);
 }
 
 ClosestPoint MeshSurface::closest_point(Vec3 p, float max_distance) const {
-  if (wide_.empty()) return closest_point_binary(p, max_distance);
-  // Through the 4-wide tree, nearest child first: four box distances per step in SSE (the
-  // binary walk tested two per step and pushed twice as many entries; a teapot frame's
-  // shading normals 125M -> ~70M instructions).
-  ClosestPoint best;
-  float best_d2 = distance_limit2(max_distance);
-  const __m128 px = _mm_set1_ps(p.x), py = _mm_set1_ps(p.y), pz = _mm_set1_ps(p.z);
-  DistanceEntry stack[WideBvh::kWideStackSize];
-  int sp = 0;
-  stack[sp++] = {0, nodes_[0].bounds().distance2(p)};
-  uint32_t best_slot = ~0u;
-  while (sp > 0) {
-    const DistanceEntry e = stack[--sp];
-    if (e.d2 >= best_d2) continue;
-    if (e.node & WideBvh::kLeafBit) {
-      const BvhNode& n = nodes_[e.node & ~WideBvh::kLeafBit];
-      closest_in_leaf(n, p, &best_d2, &best.point, &best_slot);
-      continue;
-    }
-    const WideNode& w = wide_.nodes[e.node];
-    alignas(16) float d2[4];
-    _mm_store_ps(d2, wide_box_distance2(w, px, py, pz));
-    push_wide_children(w, d2, best_d2, stack, sp);
-  }
-  finish_closest(best_d2, best_slot, &best);
-  return best;
+  return closest_point_walk(p, max_distance, !wide_.empty());
 }
 
 ClosestPoint MeshSurface::closest_point_binary(Vec3 p, float max_distance) const {
+  return closest_point_walk(p, max_distance, false);
+}
+
+ClosestPoint MeshSurface::closest_point_walk(Vec3 p, float max_distance, bool wide) const {
+  // Nearest first. Through the 4-wide tree, four box distances per SSE step (the binary walk
+  // tests two per step and pushes twice as many entries; a teapot frame's shading normals
+  // 125M -> 62M instructions).
   ClosestPoint best;
-  float best_d2 = distance_limit2(max_distance);
-  DistanceEntry stack[kStackSize];
-  int sp = 0;
-  stack[sp++] = {0, nodes_[0].bounds().distance2(p)};
+  float best_d2 = max_distance < std::numeric_limits<float>::infinity()
+                      ? max_distance * max_distance
+                      : std::numeric_limits<float>::infinity();
   uint32_t best_slot = ~0u;
-  while (sp > 0) {
-    const DistanceEntry e = stack[--sp];
-    if (e.d2 >= best_d2) continue;
-    const BvhNode& n = nodes_[e.node];
-    if (n.is_leaf()) {
-      closest_in_leaf(n, p, &best_d2, &best.point, &best_slot);
-    } else {
-      const uint32_t c0 = n.index, c1 = n.index + 1;
-      const float d0 = nodes_[c0].bounds().distance2(p), d1 = nodes_[c1].bounds().distance2(p);
-      push_nearer_on_top(stack, sp, c0, d0, c1, d1);
+  walk_by_distance(Box(p, p), wide, &best_d2, [&](const BvhNode& n) {
+    for (uint32_t s = n.index; s < n.index + n.count; ++s) {
+      const Vec3 q =
+          closest_point_on_triangle(p, corners_[3 * s], corners_[3 * s + 1], corners_[3 * s + 2]);
+      const float d2 = length2(q - p);
+      if (d2 < best_d2) {
+        best_d2 = d2;
+        best.point = q;
+        best_slot = s;
+      }
     }
+    return true;
+  });
+  if (best_slot != ~0u) {
+    best.prim = prim_order_[best_slot];
+    best.distance = std::sqrt(best_d2);
+    const Vec3 a = corners_[3 * best_slot], b = corners_[3 * best_slot + 1],
+               c = corners_[3 * best_slot + 2];
+    best.normal = normalize(cross(b - a, c - a));
+    barycentrics(best.point, a, b, c, &best.b1, &best.b2);
   }
-  finish_closest(best_d2, best_slot, &best);
   return best;
 }
 
@@ -913,66 +914,32 @@ float MeshSurface::signed_distance(Vec3 p, Vec3* gradient) const {
 float MeshSurface::distance_lower_bound(const Box& box, Vec3* near_vertex) const {
   float best = std::numeric_limits<float>::infinity();
   uint32_t best_slot = 0;
-  DistanceEntry stack[WideBvh::kWideStackSize];
-  int sp = 0;
   // Through the 4-wide tree when there is one (four box distances per step in SSE, nearest
-  // first), else the binary one; entries are wide nodes or kLeafBit | a binary leaf.
-  const bool wide = !wide_.empty();
-  stack[sp++] = {wide ? 0u : WideBvh::kLeafBit, nodes_[0].bounds().distance2(box)};
-  const __m128 zero = _mm_setzero_ps();
-  const __m128 blx = _mm_set1_ps(box.lo.x), bly = _mm_set1_ps(box.lo.y),
-               blz = _mm_set1_ps(box.lo.z);
-  const __m128 bhx = _mm_set1_ps(box.hi.x), bhy = _mm_set1_ps(box.hi.y),
-               bhz = _mm_set1_ps(box.hi.z);
-  while (sp > 0) {
-    const DistanceEntry e = stack[--sp];
-    if (e.d2 >= best) continue;
-    if (!(e.node & WideBvh::kLeafBit)) {
-      // Box::distance2(const Box&) of the four children, as it computes it.
-      const WideNode& w = wide_.nodes[e.node];
-      auto axis = [&](const float* lo, const float* hi, __m128 b_lo, __m128 b_hi) {
-        const __m128 d = _mm_max_ps(_mm_max_ps(_mm_sub_ps(_mm_load_ps(lo), b_hi), zero),
-                                    _mm_sub_ps(b_lo, _mm_load_ps(hi)));
-        return _mm_mul_ps(d, d);
-      };
-      alignas(16) float d2[4];
-      _mm_store_ps(
-          d2, _mm_add_ps(_mm_add_ps(axis(w.lo_x, w.hi_x, blx, bhx), axis(w.lo_y, w.hi_y, bly, bhy)),
-                         axis(w.lo_z, w.hi_z, blz, bhz)));
-      push_wide_children(w, d2, best, stack, sp);
-      continue;
+  // first), else the binary one.
+  walk_by_distance(box, !wide_.empty(), &best, [&](const BvhNode& n) {
+    for (uint32_t s = n.index; s < n.index + n.count; ++s) {
+      Box tb;
+      for (int k = 0; k < 3; ++k) tb.extend(corners_[3 * s + k]);
+      const float d2 = tb.distance2(box);
+      if (d2 < best) {
+        best = d2;
+        best_slot = s;
+      }
     }
-    const BvhNode& n = nodes_[e.node & ~WideBvh::kLeafBit];
-    if (n.is_leaf()) {
-      for (uint32_t s = n.index; s < n.index + n.count; ++s) {
-        Box tb;
-        for (int k = 0; k < 3; ++k) tb.extend(corners_[3 * s + k]);
-        const float d2 = tb.distance2(box);
-        if (d2 < best) {
-          best = d2;
-          best_slot = s;
+    return best != 0;  // a triangle's box meets the box: the bound is 0, stop
+  });
+  if (best == 0) {
+    if (near_vertex) {
+      // A corner of that triangle inside the box, if one is: a point of the mesh there.
+      *near_vertex = corners_[3 * best_slot];
+      for (int k = 0; k < 3; ++k) {
+        if (box.contains(corners_[3 * best_slot + k])) {
+          *near_vertex = corners_[3 * best_slot + k];
+          break;
         }
       }
-      if (best == 0) {
-        if (near_vertex) {
-          // A corner of that triangle inside the box, if one is: a point of the mesh there.
-          *near_vertex = corners_[3 * best_slot];
-          for (int k = 0; k < 3; ++k) {
-            if (box.contains(corners_[3 * best_slot + k])) {
-              *near_vertex = corners_[3 * best_slot + k];
-              break;
-            }
-          }
-        }
-        return 0;
-      }
-    } else {
-      // The binary walk (no wide tree): children as leaf-bit entries.
-      const uint32_t c0 = n.index, c1 = n.index + 1;
-      const float d0 = nodes_[c0].bounds().distance2(box), d1 = nodes_[c1].bounds().distance2(box);
-      HFRT_CHECK_LE(sp + 2, WideBvh::kWideStackSize);
-      push_nearer_on_top(stack, sp, c0 | WideBvh::kLeafBit, d0, c1 | WideBvh::kLeafBit, d1);
     }
+    return 0;
   }
   if (near_vertex) *near_vertex = corners_[3 * best_slot];
   // Rounding in the squared distance: shrink slightly so the bound stays a lower bound.

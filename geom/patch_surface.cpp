@@ -181,6 +181,16 @@ std::unique_ptr<PatchSurface> PatchSurface::build(const PatchSet& set, const Opt
   return s;
 }
 
+bool PatchSurface::unit_normal(uint32_t prim, const DVec3& pu, const DVec3& pv, Vec3* n) const {
+  const double nx = pu.y * pv.z - pu.z * pv.y, ny = pu.z * pv.x - pu.x * pv.z,
+               nz = pu.x * pv.y - pu.y * pv.x;
+  const double len = std::sqrt(nx * nx + ny * ny + nz * nz);
+  const double size = patch_size_[prim];
+  if (!(len > 1e-10 * size * size)) return false;
+  *n = {float(nx / len), float(ny / len), float(nz / len)};
+  return true;
+}
+
 ClosestPoint PatchSurface::closest_point(Vec3 p, float max_distance) const {
   if (!field_) return {};
   ClosestPoint c = field_->closest_point(p, max_distance);
@@ -196,14 +206,11 @@ ClosestPoint PatchSurface::closest_point(Vec3 p, float max_distance) const {
 }
 
 Vec3 PatchSurface::normal(uint32_t prim, double u, double v) const {
-  const double size = patch_size_[prim];
   for (int attempt = 0; attempt < 4; ++attempt) {
     DVec3 pu, pv;
     eval_patch(prim, u, v, &pu, &pv);
-    const double nx = pu.y * pv.z - pu.z * pv.y, ny = pu.z * pv.x - pu.x * pv.z,
-                 nz = pu.x * pv.y - pu.y * pv.x;
-    const double len = std::sqrt(nx * nx + ny * ny + nz * nz);
-    if (len > 1e-10 * size * size) return {float(nx / len), float(ny / len), float(nz / len)};
+    Vec3 n;
+    if (unit_normal(prim, pu, pv, &n)) return n;
     // A collapsed edge (a pole): the normal is the limit from inside the patch.
     u += (0.5 - u) * 1e-4 * (1 << (3 * attempt));
     v += (0.5 - v) * 1e-4 * (1 << (3 * attempt));
@@ -311,17 +318,8 @@ void PatchSurface::solve_piece(const Ray& ray, const double plane[2][4], uint32_
     const double th = ((p.x - o.x) * d.x + (p.y - o.y) * d.y + (p.z - o.z) * d.z) / dd;
     if (th > tmin && th < tmax) {
       RawHit h{th, std::clamp(u, 0.0, 1.0), std::clamp(v, 0.0, 1.0), patch_id, false, {}};
-      if (h.u == u && h.v == v) {
-        // normal()'s first attempt, from the derivatives at this very (u, v).
-        const double nx = pu.y * pv.z - pu.z * pv.y, ny = pu.z * pv.x - pu.x * pv.z,
-                     nz = pu.x * pv.y - pu.y * pv.x;
-        const double len = std::sqrt(nx * nx + ny * ny + nz * nz);
-        const double size = patch_size_[patch_id];
-        if (len > 1e-10 * size * size) {
-          h.has_normal = true;
-          h.n = {float(nx / len), float(ny / len), float(nz / len)};
-        }
-      }
+      // normal()'s first attempt, from the derivatives at this very (u, v).
+      if (h.u == u && h.v == v) h.has_normal = unit_normal(patch_id, pu, pv, &h.n);
       visit(h);
     }
     return;

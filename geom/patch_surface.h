@@ -101,6 +101,9 @@ class PatchSurface final : public Surface {
     bool has_normal = false;
     Vec3 n;
   };
+  /// Pu x Pv of patch `prim` normalised into *n; false where it is too short to trust (a
+  /// collapsed edge): normal()'s test, and the one of a hit's Newton derivatives.
+  bool unit_normal(uint32_t prim, const DVec3& pu, const DVec3& pv, Vec3* n) const;
   /// normal(h.patch, h.u, h.v), from the hit when it carries it.
   Vec3 hit_normal(const RawHit& h) const { return h.has_normal ? h.n : normal(h.patch, h.u, h.v); }
   template <typename Visit>

@@ -262,9 +262,10 @@ RootHit RootSearcher::analytic_search(const Ray& ray, float t0, float t1, bool s
   }
   c.resize(n);
   // Samples: gap 0 [t0, c[0]) (unless known outside), then the midpoint of each gap
-  // (c[k], c[k+1]) with c[n] = t1. F keeps its sign on each gap (every sign change is at a candidate), so one
-  // sample per gap decides it. The last gap (c[n-1], t1], or [t0, t1] without candidates,
-  // is known inside with end_inside (unless that contradicts start_outside: then sampled).
+  // (c[k], c[k+1]) with c[n] = t1. F keeps its sign on each gap (every sign change is at a
+  // candidate), so one sample per gap decides it. The last gap (c[n-1], t1], or [t0, t1]
+  // without candidates, is known inside with end_inside (unless that contradicts
+  // start_outside: then sampled).
   const bool last_known = end_inside && (n == 0 ? !start_outside : c[n - 1] < double(t1));
   if (n == 0 && last_known) return {true, t0, true};
   const size_t first = start_outside ? 0 : 1;     // index of gap 0's sample
