@@ -8,6 +8,10 @@
 //       the distance of every vertex from the surface F = 0: Newton steps along the f64
 //       gradient (x <- x - F g / |g|^2) until |F| stops falling; prints "dist MAX MEAN N"
 //       (and how many vertices did not converge). VERTS.f32 is n*3 float32.
+//   hfrt_bench_mesh_tool mesh MODEL.hf x0,y0,z0,x1,y1,z1 N [THREADS] [REPEAT]
+//       runs the mesher (as `hfrt mesh --bbox BOX --resolution N`, without writing) REPEAT
+//       times in one process and prints each run's phases and the minimum and median: for
+//       A/B comparisons of mesher changes and for `perf record` of the mesher alone.
 //
 // Both with the model's own JIT, so the grid and the mesher see the same function.
 
@@ -16,6 +20,7 @@
 #include <tbb/parallel_for.h>
 #include <tbb/parallel_reduce.h>
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -24,6 +29,7 @@
 #include <string>
 #include <vector>
 
+#include "app/mesh_job.h"
 #include "geom/mesh.h"
 #include "hfrt/model.h"
 
@@ -117,11 +123,43 @@ int dist(const hfrt::Model& model, const std::string& path) {
   return 0;
 }
 
+int mesh(const hfrt::Model& model, const std::string& file, const double b[6], int n, int threads,
+         int repeat) {
+  hfrt::app::MeshJob job;
+  job.model = &model;
+  job.file = file;
+  job.bbox = hfrt::render::Box({float(b[0]), float(b[1]), float(b[2])},
+                               {float(b[3]), float(b[4]), float(b[5])});
+  job.bbox_given = true;
+  job.resolution = n;
+  job.threads = threads;
+  std::vector<double> totals;
+  for (int r = 0; r < repeat; ++r) {
+    hfrt::app::MeshJobResult res = hfrt::app::run_mesh_job(job);
+    if (res.status != hfrt::app::MeshJobStatus::kOk) {
+      std::fprintf(stderr, "%s\n", res.error.c_str());
+      return 1;
+    }
+    const auto& s = res.stats;
+    std::printf(
+        "run %d: mesh %.4f s (octree %.4f, blocks %.4f, join %.4f, faces %.4f; thread-s sample "
+        "%.3f, edges %.3f, vertices %.3f) %zu triangles\n",
+        r, s.seconds_total, s.seconds_octree, s.seconds_blocks, s.seconds_join, s.seconds_faces,
+        s.thread_seconds_sample, s.thread_seconds_edges, s.thread_seconds_vertices,
+        res.mesh.triangles.size());
+    totals.push_back(s.seconds_total);
+  }
+  std::sort(totals.begin(), totals.end());
+  std::printf("mesh min %.4f median %.4f s\n", totals.front(), totals[totals.size() / 2]);
+  return 0;
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
   if (argc < 4) {
-    std::fprintf(stderr, "usage: %s grid MODEL BOX N OUT.f32 [THREADS] | dist MODEL MESH\n",
+    std::fprintf(stderr, "usage: %s grid MODEL BOX N OUT.f32 [THREADS] | dist MODEL MESH | mesh MODEL BOX N "
+                 "[THREADS] [REPEAT]\n",
                  argv[0]);
     return 2;
   }
@@ -142,5 +180,11 @@ int main(int argc, char** argv) {
     return grid(*compiled.model, b, std::atoi(argv[4]), argv[5]);
   }
   if (mode == "dist") return dist(*compiled.model, argv[3]);
+  if (mode == "mesh" && argc >= 5) {
+    double b[6];
+    if (!parse_box(argv[3], b)) return 2;
+    return mesh(*compiled.model, argv[2], b, std::atoi(argv[4]), argc >= 6 ? std::atoi(argv[5]) : 0,
+                argc >= 7 ? std::max(1, std::atoi(argv[6])) : 5);
+  }
   return 2;
 }
