@@ -433,11 +433,10 @@ void parallel_chunks(size_t n, size_t grain, F&& body) {
   par::parallel_for(n, grain, body);
 }
 
-/// A surface cell: its position, its block (index in the block list) and its corner signs.
+/// A surface cell of a run: its position and its corner signs.
 struct CellRec {
-  uint64_t key;    // cell_key of its low corner
-  uint32_t block;  // the block it lies in
-  uint8_t mask;    // bit c: corner c inside
+  uint64_t key;  // cell_key of its low corner
+  uint8_t mask;  // bit c: corner c inside
 };
 
 /// The position of a block of kBlock^3 cells (in blocks).
@@ -824,23 +823,29 @@ size_t project_vertices(const Capped& capped, float hmin, size_t n, Vec3* v,
 /// if they also belong to one patch of the cell across the face, the face gets a vertex of
 /// its own (see mesh_field). Found while a run's cells are placed, settled after the join.
 struct FaceCandidate {
-  uint32_t cell;     // index in the run's cells
+  uint32_t cell;     // index in the run's cells (in all cells once joined)
   uint8_t axis;      // the face: +axis
   int8_t s1, s2[2];  // local edges: one of the first segment, both of the second
   Vec3 a, b;         // the zeros of s2's two edges
 };
 
-/// What one run of blocks made, in block order: the surface cells (in each block x fastest),
-/// their patch vertices (cell by cell, one per patch, projected onto F = 0 where smooth), per
-/// block its surface cells (bit x + 4 y + 16 z) and the neighbouring blocks the cells around
-/// its crossing edges lie in (bit as offset_index), and the faces that may need a vertex.
+/// What one run of blocks made, in block order: the surface cells' corner signs (in each block
+/// x fastest), their patch vertices (cell by cell, one per patch, projected onto F = 0 where
+/// smooth), per block its surface cells (bit x + 4 y + 16 z) and the neighbouring blocks the
+/// cells around its crossing edges lie in (bit as offset_index), and the faces that may need a
+/// vertex. A cell's position is its block's and its bit's: nothing more is kept per cell.
+/// Reused from batch to batch (clear() keeps the capacity): the runs' memory stays warm.
 struct RunOut {
-  std::vector<CellRec> cells;
+  std::vector<uint8_t> masks;
   std::vector<Vec3> vertices;
   std::vector<uint64_t> cmask;
   std::vector<uint32_t> reach;
   std::vector<FaceCandidate> faces;
   size_t nan_samples = 0, crossing_edges = 0, sharp = 0, projected = 0;
+  void clear() {
+    masks.clear(), vertices.clear(), cmask.clear(), reach.clear(), faces.clear();
+    nan_samples = crossing_edges = sharp = projected = 0;
+  }
 };
 
 /// Thread-seconds of the steps of a run, summed over runs.
@@ -879,7 +884,6 @@ class BlockMesher {
     EdgeZeros zeros;
     std::vector<CellRec> cells;
     std::vector<RunCell> run_cells;
-    std::vector<Vec3> vertices;
     std::vector<Placement> placements;
     EdgeScratch edge_scratch;
     ProjectScratch project_scratch;
@@ -895,9 +899,10 @@ void BlockMesher::run(const std::vector<BlockPos>& blocks, size_t first, size_t 
                       RunClock* clock) const {
   Clock::time_point t0 = Clock::now();
   Scratch& sc = scratch_.local();
-  auto& [buf, edges, zeros, cells, run_cells, vertices, placements, edge_scratch, project_scratch] =
-      sc;
-  cells.clear(), run_cells.clear(), edges.clear(), vertices.clear(), placements.clear();
+  auto& [buf, edges, zeros, cells, run_cells, placements, edge_scratch, project_scratch] = sc;
+  cells.clear(), run_cells.clear(), edges.clear(), placements.clear();
+  out->clear();
+  std::vector<Vec3>& vertices = out->vertices;
   const size_t cap = kNodes * (last - first);
   buf.resize(4 * cap);
   float *x = buf.data(), *y = x + cap, *z = y + cap, *f = z + cap;
@@ -957,7 +962,8 @@ void BlockMesher::run(const std::vector<BlockPos>& blocks, size_t first, size_t 
                             (((r11 >> l) & 3) << 6));
           if (m == 0 || m == 255) continue;
           cmask |= uint64_t(1) << (l + kBlock * j + kBlock * kBlock * k);
-          cells.push_back({cell_key(c0[0] + l, c0[1] + j, c0[2] + k), uint32_t(bi), uint8_t(m)});
+          cells.push_back({cell_key(c0[0] + l, c0[1] + j, c0[2] + k), uint8_t(m)});
+          out->masks.push_back(uint8_t(m));
           reach |= table_.reach[kPlace[l] + 3 * kPlace[j] + 9 * kPlace[k]][m];
           RunCell rc;
           std::fill(rc.edge, rc.edge + 12, int16_t(-1));
@@ -1041,8 +1047,6 @@ void BlockMesher::run(const std::vector<BlockPos>& blocks, size_t first, size_t 
   }
   out->projected += project_vertices(capped_, hmin_, vertices.size(), vertices.data(),
                                      placements.data(), &project_scratch);
-  out->cells.assign(cells.begin(), cells.end());
-  out->vertices.assign(vertices.begin(), vertices.end());
   const Clock::time_point t3 = Clock::now();
   auto ns = [](Clock::time_point a, Clock::time_point b) {
     return int64_t(std::chrono::duration_cast<std::chrono::nanoseconds>(b - a).count());
@@ -1153,7 +1157,61 @@ TriMesh mesh_field(const render::Field& field, const MeshOptions& options, MeshS
     constexpr size_t kBatchBlocks = 16;
     const size_t kProgressBatch = 4096;  // a multiple of kBatchBlocks
     const BlockMesher block_mesher(capped, grid);
-    std::vector<RunOut> runs;
+    // The runs of one batch (reused by the next: their memory stays warm), and what every
+    // batch joined onto, in block order: per block its surface cells (bits), the blocks its
+    // crossing edges reach, its first cell and its first vertex; per cell its corner signs;
+    // the vertices (mesh.vertices) and the face candidates (with cells numbered over all).
+    std::vector<RunOut> runs(kProgressBatch / kBatchBlocks);
+    std::vector<uint64_t> block_cmask;
+    std::vector<uint32_t> block_reach, block_cell_base{0}, block_vert_base{0};
+    std::vector<uint8_t> masks;
+    std::vector<FaceCandidate> faces;
+    for (auto* v : {&block_reach, &block_cell_base, &block_vert_base}) v->reserve(octree_blocks + 1);
+    block_cmask.reserve(octree_blocks);
+    // Joins runs [0, nruns) of a batch that ended at block `done` of `expected`.
+    auto join_batch = [&](size_t nruns, size_t done, size_t expected) {
+      size_t ncells = masks.size(), nverts = mesh.vertices.size();
+      for (size_t r = 0; r < nruns; ++r) {
+        ncells += runs[r].masks.size();
+        nverts += runs[r].vertices.size();
+      }
+      HFRT_CHECK_LE(nverts, size_t(kNone) / 2);  // vertex and cell indices are 32-bit
+      // Room for the rest by the density so far (the arrays are not moved again unless the
+      // rest is much denser): one allocation, touched only as it is filled.
+      auto grow = [&](auto& v, size_t n) {
+        if (n <= v.capacity()) return;
+        reserve_huge(v, std::max(n, size_t(double(n) * double(expected) / double(done) * 1.1)));
+      };
+      grow(masks, ncells);
+      grow(mesh.vertices, nverts + nverts / 64);  // and room for face vertices
+      for (size_t r = 0; r < nruns; ++r) {
+        RunOut& o = runs[r];
+        const uint32_t cell0 = uint32_t(masks.size());
+        for (const FaceCandidate& fc : o.faces) {
+          faces.push_back(fc);
+          faces.back().cell += cell0;
+        }
+        size_t c = 0;
+        for (size_t j = 0; j < o.cmask.size(); ++j) {
+          const size_t n = size_t(std::popcount(o.cmask[j]));
+          uint32_t nv = 0;
+          for (size_t i = c; i < c + n; ++i) nv += uint32_t(table.ncomp[o.masks[i]]);
+          c += n;
+          block_cmask.push_back(o.cmask[j]);
+          block_reach.push_back(o.reach[j]);
+          block_cell_base.push_back(block_cell_base.back() + uint32_t(n));
+          block_vert_base.push_back(block_vert_base.back() + nv);
+        }
+        HFRT_CHECK(c == o.masks.size());
+        masks.insert(masks.end(), o.masks.begin(), o.masks.end());
+        mesh.vertices.insert(mesh.vertices.end(), o.vertices.begin(), o.vertices.end());
+        stats.nan_samples += o.nan_samples;
+        stats.crossing_edges += o.crossing_edges;
+        stats.sharp_vertices += o.sharp;
+        stats.projected_vertices += o.projected;
+      }
+      HFRT_CHECK(block_vert_base.back() == mesh.vertices.size());
+    };
     RunClock clock;
     BlockNeighbours nbr;  // of the blocks sampled so far
     // Closure: every crossing edge needs its four cells, and they may lie in a block the
@@ -1161,36 +1219,31 @@ TriMesh mesh_field(const render::Field& field, const MeshOptions& options, MeshS
     // blocks are meshed too, round after round, until no crossing edge reaches an unsampled
     // block (normally the first round finds none).
     for (size_t first = 0; first < blocks.size();) {
-      const size_t last = blocks.size(), run0 = runs.size();
-      runs.resize(run0 + (last - first + kBatchBlocks - 1) / kBatchBlocks);
+      const size_t last = blocks.size();
       for (size_t b0 = first; b0 < last; b0 += kProgressBatch) {
         const size_t b1 = std::min(last, b0 + kProgressBatch);
         parallel_chunks(b1 - b0, kBatchBlocks, [&](size_t s, size_t e) {
-          RunOut& out = runs[run0 + (b0 - first + s) / kBatchBlocks];
-          block_mesher.run(blocks, b0 + s, b0 + e, &out, &clock);
+          block_mesher.run(blocks, b0 + s, b0 + e, &runs[s / kBatchBlocks], &clock);
         });
+        join_batch((b1 - b0 + kBatchBlocks - 1) / kBatchBlocks, b1, last);
         if (options.progress && first == 0) options.progress(b1, octree_blocks + 1);
       }
       if (first == 0) stats.seconds_blocks = timer.seconds();
       nbr = block_neighbours(blocks);
-      // The blocks reached but not sampled, per chunk of runs (almost always none).
-      constexpr size_t kCheckGrain = 256;  // runs
-      const size_t nnew = runs.size() - run0;
-      std::vector<std::vector<uint64_t>> missing_in((nnew + kCheckGrain - 1) / kCheckGrain);
-      parallel_chunks(nnew, kCheckGrain, [&](size_t rb, size_t re) {
-        std::vector<uint64_t>& miss = missing_in[rb / kCheckGrain];
-        for (size_t r = run0 + rb; r < run0 + re; ++r) {
-          const size_t b_lo = first + (r - run0) * kBatchBlocks;
-          for (size_t j = 0; j < runs[r].reach.size(); ++j) {
-            const size_t bi = b_lo + j;
-            for (uint32_t bits = runs[r].reach[j]; bits != 0; bits &= bits - 1) {
-              const int d = std::countr_zero(bits);
-              if (nbr.at[d][bi] != kNone) continue;
-              int q[3];
-              for (int a = 0; a < 3; ++a) q[a] = blocks[bi].b[a] + offset_of(d, a);
-              HFRT_CHECK(q[0] >= 0 && q[1] >= 0 && q[2] >= 0);
-              miss.push_back(cell_key(q[0], q[1], q[2]));
-            }
+      // The blocks reached but not sampled, per chunk of blocks (almost always none).
+      constexpr size_t kCheckGrain = 4096;  // blocks
+      std::vector<std::vector<uint64_t>> missing_in((last - first + kCheckGrain - 1) /
+                                                    kCheckGrain);
+      parallel_chunks(last - first, kCheckGrain, [&](size_t b, size_t e) {
+        std::vector<uint64_t>& miss = missing_in[b / kCheckGrain];
+        for (size_t bi = first + b; bi < first + e; ++bi) {
+          for (uint32_t bits = block_reach[bi]; bits != 0; bits &= bits - 1) {
+            const int d = std::countr_zero(bits);
+            if (nbr.at[d][bi] != kNone) continue;
+            int q[3];
+            for (int a = 0; a < 3; ++a) q[a] = blocks[bi].b[a] + offset_of(d, a);
+            HFRT_CHECK(q[0] >= 0 && q[1] >= 0 && q[2] >= 0);
+            miss.push_back(cell_key(q[0], q[1], q[2]));
           }
         }
       });
@@ -1205,75 +1258,51 @@ TriMesh mesh_field(const render::Field& field, const MeshOptions& options, MeshS
         blocks.push_back(q);
       }
     }
+    std::vector<RunOut>().swap(runs);
     stats.blocks_sampled = blocks.size();
     stats.thread_seconds_sample = double(clock.sample_ns.load()) * 1e-9;
     stats.thread_seconds_edges = double(clock.edges_ns.load()) * 1e-9;
     stats.thread_seconds_vertices = double(clock.vertices_ns.load()) * 1e-9;
+    for (size_t bi = octree_blocks; bi < blocks.size(); ++bi)
+      stats.closure_cells += size_t(std::popcount(block_cmask[bi]));
+    const size_t ncells = masks.size(), ncellverts = mesh.vertices.size();
+    HFRT_CHECK(block_cell_base.back() == ncells);
+    stats.surface_cells = ncells;
 
-    // --- 3. Join the runs: cells and vertices in block order; face vertices. ------------------
+    // --- 3. Face vertices. ---------------------------------------------------------------------
     Timer join_timer;
-    std::vector<size_t> cell_at(runs.size() + 1, 0), vert_at(runs.size() + 1, 0);
-    for (size_t r = 0; r < runs.size(); ++r) {
-      const RunOut& o = runs[r];
-      cell_at[r + 1] = cell_at[r] + o.cells.size();
-      vert_at[r + 1] = vert_at[r] + o.vertices.size();
-      stats.nan_samples += o.nan_samples;
-      stats.crossing_edges += o.crossing_edges;
-      stats.sharp_vertices += o.sharp;
-      stats.projected_vertices += o.projected;
-    }
-    const size_t ncellverts = vert_at.back();
-    // (Huge pages for the large arrays filled here and in the faces: see base/memory.h.)
-    std::vector<CellRec> cells;
-    reserve_huge(cells, cell_at.back());
-    cells.resize(cell_at.back());
-    reserve_huge(mesh.vertices, ncellverts + ncellverts / 64);  // room for face vertices
-    mesh.vertices.resize(ncellverts);
-    std::vector<uint32_t> vbase;  // a cell's first vertex
-    reserve_huge(vbase, cells.size() + 1);
-    vbase.resize(cells.size() + 1);
-    parallel_chunks(runs.size(), 16, [&](size_t rb, size_t re) {
-      for (size_t r = rb; r < re; ++r) {
-        RunOut& o = runs[r];
-        std::copy(o.cells.begin(), o.cells.end(), cells.begin() + cell_at[r]);
-        std::copy(o.vertices.begin(), o.vertices.end(), mesh.vertices.begin() + vert_at[r]);
-        uint32_t v = uint32_t(vert_at[r]);
-        for (size_t i = 0; i < o.cells.size(); ++i) {
-          vbase[cell_at[r] + i] = v;
-          v += uint32_t(table.ncomp[o.cells[i].mask]);
-        }
-        // Freed as they are copied: the peak stays near one copy.
-        std::vector<CellRec>().swap(o.cells);
-        std::vector<Vec3>().swap(o.vertices);
-      }
-    });
-    vbase[cells.size()] = uint32_t(ncellverts);
-    std::vector<uint64_t> block_cmask(blocks.size());
-    std::vector<uint32_t> block_cell_base(blocks.size() + 1, 0);
-    {
-      size_t bi = 0;
-      for (const RunOut& o : runs)
-        for (const uint64_t cm : o.cmask) block_cmask[bi++] = cm;
-      HFRT_CHECK(bi == blocks.size());
-    }
-    for (size_t bi = 0; bi < blocks.size(); ++bi) {
-      block_cell_base[bi + 1] = block_cell_base[bi] + uint32_t(std::popcount(block_cmask[bi]));
-      if (bi >= octree_blocks) stats.closure_cells += size_t(std::popcount(block_cmask[bi]));
-    }
-    HFRT_CHECK(block_cell_base.back() == cells.size());
-    stats.surface_cells = cells.size();
-
+    // The block of cell ci, its position and its first vertex (for the few cells the face
+    // candidates name; the faces walk the blocks' cells in order instead).
+    auto cell_block = [&](size_t ci) {
+      return uint32_t(std::upper_bound(block_cell_base.begin(), block_cell_base.end(),
+                                       uint32_t(ci)) -
+                      block_cell_base.begin() - 1);
+    };
+    auto cell_pos = [&](size_t ci, uint32_t bi, int c[3]) {
+      uint64_t bits = block_cmask[bi];
+      for (uint32_t i = block_cell_base[bi]; i < ci; ++i) bits &= bits - 1;
+      const int l = std::countr_zero(bits);
+      c[0] = blocks[bi].b[0] * kBlock + l % kBlock;
+      c[1] = blocks[bi].b[1] * kBlock + (l / kBlock) % kBlock;
+      c[2] = blocks[bi].b[2] * kBlock + l / (kBlock * kBlock);
+    };
+    auto cell_vbase = [&](size_t ci, uint32_t bi) {
+      uint32_t v = block_vert_base[bi];
+      for (uint32_t i = block_cell_base[bi]; i < ci; ++i) v += uint32_t(table.ncomp[masks[i]]);
+      return v;
+    };
     // The surface cell at cell ci + (dx, dy, dz) (each -1, 0 or 1), kNone when there is none:
     // through its block's mask and the block's neighbours.
     auto neighbour_cell = [&](size_t ci, int dx, int dy, int dz) -> uint32_t {
+      const uint32_t bi = cell_block(ci);
       int c[3];
-      key_cell(cells[ci].key, c);
+      cell_pos(ci, bi, c);
       const int q[3] = {c[0] + dx, c[1] + dy, c[2] + dz};
       if (q[0] < 0 || q[1] < 0 || q[2] < 0) return kNone;
-      const BlockPos& own = blocks[cells[ci].block];
+      const BlockPos& own = blocks[bi];
       const int d = offset_index(q[0] / kBlock - own.b[0], q[1] / kBlock - own.b[1],
                                  q[2] / kBlock - own.b[2]);
-      const uint32_t bq = nbr.at[d][cells[ci].block];
+      const uint32_t bq = nbr.at[d][bi];
       if (bq == kNone) return kNone;
       const int l = (q[0] % kBlock) + kBlock * (q[1] % kBlock) + kBlock * kBlock * (q[2] % kBlock);
       const uint64_t cm = block_cmask[bq];
@@ -1305,47 +1334,46 @@ TriMesh mesh_field(const render::Field& field, const MeshOptions& options, MeshS
     std::vector<Split> splits;
     std::vector<Placement> split_placements;
     ProjectScratch split_scratch;
-    for (size_t r = 0; r < runs.size(); ++r) {
-      for (const FaceCandidate& fc : runs[r].faces) {
-        const size_t ci = cell_at[r] + fc.cell;
-        const int m = cells[ci].mask, a = fc.axis;
-        int o[3] = {0, 0, 0};
-        o[a] = 1;
-        const uint32_t di = neighbour_cell(ci, o[0], o[1], o[2]);
-        HFRT_CHECK(di != kNone);
-        const int md = cells[di].mask;
-        // The same edges in the neighbour: the face is its -a face (bit a cleared).
-        auto in_d = [a](int e) {
-          // An edge on the +a face of C is along b or d; its position bit for axis a is set.
-          int ax = e / 4, o1, o2;
-          other_axes(ax, &o1, &o2);
-          int u = e & 1, v = (e >> 1) & 1;
-          if (o1 == a) u = 0;
-          if (o2 == a) v = 0;
-          return ax * 4 + (u | (v << 1));
-        };
-        if (table.comp[md][in_d(fc.s1)] != table.comp[md][in_d(fc.s2[0])]) continue;
-        const uint32_t pc = vbase[ci] + uint32_t(table.comp[m][fc.s2[0]]);
-        const uint32_t pd = vbase[di] + uint32_t(table.comp[md][in_d(fc.s2[0])]);
-        const uint32_t mv = uint32_t(mesh.vertices.size());
-        splits.push_back({edge_key(ci, fc.s2[0]), pc, pd, mv});
-        splits.push_back({edge_key(ci, fc.s2[1]), pc, pd, mv});
-        mesh.vertices.push_back((fc.a + fc.b) * 0.5f);
-        Placement pl;
-        pl.near.extend(fc.a);
-        pl.near.extend(fc.b);
-        split_placements.push_back(pl);
-      }
+    for (const FaceCandidate& fc : faces) {
+      const size_t ci = fc.cell;
+      const int m = masks[ci], a = fc.axis;
+      int o[3] = {0, 0, 0};
+      o[a] = 1;
+      const uint32_t di = neighbour_cell(ci, o[0], o[1], o[2]);
+      HFRT_CHECK(di != kNone);
+      const int md = masks[di];
+      // The same edges in the neighbour: the face is its -a face (bit a cleared).
+      auto in_d = [a](int e) {
+        // An edge on the +a face of C is along b or d; its position bit for axis a is set.
+        int ax = e / 4, o1, o2;
+        other_axes(ax, &o1, &o2);
+        int u = e & 1, v = (e >> 1) & 1;
+        if (o1 == a) u = 0;
+        if (o2 == a) v = 0;
+        return ax * 4 + (u | (v << 1));
+      };
+      if (table.comp[md][in_d(fc.s1)] != table.comp[md][in_d(fc.s2[0])]) continue;
+      const uint32_t pc = cell_vbase(ci, cell_block(ci)) + uint32_t(table.comp[m][fc.s2[0]]);
+      const uint32_t pd =
+          cell_vbase(di, cell_block(di)) + uint32_t(table.comp[md][in_d(fc.s2[0])]);
+      const uint32_t mv = uint32_t(mesh.vertices.size());
+      splits.push_back({edge_key(ci, fc.s2[0]), pc, pd, mv});
+      splits.push_back({edge_key(ci, fc.s2[1]), pc, pd, mv});
+      mesh.vertices.push_back((fc.a + fc.b) * 0.5f);
+      Placement pl;
+      pl.near.extend(fc.a);
+      pl.near.extend(fc.b);
+      split_placements.push_back(pl);
     }
+    std::vector<FaceCandidate>().swap(faces);
     std::sort(splits.begin(), splits.end());
     stats.split_faces = split_placements.size();
     stats.projected_vertices += project_vertices(
         capped, block_mesher.hmin(), split_placements.size(), mesh.vertices.data() + ncellverts,
         split_placements.data(), &split_scratch);
-    std::vector<RunOut>().swap(runs);
     const size_t nverts = mesh.vertices.size();
     stats.seconds_join = join_timer.seconds();
-    if (cells.empty()) return;
+    if (ncells == 0) return;
 
     // --- 4. Faces: a quad per crossing edge (polygons where a face vertex was added). ---------
     timer = Timer();
@@ -1362,12 +1390,12 @@ TriMesh mesh_field(const render::Field& field, const MeshOptions& options, MeshS
       for (size_t bi = bb; bi < be; ++bi) {
         size_t n = 0;
         for (uint32_t ci = block_cell_base[bi]; ci < block_cell_base[bi + 1]; ++ci) {
-          n += 2 * size_t(table.owned[cells[ci].mask]);
+          n += 2 * size_t(table.owned[masks[ci]]);
         }
         tri_at[bi + 1] = n;
       }
     });
-    for (const Split& sp : splits) ++tri_at[cells[size_t(sp.edge / 3)].block + 1];
+    for (const Split& sp : splits) ++tri_at[cell_block(size_t(sp.edge / 3)) + 1];
     for (size_t bi = 0; bi < blocks.size(); ++bi) tri_at[bi + 1] += tri_at[bi];
     reserve_huge(mesh.triangles, tri_at.back());
     mesh.triangles.resize(tri_at.back());
@@ -1383,9 +1411,11 @@ TriMesh mesh_field(const render::Field& field, const MeshOptions& options, MeshS
           // those axes.
           const uint32_t bq = nbr.at[offset_index(-(n & 1), -((n >> 1) & 1), -(n >> 2))][bi];
           if (bq == kNone) continue;
-          uint32_t ci = block_cell_base[bq];
+          uint32_t ci = block_cell_base[bq], v = block_vert_base[bq];
           for (uint64_t bits = block_cmask[bq]; bits != 0; bits &= bits - 1, ++ci) {
             const int l = std::countr_zero(bits);
+            const uint32_t mask = masks[ci], vb = v;
+            v += uint32_t(table.ncomp[mask]);
             const int p[3] = {l % kBlock, (l / kBlock) % kBlock, l / (kBlock * kBlock)};
             bool keep = true;
             int q[3];
@@ -1396,7 +1426,7 @@ TriMesh mesh_field(const render::Field& field, const MeshOptions& options, MeshS
             }
             if (keep) {
               local[q[0] + kLocalSide * (q[1] + kLocalSide * q[2])] =
-                  vbase[ci] | (uint64_t(cells[ci].mask) << 32);
+                  vb | (uint64_t(mask) << 32);
             }
           }
         }
@@ -1404,7 +1434,7 @@ TriMesh mesh_field(const render::Field& field, const MeshOptions& options, MeshS
         for (uint64_t bits = block_cmask[bi]; bits != 0; bits &= bits - 1, ++ci) {
           const int l = std::countr_zero(bits);
           const int p[3] = {l % kBlock + 1, (l / kBlock) % kBlock + 1, l / (kBlock * kBlock) + 1};
-          const int m = cells[ci].mask;
+          const int m = masks[ci];
           for (int a = 0; a < 3; ++a) {
             if ((m & 1) == ((m >> (1 << a)) & 1)) continue;
             int b, d;
