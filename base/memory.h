@@ -3,6 +3,10 @@
 // about to be filled once.
 
 #include <cstddef>
+#include <memory>
+#include <new>
+#include <type_traits>
+#include <utility>
 
 namespace hfrt {
 
@@ -20,5 +24,28 @@ void reserve_huge(Vector& v, size_t n) {
   v.reserve(n);
   advise_huge_pages(v.data(), v.capacity() * sizeof(*v.data()));
 }
+
+/// An allocator whose value-less construct default-initialises (a trivial element is left as
+/// it is): resize() of a vector about to be overwritten element by element writes nothing.
+/// Why: a 512^3 mesh's 32 MiB of triangles were zeroed by one thread before the threads
+/// wrote them; now the threads that write them are the first to touch them.
+template <typename T, typename Base = std::allocator<T>>
+struct DefaultInitAllocator : Base {
+  using Base::Base;
+  template <typename U>
+  struct rebind {
+    using other =
+        DefaultInitAllocator<U, typename std::allocator_traits<Base>::template rebind_alloc<U>>;
+  };
+  template <typename U>
+  void construct(U* p) noexcept(std::is_nothrow_default_constructible_v<U>) {
+    ::new (static_cast<void*>(p)) U;
+  }
+  template <typename U, typename... Args>
+  void construct(U* p, Args&&... args) {
+    std::allocator_traits<Base>::construct(static_cast<Base&>(*this), p,
+                                           std::forward<Args>(args)...);
+  }
+};
 
 }  // namespace hfrt

@@ -1,6 +1,7 @@
 #include "mesher/mesher.h"
 
 #include <algorithm>
+#include <array>
 #include <atomic>
 #include <bit>
 #include <chrono>
@@ -35,6 +36,25 @@ constexpr float kRootTolerance = 1e-5f;   // an edge is done at |F| below this *
 constexpr int kNewtonSteps = 10;          // gradient evaluations per vertex at most
 constexpr float kUncheckedStep = 0.005f;  // a flat patch's first step this short (in cells)
                                           // is not checked by a value
+
+// Set bits. (The x86-64 baseline has no popcnt instruction: there std::popcount is a call into
+// libgcc: ~5 % of the blocks' time when it counted the edges of rows and cells.)
+constexpr std::array<uint8_t, 256> kBitCount = [] {
+  std::array<uint8_t, 256> t{};
+  for (int v = 0; v < 256; ++v) t[size_t(v)] = uint8_t((v & 1) + t[size_t(v >> 1)]);
+  return t;
+}();
+/// The set bits of v < 256.
+inline int bit_count8(uint32_t v) {
+  return kBitCount[v];
+}
+/// The set bits of v (SWAR: a dozen instructions, no call).
+inline int bit_count64(uint64_t v) {
+  v = v - ((v >> 1) & 0x5555555555555555ull);
+  v = (v & 0x3333333333333333ull) + ((v >> 2) & 0x3333333333333333ull);
+  v = (v + (v >> 4)) & 0x0f0f0f0f0f0f0f0full;
+  return int((v * 0x0101010101010101ull) >> 56);
+}
 
 uint64_t cell_key(int i, int j, int k) {
   return uint64_t(i) | (uint64_t(j) << kKeyBits) | (uint64_t(k) << (2 * kKeyBits));
@@ -433,12 +453,6 @@ void parallel_chunks(size_t n, size_t grain, F&& body) {
   par::parallel_for(n, grain, body);
 }
 
-/// A surface cell of a run: its position and its corner signs.
-struct CellRec {
-  uint64_t key;  // cell_key of its low corner
-  uint8_t mask;  // bit c: corner c inside
-};
-
 /// The position of a block of kBlock^3 cells (in blocks).
 struct BlockPos {
   int b[3];
@@ -512,8 +526,9 @@ struct EdgeBatch {
   std::vector<float> fa, fb;
   void clear() { pa.clear(), pb.clear(), fa.clear(), fb.clear(); }
   size_t size() const { return pa.size(); }
-  void add(Vec3 a, Vec3 b, float va, float vb) {
-    pa.push_back(a), pb.push_back(b), fa.push_back(va), fb.push_back(vb);
+  void resize(size_t n) { pa.resize(n), pb.resize(n), fa.resize(n), fb.resize(n); }
+  void set(size_t i, Vec3 a, Vec3 b, float va, float vb) {
+    pa[i] = a, pb[i] = b, fa[i] = va, fb[i] = vb;
   }
 };
 
@@ -872,17 +887,50 @@ class BlockMesher {
  private:
   static constexpr int kSide = kBlock + 1;
   static constexpr size_t kNodes = size_t(kSide) * kSide * kSide;
-  /// A surface cell of the run while it is being placed: its crossing edges' index in the
-  /// run's edge batch, -1 where an edge does not cross.
-  struct RunCell {
-    int16_t edge[12];  // a run has at most kBatchBlocks * 300 edges
+  /// A block of the run while its cells are placed: its low cell and, per axis a and row of
+  /// nodes along x (index y + kSide z), the nodes whose edge towards +a crosses (bit x) and
+  /// the batch index of the row's first such edge. Every edge between two of a block's nodes
+  /// is an edge of one of its cells, so these are exactly the crossing edges its cells need,
+  /// each found once without a search (bit operations on the rows' signs).
+  struct RunBlock {
+    int c0[3];
+    uint32_t bits[3 * kSide * kSide];  // [axis * kSide^2 + row]
+    uint32_t base[3 * kSide * kSide];
   };
+  /// A surface cell of the run: its block in the run, its place in the block, its corners.
+  struct RunCell {
+    uint16_t block;
+    uint8_t l, j, k;
+    uint8_t mask;
+    uint16_t edge[12];  // crossing edges' batch indices (< 65536: a run has ~5000 at most)
+  };
+  /// Per local edge e: the offset of its row (in RunBlock's bits and base, from the row of
+  /// the cell's low corner) and of its low node along the row.
+  struct EdgeOffset {
+    uint8_t row, bit;
+  };
+  static constexpr std::array<EdgeOffset, 12> kEdgeOffset = [] {
+    std::array<EdgeOffset, 12> t{};
+    for (int e = 0; e < 12; ++e) {
+      t[size_t(e)] = {uint8_t((e / 4) * kSide * kSide + kEdgeLow[e][1] + kSide * kEdgeLow[e][2]),
+                      uint8_t(kEdgeLow[e][0])};
+    }
+    return t;
+  }();
+  /// The batch index of local edge e of the cell at l along the row `row` (y + kSide z) of
+  /// block rb: the edge's low node is the cell's corner + kEdgeLow[e]; its index is its
+  /// row's first plus the crossing edges of the row before it.
+  static uint32_t edge_index(const RunBlock& rb, int l, int row, int e) {
+    const EdgeOffset o = kEdgeOffset[size_t(e)];
+    const int r = row + o.row;
+    return rb.base[r] + uint32_t(bit_count8(rb.bits[r] & ((uint32_t(1) << (l + o.bit)) - 1)));
+  }
   /// Per thread: the run's buffers.
   struct Scratch {
     std::vector<float> buf;
     EdgeBatch edges;
     EdgeZeros zeros;
-    std::vector<CellRec> cells;
+    std::vector<RunBlock> run_blocks;
     std::vector<RunCell> run_cells;
     std::vector<Placement> placements;
     EdgeScratch edge_scratch;
@@ -899,8 +947,9 @@ void BlockMesher::run(const std::vector<BlockPos>& blocks, size_t first, size_t 
                       RunClock* clock) const {
   Clock::time_point t0 = Clock::now();
   Scratch& sc = scratch_.local();
-  auto& [buf, edges, zeros, cells, run_cells, placements, edge_scratch, project_scratch] = sc;
-  cells.clear(), run_cells.clear(), edges.clear(), placements.clear();
+  auto& [buf, edges, zeros, run_blocks, run_cells, placements, edge_scratch, project_scratch] = sc;
+  run_blocks.resize(last - first);
+  run_cells.clear(), edges.clear(), placements.clear();
   out->clear();
   std::vector<Vec3>& vertices = out->vertices;
   const size_t cap = kNodes * (last - first);
@@ -917,26 +966,26 @@ void BlockMesher::run(const std::vector<BlockPos>& blocks, size_t first, size_t 
   for (size_t bi = first; bi < last; ++bi) {
     int c0[3], cn[3];
     extent(bi, c0, cn);
+    const float *gx = &grid_.coord[0][size_t(c0[0])], *gy = &grid_.coord[1][size_t(c0[1])],
+                *gz = &grid_.coord[2][size_t(c0[2])];
     for (int k = 0; k <= cn[2]; ++k)
       for (int j = 0; j <= cn[1]; ++j)
-        for (int l = 0; l <= cn[0]; ++l, ++np) {
-          x[np] = grid_.node(0, c0[0] + l);
-          y[np] = grid_.node(1, c0[1] + j);
-          z[np] = grid_.node(2, c0[2] + k);
-        }
+        for (int l = 0; l <= cn[0]; ++l, ++np) x[np] = gx[l], y[np] = gy[j], z[np] = gz[k];
   }
   capped_.eval(np, x, y, z, f, &out->nan_samples);
-  // 2. The surface cells, and their crossing edges (each once per block: slot[] maps an
-  // edge, by axis and low node, to its index in the batch).
-  int16_t slot[3 * kNodes];
+  // 2. The crossing edges and the surface cells, block by block.
   static constexpr int kPlace[kBlock] = {0, 1, 1, 2};  // see CubeTable::reach
   np = 0;
   for (size_t bi = first; bi < last; ++bi) {
-    int c0[3], cn[3];
-    extent(bi, c0, cn);
+    RunBlock& rb = run_blocks[bi - first];
+    int cn[3];
+    extent(bi, rb.c0, cn);
+    const int* c0 = rb.c0;
     const int nx = cn[0] + 1, ny = cn[1] + 1, nz = cn[2] + 1;
-    const size_t sy = size_t(nx), sz = size_t(nx) * ny, step[3] = {1, sy, sz};
+    const size_t sy = size_t(nx), sz = size_t(nx) * ny;
     const float* fb = f + np;
+    const float *gx = &grid_.coord[0][size_t(c0[0])], *gy = &grid_.coord[1][size_t(c0[1])],
+                *gz = &grid_.coord[2][size_t(c0[2])];
     // The nodes' sides as one bit per node of each row along x (bit l: node l inside).
     uint32_t rows[kSide * kSide];
     for (int k = 0, n = 0; k < nz; ++k)
@@ -946,7 +995,45 @@ void BlockMesher::run(const std::vector<BlockPos>& blocks, size_t first, size_t 
         rows[k * kSide + j] = r;
       }
     const uint32_t full = (uint32_t(1) << nx) - 1;
-    std::fill(slot, slot + 3 * kNodes, int16_t(-1));
+    // The crossing edges along x, y and z from each row's low node, and their ends: row by
+    // row (y fastest), per row x, y, z and x fastest, so that a cell's edges lie close
+    // together in the batch.
+    size_t ne = edges.size();
+    std::fill(rb.bits, rb.bits + 3 * kSide * kSide, uint32_t(0));
+    for (int k = 0; k < nz; ++k)
+      for (int j = 0; j < ny; ++j) {
+        const int row = j + kSide * k;
+        const uint32_t r = rows[row];
+        const uint32_t b[3] = {(r ^ (r >> 1)) & (full >> 1), j + 1 < ny ? r ^ rows[row + 1] : 0,
+                               k + 1 < nz ? r ^ rows[row + kSide] : 0};
+        for (int a = 0; a < 3; ++a) {
+          rb.bits[a * kSide * kSide + row] = b[a];
+          rb.base[a * kSide * kSide + row] = uint32_t(ne);
+          ne += size_t(bit_count8(b[a]));
+        }
+      }
+    edges.resize(ne);
+    // The edges along axis A from row (j, k) (A a template argument: the far end's
+    // coordinate is picked at compile time).
+    auto add_edges = [&]<int A>(int j, int k) {
+      const size_t step = A == 0 ? 1 : (A == 1 ? sy : sz);
+      const int at = A * kSide * kSide + j + kSide * k;
+      size_t e = rb.base[at];
+      for (uint32_t b = rb.bits[at]; b != 0; b &= b - 1, ++e) {
+        const int l = std::countr_zero(b);
+        const size_t n = size_t(k) * sz + size_t(j) * sy + size_t(l);
+        const Vec3 pa{gx[l], gy[j], gz[k]};
+        const Vec3 pb{A == 0 ? gx[l + 1] : gx[l], A == 1 ? gy[j + 1] : gy[j],
+                      A == 2 ? gz[k + 1] : gz[k]};
+        edges.set(e, pa, pb, fb[n], fb[n + step]);
+      }
+    };
+    for (int k = 0; k < nz; ++k)
+      for (int j = 0; j < ny; ++j) {
+        add_edges.operator()<0>(j, k);
+        add_edges.operator()<1>(j, k);
+        add_edges.operator()<2>(j, k);
+      }
     uint64_t cmask = 0;
     uint32_t reach = 0;
     for (int k = 0; k < cn[2]; ++k)
@@ -962,35 +1049,23 @@ void BlockMesher::run(const std::vector<BlockPos>& blocks, size_t first, size_t 
                             (((r11 >> l) & 3) << 6));
           if (m == 0 || m == 255) continue;
           cmask |= uint64_t(1) << (l + kBlock * j + kBlock * kBlock * k);
-          cells.push_back({cell_key(c0[0] + l, c0[1] + j, c0[2] + k), uint8_t(m)});
           out->masks.push_back(uint8_t(m));
           reach |= table_.reach[kPlace[l] + 3 * kPlace[j] + 9 * kPlace[k]][m];
-          RunCell rc;
-          std::fill(rc.edge, rc.edge + 12, int16_t(-1));
+          out->crossing_edges += size_t(table_.owned[m]);
+          RunCell& rc = run_cells.emplace_back();
+          rc.block = uint16_t(bi - first), rc.l = uint8_t(l), rc.j = uint8_t(j), rc.k = uint8_t(k),
+          rc.mask = uint8_t(m);
           for (unsigned bits = table_.cross[m]; bits != 0; bits &= bits - 1) {
             const int e = std::countr_zero(bits);
-            const int a = e / 4;
-            const int q[3] = {l + kEdgeLow[e][0], j + kEdgeLow[e][1], k + kEdgeLow[e][2]};
-            int16_t& s = slot[size_t(a) * kNodes + size_t(q[0] + kSide * (q[1] + kSide * q[2]))];
-            if (s < 0) {
-              s = int16_t(edges.size());
-              const size_t n = size_t(q[2]) * sz + size_t(q[1]) * sy + size_t(q[0]);
-              int h[3] = {c0[0] + q[0], c0[1] + q[1], c0[2] + q[2]};
-              const Vec3 pa = grid_.node_point(h[0], h[1], h[2]);
-              ++h[a];
-              edges.add(pa, grid_.node_point(h[0], h[1], h[2]), fb[n], fb[n + step[a]]);
-            }
-            rc.edge[e] = s;
+            rc.edge[e] = uint16_t(edge_index(rb, l, j + kSide * k, e));
           }
-          out->crossing_edges += size_t(table_.owned[m]);
-          run_cells.push_back(rc);
         }
       }
     out->cmask.push_back(cmask);
     out->reach.push_back(reach & ~(uint32_t(1) << kSelf));
     np += size_t(nz) * sz;
   }
-  HFRT_CHECK_LE(edges.size(), size_t(INT16_MAX));  // RunCell's and slot[]'s edge indices
+  HFRT_CHECK_LE(edges.size(), size_t(UINT16_MAX));  // RunCell's edge indices
   const Clock::time_point t1 = Clock::now();
   // 3. The edges' zeros and normals.
   solve_edges(capped_, edges, &zeros, &edge_scratch);
@@ -999,21 +1074,23 @@ void BlockMesher::run(const std::vector<BlockPos>& blocks, size_t first, size_t 
   // then onto F = 0 where the patch is smooth (rank 1) or the point is off the surface.
   Vec3 pts[12], nrm[12];
   float slp[12];
-  for (size_t i = 0; i < cells.size(); ++i) {
-    const int m = cells[i].mask;
+  for (size_t i = 0; i < run_cells.size(); ++i) {
     const RunCell& rc = run_cells[i];
-    int c[3];
-    key_cell(cells[i].key, c);
+    const RunBlock& rb = run_blocks[rc.block];
+    const int m = rc.mask;
+    const int c[3] = {rb.c0[0] + rc.l, rb.c0[1] + rc.j, rb.c0[2] + rc.k};
     const Box cell_box(grid_.node_point(c[0], c[1], c[2]),
                        grid_.node_point(c[0] + 1, c[1] + 1, c[2] + 1));
-    for (int comp = 0; comp < table_.ncomp[m]; ++comp) {
+    const int ncomp = table_.ncomp[m];
+    for (int comp = 0; comp < ncomp; ++comp) {
       int k = 0;
-      for (int e = 0; e < 12; ++e) {
-        if (table_.comp[m][e] != comp) continue;
-        const int32_t s = rc.edge[e];
-        pts[k] = zeros.point[size_t(s)];
-        nrm[k] = zeros.normal[size_t(s)];
-        slp[k] = zeros.slope[size_t(s)];
+      for (unsigned bits = table_.cross[m]; bits != 0; bits &= bits - 1) {
+        const int e = std::countr_zero(bits);
+        if (ncomp > 1 && table_.comp[m][e] != comp) continue;
+        const size_t s = rc.edge[e];
+        pts[k] = zeros.point[s];
+        nrm[k] = zeros.normal[s];
+        slp[k] = zeros.slope[s];
         ++k;
       }
       int rank = 0;
@@ -1041,8 +1118,8 @@ void BlockMesher::run(const std::vector<BlockPos>& blocks, size_t first, size_t 
                             uint8_t(a),
                             fe[0],
                             {fe[1], fe[2]},
-                            zeros.point[size_t(rc.edge[fe[1]])],
-                            zeros.point[size_t(rc.edge[fe[2]])]});
+                            zeros.point[rc.edge[fe[1]]],
+                            zeros.point[rc.edge[fe[2]]]});
     }
   }
   out->projected += project_vertices(capped_, hmin_, vertices.size(), vertices.data(),
@@ -1166,7 +1243,8 @@ TriMesh mesh_field(const render::Field& field, const MeshOptions& options, MeshS
     std::vector<uint32_t> block_reach, block_cell_base{0}, block_vert_base{0};
     std::vector<uint8_t> masks;
     std::vector<FaceCandidate> faces;
-    for (auto* v : {&block_reach, &block_cell_base, &block_vert_base}) v->reserve(octree_blocks + 1);
+    for (auto* v : {&block_reach, &block_cell_base, &block_vert_base})
+      v->reserve(octree_blocks + 1);
     block_cmask.reserve(octree_blocks);
     // Joins runs [0, nruns) of a batch that ended at block `done` of `expected`.
     auto join_batch = [&](size_t nruns, size_t done, size_t expected) {
@@ -1193,7 +1271,7 @@ TriMesh mesh_field(const render::Field& field, const MeshOptions& options, MeshS
         }
         size_t c = 0;
         for (size_t j = 0; j < o.cmask.size(); ++j) {
-          const size_t n = size_t(std::popcount(o.cmask[j]));
+          const size_t n = size_t(bit_count64(o.cmask[j]));
           uint32_t nv = 0;
           for (size_t i = c; i < c + n; ++i) nv += uint32_t(table.ncomp[o.masks[i]]);
           c += n;
@@ -1232,8 +1310,7 @@ TriMesh mesh_field(const render::Field& field, const MeshOptions& options, MeshS
       nbr = block_neighbours(blocks);
       // The blocks reached but not sampled, per chunk of blocks (almost always none).
       constexpr size_t kCheckGrain = 4096;  // blocks
-      std::vector<std::vector<uint64_t>> missing_in((last - first + kCheckGrain - 1) /
-                                                    kCheckGrain);
+      std::vector<std::vector<uint64_t>> missing_in((last - first + kCheckGrain - 1) / kCheckGrain);
       parallel_chunks(last - first, kCheckGrain, [&](size_t b, size_t e) {
         std::vector<uint64_t>& miss = missing_in[b / kCheckGrain];
         for (size_t bi = first + b; bi < first + e; ++bi) {
@@ -1264,7 +1341,7 @@ TriMesh mesh_field(const render::Field& field, const MeshOptions& options, MeshS
     stats.thread_seconds_edges = double(clock.edges_ns.load()) * 1e-9;
     stats.thread_seconds_vertices = double(clock.vertices_ns.load()) * 1e-9;
     for (size_t bi = octree_blocks; bi < blocks.size(); ++bi)
-      stats.closure_cells += size_t(std::popcount(block_cmask[bi]));
+      stats.closure_cells += size_t(bit_count64(block_cmask[bi]));
     const size_t ncells = masks.size(), ncellverts = mesh.vertices.size();
     HFRT_CHECK(block_cell_base.back() == ncells);
     stats.surface_cells = ncells;
@@ -1274,9 +1351,9 @@ TriMesh mesh_field(const render::Field& field, const MeshOptions& options, MeshS
     // The block of cell ci, its position and its first vertex (for the few cells the face
     // candidates name; the faces walk the blocks' cells in order instead).
     auto cell_block = [&](size_t ci) {
-      return uint32_t(std::upper_bound(block_cell_base.begin(), block_cell_base.end(),
-                                       uint32_t(ci)) -
-                      block_cell_base.begin() - 1);
+      return uint32_t(
+          std::upper_bound(block_cell_base.begin(), block_cell_base.end(), uint32_t(ci)) -
+          block_cell_base.begin() - 1);
     };
     auto cell_pos = [&](size_t ci, uint32_t bi, int c[3]) {
       uint64_t bits = block_cmask[bi];
@@ -1307,7 +1384,7 @@ TriMesh mesh_field(const render::Field& field, const MeshOptions& options, MeshS
       const int l = (q[0] % kBlock) + kBlock * (q[1] % kBlock) + kBlock * kBlock * (q[2] % kBlock);
       const uint64_t cm = block_cmask[bq];
       if (!((cm >> l) & 1)) return kNone;
-      return block_cell_base[bq] + uint32_t(std::popcount(cm & ((uint64_t(1) << l) - 1)));
+      return block_cell_base[bq] + uint32_t(bit_count64(cm & ((uint64_t(1) << l) - 1)));
     };
     // The key of local edge e of cell ci: its owner cell (at +u, +v) * 3 + its axis.
     auto edge_key = [&](size_t ci, int e) -> uint64_t {
@@ -1354,8 +1431,7 @@ TriMesh mesh_field(const render::Field& field, const MeshOptions& options, MeshS
       };
       if (table.comp[md][in_d(fc.s1)] != table.comp[md][in_d(fc.s2[0])]) continue;
       const uint32_t pc = cell_vbase(ci, cell_block(ci)) + uint32_t(table.comp[m][fc.s2[0]]);
-      const uint32_t pd =
-          cell_vbase(di, cell_block(di)) + uint32_t(table.comp[md][in_d(fc.s2[0])]);
+      const uint32_t pd = cell_vbase(di, cell_block(di)) + uint32_t(table.comp[md][in_d(fc.s2[0])]);
       const uint32_t mv = uint32_t(mesh.vertices.size());
       splits.push_back({edge_key(ci, fc.s2[0]), pc, pd, mv});
       splits.push_back({edge_key(ci, fc.s2[1]), pc, pd, mv});
@@ -1399,6 +1475,19 @@ TriMesh mesh_field(const render::Field& field, const MeshOptions& options, MeshS
     for (size_t bi = 0; bi < blocks.size(); ++bi) tri_at[bi + 1] += tri_at[bi];
     reserve_huge(mesh.triangles, tri_at.back());
     mesh.triangles.resize(tri_at.back());
+    // Per neighbour n (as below), the cells of a block that the faces of the block at +n
+    // need: those at kBlock - 1 on each axis whose bit of n is set.
+    static constexpr auto kLayer = [] {
+      std::array<uint64_t, 8> layer{};
+      for (int n = 0; n < 8; ++n)
+        for (int l = 0; l < kBlock * kBlock * kBlock; ++l) {
+          const int p[3] = {l % kBlock, (l / kBlock) % kBlock, l / (kBlock * kBlock)};
+          bool keep = true;
+          for (int a = 0; a < 3; ++a) keep = keep && (!((n >> a) & 1) || p[a] == kBlock - 1);
+          if (keep) layer[n] |= uint64_t(1) << l;
+        }
+      return layer;
+    }();
     parallel_chunks(blocks.size(), kFaceGrain, [&](size_t bb, size_t be) {
       // Per place: the cell's first vertex | its mask << 32 (0: no surface cell there).
       uint64_t local[kLocal];
@@ -1411,11 +1500,25 @@ TriMesh mesh_field(const render::Field& field, const MeshOptions& options, MeshS
           // those axes.
           const uint32_t bq = nbr.at[offset_index(-(n & 1), -((n >> 1) & 1), -(n >> 2))][bi];
           if (bq == kNone) continue;
-          uint32_t ci = block_cell_base[bq], v = block_vert_base[bq];
-          for (uint64_t bits = block_cmask[bq]; bits != 0; bits &= bits - 1, ++ci) {
+          const uint64_t cm = block_cmask[bq];
+          const uint32_t c0 = block_cell_base[bq], v0 = block_vert_base[bq];
+          // Where every cell of the block has one patch (almost all blocks), a cell's first
+          // vertex is its rank: only the cells in the layer are visited.
+          const bool single = block_vert_base[bq + 1] - v0 == block_cell_base[bq + 1] - c0;
+          uint32_t ci = c0, v = v0;
+          const uint64_t layer = single ? kLayer[n] : ~uint64_t(0);
+          for (uint64_t bits = cm & layer; bits != 0; bits &= bits - 1) {
             const int l = std::countr_zero(bits);
-            const uint32_t mask = masks[ci], vb = v;
-            v += uint32_t(table.ncomp[mask]);
+            uint32_t vb;
+            if (single) {
+              ci = c0 + uint32_t(bit_count64(cm & ((uint64_t(1) << l) - 1)));
+              vb = v0 + (ci - c0);
+            } else {
+              vb = v;
+              v += uint32_t(table.ncomp[masks[ci]]);
+            }
+            const uint32_t mask = masks[ci];
+            if (!single) ++ci;
             const int p[3] = {l % kBlock, (l / kBlock) % kBlock, l / (kBlock * kBlock)};
             bool keep = true;
             int q[3];
@@ -1425,8 +1528,7 @@ TriMesh mesh_field(const render::Field& field, const MeshOptions& options, MeshS
               q[a] = shifted ? 0 : p[a] + 1;
             }
             if (keep) {
-              local[q[0] + kLocalSide * (q[1] + kLocalSide * q[2])] =
-                  vb | (uint64_t(mask) << 32);
+              local[q[0] + kLocalSide * (q[1] + kLocalSide * q[2])] = vb | (uint64_t(mask) << 32);
             }
           }
         }

@@ -48,17 +48,23 @@
 #include <vector>
 
 #include "base/box.h"
+#include "base/memory.h"
 #include "base/vec.h"
 #include "render/field.h"
 
 namespace hfrt::mesher {
+
+/// Triangles as three vertex indices each; resize() leaves new ones unset (the mesher writes
+/// every one, from several threads).
+using TriangleList =
+    std::vector<std::array<uint32_t, 3>, DefaultInitAllocator<std::array<uint32_t, 3>>>;
 
 /// A triangle mesh: shared vertices, counter-clockwise triangles seen from outside (the normal
 /// (b - a) x (c - a) points out of the solid). `colors` is empty or one RGB in [0, 1] per
 /// vertex (s[1..3] of the model).
 struct TriMesh {
   std::vector<Vec3> vertices;
-  std::vector<std::array<uint32_t, 3>> triangles;
+  TriangleList triangles;
   std::vector<Vec3> colors;
 };
 

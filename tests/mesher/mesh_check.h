@@ -9,6 +9,7 @@
 #include <cmath>
 #include <cstdint>
 #include <map>
+#include <span>
 #include <string>
 #include <unordered_map>
 #include <vector>
@@ -19,7 +20,7 @@ namespace hfrt::mesher::testing {
 
 /// "" when the mesh is a closed, oriented 2-manifold; otherwise the first problem found.
 inline std::string check_closed_manifold(const std::vector<Vec3>& vertices,
-                                         const std::vector<std::array<uint32_t, 3>>& triangles) {
+                                         std::span<const std::array<uint32_t, 3>> triangles) {
   if (triangles.empty()) return "no triangles";
   std::unordered_map<uint64_t, int> directed;
   directed.reserve(triangles.size() * 4);
@@ -69,7 +70,7 @@ inline std::string check_closed_manifold(const std::vector<Vec3>& vertices,
 
 /// The signed volume enclosed (positive when the triangles face outward).
 inline double mesh_volume(const std::vector<Vec3>& v,
-                          const std::vector<std::array<uint32_t, 3>>& triangles) {
+                          std::span<const std::array<uint32_t, 3>> triangles) {
   double vol = 0;
   for (const auto& t : triangles) {
     const Vec3 a = v[t[0]], b = v[t[1]], c = v[t[2]];
@@ -82,7 +83,7 @@ inline double mesh_volume(const std::vector<Vec3>& v,
 }
 
 inline double mesh_area(const std::vector<Vec3>& v,
-                        const std::vector<std::array<uint32_t, 3>>& triangles) {
+                        std::span<const std::array<uint32_t, 3>> triangles) {
   double area = 0;
   for (const auto& t : triangles)
     area += 0.5 * double(length(cross(v[t[1]] - v[t[0]], v[t[2]] - v[t[0]])));
@@ -114,7 +115,7 @@ inline double point_triangle_distance(Vec3 p, Vec3 a, Vec3 b, Vec3 c) {
 
 /// Distance from p to the nearest triangle of the mesh (brute force).
 inline double point_mesh_distance(Vec3 p, const std::vector<Vec3>& v,
-                                  const std::vector<std::array<uint32_t, 3>>& triangles) {
+                                  std::span<const std::array<uint32_t, 3>> triangles) {
   double best = 1e30;
   for (const auto& t : triangles)
     best = std::min(best, point_triangle_distance(p, v[t[0]], v[t[1]], v[t[2]]));
