@@ -1488,6 +1488,7 @@ TriMesh mesh_field(const render::Field& field, const MeshOptions& options, MeshS
         }
       return layer;
     }();
+    const float inv_h = 1.0f / block_mesher.hmin();
     parallel_chunks(blocks.size(), kFaceGrain, [&](size_t bb, size_t be) {
       // Per place: the cell's first vertex | its mask << 32 (0: no surface cell there).
       uint64_t local[kLocal];
@@ -1576,18 +1577,22 @@ TriMesh mesh_field(const render::Field& field, const MeshOptions& options, MeshS
               }
             }
             if (np == 4) {
-              const Vec3 v0 = mesh.vertices[poly[0]], v1 = mesh.vertices[poly[1]],
-                         v2 = mesh.vertices[poly[2]], v3 = mesh.vertices[poly[3]];
+              // The corners from v0, in cells (so that the products below neither underflow
+              // nor overflow in single precision at any cell size).
+              const Vec3 v0 = mesh.vertices[poly[0]];
+              const Vec3 e1 = (mesh.vertices[poly[1]] - v0) * inv_h,
+                         e2 = (mesh.vertices[poly[2]] - v0) * inv_h,
+                         e3 = (mesh.vertices[poly[3]] - v0) * inv_h;
               // The diagonal whose two triangles agree best (a flat quad either way; on a
               // sharp edge the one along the edge).
               // (Cosines as dot / sqrt(|a|^2 |b|^2): two roots instead of four normalisations;
               // a degenerate triangle counts as cosine 0, as its zero normal did.)
               auto cosine = [](Vec3 a, Vec3 b) {
-                const double l2 = double(length2(a)) * double(length2(b));  // no underflow
-                return l2 > 0 ? float(double(dot(a, b)) / std::sqrt(l2)) : 0.0f;
+                const float l2 = length2(a) * length2(b);
+                return l2 > 0 ? dot(a, b) / std::sqrt(l2) : 0.0f;
               };
-              const float split02 = cosine(cross(v1 - v0, v2 - v0), cross(v2 - v0, v3 - v0));
-              const float split13 = cosine(cross(v2 - v1, v3 - v1), cross(v3 - v1, v0 - v1));
+              const float split02 = cosine(cross(e1, e2), cross(e2, e3));
+              const float split13 = cosine(cross(e2 - e1, e3 - e1), cross(e3 - e1, -e1));
               if (split13 > split02 + 1e-6f) {
                 *tris++ = {poly[1], poly[2], poly[3]};
                 *tris++ = {poly[1], poly[3], poly[0]};

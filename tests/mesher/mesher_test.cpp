@@ -109,14 +109,15 @@ TEST(Mesher, TorusVolumeAreaAndVerticesOnTheSurface) {
   EXPECT_LT(worst, 1e-4 * 3.0);
 }
 
-TEST(Mesher, BoxCornersAndEdgesAreExact) {
-  const Vec3 c{0.05f, -0.02f, 0.03f}, h{0.61f, 0.43f, 0.37f};
+/// The box test at `scale` times the size (box, solid and tolerances alike).
+void expect_box_exact(float scale) {
+  const Vec3 c = Vec3{0.05f, -0.02f, 0.03f} * scale, h = Vec3{0.61f, 0.43f, 0.37f} * scale;
   BoxField solid(c, h);
-  const Box box({-1, -1, -1}, {1, 1, 1});
+  const Box box(Vec3{-1, -1, -1} * scale, Vec3{1, 1, 1} * scale);
   MeshStats stats;
   TriMesh m = mesh_field(solid, options_for(box, 40), &stats);
   ASSERT_EQ(check_closed_manifold(m.vertices, m.triangles), "");
-  const double size = 2.0, tol = 1e-4 * size;
+  const double size = 2.0 * scale, tol = 1e-4 * size;
   const double vol = 8.0 * h.x * h.y * h.z, area = 8.0 * (h.x * h.y + h.y * h.z + h.z * h.x);
   // Sharp edges: a chamfer of one cell along the 12 edges would lose ~1% of the volume.
   EXPECT_NEAR(mesh_volume(m.vertices, m.triangles) / vol, 1.0, 2e-4);
@@ -142,6 +143,72 @@ TEST(Mesher, BoxCornersAndEdgesAreExact) {
     }
   }
   EXPECT_GT(stats.sharp_vertices, 0u);
+}
+
+TEST(Mesher, BoxCornersAndEdgesAreExact) {
+  expect_box_exact(1.0f);
+}
+
+// Nothing in the mesher depends on the model's units: cells of 5e-8.
+TEST(Mesher, BoxCornersAndEdgesAreExactAtAMillionthOfTheSize) {
+  expect_box_exact(1e-6f);
+}
+
+/// A wedge: F = min(d1 - n1 . p, d2 - n2 . p) (capped at the mesher's box), whose sharp edge
+/// runs along (1, 1, 1): across the cells diagonally, where a quad's diagonal decides
+/// whether the edge is kept or notched.
+class WedgeField : public AnalyticField {
+ public:
+  explicit WedgeField(double scale) : scale_(scale) {}
+  double value(double x, double y, double z) const override {
+    return std::min(plane(0, x, y, z), plane(1, x, y, z));
+  }
+  Vec3 gradient(double x, double y, double z) const override {
+    const int k = plane(0, x, y, z) <= plane(1, x, y, z) ? 0 : 1;
+    return {float(-kN[k][0]), float(-kN[k][1]), float(-kN[k][2])};
+  }
+  Interval interval(const Box& b) const override {
+    double lo[2], hi[2];
+    for (int k = 0; k < 2; ++k) {
+      lo[k] = hi[k] = kD[k] * scale_;
+      for (int a = 0; a < 3; ++a) {
+        const double u = -kN[k][a] * double(b.lo[a]), v = -kN[k][a] * double(b.hi[a]);
+        lo[k] += std::min(u, v), hi[k] += std::max(u, v);
+      }
+    }
+    return widen(std::min(lo[0], lo[1]), std::min(hi[0], hi[1]));
+  }
+
+ private:
+  double plane(int k, double x, double y, double z) const {
+    return kD[k] * scale_ - (kN[k][0] * x + kN[k][1] * y + kN[k][2] * z);
+  }
+  static constexpr double kR2 = 0.70710678118654752, kR6 = 0.40824829046386302;
+  static constexpr double kN[2][3] = {{kR2, -kR2, 0}, {kR6, kR6, -2 * kR6}};
+  static constexpr double kD[2] = {0.13, 0.07};
+  double scale_;
+};
+
+/// The wedge meshed at `scale` times the size.
+TriMesh wedge_mesh(float scale) {
+  WedgeField wedge(scale);
+  const Box box(Vec3{-1, -1, -1} * scale, Vec3{1, 1, 1} * scale);
+  return mesh_field(wedge, options_for(box, 32));
+}
+
+// Regression: the faces' choice of diagonal is made in single precision on the corners in
+// cells; on the corners in model units its products (~cell^8) underflowed at cells of ~6e-8,
+// and every quad took the same diagonal. The same wedge a million times smaller is the same
+// mesh, triangle for triangle.
+TEST(Mesher, DiagonalsDoNotDependOnTheScale) {
+  const TriMesh big = wedge_mesh(1.0f), small = wedge_mesh(1e-6f);
+  ASSERT_EQ(check_closed_manifold(small.vertices, small.triangles), "");
+  ASSERT_EQ(big.vertices.size(), small.vertices.size());
+  ASSERT_EQ(big.triangles.size(), small.triangles.size());
+  size_t differ = 0;
+  for (size_t t = 0; t < big.triangles.size(); ++t)
+    differ += big.triangles[t] != small.triangles[t];
+  EXPECT_EQ(differ, 0u) << "of " << big.triangles.size();
 }
 
 TEST(Mesher, CapsTheSolidAtTheBox) {
