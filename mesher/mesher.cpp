@@ -479,19 +479,52 @@ int offset_index(int dx, int dy, int dz) {
 /// kNone where that block was not sampled. By merge joins of the keys in sorted order with
 /// themselves shifted (a shift keeps the order of (z, y, x) keys): linear, no hashing.
 struct BlockNeighbours {
-  std::vector<uint32_t> at[kNeighbourhood];
+  /// Written in full by the merge passes (every entry, kNone or not): not zeroed first.
+  std::vector<uint32_t, DefaultInitAllocator<uint32_t>> at[kNeighbourhood];
 };
 
+/// The blocks' indices in (z, y, x) order of their positions: an LSD radix sort of their
+/// positions packed densely (the bits the largest coordinate needs per axis), in passes of
+/// 11 bits. (std::sort of (key, index) pairs took 3.3 ms of the 512^3 gyroid's 89k blocks.)
+std::vector<uint32_t> blocks_in_key_order(const std::vector<BlockPos>& blocks,
+                                          std::vector<uint64_t>* keys_out) {
+  const size_t n = blocks.size();
+  int bits[3] = {0, 0, 0};
+  for (const BlockPos& p : blocks)
+    for (int a = 0; a < 3; ++a) bits[a] = std::max(bits[a], int(std::bit_width(uint32_t(p.b[a]))));
+  auto dense = [&](const BlockPos& p) {
+    return uint64_t(p.b[0]) | (uint64_t(p.b[1]) << bits[0]) |
+           (uint64_t(p.b[2]) << (bits[0] + bits[1]));
+  };
+  std::vector<uint64_t> key(n), key2(n);
+  std::vector<uint32_t> order(n), order2(n);
+  for (size_t i = 0; i < n; ++i) key[i] = dense(blocks[i]), order[i] = uint32_t(i);
+  constexpr int kDigit = 11;
+  const int total = bits[0] + bits[1] + bits[2];
+  for (int shift = 0; shift < total; shift += kDigit) {
+    size_t count[(1 << kDigit) + 1] = {};
+    for (size_t i = 0; i < n; ++i) ++count[((key[i] >> shift) & ((1 << kDigit) - 1)) + 1];
+    for (int d = 0; d < (1 << kDigit); ++d) count[d + 1] += count[d];
+    for (size_t i = 0; i < n; ++i) {
+      const size_t at = count[(key[i] >> shift) & ((1 << kDigit) - 1)]++;
+      key2[at] = key[i], order2[at] = order[i];
+    }
+    key.swap(key2), order.swap(order2);
+  }
+  keys_out->resize(n);
+  for (size_t i = 0; i < n; ++i) (*keys_out)[i] = block_key(blocks[order[i]]);
+  return order;
+}
+
 BlockNeighbours block_neighbours(const std::vector<BlockPos>& blocks) {
-  std::vector<std::pair<uint64_t, uint32_t>> sorted(blocks.size());
-  for (size_t i = 0; i < blocks.size(); ++i) sorted[i] = {block_key(blocks[i]), uint32_t(i)};
-  std::sort(sorted.begin(), sorted.end());
+  std::vector<uint64_t> keys;
+  const std::vector<uint32_t> order = blocks_in_key_order(blocks, &keys);
   BlockNeighbours nb;
-  for (auto& v : nb.at) v.assign(blocks.size(), kNone);
+  for (auto& v : nb.at) v.resize(blocks.size());
   // One pass per (dy, dz): the three blocks at dx = -1, 0, 1 have consecutive keys, so they
   // are consecutive in the sorted list where present. Keys are shifted by adding the offsets
   // to the packed fields (no field leaves its range: a -1 at coordinate 0 is skipped, and a
-  // +1 stays below 2^kKeyBits).
+  // +1 stays below 2^kKeyBits). Each pass writes all three of its arrays for every block.
   par::parallel_for(9, 1, [&](size_t yz, size_t) {
     const int dy = int(yz % 3) - 1, dz = int(yz / 3) - 1;
     const uint64_t delta =
@@ -499,7 +532,10 @@ BlockNeighbours block_neighbours(const std::vector<BlockPos>& blocks) {
     uint32_t* out[3];
     for (int dx = -1; dx <= 1; ++dx) out[dx + 1] = nb.at[offset_index(dx, dy, dz)].data();
     size_t j = 0;
-    for (const auto& [key, i] : sorted) {
+    for (size_t r = 0; r < keys.size(); ++r) {
+      const uint64_t key = keys[r];
+      const uint32_t i = order[r];
+      out[0][i] = out[1][i] = out[2][i] = kNone;
       if ((dy < 0 && ((key >> kKeyBits) & kKeyMask) == 0) ||
           (dz < 0 && ((key >> (2 * kKeyBits)) & kKeyMask) == 0)) {
         continue;  // the row below or the slab below would be at -1
@@ -507,12 +543,11 @@ BlockNeighbours block_neighbours(const std::vector<BlockPos>& blocks) {
       const uint64_t centre = key + delta;
       const int dx0 = (key & kKeyMask) > 0 ? -1 : 0;
       const uint64_t first = centre + uint64_t(int64_t(dx0));
-      while (j < sorted.size() && sorted[j].first < first) ++j;
+      while (j < keys.size() && keys[j] < first) ++j;
       size_t q = j;
       for (int dx = dx0; dx <= 1; ++dx) {
-        if (q < sorted.size() && sorted[q].first == centre + uint64_t(int64_t(dx))) {
-          out[dx + 1][i] = sorted[q++].second;
-        }
+        if (q < keys.size() && keys[q] == centre + uint64_t(int64_t(dx)))
+          out[dx + 1][i] = order[q++];
       }
     }
   });
@@ -1187,34 +1222,45 @@ TriMesh mesh_field(const render::Field& field, const MeshOptions& options, MeshS
       }
       return Box(lo, hi);
     };
-    // Per block: 0 proven outside, 1 proven inside (by the octree), 2 sampled.
+    // Per level, in chunks on the threads: the nodes' boxes, their intervals and the children
+    // of the undecided ones (joined in chunk order: the order does not depend on the
+    // scheduling).
     std::vector<Node> level{{{0, 0, 0}}};
     int size = root;
-    std::vector<Box> boxes;
-    std::vector<render::Interval> ivals;
+    constexpr size_t kOctreeGrain = 512;
+    std::vector<std::vector<Node>> children;
     while (true) {
-      boxes.resize(level.size());
-      ivals.resize(level.size());
-      for (size_t i = 0; i < level.size(); ++i) boxes[i] = node_box(level[i], size);
-      parallel_chunks(level.size(), 64, [&](size_t b, size_t e) {
-        capped.eval_intervals(e - b, boxes.data() + b, ivals.data() + b);
+      const size_t nchunks = (level.size() + kOctreeGrain - 1) / kOctreeGrain;
+      children.resize(std::max(children.size(), nchunks));
+      parallel_chunks(level.size(), kOctreeGrain, [&](size_t b, size_t e) {
+        Box boxes[kOctreeGrain];
+        render::Interval ivals[kOctreeGrain];
+        for (size_t i = b; i < e; ++i) boxes[i - b] = node_box(level[i], size);
+        capped.eval_intervals(e - b, boxes, ivals);
+        std::vector<Node>& next = children[b / kOctreeGrain];
+        next.clear();
+        for (size_t i = b; i < e; ++i) {
+          const render::Interval& iv = ivals[i - b];
+          if (iv.hi < 0 || iv.lo >= 0) continue;  // proven outside, or inside everywhere
+          if (size == 1) {
+            next.push_back(level[i]);
+            continue;
+          }
+          const int half = size / 2;
+          for (int c = 0; c < 8; ++c) {
+            Node ch{{level[i].b[0] + (c & 1) * half, level[i].b[1] + ((c >> 1) & 1) * half,
+                     level[i].b[2] + (c >> 2) * half}};
+            if (ch.b[0] < nb[0] && ch.b[1] < nb[1] && ch.b[2] < nb[2]) next.push_back(ch);
+          }
+        }
       });
       stats.octree_nodes += level.size();
+      size_t total = 0;
+      for (size_t c = 0; c < nchunks; ++c) total += children[c].size();
       std::vector<Node> next;
-      for (size_t i = 0; i < level.size(); ++i) {
-        const render::Interval& iv = ivals[i];
-        if (iv.hi < 0 || iv.lo >= 0) continue;  // proven outside, or inside everywhere
-        if (size == 1) {
-          next.push_back(level[i]);
-          continue;
-        }
-        const int half = size / 2;
-        for (int c = 0; c < 8; ++c) {
-          Node ch{{level[i].b[0] + (c & 1) * half, level[i].b[1] + ((c >> 1) & 1) * half,
-                   level[i].b[2] + (c >> 2) * half}};
-          if (ch.b[0] < nb[0] && ch.b[1] < nb[1] && ch.b[2] < nb[2]) next.push_back(ch);
-        }
-      }
+      next.reserve(total);
+      for (size_t c = 0; c < nchunks; ++c)
+        next.insert(next.end(), children[c].begin(), children[c].end());
       level.swap(next);
       if (size == 1) break;
       size /= 2;
