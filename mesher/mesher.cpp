@@ -597,16 +597,15 @@ void solve_edges(const Capped& capped, const EdgeBatch& in, EdgeZeros* out, Edge
   auto& [tlo, thi, flo, fhi, vlo, vhi, tol, xs, ys, zs, fs, tm, side, active, next_active, g] =
       *scratch;
   for (auto* v : {&tlo, &thi, &flo, &fhi, &vlo, &vhi, &tol, &xs, &ys, &zs, &fs, &tm}) v->resize(n);
-  side.assign(n, 2);
-  // flo, fhi: the values Illinois works with (halved when an end is kept twice); vlo, vhi:
-  // the true values at the bracket's ends.
-  for (size_t i = 0; i < n; ++i) {
-    tlo[i] = 0, thi[i] = 1;
-    flo[i] = vlo[i] = in.fa[i];
-    fhi[i] = vhi[i] = in.fb[i];
-    const float d = std::abs(vlo[i] - vhi[i]);
-    tol[i] = std::isfinite(d) ? kRootTolerance * d : 0.0f;
-  }
+  side.resize(n);
+  // An edge's bracket [tlo, thi] and its state for the Illinois steps, kept only for the few
+  // edges that take them (set from the first step's result below): flo, fhi the values
+  // Illinois works with (halved when an end is kept twice); vlo, vhi the true values at the
+  // bracket's ends; side the end last replaced (2: none).
+  auto tolerance = [&](size_t i) {
+    const float d = std::abs(in.fa[i] - in.fb[i]);
+    return std::isfinite(d) ? kRootTolerance * d : 0.0f;
+  };
   // The false-position point of edge i's bracket (its middle where a value is not finite).
   auto propose = [&](size_t i) {
     const float d = flo[i] - fhi[i];
@@ -671,21 +670,23 @@ void solve_edges(const Capped& capped, const EdgeBatch& in, EdgeZeros* out, Edge
     capped.eval_gradient(m, xs.data(), ys.data(), zs.data(), fs.data(), g.data());
     for (size_t j = 0; j < m; ++j) set_normal(which[j], g[j]);
   };
-  // The first step: the false-position point from the sampled ends, its value and gradient
-  // from one evaluation (enough on a plane, where F is affine along the edge).
+  // The first step: the false-position point from the sampled ends (propose() on the
+  // bracket [0, 1]), its value and gradient from one evaluation (enough on a plane, where F
+  // is affine along the edge).
   for (size_t i = 0; i < n; ++i) {
-    tm[i] = propose(i);
-    const Vec3 p = in.pa[i] + (in.pb[i] - in.pa[i]) * tm[i];
+    const float fa = in.fa[i], fb = in.fb[i], d = fa - fb;
+    float t = 0.5f;
+    if (std::isfinite(fa) && std::isfinite(fb) && d != 0) {
+      t = fa / d;
+      if (!(t > 0 && t < 1)) t = 0.5f;
+    }
+    tm[i] = t;
+    const Vec3 p = in.pa[i] + (in.pb[i] - in.pa[i]) * t;
     out->point[i] = p;
     xs[i] = p.x, ys[i] = p.y, zs[i] = p.z;
   }
   g.resize(n);
   capped.eval_gradient(n, xs.data(), ys.data(), zs.data(), fs.data(), g.data());
-  active.clear();
-  for (size_t i = 0; i < n; ++i) {
-    set_normal(i, g[i]);
-    if (!update(i, fs[i])) active.push_back(uint32_t(i));
-  }
   // The edges not done: one Newton step along the edge with that gradient, where the
   // gradient's slope along the edge agrees with the bracket's secant (F smooth along it).
   // From within ~1 % of the edge of the zero (one false-position step) it lands within
@@ -695,18 +696,27 @@ void solve_edges(const Capped& capped, const EdgeBatch& in, EdgeZeros* out, Edge
   // further false-position steps and a new gradient at the end.
   std::vector<uint32_t>& retry = next_active;
   retry.clear();
-  for (const uint32_t i : active) {
+  for (size_t i = 0; i < n; ++i) {
+    set_normal(i, g[i]);
+    const float f = fs[i], fa = in.fa[i], fb = in.fb[i], t0 = tm[i], tl = tolerance(i);
+    if (std::abs(f) <= tl) continue;
+    // The bracket after the first step (as update() leaves it).
+    const bool low = inside(f) == inside(fa);
+    const float lo_t = low ? t0 : 0.0f, hi_t = low ? 1.0f : t0;
+    const float lo_v = low ? f : fa, hi_v = low ? fb : f;
     const Vec3 e = in.pb[i] - in.pa[i];
     const float slope_t = dot(g[i], e);
-    const float secant = (vhi[i] - vlo[i]) / (thi[i] - tlo[i]);
-    const float t = tm[i] - fs[i] / slope_t;
-    const float lo = std::min(tlo[i], thi[i]), hi = std::max(tlo[i], thi[i]);
+    const float secant = (hi_v - lo_v) / (hi_t - lo_t);
+    const float t = t0 - f / slope_t;
+    const float lo = std::min(lo_t, hi_t), hi = std::max(lo_t, hi_t);
     if (std::isfinite(t) && t > lo && t < hi &&
         std::abs(slope_t - secant) <= 0.25f * std::abs(secant)) {
       out->point[i] = in.pa[i] + e * t;
-    } else {
-      retry.push_back(i);
+      continue;
     }
+    tlo[i] = lo_t, thi[i] = hi_t, flo[i] = vlo[i] = lo_v, fhi[i] = vhi[i] = hi_v;
+    tol[i] = tl, side[i] = low ? 0 : 1;
+    retry.push_back(uint32_t(i));
   }
   if (!retry.empty()) {
     active.swap(retry);
