@@ -1657,6 +1657,14 @@ TriMesh mesh_field(const render::Field& field, const MeshOptions& options, MeshS
                 *tris++ = {poly[0], poly[2], poly[3]};
               }
             } else {
+              // A fan from a face vertex: its diagonals end at a vertex that only this polygon
+              // and the one across the split segment have. (A fan from poly[0] could join two
+              // patch vertices that an edge of another quad already joins: an edge of four
+              // triangles, as in the corpus's fsin model at 40 cells.)
+              int apex = 0;
+              while (apex < np && poly[apex] < ncellverts) ++apex;
+              HFRT_CHECK(apex < np);
+              std::rotate(poly, poly + apex, poly + np);
               for (int i = 1; i + 1 < np; ++i) *tris++ = {poly[0], poly[i], poly[i + 1]};
             }
           }
