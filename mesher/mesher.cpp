@@ -283,11 +283,16 @@ class Capped {
     float *py = px + m, *pz = py + m, *pf = pz + m, *gx = pf + m, *gy = gx + m, *gz = gy + m;
     field_.eval_gradient(m, px, py, pz, pf, gx, gy, gz);
     for (size_t i = 0; i < n; ++i) {
+      const float fv = pf[i];
+      if (fv == fv && fv <= box_distance(x[i], y[i], z[i])) {
+        f[i] = fv;  // the usual case: F, not the cap
+        g[i] = {gx[i], gy[i], gz[i]};
+        continue;
+      }
       Vec3 p{x[i], y[i], z[i]};
       const float d[6] = {p.x - box_.lo.x, box_.hi.x - p.x, p.y - box_.lo.y,
                           box_.hi.y - p.y, p.z - box_.lo.z, box_.hi.z - p.z};
       const int k = int(std::min_element(d, d + 6) - d);
-      const float fv = pf[i];
       if (fv != fv) {
         // No value: outside, and no direction.
         f[i] = -std::numeric_limits<float>::infinity();
@@ -479,8 +484,15 @@ int offset_index(int dx, int dy, int dz) {
 /// kNone where that block was not sampled. By merge joins of the keys in sorted order with
 /// themselves shifted (a shift keeps the order of (z, y, x) keys): linear, no hashing.
 struct BlockNeighbours {
-  /// Written in full by the merge passes (every entry, kNone or not): not zeroed first.
-  std::vector<uint32_t, DefaultInitAllocator<uint32_t>> at[kNeighbourhood];
+  /// Neighbour d of block b (kNone: not sampled).
+  uint32_t at(int d, size_t b) const { return all[size_t(d) * n + b]; }
+  uint32_t* row(int d) { return all.data() + size_t(d) * n; }
+  size_t n = 0;
+  /// All 27 rows in one allocation, advised onto huge pages: as 27 arrays of their own, the
+  /// 512^3 gyroid's 89k blocks took 9.6 MB in ~2400 page faults of 4 KiB, and
+  /// block_neighbours 15-24 ms of a fresh process's 512^3 mesh (blend, gyroid), most of it in
+  /// the kernel. Written in full by the merge passes (every entry, kNone or not): not zeroed.
+  std::vector<uint32_t, DefaultInitAllocator<uint32_t>> all;
 };
 
 /// The blocks' indices in (z, y, x) order of their positions: an LSD radix sort of their
@@ -520,7 +532,9 @@ BlockNeighbours block_neighbours(const std::vector<BlockPos>& blocks) {
   std::vector<uint64_t> keys;
   const std::vector<uint32_t> order = blocks_in_key_order(blocks, &keys);
   BlockNeighbours nb;
-  for (auto& v : nb.at) v.resize(blocks.size());
+  nb.n = blocks.size();
+  reserve_huge(nb.all, kNeighbourhood * nb.n);
+  nb.all.resize(kNeighbourhood * nb.n);
   // One pass per (dy, dz): the three blocks at dx = -1, 0, 1 have consecutive keys, so they
   // are consecutive in the sorted list where present. Keys are shifted by adding the offsets
   // to the packed fields (no field leaves its range: a -1 at coordinate 0 is skipped, and a
@@ -530,7 +544,7 @@ BlockNeighbours block_neighbours(const std::vector<BlockPos>& blocks) {
     const uint64_t delta =
         (uint64_t(int64_t(dy)) << kKeyBits) + (uint64_t(int64_t(dz)) << (2 * kKeyBits));
     uint32_t* out[3];
-    for (int dx = -1; dx <= 1; ++dx) out[dx + 1] = nb.at[offset_index(dx, dy, dz)].data();
+    for (int dx = -1; dx <= 1; ++dx) out[dx + 1] = nb.row(offset_index(dx, dy, dz));
     size_t j = 0;
     for (size_t r = 0; r < keys.size(); ++r) {
       const uint64_t key = keys[r];
@@ -1302,49 +1316,73 @@ TriMesh mesh_field(const render::Field& field, const MeshOptions& options, MeshS
     for (auto* v : {&block_reach, &block_cell_base, &block_vert_base})
       v->reserve(octree_blocks + 1);
     block_cmask.reserve(octree_blocks);
-    // Joins runs [0, nruns) of a batch that ended at block `done` of `expected`.
+    // Joins runs [0, nruns) of a batch that ended at block `done` of `expected`: each run's
+    // place in the joined arrays from the runs' sizes (serial, a few adds per run), then the
+    // copies on the threads. (Joined on one thread, the copies and the first touch of the
+    // arrays' pages took 43 of the blocks' 176 ms on the 512^3 gyroid, 2 threads, with the
+    // other thread idle; in parallel the fresh process's mesh is 0.202-0.257 s against
+    // 0.218-0.266 s with malloc on huge pages, and within the noise without.)
+    struct RunPlace {
+      size_t cell, vert, block, face;
+    };
+    std::vector<RunPlace> places(runs.size() + 1);
     auto join_batch = [&](size_t nruns, size_t done, size_t expected) {
-      size_t ncells = masks.size(), nverts = mesh.vertices.size();
+      places[0] = {masks.size(), mesh.vertices.size(), block_cmask.size(), faces.size()};
       for (size_t r = 0; r < nruns; ++r) {
-        ncells += runs[r].masks.size();
-        nverts += runs[r].vertices.size();
+        const RunOut& o = runs[r];
+        places[r + 1] = {places[r].cell + o.masks.size(), places[r].vert + o.vertices.size(),
+                         places[r].block + o.cmask.size(), places[r].face + o.faces.size()};
+        stats.nan_samples += o.nan_samples;
+        stats.crossing_edges += o.crossing_edges;
+        stats.sharp_vertices += o.sharp;
+        stats.projected_vertices += o.projected;
       }
-      HFRT_CHECK_LE(nverts, size_t(kNone) / 2);  // vertex and cell indices are 32-bit
+      const RunPlace& end = places[nruns];
+      HFRT_CHECK_LE(end.vert, size_t(kNone) / 2);  // vertex and cell indices are 32-bit
       // Room for the rest by the density so far (the arrays are not moved again unless the
       // rest is much denser): one allocation, touched only as it is filled.
       auto grow = [&](auto& v, size_t n) {
         if (n <= v.capacity()) return;
         reserve_huge(v, std::max(n, size_t(double(n) * double(expected) / double(done) * 1.1)));
       };
-      grow(masks, ncells);
-      grow(mesh.vertices, nverts + nverts / 64);  // and room for face vertices
-      for (size_t r = 0; r < nruns; ++r) {
-        RunOut& o = runs[r];
-        const uint32_t cell0 = uint32_t(masks.size());
-        for (const FaceCandidate& fc : o.faces) {
-          faces.push_back(fc);
-          faces.back().cell += cell0;
+      grow(masks, end.cell);
+      grow(mesh.vertices, end.vert + end.vert / 64);  // and room for face vertices
+      masks.resize(end.cell);
+      mesh.vertices.resize(end.vert);
+      faces.resize(end.face);
+      block_cmask.resize(end.block);
+      block_reach.resize(end.block);
+      block_cell_base.resize(end.block + 1);
+      block_vert_base.resize(end.block + 1);
+      parallel_chunks(nruns, 4, [&](size_t rb, size_t re) {
+        for (size_t r = rb; r < re; ++r) {
+          const RunOut& o = runs[r];
+          const RunPlace& at = places[r];
+          std::copy(o.masks.begin(), o.masks.end(), masks.begin() + ptrdiff_t(at.cell));
+          std::copy(o.vertices.begin(), o.vertices.end(),
+                    mesh.vertices.begin() + ptrdiff_t(at.vert));
+          std::copy(o.cmask.begin(), o.cmask.end(), block_cmask.begin() + ptrdiff_t(at.block));
+          std::copy(o.reach.begin(), o.reach.end(), block_reach.begin() + ptrdiff_t(at.block));
+          for (size_t i = 0; i < o.faces.size(); ++i) {
+            FaceCandidate& fc = faces[at.face + i];
+            fc = o.faces[i];
+            fc.cell += uint32_t(at.cell);
+          }
+          // Per block its first cell and first vertex (entry b + 1: after block b).
+          size_t c = 0;
+          uint32_t cells = uint32_t(at.cell), verts = uint32_t(at.vert);
+          for (size_t j = 0; j < o.cmask.size(); ++j) {
+            const size_t n = size_t(bit_count64(o.cmask[j]));
+            for (size_t i = c; i < c + n; ++i) verts += uint32_t(table.ncomp[o.masks[i]]);
+            c += n;
+            cells += uint32_t(n);
+            block_cell_base[at.block + j + 1] = cells;
+            block_vert_base[at.block + j + 1] = verts;
+          }
+          HFRT_CHECK(c == o.masks.size());
+          HFRT_CHECK(verts == at.vert + o.vertices.size());
         }
-        size_t c = 0;
-        for (size_t j = 0; j < o.cmask.size(); ++j) {
-          const size_t n = size_t(bit_count64(o.cmask[j]));
-          uint32_t nv = 0;
-          for (size_t i = c; i < c + n; ++i) nv += uint32_t(table.ncomp[o.masks[i]]);
-          c += n;
-          block_cmask.push_back(o.cmask[j]);
-          block_reach.push_back(o.reach[j]);
-          block_cell_base.push_back(block_cell_base.back() + uint32_t(n));
-          block_vert_base.push_back(block_vert_base.back() + nv);
-        }
-        HFRT_CHECK(c == o.masks.size());
-        masks.insert(masks.end(), o.masks.begin(), o.masks.end());
-        mesh.vertices.insert(mesh.vertices.end(), o.vertices.begin(), o.vertices.end());
-        stats.nan_samples += o.nan_samples;
-        stats.crossing_edges += o.crossing_edges;
-        stats.sharp_vertices += o.sharp;
-        stats.projected_vertices += o.projected;
-      }
-      HFRT_CHECK(block_vert_base.back() == mesh.vertices.size());
+      });
     };
     RunClock clock;
     BlockNeighbours nbr;  // of the blocks sampled so far
@@ -1372,7 +1410,7 @@ TriMesh mesh_field(const render::Field& field, const MeshOptions& options, MeshS
         for (size_t bi = first + b; bi < first + e; ++bi) {
           for (uint32_t bits = block_reach[bi]; bits != 0; bits &= bits - 1) {
             const int d = std::countr_zero(bits);
-            if (nbr.at[d][bi] != kNone) continue;
+            if (nbr.at(d, bi) != kNone) continue;
             int q[3];
             for (int a = 0; a < 3; ++a) q[a] = blocks[bi].b[a] + offset_of(d, a);
             HFRT_CHECK(q[0] >= 0 && q[1] >= 0 && q[2] >= 0);
@@ -1435,7 +1473,7 @@ TriMesh mesh_field(const render::Field& field, const MeshOptions& options, MeshS
       const BlockPos& own = blocks[bi];
       const int d = offset_index(q[0] / kBlock - own.b[0], q[1] / kBlock - own.b[1],
                                  q[2] / kBlock - own.b[2]);
-      const uint32_t bq = nbr.at[d][bi];
+      const uint32_t bq = nbr.at(d, bi);
       if (bq == kNone) return kNone;
       const int l = (q[0] % kBlock) + kBlock * (q[1] % kBlock) + kBlock * kBlock * (q[2] % kBlock);
       const uint64_t cm = block_cmask[bq];
@@ -1555,7 +1593,7 @@ TriMesh mesh_field(const render::Field& field, const MeshOptions& options, MeshS
         for (int n = 0; n < 8; ++n) {
           // Neighbour n: -1 on each axis whose bit is set; only its cells at kBlock - 1 on
           // those axes.
-          const uint32_t bq = nbr.at[offset_index(-(n & 1), -((n >> 1) & 1), -(n >> 2))][bi];
+          const uint32_t bq = nbr.at(offset_index(-(n & 1), -((n >> 1) & 1), -(n >> 2)), bi);
           if (bq == kNone) continue;
           const uint64_t cm = block_cmask[bq];
           const uint32_t c0 = block_cell_base[bq], v0 = block_vert_base[bq];
