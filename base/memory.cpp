@@ -1,9 +1,14 @@
 #include "base/memory.h"
 
 #include <cstdint>
+#include <cstdlib>
+#include <cstring>
+#include <fstream>
+#include <iterator>
 
 #if defined(__linux__)
 #include <sys/mman.h>
+#include <unistd.h>
 #endif
 
 namespace hfrt {
@@ -21,6 +26,61 @@ void advise_huge_pages(void* p, size_t bytes) {
   (void)p;
   (void)bytes;
 #endif
+}
+
+namespace {
+constexpr std::string_view kHugetlbTunable = "glibc.malloc.hugetlb";
+}  // namespace
+
+std::optional<std::string> huge_page_malloc_tunables(const char* current,
+                                                     std::string_view thp_mode) {
+  if (thp_mode.find("[madvise]") == std::string_view::npos) return std::nullopt;
+  const std::string_view now = current ? current : "";
+  if (now.find(kHugetlbTunable) != std::string_view::npos) return std::nullopt;
+  std::string value(now);
+  if (!value.empty()) value += ':';
+  value += kHugetlbTunable;
+  value += "=1";
+  return value;
+}
+
+void reexec_with_huge_page_malloc(char** argv) {
+#if defined(__linux__) && defined(__GLIBC__) && \
+    (__GLIBC__ > 2 || (__GLIBC__ == 2 && __GLIBC_MINOR__ >= 35))
+  const char* opt = std::getenv("HFRT_MALLOC_HUGEPAGES");
+  if (opt && std::strcmp(opt, "0") == 0) return;
+  std::ifstream mode_file("/sys/kernel/mm/transparent_hugepage/enabled");
+  if (!mode_file) return;
+  const std::string mode((std::istreambuf_iterator<char>(mode_file)),
+                         std::istreambuf_iterator<char>());
+  const char* current = std::getenv("GLIBC_TUNABLES");
+  const std::optional<std::string> previous =
+      current ? std::optional<std::string>(current) : std::nullopt;
+  const std::optional<std::string> value = huge_page_malloc_tunables(current, mode);
+  if (!value) return;
+  if (setenv("GLIBC_TUNABLES", value->c_str(), 1) != 0) return;
+  execv("/proc/self/exe", argv);
+  // The exec failed (no /proc, say): go on as before, with the environment as it was.
+  if (previous) {
+    setenv("GLIBC_TUNABLES", previous->c_str(), 1);
+  } else {
+    unsetenv("GLIBC_TUNABLES");
+  }
+#else
+  (void)argv;
+#endif
+}
+
+bool malloc_on_huge_pages() {
+  const char* v = std::getenv("GLIBC_TUNABLES");
+  if (!v) return false;
+  const std::string_view s = v;
+  const std::string key = std::string(kHugetlbTunable) + "=1";
+  for (size_t at = s.find(key); at != std::string_view::npos; at = s.find(key, at + 1)) {
+    const size_t end = at + key.size();
+    if ((at == 0 || s[at - 1] == ':') && (end == s.size() || s[end] == ':')) return true;
+  }
+  return false;
 }
 
 }  // namespace hfrt

@@ -5,6 +5,9 @@
 #include <cstddef>
 #include <memory>
 #include <new>
+#include <optional>
+#include <string>
+#include <string_view>
 #include <type_traits>
 #include <utility>
 
@@ -16,6 +19,32 @@ namespace hfrt {
 /// charging it to the memory cgroup; on the 2-core VM that was ~15 % of a 512^3 mesh. With
 /// huge pages it is ~16. Only a hint: the contents and the program's meaning do not change.
 void advise_huge_pages(void* p, size_t bytes);
+
+/// The GLIBC_TUNABLES value that puts glibc's malloc on transparent huge pages
+/// (`glibc.malloc.hugetlb=1`, glibc >= 2.35: its heap and its mmap'ed chunks are advised
+/// MADV_HUGEPAGE), given the variable's current value (nullptr: unset) and the kernel's THP
+/// mode (the contents of /sys/kernel/mm/transparent_hugepage/enabled, e.g. "always [madvise]
+/// never"). std::nullopt when nothing is to change: THP is not in madvise mode (with "always"
+/// malloc gets huge pages anyway, with "never" it cannot), or the tunable is already set, by
+/// the user or by an earlier exec. Other tunables in the value are kept.
+std::optional<std::string> huge_page_malloc_tunables(const char* current,
+                                                     std::string_view thp_mode);
+
+/// Re-executes this program (/proc/self/exe, the same arguments and environment) with
+/// GLIBC_TUNABLES from huge_page_malloc_tunables, so that every allocation of the process
+/// touches 2 MiB pages instead of 4 KiB ones. Returns (and the program goes on as it is) where
+/// that is not possible or not wanted: not Linux with glibc, HFRT_MALLOC_HUGEPAGES=0 in the
+/// environment, nothing to change, or the exec failed. Why: on the 2-core VM a page fault costs
+/// several microseconds; `hfrt mesh` of the 512^3 gyroid spent 1.0-1.4 s of its 2.2-2.8 s in
+/// the kernel, faulting in the mesher's arrays, the aiScene and Assimp's copy of it; with this,
+/// 1.3-1.8 s in all (bench/README.md, "Memory"). The variable stays set for child processes,
+/// where it only gives the same advice.
+/// Call first thing in main(), before any thread starts.
+void reexec_with_huge_page_malloc(char** argv);
+
+/// Whether this process's malloc was started on huge pages (GLIBC_TUNABLES has
+/// glibc.malloc.hugetlb=1), for --stats.
+bool malloc_on_huge_pages();
 
 /// v.reserve(n), then advise_huge_pages on its storage: call before the first fill of a
 /// large vector (resize, push_back, insert), so that the fill touches huge pages.

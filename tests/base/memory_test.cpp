@@ -34,5 +34,21 @@ TEST(Memory, AdviceOnSmallOddOrNoRangesIsHarmless) {
   EXPECT_EQ(big[big.size() - 1], 'b');
 }
 
+TEST(Memory, HugePageTunablesOnlyInMadviseModeAndOnlyOnce) {
+  const char* kMadvise = "always [madvise] never\n";
+  EXPECT_EQ(huge_page_malloc_tunables(nullptr, kMadvise), "glibc.malloc.hugetlb=1");
+  EXPECT_EQ(huge_page_malloc_tunables("", kMadvise), "glibc.malloc.hugetlb=1");
+  // The user's other tunables are kept.
+  EXPECT_EQ(huge_page_malloc_tunables("glibc.malloc.arena_max=2", kMadvise),
+            "glibc.malloc.arena_max=2:glibc.malloc.hugetlb=1");
+  // Already set (by the user, or by the exec before): no change, so no second exec.
+  EXPECT_EQ(huge_page_malloc_tunables("glibc.malloc.hugetlb=1", kMadvise), std::nullopt);
+  EXPECT_EQ(huge_page_malloc_tunables("glibc.malloc.hugetlb=0", kMadvise), std::nullopt);
+  // "always": malloc gets huge pages without advice; "never": it cannot; unreadable: unknown.
+  EXPECT_EQ(huge_page_malloc_tunables(nullptr, "[always] madvise never\n"), std::nullopt);
+  EXPECT_EQ(huge_page_malloc_tunables(nullptr, "always madvise [never]\n"), std::nullopt);
+  EXPECT_EQ(huge_page_malloc_tunables(nullptr, ""), std::nullopt);
+}
+
 }  // namespace
 }  // namespace hfrt

@@ -7,6 +7,7 @@
 
 #include <cmath>
 #include <cstring>
+#include <fstream>
 #include <map>
 #include <numbers>
 #include <string>
@@ -75,6 +76,33 @@ TEST_F(MeshCliTest, WritesAClosedSphereAsStl) {
   auto mesh = geom::load_mesh((dir_ / "ball.stl").string());
   ASSERT_TRUE(mesh.ok()) << mesh.error().message;
   EXPECT_EQ(mesh->triangles.size(), tris.size());
+}
+
+// The launcher runs the command with malloc on transparent huge pages where the kernel has
+// them in madvise mode (base/memory.h); HFRT_MALLOC_HUGEPAGES=0 and a GLIBC_TUNABLES of the
+// user's that already sets glibc.malloc.hugetlb turn it off. The file is the same either way.
+TEST_F(MeshCliTest, MallocOnHugePagesWhereTheKernelAdvisesThem) {
+  std::ifstream mode_file("/sys/kernel/mm/transparent_hugepage/enabled");
+  std::string mode;
+  std::getline(mode_file, mode);
+  const bool madvise_mode = mode.find("[madvise]") != std::string::npos;
+  const char* kHuge = "stats: memory: malloc on transparent huge pages";
+  const char* kDefault = "stats: memory: malloc on the kernel's default pages";
+  CliRun on = hfrt("mesh sphere.hf -o on.ply --resolution 24 --stats");
+  ASSERT_EQ(on.exit_code, 0) << on.err;
+  EXPECT_NE(on.err.find(madvise_mode ? kHuge : kDefault), std::string::npos)
+      << "THP mode '" << mode << "'\n"
+      << on.err;
+  CliRun off = shell("HFRT_MALLOC_HUGEPAGES=0 " HFRT_BINARY_DIR
+                     "/tools/hfrt/hfrt mesh sphere.hf -o off.ply --resolution 24 --stats");
+  ASSERT_EQ(off.exit_code, 0) << off.err;
+  EXPECT_NE(off.err.find(kDefault), std::string::npos) << off.err;
+  CliRun user = shell("GLIBC_TUNABLES=glibc.malloc.hugetlb=0 " HFRT_BINARY_DIR
+                      "/tools/hfrt/hfrt mesh sphere.hf -o user.ply --resolution 24 --stats");
+  ASSERT_EQ(user.exit_code, 0) << user.err;
+  EXPECT_NE(user.err.find(kDefault), std::string::npos) << user.err;
+  EXPECT_EQ(slurp(dir_ / "on.ply"), slurp(dir_ / "off.ply"));
+  EXPECT_EQ(slurp(dir_ / "on.ply"), slurp(dir_ / "user.ply"));
 }
 
 // A scene file: each [[object]] meshed in its box and placed. Two unit balls scaled by 0.5 and
