@@ -137,15 +137,20 @@ TEST(CorpusMeshList, EveryModelButTheListedOnes) {
   }
 }
 
-TEST(CorpusMeshErrors, TwoDimensionalModelsAreRefused) {
-  const std::string path = full_path("web/hfw_docs__fsin_2d.hf");
-  CompileResult compiled = Model::compile_file(path);
-  ASSERT_TRUE(compiled.model) << compiled.rendered;
+/// Meshes corpus model `rel` at 32 cells, naming it `shown` in messages.
+app::MeshJobResult mesh_corpus_model(const std::string& rel, const std::string& shown) {
+  CompileResult compiled = Model::compile_file(full_path(rel));
+  EXPECT_TRUE(compiled.model) << compiled.rendered;
+  if (!compiled.model) return {};
   app::MeshJob job;
   job.model = &*compiled.model;
-  job.file = "fsin_2d.hf";
+  job.file = shown;
   job.resolution = 32;
-  app::MeshJobResult r = app::run_mesh_job(job);
+  return app::run_mesh_job(job);
+}
+
+TEST(CorpusMeshErrors, TwoDimensionalModelsAreRefused) {
+  app::MeshJobResult r = mesh_corpus_model("web/hfw_docs__fsin_2d.hf", "fsin_2d.hf");
   EXPECT_EQ(r.status, app::MeshJobStatus::kNotThreeD);
   EXPECT_EQ(r.error.rfind("fsin_2d.hf: error: object 'fsin' has 2 coordinates; hfrt mesh needs a "
                           "3-D object",
@@ -157,14 +162,8 @@ TEST(CorpusMeshErrors, TwoDimensionalModelsAreRefused) {
 // The corpus's block minus sphere is empty (the unit block fits inside the unit ball): a
 // located error, not a mesh.
 TEST(CorpusMeshErrors, EmptyModelHasNoSurface) {
-  const std::string path = full_path("web/stat_auckland__NZSA2022__HF_27_1_block_minus_sphere.hf");
-  CompileResult compiled = Model::compile_file(path);
-  ASSERT_TRUE(compiled.model) << compiled.rendered;
-  app::MeshJob job;
-  job.model = &*compiled.model;
-  job.file = "block_minus_sphere.hf";
-  job.resolution = 32;
-  app::MeshJobResult r = app::run_mesh_job(job);
+  app::MeshJobResult r = mesh_corpus_model(
+      "web/stat_auckland__NZSA2022__HF_27_1_block_minus_sphere.hf", "block_minus_sphere.hf");
   EXPECT_EQ(r.status, app::MeshJobStatus::kNoSurface);
   EXPECT_EQ(r.error.rfind(
                 "block_minus_sphere.hf: error: object 'my_model' has no surface in the box ", 0),
