@@ -606,10 +606,8 @@ ClosestPoint MeshSurface::closest_point_walk(Vec3 p, float max_distance, bool wi
 }
 
 SurfaceTopology MeshSurface::topology() const {
-  // Asked on every ray of the analytic search: settled, it skips call_once (which sets
-  // thread-local variables, a __tls_get_addr each, on every call).
-  if (topology_known_.load(std::memory_order_acquire)) return topology_;
-  std::call_once(topology_once_, [this] {
+  // Asked on every ray of the analytic search: settled, one atomic load (base/once.h).
+  topology_once_.call([this] {
     // Vertices are identified by their coordinates' bits (an STL file repeats them per
     // triangle); -0 and +0 are one vertex. An open-addressing table of corner indices
     // (std::unordered_map allocated a node per corner: with the sort below, 4 % of an
@@ -667,7 +665,6 @@ SurfaceTopology MeshSurface::topology() const {
     }
     topology_.closed = boundary == 0;
     topology_.boundary_edges = boundary;
-    topology_known_.store(true, std::memory_order_release);
   });
   return topology_;
 }

@@ -18,6 +18,7 @@
 #include <span>
 #include <vector>
 
+#include "base/once.h"
 #include "geom/bvh.h"
 #include "geom/mesh.h"
 #include "geom/surface.h"
@@ -158,9 +159,8 @@ class MeshSurface final : public Surface {
   /// overflow float for meshes of any size (the scaling is exact: results are unchanged).
   float winding_scale_ = 1;
   SurfaceStats stats_;
-  mutable std::once_flag topology_once_;
+  mutable SettledOnce topology_once_;  ///< sets topology_
   mutable SurfaceTopology topology_;
-  mutable std::atomic<bool> topology_known_{false};    ///< topology_ is set
   mutable std::atomic<SideGrid*> side_grid_{nullptr};  ///< made on first inside(); owned
 };
 

@@ -107,7 +107,7 @@ IntervalEngine::~IntervalEngine() {
 
 const IntervalJit* IntervalEngine::code() const {
   if (!options_.interval_jit) return nullptr;
-  // (While a background compile runs, call_once makes this wait for it.)
+  // (While a background compile runs, the slot's once makes this wait for it.)
   return jit_.get([&] {
     // O1: the interval code is large (three values per op, rounding); O2 buys little over
     // O1 and costs much compile time (see llvm_interval.cpp).
@@ -286,12 +286,10 @@ PolyEngine::PolyEngine(const Function& fn, const EngineOptions& options)
     : fn_(fn), options_(options) {}
 
 const PolyAnalysis& PolyEngine::analysis() const {
-  // Asked on every ray of the analytic search: settled, it skips call_once (see LazySlot::get).
-  if (analysed_.load(std::memory_order_acquire)) return analysis_;
-  std::call_once(once_, [&] {
+  // Asked on every ray of the analytic search: settled, one atomic load (base/once.h).
+  analysis_once_.call([&] {
     analysis_ = analyze_polynomial(fn_);
     interp_ = std::make_unique<PolyInterpreter>(fn_, analysis_.program);
-    analysed_.store(true, std::memory_order_release);
   });
   return analysis_;
 }

@@ -15,6 +15,7 @@
 #include <vector>
 
 #include "base/interval.h"
+#include "base/once.h"
 #include "base/timer.h"
 #include "ir/ir.h"
 #include "jit/gradient.h"
@@ -75,11 +76,11 @@ class Pool {
 };
 
 /// Lazily compiled code: compiled at most once, by the first thread that needs it (the others
-/// wait on the once_flag), then shared read-only. `state` lets readers that must not compile
-/// (stats, engine queries) look without a data race.
+/// wait for it), then shared read-only. `state` lets readers that must not compile (stats,
+/// engine queries) look without a data race.
 template <typename Code>
 struct LazySlot {
-  std::once_flag once;
+  SettledOnce once;
   std::unique_ptr<Code> code;
   std::string error;
   double compile_ms = 0;
@@ -87,11 +88,7 @@ struct LazySlot {
 
   template <typename Compile>
   const Code* get(Compile&& compile) {
-    // Settled (the common case, once per evaluator call): no call_once, whose libstdc++
-    // implementation sets two thread-local variables on every call, each a __tls_get_addr in
-    // this shared library (1-2 % of a patch render's instructions).
-    if (state.load(std::memory_order_acquire) != 0) return code.get();
-    std::call_once(once, [&] {
+    once.call([&] {
       const auto t0 = Clock::now();
       auto r = compile();
       compile_ms = ms_since(t0);
@@ -270,9 +267,8 @@ class PolyEngine {
  private:
   const Function& fn_;
   EngineOptions options_;
-  mutable std::once_flag once_;
+  mutable SettledOnce analysis_once_;  ///< sets analysis_ and interp_
   mutable PolyAnalysis analysis_;
-  mutable std::atomic<bool> analysed_{false};  ///< analysis_ is set (no call_once needed)
   mutable std::unique_ptr<PolyInterpreter> interp_;
   mutable LazySlot<PolyJit> jit_;
 };
