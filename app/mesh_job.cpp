@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cstdio>
+#include <cstdlib>
 
 #include "app/model_field.h"
 #include "app/scene_job.h"
@@ -115,9 +116,12 @@ std::string format_mesh_stats(const MeshJobResult& r, double compile_ms, double 
       s.seconds_octree, s.seconds_blocks, s.seconds_join, s.seconds_faces, write_ms,
       s.thread_seconds_sample, s.thread_seconds_edges, s.thread_seconds_vertices);
   std::string text = buf;
-  text += malloc_on_huge_pages()
-              ? "stats: memory: malloc on transparent huge pages (GLIBC_TUNABLES)\n"
-              : "stats: memory: malloc on the kernel's default pages\n";
+  if (malloc_on_huge_pages()) {
+    text += "stats: memory: malloc on transparent huge pages (GLIBC_TUNABLES=" +
+            std::string(std::getenv("GLIBC_TUNABLES")) + ")\n";
+  } else {
+    text += "stats: memory: malloc on the kernel's default pages\n";
+  }
   if (r.simplified.triangles_before > 0) {
     std::snprintf(buf, sizeof buf,
                   "stats: simplify %zu -> %zu triangles (%zu collapses) in %.3f s\n",

@@ -30,6 +30,7 @@ void advise_huge_pages(void* p, size_t bytes) {
 
 namespace {
 constexpr std::string_view kHugetlbTunable = "glibc.malloc.hugetlb";
+constexpr std::string_view kMmapThresholdTunable = "glibc.malloc.mmap_threshold";
 }  // namespace
 
 std::optional<std::string> huge_page_malloc_tunables(const char* current,
@@ -38,9 +39,18 @@ std::optional<std::string> huge_page_malloc_tunables(const char* current,
   const std::string_view now = current ? current : "";
   if (now.find(kHugetlbTunable) != std::string_view::npos) return std::nullopt;
   std::string value(now);
-  if (!value.empty()) value += ':';
-  value += kHugetlbTunable;
-  value += "=1";
+  auto add = [&](std::string_view name, std::string_view v) {
+    if (!value.empty()) value += ':';
+    value += name;
+    value += '=';
+    value += v;
+  };
+  add(kHugetlbTunable, "1");
+  // Blocks up to 32 MiB from malloc's heaps, which hugetlb=1 grows in huge pages, instead of
+  // an mmap of their own each (the default above 128 KiB), whose 4 KiB pages a block of 1 MiB
+  // must fault in one by one (32 MiB is glibc's own ceiling for its moving threshold).
+  if (now.find(kMmapThresholdTunable) == std::string_view::npos)
+    add(kMmapThresholdTunable, "33554432");
   return value;
 }
 

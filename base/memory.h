@@ -21,12 +21,14 @@ namespace hfrt {
 void advise_huge_pages(void* p, size_t bytes);
 
 /// The GLIBC_TUNABLES value that puts glibc's malloc on transparent huge pages
-/// (`glibc.malloc.hugetlb=1`, glibc >= 2.35: its heap and its mmap'ed chunks are advised
-/// MADV_HUGEPAGE), given the variable's current value (nullptr: unset) and the kernel's THP
-/// mode (the contents of /sys/kernel/mm/transparent_hugepage/enabled, e.g. "always [madvise]
-/// never"). std::nullopt when nothing is to change: THP is not in madvise mode (with "always"
-/// malloc gets huge pages anyway, with "never" it cannot), or the tunable is already set, by
-/// the user or by an earlier exec. Other tunables in the value are kept.
+/// (`glibc.malloc.hugetlb=1`, glibc >= 2.35: its heaps and its mmap'ed chunks are advised
+/// MADV_HUGEPAGE) and serves blocks up to 32 MiB from its heaps (`glibc.malloc.mmap_threshold`,
+/// unless the user set one: a block mmap'ed on its own below 2 MiB cannot get a huge page),
+/// given the variable's current value (nullptr: unset) and the kernel's THP mode (the contents
+/// of /sys/kernel/mm/transparent_hugepage/enabled, e.g. "always [madvise] never").
+/// std::nullopt when nothing is to change: THP is not in madvise mode (with "always" malloc gets
+/// huge pages anyway, with "never" it cannot), or glibc.malloc.hugetlb is already set, by the
+/// user or by an earlier exec. Other tunables in the value are kept.
 std::optional<std::string> huge_page_malloc_tunables(const char* current,
                                                      std::string_view thp_mode);
 

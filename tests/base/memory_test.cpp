@@ -36,13 +36,16 @@ TEST(Memory, AdviceOnSmallOddOrNoRangesIsHarmless) {
 
 TEST(Memory, HugePageTunablesOnlyInMadviseModeAndOnlyOnce) {
   const char* kMadvise = "always [madvise] never\n";
-  EXPECT_EQ(huge_page_malloc_tunables(nullptr, kMadvise), "glibc.malloc.hugetlb=1");
-  EXPECT_EQ(huge_page_malloc_tunables("", kMadvise), "glibc.malloc.hugetlb=1");
-  // The user's other tunables are kept.
+  const std::string kBoth = "glibc.malloc.hugetlb=1:glibc.malloc.mmap_threshold=33554432";
+  EXPECT_EQ(huge_page_malloc_tunables(nullptr, kMadvise), kBoth);
+  EXPECT_EQ(huge_page_malloc_tunables("", kMadvise), kBoth);
+  // The user's other tunables are kept, and their own mmap threshold too.
   EXPECT_EQ(huge_page_malloc_tunables("glibc.malloc.arena_max=2", kMadvise),
-            "glibc.malloc.arena_max=2:glibc.malloc.hugetlb=1");
+            "glibc.malloc.arena_max=2:" + kBoth);
+  EXPECT_EQ(huge_page_malloc_tunables("glibc.malloc.mmap_threshold=65536", kMadvise),
+            "glibc.malloc.mmap_threshold=65536:glibc.malloc.hugetlb=1");
   // Already set (by the user, or by the exec before): no change, so no second exec.
-  EXPECT_EQ(huge_page_malloc_tunables("glibc.malloc.hugetlb=1", kMadvise), std::nullopt);
+  EXPECT_EQ(huge_page_malloc_tunables(kBoth.c_str(), kMadvise), std::nullopt);
   EXPECT_EQ(huge_page_malloc_tunables("glibc.malloc.hugetlb=0", kMadvise), std::nullopt);
   // "always": malloc gets huge pages without advice; "never": it cannot; unreadable: unknown.
   EXPECT_EQ(huge_page_malloc_tunables(nullptr, "[always] madvise never\n"), std::nullopt);
