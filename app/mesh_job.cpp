@@ -20,6 +20,14 @@ std::string box_text(const render::Box& b) {
   return buf;
 }
 
+/// "FILE:LINE:COL: error: " for a message about the object as a whole, located at its name in
+/// its header (FILE alone where the location is unknown).
+std::string object_error_prefix(const std::string& file, const Model& model) {
+  const auto [line, col] = model.object_location();
+  if (line <= 0) return file + ": error: ";
+  return file + ":" + std::to_string(line) + ":" + std::to_string(col) + ": error: ";
+}
+
 }  // namespace
 
 MeshJobResult run_mesh_job(const MeshJob& job) {
@@ -27,7 +35,7 @@ MeshJobResult run_mesh_job(const MeshJob& job) {
   const Model& model = *job.model;
   if (model.num_inputs() < 3) {  // x[4] is time (Model::set_time); more coordinates are 0
     out.status = MeshJobStatus::kNotThreeD;
-    out.error = job.file + ": error: object '" + model.object_name() + "' has " +
+    out.error = object_error_prefix(job.file, model) + "object '" + model.object_name() + "' has " +
                 std::to_string(model.num_inputs()) +
                 " coordinates; hfrt mesh needs a 3-D object (x[3], or x[4] with time)\n  hint: a "
                 "2-D object can "
@@ -89,7 +97,7 @@ MeshJobResult run_mesh_job(const MeshJob& job) {
   }
   if (out.mesh.triangles.empty()) {
     out.status = MeshJobStatus::kNoSurface;
-    out.error = job.file + ": error: object '" + model.object_name() +
+    out.error = object_error_prefix(job.file, model) + "object '" + model.object_name() +
                 "' has no surface in the box " + box_text(region) +
                 "\n  hint: the solid is where F >= 0; F < 0 at every grid node here (give a "
                 "larger --bbox, or a finer --resolution for thin parts)";

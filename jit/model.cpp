@@ -260,6 +260,15 @@ const std::string& Model::object_name() const {
   return impl_->object_name;
 }
 
+std::pair<int, int> Model::object_location() const {
+  for (const lang::Object& o : impl_->program->objects) {
+    if (o.name == impl_->object_name) {
+      return {int(o.name_range.begin.line), int(o.name_range.begin.col)};
+    }
+  }
+  return {0, 0};
+}
+
 bool Model::select_object(std::string_view name, std::string* error) {
   int index = impl_->program->find_object(name);
   if (index < 0) {

@@ -186,6 +186,7 @@ TEST(JitModelTest, SelectObjectRecompiles) {
   ASSERT_TRUE(r.ok()) << r.rendered;
   Model& m = *r.model;
   EXPECT_EQ(m.object_name(), "slab");
+  EXPECT_EQ(m.object_location(), (std::pair<int, int>{7, 1}));  // its name in its header
   EXPECT_EQ(m.object_names(), (std::vector<std::string>{"my_model", "slab"}));
   EXPECT_DOUBLE_EQ(m.eval({0, 0, 0.25}).f, 0.75);
   EXPECT_NE(m.ir_text().find("abs"), std::string::npos) << m.ir_text();
@@ -197,6 +198,7 @@ TEST(JitModelTest, SelectObjectRecompiles) {
     ASSERT_TRUE(m.select_object(k % 2 ? "slab" : "my_model", &err)) << err;
   }
   EXPECT_EQ(m.object_name(), "my_model");
+  EXPECT_EQ(m.object_location(), (std::pair<int, int>{1, 1}));
   m.set_params({1.0, 1.0});
   EXPECT_DOUBLE_EQ(m.eval({0.5, 0, 0}).f, 0.75);
   EXPECT_NE(m.llvm_ir(Precision::kF64).find("define"), std::string::npos);

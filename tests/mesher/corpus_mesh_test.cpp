@@ -152,10 +152,11 @@ app::MeshJobResult mesh_corpus_model(const std::string& rel, const std::string& 
 TEST(CorpusMeshErrors, TwoDimensionalModelsAreRefused) {
   app::MeshJobResult r = mesh_corpus_model("web/hfw_docs__fsin_2d.hf", "fsin_2d.hf");
   EXPECT_EQ(r.status, app::MeshJobStatus::kNotThreeD);
-  EXPECT_EQ(r.error.rfind("fsin_2d.hf: error: object 'fsin' has 2 coordinates; hfrt mesh needs a "
-                          "3-D object",
-                          0),
-            0u)
+  EXPECT_EQ(
+      r.error.rfind("fsin_2d.hf:3:1: error: object 'fsin' has 2 coordinates; hfrt mesh needs a "
+                    "3-D object",
+                    0),
+      0u)
       << r.error;
 }
 
@@ -165,9 +166,10 @@ TEST(CorpusMeshErrors, EmptyModelHasNoSurface) {
   app::MeshJobResult r = mesh_corpus_model(
       "web/stat_auckland__NZSA2022__HF_27_1_block_minus_sphere.hf", "block_minus_sphere.hf");
   EXPECT_EQ(r.status, app::MeshJobStatus::kNoSurface);
-  EXPECT_EQ(r.error.rfind(
-                "block_minus_sphere.hf: error: object 'my_model' has no surface in the box ", 0),
-            0u)
+  EXPECT_EQ(
+      r.error.rfind(
+          "block_minus_sphere.hf:19:1: error: object 'my_model' has no surface in the box ", 0),
+      0u)
       << r.error;
   EXPECT_TRUE(r.mesh.triangles.empty());
 }

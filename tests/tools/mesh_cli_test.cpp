@@ -224,7 +224,7 @@ TEST_F(MeshCliTest, SameFileOnOneAndTwoThreads) {
 TEST_F(MeshCliTest, NoSurfaceIsALocatedError) {
   CliRun r = hfrt("mesh empty.hf -o e.stl --bbox 2");
   EXPECT_EQ(r.exit_code, 1);
-  EXPECT_NE(r.err.find("empty.hf: error: object 'my_model' has no surface in the box "
+  EXPECT_NE(r.err.find("empty.hf:1:1: error: object 'my_model' has no surface in the box "
                        "-2,-2,-2,2,2,2\n  hint: the solid is where F >= 0"),
             std::string::npos)
       << r.err;
@@ -270,7 +270,7 @@ TEST_F(MeshCliTest, BadTimeIsRefused) {
 TEST_F(MeshCliTest, TwoDimensionalObjectIsRefused) {
   CliRun r = hfrt("mesh flat.hf -o f.stl");
   EXPECT_EQ(r.exit_code, 1);
-  EXPECT_NE(r.err.find("flat.hf: error: object 'my_model' has 2 coordinates; hfrt mesh needs a "
+  EXPECT_NE(r.err.find("flat.hf:1:1: error: object 'my_model' has 2 coordinates; hfrt mesh needs a "
                        "3-D object (x[3], or x[4] with time)\n  hint: a 2-D object can be drawn "
                        "with hfrt slice"),
             std::string::npos)

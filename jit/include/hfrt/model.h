@@ -17,6 +17,7 @@
 #include <span>
 #include <string>
 #include <string_view>
+#include <utility>
 #include <vector>
 
 namespace hfrt {
@@ -254,6 +255,10 @@ class Model {
   /// Names of every object in the file, and the one evaluated.
   std::vector<std::string> object_names() const;
   const std::string& object_name() const;
+  /// Where the evaluated object's name stands in its definition's header (1-based line and
+  /// byte column; 0, 0 when unknown): the place that messages about the object as a whole,
+  /// such as `hfrt mesh`'s "no surface in the box", point at.
+  std::pair<int, int> object_location() const;
   /// Switches to another object (re-lowers it and recompiles; the old code is freed).
   /// Returns false and leaves the model as it was when there is no such object or the JIT
   /// fails; `error` says why.
