@@ -1,7 +1,10 @@
 // Mesh and patch ray tracing throughput (issue 10), a timed CLI:
-//   * armadillo primary rays per second, 1024^2 perspective rays on all cores, hfrt's BVH and,
-//     when Embree was found at configure time, Embree's rtcIntersect1 on the same rays in the
-//     same run (with the hit/miss agreement of the two);
+//   * armadillo primary rays per second, 1024^2 perspective rays on all cores, hfrt's BVH one
+//     ray at a time and in packets of 4 x 2 pixels (MeshSurface::intersect_packet) and, when
+//     Embree was found at configure time, Embree's rtcIntersect1 and rtcIntersect8 on the same
+//     rays and packets in the same run (with the hit/miss agreement of each with hfrt's);
+//   * shadow rays from every primary hit towards one light: any hit one at a time and in
+//     packets of eight consecutive rays, hfrt and Embree (rtcOccluded1, rtcOccluded8);
 //   * teapot frames per second, 512x512 primary rays on all cores (direct Newton ray–patch);
 //   * BVH build time per million triangles (the armadillo replicated to ~1M triangles), and the
 //     memory per triangle of the built MeshSurface.
@@ -12,6 +15,7 @@
 #include <tbb/parallel_for.h>
 #include <tbb/parallel_reduce.h>
 
+#include <bit>
 #include <chrono>
 #include <cstdio>
 #include <cstring>
@@ -80,6 +84,40 @@ size_t render(const Camera& cam, std::vector<float>* image, Trace&& trace) {
               (*image)[size_t(y) * cam.width + x] = shade;
               ++hits;
             }
+          }
+        return hits;
+      },
+      std::plus<>());
+}
+
+// The side of a packet's pixel block: 4 x 2 = 8 rays, as Embree's rtcIntersect8 takes them.
+constexpr int kPacketW = 4, kPacketH = 2;
+
+// Renders one frame in packets of up to 4 x 2 pixels (tiles of 16 x 16):
+// `trace(rays, n, shades, hit_mask)` traces n rays; returns hits.
+template <typename Trace>
+size_t render_packets(const Camera& cam, std::vector<float>* image, Trace&& trace) {
+  image->assign(size_t(cam.width) * cam.height, 0.0f);
+  return tbb::parallel_reduce(
+      tbb::blocked_range2d<int>(0, cam.height, 16, 0, cam.width, 16), size_t{0},
+      [&](const tbb::blocked_range2d<int>& r, size_t hits) {
+        for (int y = r.rows().begin(); y < r.rows().end(); y += kPacketH)
+          for (int x = r.cols().begin(); x < r.cols().end(); x += kPacketW) {
+            Ray rays[kPacketW * kPacketH];
+            size_t at[kPacketW * kPacketH];
+            int n = 0;
+            for (int dy = 0; dy < kPacketH && y + dy < r.rows().end(); ++dy)
+              for (int dx = 0; dx < kPacketW && x + dx < r.cols().end(); ++dx) {
+                rays[n] = cam.ray(x + dx, y + dy);
+                at[n++] = size_t(y + dy) * cam.width + (x + dx);
+              }
+            float shade[kPacketW * kPacketH];
+            const uint32_t mask = trace(rays, n, shade);
+            for (int i = 0; i < n; ++i)
+              if (mask >> i & 1) {
+                (*image)[at[i]] = shade[i];
+                ++hits;
+              }
           }
         return hits;
       },
@@ -171,7 +209,39 @@ int main(int argc, char** argv) {
       res, res, hfrt_mrays, hfrt_s * 1e3, hits, res * double(res) / hfrt_cpu / 1e6);
   if (!out_dir.empty()) write_pgm(out_dir + "/armadillo_hfrt.pgm", img, res, res);
   std::vector<float> hfrt_img = img;
+  auto count_differ = [&](const std::vector<float>& a, const std::vector<float>& b) {
+    size_t d = 0;
+    for (size_t i = 0; i < a.size(); ++i) d += (a[i] > 0) != (b[i] > 0);
+    return d;
+  };
+  const std::vector<float> inf8(MeshSurface::kPacketRays, std::numeric_limits<float>::infinity());
+  const std::vector<float> zero8(MeshSurface::kPacketRays, 0.0f);
+  auto hfrt_trace8 = [&](const Ray* rays, int n, float* shade) {
+    SurfaceHit h[MeshSurface::kPacketRays];
+    const uint32_t mask = surf->intersect_packet(rays, n, zero8.data(), inf8.data(), h);
+    for (int i = 0; i < n; ++i)
+      if (mask >> i & 1) shade[i] = std::abs(dot(h[i].normal, normalize(rays[i].dir)));
+    return mask;
+  };
+  render_packets(cam, &img, hfrt_trace8);  // warm-up
+  t0 = Clock::now();
+  c0 = cpu_seconds();
+  size_t phits = 0;
+  for (int f = 0; f < frames; ++f) phits = render_packets(cam, &img, hfrt_trace8);
+  const double hfrt8_s = seconds_since(t0) / frames;
+  const double hfrt8_cpu = (cpu_seconds() - c0) / frames;
+  const double hfrt8_mrays = res * double(res) / hfrt8_s / 1e6;
+  std::printf(
+      "armadillo %dx%d primary rays, hfrt packets of 8 (%s): %7.2f Mrays/s (%.1f ms/frame, %zu "
+      "hits; %.2f Mrays per CPU-second; %.2fx the single rays' rate; pixels whose hit/miss "
+      "differ from them: %zu)\n",
+      res, res, MeshSurface::packets_use_avx2() ? "AVX2" : "SSE2", hfrt8_mrays, hfrt8_s * 1e3,
+      phits, res * double(res) / hfrt8_cpu / 1e6, hfrt8_mrays / hfrt_mrays,
+      count_differ(img, hfrt_img));
 
+  std::vector<Ray> shadow_rays;  // kept for Embree's shadow rays
+  size_t shadow_packets = 0, shadow_blocked = 0;
+  double hfrt_shadow1 = 0, hfrt_shadow8 = 0;
   // Shadow rays: from every primary hit (nudged off the surface along its normal) towards one
   // directional light; any hit (occluded, 4-wide BVH) against the nearest hit (intersect) and
   // the binary BVH's any hit (occluded_binary), on the same rays.
@@ -213,11 +283,41 @@ int main(int argc, char** argv) {
         },
         &b_near);
     auto binary = time_rays([&](const Ray& r) { return surf->occluded_binary(r, 0, inf); }, &b_bin);
+    // Packets of eight consecutive shadow rays (neighbouring hits of a row, in scan order).
+    shadow_packets = (shadow.size() + 7) / 8;
+    auto time_packets = [&](auto&& query, size_t* blocked) {
+      const auto ts = Clock::now();
+      double c = cpu_seconds();
+      *blocked = 0;
+      for (int f = 0; f < frames; ++f)
+        *blocked = tbb::parallel_reduce(
+            tbb::blocked_range<size_t>(0, shadow_packets, 32), size_t(0),
+            [&](const tbb::blocked_range<size_t>& rg, size_t acc) {
+              for (size_t p = rg.begin(); p != rg.end(); ++p) {
+                const int n = int(std::min<size_t>(8, shadow.size() - 8 * p));
+                acc += std::popcount(query(&shadow[8 * p], n));
+              }
+              return acc;
+            },
+            std::plus<size_t>());
+      const double wall = seconds_since(ts) / frames, cpu = (cpu_seconds() - c) / frames;
+      return std::pair<double, double>{shadow.size() / wall / 1e6, shadow.size() / cpu / 1e6};
+    };
+    size_t b_pkt = 0;
+    auto any8 = time_packets(
+        [&](const Ray* r, int n) { return surf->occluded_packet(r, n, zero8.data(), inf8.data()); },
+        &b_pkt);
+    shadow_rays = shadow;
+    shadow_blocked = b_any;
     std::printf(
         "armadillo shadow rays (%zu, %zu blocked): any hit %.2f Mrays/s (%.2f per CPU-second), "
-        "nearest hit %.2f (%.2f), binary-BVH any hit %.2f (%.2f)%s\n",
+        "nearest hit %.2f (%.2f), binary-BVH any hit %.2f (%.2f), any hit in packets of 8 %.2f "
+        "(%.2f)%s\n",
         shadow.size(), b_any, any.first, any.second, nearest.first, nearest.second, binary.first,
-        binary.second, b_any == b_near && b_any == b_bin ? "" : " -- DISAGREE");
+        binary.second, any8.first, any8.second,
+        b_any == b_near && b_any == b_bin && b_any == b_pkt ? "" : " -- DISAGREE");
+    hfrt_shadow1 = any.first;
+    hfrt_shadow8 = any8.first;
   }
 
 #ifdef HFRT_HAVE_EMBREE
@@ -277,6 +377,113 @@ int main(int argc, char** argv) {
         "hit/miss differ: %zu\n",
         e_mrays / hfrt_mrays, hfrt_cpu / e_cpu, differ);
     if (!out_dir.empty()) write_pgm(out_dir + "/armadillo_embree.pgm", img, res, res);
+
+    // Embree's packets of eight, the same 4 x 2 pixel blocks.
+    auto embree_trace8 = [&](const Ray* rays, int n, float* shade) {
+      RTCIntersectContext ctx;
+      rtcInitIntersectContext(&ctx);
+      RTCRayHit8 rh;
+      alignas(32) int valid[8];
+      for (int i = 0; i < 8; ++i) {
+        const Ray& r = rays[i < n ? i : 0];
+        valid[i] = i < n ? -1 : 0;
+        rh.ray.org_x[i] = r.org.x, rh.ray.org_y[i] = r.org.y, rh.ray.org_z[i] = r.org.z;
+        rh.ray.dir_x[i] = r.dir.x, rh.ray.dir_y[i] = r.dir.y, rh.ray.dir_z[i] = r.dir.z;
+        rh.ray.tnear[i] = 0, rh.ray.tfar[i] = std::numeric_limits<float>::infinity();
+        rh.ray.mask[i] = ~0u, rh.ray.flags[i] = 0, rh.ray.time[i] = 0;
+        rh.hit.geomID[i] = RTC_INVALID_GEOMETRY_ID;
+      }
+      rtcIntersect8(valid, scene, &ctx, &rh);
+      uint32_t mask = 0;
+      for (int i = 0; i < n; ++i) {
+        if (rh.hit.geomID[i] == RTC_INVALID_GEOMETRY_ID) continue;
+        const Vec3 nrm = normalize(Vec3{rh.hit.Ng_x[i], rh.hit.Ng_y[i], rh.hit.Ng_z[i]});
+        shade[i] = std::abs(dot(nrm, normalize(rays[i].dir)));
+        mask |= 1u << i;
+      }
+      return mask;
+    };
+    render_packets(cam, &img, embree_trace8);
+    t0 = Clock::now();
+    c0 = cpu_seconds();
+    size_t e8hits = 0;
+    for (int f = 0; f < frames; ++f) e8hits = render_packets(cam, &img, embree_trace8);
+    const double e8_s = seconds_since(t0) / frames;
+    const double e8_cpu = (cpu_seconds() - c0) / frames;
+    const double e8_mrays = res * double(res) / e8_s / 1e6;
+    std::printf(
+        "armadillo %dx%d primary rays, Embree rtcIntersect8: %7.2f Mrays/s (%.1f ms/frame, %zu "
+        "hits; %.2f Mrays per CPU-second)\n",
+        res, res, e8_mrays, e8_s * 1e3, e8hits, res * double(res) / e8_cpu / 1e6);
+    std::printf(
+        "hfrt packets / Embree packets time ratio: %.2fx wall, %.2fx CPU (goal <= 1.5x); pixels "
+        "whose hit/miss differ: %zu\n",
+        e8_mrays / hfrt8_mrays, hfrt8_cpu / e8_cpu, count_differ(img, hfrt_img));
+
+    // Embree's shadow rays, one at a time and in the same packets of eight.
+    auto occluded1 = [&](const Ray& r) {
+      RTCIntersectContext ctx;
+      rtcInitIntersectContext(&ctx);
+      RTCRay ray;
+      ray.org_x = r.org.x, ray.org_y = r.org.y, ray.org_z = r.org.z;
+      ray.dir_x = r.dir.x, ray.dir_y = r.dir.y, ray.dir_z = r.dir.z;
+      ray.tnear = 0, ray.tfar = std::numeric_limits<float>::infinity();
+      ray.mask = ~0u, ray.flags = 0, ray.time = 0;
+      rtcOccluded1(scene, &ctx, &ray);
+      return ray.tfar < 0;  // Embree sets tfar to -inf for an occluded ray
+    };
+    auto occluded8 = [&](const Ray* rays, int n) {
+      RTCIntersectContext ctx;
+      rtcInitIntersectContext(&ctx);
+      RTCRay8 ray;
+      alignas(32) int valid[8];
+      for (int i = 0; i < 8; ++i) {
+        const Ray& r = rays[i < n ? i : 0];
+        valid[i] = i < n ? -1 : 0;
+        ray.org_x[i] = r.org.x, ray.org_y[i] = r.org.y, ray.org_z[i] = r.org.z;
+        ray.dir_x[i] = r.dir.x, ray.dir_y[i] = r.dir.y, ray.dir_z[i] = r.dir.z;
+        ray.tnear[i] = 0, ray.tfar[i] = std::numeric_limits<float>::infinity();
+        ray.mask[i] = ~0u, ray.flags[i] = 0, ray.time[i] = 0;
+      }
+      rtcOccluded8(valid, scene, &ctx, &ray);
+      uint32_t mask = 0;
+      for (int i = 0; i < n; ++i) mask |= uint32_t(ray.tfar[i] < 0) << i;
+      return mask;
+    };
+    const std::vector<Ray>& shadow = shadow_rays;
+    auto time_shadow = [&](auto&& body) {
+      const auto ts = Clock::now();
+      size_t blocked = 0;
+      for (int f = 0; f < frames; ++f) blocked = body();
+      return std::pair<double, size_t>{shadow.size() / (seconds_since(ts) / frames) / 1e6, blocked};
+    };
+    const auto e_any1 = time_shadow([&] {
+      return tbb::parallel_reduce(
+          tbb::blocked_range<size_t>(0, shadow.size(), 256), size_t(0),
+          [&](const tbb::blocked_range<size_t>& rg, size_t acc) {
+            for (size_t i = rg.begin(); i != rg.end(); ++i) acc += occluded1(shadow[i]);
+            return acc;
+          },
+          std::plus<size_t>());
+    });
+    const auto e_any8 = time_shadow([&] {
+      return tbb::parallel_reduce(
+          tbb::blocked_range<size_t>(0, shadow_packets, 32), size_t(0),
+          [&](const tbb::blocked_range<size_t>& rg, size_t acc) {
+            for (size_t p = rg.begin(); p != rg.end(); ++p) {
+              const int n = int(std::min<size_t>(8, shadow.size() - 8 * p));
+              acc += std::popcount(occluded8(&shadow[8 * p], n));
+            }
+            return acc;
+          },
+          std::plus<size_t>());
+    });
+    std::printf(
+        "armadillo shadow rays, Embree: rtcOccluded1 %.2f Mrays/s (%zu blocked), rtcOccluded8 "
+        "%.2f (%zu blocked); hfrt / Embree time ratio: %.2fx one at a time, %.2fx in packets "
+        "(hfrt blocked %zu)\n",
+        e_any1.first, e_any1.second, e_any8.first, e_any8.second, e_any1.first / hfrt_shadow1,
+        e_any8.first / hfrt_shadow8, shadow_blocked);
     rtcReleaseScene(scene);
     rtcReleaseDevice(device);
   }

@@ -41,10 +41,10 @@ inline void push_nearer_on_top(DistanceEntry* stack, int& sp, uint32_t c0, float
 
 // The ray of the 4-lane triangle test: the watertight ray's permuted origin and shear
 // broadcast to all lanes, built once per ray.
-struct PacketRay {
+struct Lanes4Ray {
   int kx, ky, kz;
   __m128 okx, oky, okz, sx, sy, sz;
-  explicit PacketRay(const WatertightRay& r)
+  explicit Lanes4Ray(const WatertightRay& r)
       : kx(r.kx),
         ky(r.ky),
         kz(r.kz),
@@ -88,9 +88,9 @@ struct PacketRay {
 // symbolic tie-breaking).
 // `corners` must be readable one float past the last triangle (MeshSurface pads it).
 template <typename Accept>
-[[gnu::always_inline]] inline void intersect_packet(const WatertightRay& r, const PacketRay& pr,
-                                                    const Vec3* corners, uint32_t s, uint32_t n,
-                                                    float tmin, float tmax, Accept&& accept) {
+[[gnu::always_inline]] inline void intersect_triangles4(const WatertightRay& r, const Lanes4Ray& pr,
+                                                        const Vec3* corners, uint32_t s, uint32_t n,
+                                                        float tmin, float tmax, Accept&& accept) {
   __m128 v0[4], v1[4], v2[4];
   load_triangles4(corners, s, n, v0, v1, v2);
   // a = v0 - org in the permuted frame, then the shear, as in intersect_triangle().
@@ -286,18 +286,18 @@ bool MeshSurface::intersect(const Ray& ray, float tmin, float tmax, SurfaceHit* 
   uint32_t best_slot = ~0u;
   TriangleHitInfo best{};
   float closest = tmax;
-  const PacketRay pr(r);
+  const Lanes4Ray pr(r);
   const Vec3* corners = corners_.data();
   wide_.traverse(nodes_, r, tmin, &closest, [&](const BvhNode& n, float* limit) {
     for (uint32_t s = n.index, end = n.index + n.count; s < end; s += 4)
-      intersect_packet(r, pr, corners, s, std::min<uint32_t>(4, end - s), tmin, *limit,
-                       [&](uint32_t slot, const TriangleHitInfo& h) {
-                         if (h.t < *limit) {
-                           *limit = h.t;
-                           best = h;
-                           best_slot = slot;
-                         }
-                       });
+      intersect_triangles4(r, pr, corners, s, std::min<uint32_t>(4, end - s), tmin, *limit,
+                           [&](uint32_t slot, const TriangleHitInfo& h) {
+                             if (h.t < *limit) {
+                               *limit = h.t;
+                               best = h;
+                               best_slot = slot;
+                             }
+                           });
   });
   if (best_slot == ~0u) return false;
   hit->t = best.t;
@@ -376,14 +376,14 @@ bool MeshSurface::occluded(const Ray& ray, float tmin, float tmax) const {
   // Any hit through the 4-wide BVH: the first hit lowers the traversal's limit below tmin,
   // which empties the stack (every entry lies beyond it) and ends the walk.
   const WatertightRay r(ray);
-  const PacketRay pr(r);
+  const Lanes4Ray pr(r);
   const Vec3* corners = corners_.data();
   bool hit = false;
   float limit = tmax;
   wide_.traverse(nodes_, r, tmin, &limit, [&](const BvhNode& n, float* lim) {
     for (uint32_t s = n.index, end = n.index + n.count; s < end && !hit; s += 4)
-      intersect_packet(r, pr, corners, s, std::min<uint32_t>(4, end - s), tmin, *lim,
-                       [&](uint32_t, const TriangleHitInfo&) { hit = true; });
+      intersect_triangles4(r, pr, corners, s, std::min<uint32_t>(4, end - s), tmin, *lim,
+                           [&](uint32_t, const TriangleHitInfo&) { hit = true; });
     if (hit) *lim = -std::numeric_limits<float>::infinity();
   });
   return hit;
@@ -414,25 +414,7 @@ bool MeshSurface::occluded_binary(const Ray& ray, float tmin, float tmax) const 
   return false;
 }
 
-void MeshSurface::crossings(const Ray& ray, float tmin, float tmax,
-                            std::vector<Crossing>* out) const {
-  out->clear();
-  const WatertightRay r(ray);
-  const PacketRay pr(r);
-  auto leaf = [&](const BvhNode& n) {
-    for (uint32_t s = n.index, end = n.index + n.count; s < end; s += 4)
-      intersect_packet(r, pr, corners_.data(), s, std::min<uint32_t>(4, end - s), tmin, tmax,
-                       [&](uint32_t slot, const TriangleHitInfo& h) {
-                         out->push_back({h.t, h.facing, prim_order_[slot]});
-                       });
-  };
-  if (!wide_.empty()) {
-    float limit = tmax;  // never shrinks: every crossing is wanted
-    wide_.traverse(nodes_, r, tmin, &limit, [&](const BvhNode& n, float*) { leaf(n); });
-  } else {
-    float tnear;
-    if (slab_hit(r, nodes_[0].lo, nodes_[0].hi, tmin, tmax, &tnear)) leaf(nodes_[0]);
-  }
+void order_crossings(std::vector<Crossing>* out) {
   std::sort(out->begin(), out->end(), [](const Crossing& a, const Crossing& b) {
     return a.t < b.t || (a.t == b.t && a.prim < b.prim);
   });
@@ -462,6 +444,28 @@ void MeshSurface::crossings(const Ray& ray, float tmin, float tmax,
     for (size_t k = i; k < j; ++k) depth += (*out)[k].facing;
     i = j;
   }
+}
+
+void MeshSurface::crossings(const Ray& ray, float tmin, float tmax,
+                            std::vector<Crossing>* out) const {
+  out->clear();
+  const WatertightRay r(ray);
+  const Lanes4Ray pr(r);
+  auto leaf = [&](const BvhNode& n) {
+    for (uint32_t s = n.index, end = n.index + n.count; s < end; s += 4)
+      intersect_triangles4(r, pr, corners_.data(), s, std::min<uint32_t>(4, end - s), tmin, tmax,
+                           [&](uint32_t slot, const TriangleHitInfo& h) {
+                             out->push_back({h.t, h.facing, prim_order_[slot]});
+                           });
+  };
+  if (!wide_.empty()) {
+    float limit = tmax;  // never shrinks: every crossing is wanted
+    wide_.traverse(nodes_, r, tmin, &limit, [&](const BvhNode& n, float*) { leaf(n); });
+  } else {
+    float tnear;
+    if (slab_hit(r, nodes_[0].lo, nodes_[0].hi, tmin, tmax, &tnear)) leaf(nodes_[0]);
+  }
+  order_crossings(out);
 }
 
 namespace {

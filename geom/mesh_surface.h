@@ -26,6 +26,14 @@
 
 namespace hfrt::geom {
 
+/// Sorts a ray's crossings by t (then primitive) and orders crossings at the same t up to
+/// rounding so that entries and exits alternate where they can (MeshSurface::crossings' order;
+/// shared by its packet form).
+void order_crossings(std::vector<Crossing>* out);
+
+/// The query of a packet walk (MeshSurface::intersect_packet and its kin).
+enum class PacketMode { kNearest, kAny, kAll };
+
 class MeshSurface final : public Surface {
  public:
   struct Options {
@@ -73,6 +81,32 @@ class MeshSurface final : public Surface {
   bool occluded(const Ray& ray, float tmin, float tmax) const;
   /// occluded() through the binary BVH, one triangle at a time: for tests.
   bool occluded_binary(const Ray& ray, float tmin, float tmax) const;
+
+  /// The packet queries below take at most this many rays per call.
+  static constexpr int kPacketRays = 8;
+
+  /// intersect() for n <= kPacketRays rays traced together through the 4-wide BVH: each node's
+  /// four boxes and each leaf triangle are tested against every ray of the packet at once (AVX2
+  /// where the CPU has it, eight lanes; the same code on SSE2 elsewhere), so coherent rays (a
+  /// tile's camera rays, shadow rays towards one light) share their node and triangle loads.
+  /// Ray i's hit, when bit i of the returned mask is set, is in hits[i]: t, barycentrics and
+  /// normal are bitwise intersect()'s, and so is prim unless two triangles are hit at exactly
+  /// the same t (then either may be reported; intersect() keeps the first it met).
+  uint32_t intersect_packet(const Ray* rays, int n, const float* tmin, const float* tmax,
+                            SurfaceHit* hits) const;
+  /// occluded() for n <= kPacketRays rays traced together (as intersect_packet); bit i of the
+  /// result is occluded(rays[i], tmin[i], tmax[i]). A ray leaves the packet at its first hit.
+  uint32_t occluded_packet(const Ray* rays, int n, const float* tmin, const float* tmax) const;
+  /// crossings() for n <= kPacketRays rays traced together (as intersect_packet): out[i]
+  /// receives exactly crossings(rays[i], tmin[i], tmax[i]).
+  void crossings_packet(const Ray* rays, int n, const float* tmin, const float* tmax,
+                        std::vector<Crossing>* out) const;
+
+  /// Whether the packet queries run their AVX2 copy (chosen at start-up by the CPU); false
+  /// makes them run the x86-64 baseline copy from now on: for tests of that copy on AVX2
+  /// machines. Not thread-safe: call it while no packet query runs.
+  static bool packets_use_avx2();
+  static void set_packets_use_avx2(bool avx2);
 
   /// closest_point() through the binary BVH (the 4-wide one is the default): for tests.
   ClosestPoint closest_point_binary(
@@ -136,6 +170,10 @@ class MeshSurface final : public Surface {
   };
 
   void build_dipoles();
+  /// The packet walk behind intersect_packet, occluded_packet and crossings_packet
+  /// (geom/mesh_packet.cpp); `mode` picks the query.
+  uint32_t packet_walk(PacketMode mode, const Ray* rays, int n, const float* tmin,
+                       const float* tmax, SurfaceHit* hits, std::vector<Crossing>* out) const;
   /// closest_point through the 4-wide tree (`wide`) or the binary one (closest_point_binary).
   ClosestPoint closest_point_walk(Vec3 p, float max_distance, bool wide) const;
   /// The distance searches' walk: the binary leaves nearest first by box distance to `query`

@@ -36,6 +36,7 @@ struct WatertightRay {
   float sx, sy, sz;
   int near_is_hi[3];  ///< per axis: the slab's near plane is hi (direction negative)
 
+  WatertightRay() = default;  ///< uninitialised: for arrays filled later
   explicit WatertightRay(const Ray& r) : org(r.org), dir(r.dir) {
     const float ax = std::abs(r.dir.x), ay = std::abs(r.dir.y), az = std::abs(r.dir.z);
     kz = (ax >= ay && ax >= az) ? 0 : (ay >= az ? 1 : 2);
