@@ -124,12 +124,7 @@ std::string format_mesh_stats(const MeshJobResult& r, double compile_ms, double 
       s.seconds_octree, s.seconds_blocks, s.seconds_join, s.seconds_faces, write_ms,
       s.thread_seconds_sample, s.thread_seconds_edges, s.thread_seconds_vertices);
   std::string text = buf;
-  if (malloc_on_huge_pages()) {
-    text += "stats: memory: malloc on transparent huge pages (GLIBC_TUNABLES=" +
-            std::string(std::getenv("GLIBC_TUNABLES")) + ")\n";
-  } else {
-    text += "stats: memory: malloc on the kernel's default pages\n";
-  }
+  text += malloc_pages_stats_line();
   if (r.simplified.triangles_before > 0) {
     std::snprintf(buf, sizeof buf,
                   "stats: simplify %zu -> %zu triangles (%zu collapses) in %.3f s\n",

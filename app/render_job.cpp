@@ -6,6 +6,7 @@
 #include <fstream>
 #include <sstream>
 
+#include "base/memory.h"
 #include "base/timer.h"
 #include "lang/diagnostics.h"
 #include "lang/source.h"
@@ -150,6 +151,7 @@ std::string format_render_stats(const RenderReport& r) {
                   double(e.candidates) / double(std::max<uint64_t>(e.candidate_calls, 1)));
     out += buf;
   }
+  out += malloc_pages_stats_line();
   out += std::string("root: ") + render::root_mode_name(st.root_used) + "\n";
   if (!r.root.analytic_fallback.empty()) {
     out += "root fallback: not analytic: " + r.root.analytic_fallback + "\n";

@@ -93,4 +93,10 @@ bool malloc_on_huge_pages() {
   return false;
 }
 
+std::string malloc_pages_stats_line() {
+  if (!malloc_on_huge_pages()) return "stats: memory: malloc on the kernel's default pages\n";
+  return "stats: memory: malloc on transparent huge pages (GLIBC_TUNABLES=" +
+         std::string(std::getenv("GLIBC_TUNABLES")) + ")\n";
+}
+
 }  // namespace hfrt

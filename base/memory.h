@@ -48,6 +48,11 @@ void reexec_with_huge_page_malloc(char** argv);
 /// glibc.malloc.hugetlb=1), for --stats.
 bool malloc_on_huge_pages();
 
+/// The --stats line that says which pages malloc uses: "stats: memory: malloc on transparent
+/// huge pages (GLIBC_TUNABLES=...)" or "stats: memory: malloc on the kernel's default pages",
+/// with its newline.
+std::string malloc_pages_stats_line();
+
 /// v.reserve(n), then advise_huge_pages on its storage: call before the first fill of a
 /// large vector (resize, push_back, insert), so that the fill touches huge pages.
 template <typename Vector>

@@ -107,6 +107,42 @@ TEST(RenderCli, SameFileForAnyThreadCount) {
   EXPECT_GT(fg, v.size() / 3 / 10);
 }
 
+// `hfrt render` runs with malloc on transparent huge pages where the kernel has them in madvise
+// mode (base/memory.h, tools/hfrt/main.cpp), as `hfrt mesh` does; HFRT_MALLOC_HUGEPAGES=0
+// turns it off. The picture is the same either way.
+TEST(RenderCli, MallocOnHugePagesWhereTheKernelAdvisesThem) {
+  std::ifstream mode_file("/sys/kernel/mm/transparent_hugepage/enabled");
+  std::string mode;
+  std::getline(mode_file, mode);
+  const bool madvise_mode = mode.find("[madvise]") != std::string::npos;
+  const char* kHuge = "stats: memory: malloc on transparent huge pages";
+  const char* kDefault = "stats: memory: malloc on the kernel's default pages";
+  fs::path model = write_model("sphere_pages.hf", kSphereModel);
+  fs::path on = temp_dir() / "pages_on.png", off = temp_dir() / "pages_off.png";
+  std::string err;
+  ASSERT_EQ(
+      run_hfrt("render " + model.string() + " -o " + on.string() + " --size 40x32 --stats", &err),
+      0)
+      << err;
+  EXPECT_NE(err.find(madvise_mode ? kHuge : kDefault), std::string::npos)
+      << "THP mode '" << mode << "'\n"
+      << err;
+  ASSERT_EQ(
+      std::system(("HFRT_MALLOC_HUGEPAGES=0 " + kHfrt + " render " + model.string() + " -o " +
+                   off.string() + " --size 40x32 --stats 2> " + (temp_dir() / "off.txt").string())
+                      .c_str()),
+      0);
+  std::ifstream off_log(temp_dir() / "off.txt");
+  std::stringstream off_err;
+  off_err << off_log.rdbuf();
+  EXPECT_NE(off_err.str().find(kDefault), std::string::npos) << off_err.str();
+  int w, h, c;
+  auto ia = read_image(on.string(), &w, &h, &c);
+  auto ib = read_image(off.string(), &w, &h, &c);
+  ASSERT_TRUE(ia.ok() && ib.ok());
+  EXPECT_EQ(ia.value(), ib.value());
+}
+
 /// A shell 0.01 thick: the sign-change march (step 20/512 = 0.04) steps over it on most rays.
 const char* kThinShellModel =
     "my_model(x[3], a[1]) {\n"
