@@ -200,6 +200,24 @@ void ModelField::ray_candidates(render::Vec3 o, render::Vec3 d, float t0, float 
   if (analytic_.num_surface_leaves > 0) model_.ray_surface_crossings(od, dd, t0, t1, out);
 }
 
+void ModelField::prefetch_ray_candidates(const render::Vec3* o, const render::Vec3* d,
+                                         const float* t0, const float* t1, size_t n) const {
+  if (!analytic_.qualifies || analytic_.num_surface_leaves == 0) return;
+  // The same doubles as ray_candidates passes to Model::ray_surface_crossings.
+  thread_local std::vector<double> od, dd, a, b;
+  od.resize(3 * n), dd.resize(3 * n), a.resize(n), b.resize(n);
+  for (size_t i = 0; i < n; ++i) {
+    od[3 * i] = o[i].x, od[3 * i + 1] = o[i].y, od[3 * i + 2] = o[i].z;
+    dd[3 * i] = d[i].x, dd[3 * i + 1] = d[i].y, dd[3 * i + 2] = d[i].z;
+    a[i] = t0[i], b[i] = t1[i];
+  }
+  model_.prefetch_ray_surface_crossings(od.data(), dd.data(), a.data(), b.data(), n);
+}
+
+void ModelField::clear_prefetched_ray_candidates() const {
+  if (analytic_.num_surface_leaves > 0) Model::clear_prefetched_surface_crossings();
+}
+
 void ModelField::eval(size_t n, const float* x, const float* y, const float* z,
                       float* out_f) const {
   if (n == 0) return;

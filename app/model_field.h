@@ -48,6 +48,11 @@ class ModelField final : public render::Field {
   /// crossings of the mesh and patch leaves (Model::ray_surface_crossings).
   void ray_candidates(render::Vec3 o, render::Vec3 d, float t0, float t1,
                       std::vector<double>* out) const override;
+  /// The mesh and patch leaves' crossings of the rays, traced together
+  /// (Model::prefetch_ray_surface_crossings); nothing for models without such leaves.
+  void prefetch_ray_candidates(const render::Vec3* o, const render::Vec3* d, const float* t0,
+                               const float* t1, size_t n) const override;
+  void clear_prefetched_ray_candidates() const override;
   /// The model's analysis, taken once at construction (why it does or does not qualify).
   const AnalyticInfo& analytic_info() const { return analytic_; }
   /// For a render with the analytic root search, which only looks at F's sign: eval() then
@@ -109,6 +114,13 @@ class WithoutIntervals final : public render::Field {
   void ray_candidates(render::Vec3 o, render::Vec3 d, float t0, float t1,
                       std::vector<double>* out) const override {
     field_.ray_candidates(o, d, t0, t1, out);
+  }
+  void prefetch_ray_candidates(const render::Vec3* o, const render::Vec3* d, const float* t0,
+                               const float* t1, size_t n) const override {
+    field_.prefetch_ray_candidates(o, d, t0, t1, n);
+  }
+  void clear_prefetched_ray_candidates() const override {
+    field_.clear_prefetched_ray_candidates();
   }
 
  private:

@@ -351,4 +351,12 @@ void MeshSurface::crossings_packet(const Ray* rays, int n, const float* tmin, co
   packet_walk(PacketMode::kAll, rays, n, tmin, tmax, nullptr, out);
 }
 
+void MeshSurface::crossings_many(const Ray* rays, size_t n, const float* tmin, const float* tmax,
+                                 std::vector<Crossing>* out) const {
+  for (size_t i = 0; i < n; i += kPacketRays) {
+    const int m = int(std::min<size_t>(kPacketRays, n - i));
+    crossings_packet(rays + i, m, tmin + i, tmax + i, out + i);
+  }
+}
+
 }  // namespace hfrt::geom

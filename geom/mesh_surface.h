@@ -61,6 +61,9 @@ class MeshSurface final : public Surface {
   Box bounds() const override { return nodes_[0].bounds(); }
   bool intersect(const Ray& ray, float tmin, float tmax, SurfaceHit* hit) const override;
   void crossings(const Ray& ray, float tmin, float tmax, std::vector<Crossing>* out) const override;
+  /// Packets of kPacketRays consecutive rays (crossings_packet).
+  void crossings_many(const Ray* rays, size_t n, const float* tmin, const float* tmax,
+                      std::vector<Crossing>* out) const override;
   double winding_number(Vec3 p) const override;
   /// winding_number(p) >= 1/2 through a grid of cells over the mesh's bounds, filled on first
   /// use: a point within the distance from its cell's centre to the mesh (the whole cell when

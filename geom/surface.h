@@ -90,6 +90,15 @@ class Surface {
   virtual void crossings(const Ray& ray, float tmin, float tmax,
                          std::vector<Crossing>* out) const = 0;
 
+  /// crossings() of n rays at once: out[i] receives exactly crossings(rays[i], tmin[i],
+  /// tmax[i]). Meshes trace them in packets (MeshSurface::crossings_packet), so coherent rays
+  /// (a tile's camera rays) share their node and triangle loads; the default asks one ray at a
+  /// time.
+  virtual void crossings_many(const Ray* rays, size_t n, const float* tmin, const float* tmax,
+                              std::vector<Crossing>* out) const {
+    for (size_t i = 0; i < n; ++i) crossings(rays[i], tmin[i], tmax[i], &out[i]);
+  }
+
   /// Generalised winding number at p (about 1 inside a closed outward surface, 0 outside).
   virtual double winding_number(Vec3 p) const = 0;
 

@@ -546,6 +546,39 @@ void Model::ray_surface_crossings(const double o[3], const double d[3], double t
   }
 }
 
+void Model::prefetch_ray_surface_crossings(const double* o, const double* d, const double* t0,
+                                           const double* t1, size_t n) const {
+  const Compiled& c = *impl_->compiled;
+  const jit::PolyAnalysis& p = c.poly->analysis();
+  HFRT_CHECK_MSG(p.qualifies, "prefetch_ray_surface_crossings on an object that does not qualify");
+  thread_local std::vector<jit::PrefetchQuery> queries;
+  queries.clear();
+  if (!p.program.surfaces.empty()) {
+    for (size_t i = 0; i < n; ++i) {
+      // The rays, segments and filters of ray_surface_crossings, in its order.
+      if (!(t0[i] < t1[i])) continue;
+      const double* all = all_leaves(c, impl_->poly_args, o + 3 * i, d + 3 * i);
+      const float tmin = float(std::max(t0[i], -3e38)), tmax = float(std::min(t1[i], 3e38));
+      for (const jit::PolySurfaceLeaf& s : p.program.surfaces) {
+        geom::Ray ray;
+        for (int k = 0; k < 3; ++k) {
+          const double* coeffs = all + size_t(s.first_leaf + k) * jit::kPolyCoeffs;
+          ray.org[k] = float(coeffs[0]);
+          ray.dir[k] = float(coeffs[1]);
+        }
+        if (!is_finite(ray.org) || !is_finite(ray.dir)) continue;
+        if (ray.dir.x == 0 && ray.dir.y == 0 && ray.dir.z == 0) continue;
+        queries.push_back({&*c.fn.surfaces[s.surface], ray, tmin, tmax});
+      }
+    }
+  }
+  jit::ray_sides_prefetch(queries);
+}
+
+void Model::clear_prefetched_surface_crossings() {
+  jit::ray_sides_prefetch_clear();
+}
+
 std::vector<OpenSurfaceLeaf> Model::open_surface_leaves() const {
   std::vector<OpenSurfaceLeaf> out;
   const Compiled& c = *impl_->compiled;

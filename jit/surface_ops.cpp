@@ -186,38 +186,151 @@ void ray_sides_clear() {
   t_sides.wsum.clear();
 }
 
-void ray_sides_crossings(const geom::Surface& s, const geom::Ray& ray, float tmin, float tmax,
-                         std::vector<geom::Crossing>* out) {
-  if (!s.topology().closed) {
-    s.crossings(ray, tmin, tmax, out);
+namespace {
+
+/// The segment whose crossings ray_sides_crossings asks `s` for: [tmin, end) with end = tmax,
+/// or, for a closed surface (whose crossings are recorded), on to where the line leaves the
+/// surface's bounds when the segment ends before (w = 0 there: the margin covers the slab
+/// test's rounding; the crossings past tmax only serve the record).
+struct SearchedSegment {
+  bool record = false;  ///< a closed surface and a usable direction: the crossings are recorded
+  float end = 0;
+  bool meets = false;  ///< the line meets the bounds, at [t_in, t_out]
+  double t_in = 0, t_out = 0;
+  double org[3] = {0, 0, 0}, dir[3] = {0, 0, 0};
+  double dd = 0;  ///< |dir|^2
+};
+
+SearchedSegment searched_segment(const geom::Surface& s, const geom::Ray& ray, float tmin,
+                                 float tmax) {
+  SearchedSegment g;
+  g.end = tmax;
+  if (!s.topology().closed) return g;
+  for (int k = 0; k < 3; ++k) {
+    g.org[k] = ray.org[k];
+    g.dir[k] = ray.dir[k];
+    g.dd += g.dir[k] * g.dir[k];
+  }
+  if (!(g.dd > 0) || !std::isfinite(g.dd)) return g;
+  g.record = true;
+  g.meets = line_box(g.org, g.dir, s.bounds(), &g.t_in, &g.t_out);
+  if (g.meets) {
+    const double margin = 1e-6 * (std::abs(g.t_out) + std::abs(g.t_in)) + 1e-6;
+    if (g.t_out + margin >= tmax && g.t_out + 2 * margin < 3e38)
+      g.end = float(g.t_out + 2 * margin);
+  }
+  return g;
+}
+
+/// Crossings traced ahead of their queries (ray_sides_prefetch), per thread.
+struct Prefetched {
+  struct Entry {
+    const geom::Surface* surface;
+    geom::Ray ray;
+    float tmin, end;
+    uint32_t first, count;  // in `crossings`
+  };
+  std::vector<Entry> entries;
+  std::vector<geom::Crossing> crossings;
+  // Where the next lookup starts: the queries come in the prefetch's order, some skipped (a
+  // camera ray that misses the box is not searched); a lookup looks this far ahead.
+  size_t next = 0;
+  static constexpr size_t kLookAhead = 64;
+  // Scratch of ray_sides_prefetch.
+  std::vector<geom::Ray> rays;
+  std::vector<float> tmin, tmax, end;
+  std::vector<uint32_t> order;
+  std::vector<std::vector<geom::Crossing>> out, group_out;
+};
+thread_local Prefetched t_prefetched;
+
+bool same_bits(const geom::Ray& a, const geom::Ray& b) {
+  return std::memcmp(&a, &b, sizeof(geom::Ray)) == 0;
+}
+
+/// s.crossings(ray, tmin, end, out), from the prefetched ones when this exact query was
+/// prefetched on this thread (the same results: crossings_many answers what crossings does).
+void crossings_of(const geom::Surface& s, const geom::Ray& ray, float tmin, float end,
+                  std::vector<geom::Crossing>* out) {
+  Prefetched& p = t_prefetched;
+  const size_t last = std::min(p.entries.size(), p.next + Prefetched::kLookAhead);
+  for (size_t i = p.next; i < last; ++i) {
+    const Prefetched::Entry& e = p.entries[i];
+    if (e.surface != &s || !same_bits(e.ray, ray) || std::memcmp(&e.tmin, &tmin, 4) != 0 ||
+        std::memcmp(&e.end, &end, 4) != 0)
+      continue;
+    out->assign(p.crossings.begin() + e.first, p.crossings.begin() + e.first + e.count);
+    p.next = i + 1;
+    t_sides.counts.prefetched++;
     return;
   }
+  s.crossings(ray, tmin, end, out);
+}
+
+}  // namespace
+
+void ray_sides_prefetch(std::span<const PrefetchQuery> queries) {
+  ray_sides_prefetch_clear();
+  Prefetched& p = t_prefetched;
+  const size_t n = queries.size();
+  if (p.out.size() < n) p.out.resize(n);
+  // Each surface's queries together (a model has one or a few surfaces), in query order.
+  std::vector<uint32_t>& order = p.order;
+  order.resize(n);
+  for (size_t i = 0; i < n; ++i) order[i] = uint32_t(i);
+  std::stable_sort(order.begin(), order.end(), [&](uint32_t a, uint32_t b) {
+    return std::less<const geom::Surface*>()(queries[a].surface, queries[b].surface);
+  });
+  p.end.resize(n);
+  for (size_t i = 0; i < n; ++i) {
+    const PrefetchQuery& q = queries[i];
+    p.end[i] = searched_segment(*q.surface, q.ray, q.tmin, q.tmax).end;
+  }
+  for (size_t a = 0; a < n;) {
+    const geom::Surface* s = queries[order[a]].surface;
+    size_t b = a;
+    p.rays.clear(), p.tmin.clear(), p.tmax.clear();
+    for (; b < n && queries[order[b]].surface == s; ++b) {
+      p.rays.push_back(queries[order[b]].ray);
+      p.tmin.push_back(queries[order[b]].tmin);
+      p.tmax.push_back(p.end[order[b]]);
+    }
+    p.group_out.resize(b - a);
+    s->crossings_many(p.rays.data(), b - a, p.tmin.data(), p.tmax.data(), p.group_out.data());
+    for (size_t k = a; k < b; ++k) std::swap(p.out[order[k]], p.group_out[k - a]);
+    a = b;
+  }
+  for (size_t i = 0; i < n; ++i) {
+    const PrefetchQuery& q = queries[i];
+    p.entries.push_back({q.surface, q.ray, q.tmin, p.end[i], uint32_t(p.crossings.size()),
+                         uint32_t(p.out[i].size())});
+    p.crossings.insert(p.crossings.end(), p.out[i].begin(), p.out[i].end());
+  }
+}
+
+void ray_sides_prefetch_clear() {
+  t_prefetched.entries.clear();
+  t_prefetched.crossings.clear();
+  t_prefetched.next = 0;
+}
+
+void ray_sides_crossings(const geom::Surface& s, const geom::Ray& ray, float tmin, float tmax,
+                         std::vector<geom::Crossing>* out) {
+  const SearchedSegment g = searched_segment(s, ray, tmin, tmax);
+  crossings_of(s, ray, tmin, g.end, out);
+  if (!g.record) return;
   RaySides& rs = t_sides;
   RaySide r;
   r.surface = &s;
-  double dd = 0;
   for (int k = 0; k < 3; ++k) {
-    r.org[k] = ray.org[k];
-    r.dir[k] = ray.dir[k];
-    dd += r.dir[k] * r.dir[k];
+    r.org[k] = g.org[k];
+    r.dir[k] = g.dir[k];
   }
-  if (!(dd > 0) || !std::isfinite(dd)) {
-    s.crossings(ray, tmin, tmax, out);
-    return;
-  }
-  r.inv_dd = 1 / dd;
-  // Where the line leaves the bounds, w = 0 (every crossing lies inside them; the margin
-  // covers the slab test's rounding): the search runs on to there when the segment ends
-  // before, and the crossings past tmax only serve the record.
+  r.inv_dd = 1 / g.dd;
   const geom::Box b = s.bounds();
-  double t_in, t_out;
-  float t_end = tmax;
-  const bool meets = line_box(r.org, r.dir, b, &t_in, &t_out);
-  if (meets) {
-    const double margin = 1e-6 * (std::abs(t_out) + std::abs(t_in)) + 1e-6;
-    if (t_out + margin >= tmax && t_out + 2 * margin < 3e38) t_end = float(t_out + 2 * margin);
-  }
-  s.crossings(ray, tmin, t_end, out);
+  const double t_in = g.t_in, t_out = g.t_out;
+  const bool meets = g.meets;
+  const float t_end = g.end;
   r.tmin = tmin;
   r.tmax = tmax;  // queries past the original segment are not the search's
   r.slack = 1e-6 * (std::abs(r.tmin) + std::abs(r.tmax));

@@ -59,10 +59,28 @@ void ray_sides_clear();
 void ray_sides_crossings(const geom::Surface& s, const geom::Ray& ray, float tmin, float tmax,
                          std::vector<geom::Crossing>* out);
 
+/// One query of ray_sides_prefetch: what ray_sides_crossings would be asked.
+struct PrefetchQuery {
+  const geom::Surface* surface;
+  geom::Ray ray;
+  float tmin, tmax;
+};
+
+/// Traces the crossings of `queries` ahead, each surface's rays together
+/// (geom::Surface::crossings_many: packets for meshes), replacing this thread's earlier
+/// prefetch: a ray_sides_crossings call on this thread with the same surface, ray and segment
+/// as one of them, in their order (queries may be skipped), takes its crossings from there.
+/// The results are the same either way; only the tracing is shared.
+void ray_sides_prefetch(std::span<const PrefetchQuery> queries);
+/// Forgets this thread's prefetched crossings.
+void ray_sides_prefetch_clear();
+
 /// How this thread's sign queries were answered (tests and statistics).
 struct RaySideCounts {
   uint64_t from_crossings = 0;  ///< answered by the recorded crossings alone
   uint64_t winding = 0;         ///< by a winding number (including one reference per ray)
+  /// ray_sides_crossings calls whose crossings came from ray_sides_prefetch's tracing.
+  uint64_t prefetched = 0;
 };
 RaySideCounts ray_sides_counts();
 

@@ -113,6 +113,15 @@ class Field {
   /// Appends to `out` (unsorted, may repeat) every candidate t in [t0, t1] for the ray o + t d:
   /// each parameter where F may change sign on the ray must be listed (to rounding).
   virtual void ray_candidates(Vec3 o, Vec3 d, float t0, float t1, std::vector<double>* out) const {}
+
+  /// Prepares the ray_candidates() calls of n rays o[i] + t d[i], t in [t0[i], t1[i]], that
+  /// follow on this thread in this order (some may be skipped), by tracing what they need
+  /// together (the renderer: a tile's camera rays; a mesh leaf traces them in packets). Their
+  /// results are the same with or without it. Replaces this thread's earlier preparation.
+  virtual void prefetch_ray_candidates(const Vec3* o, const Vec3* d, const float* t0,
+                                       const float* t1, size_t n) const {}
+  /// Drops this thread's preparation (prefetch_ray_candidates) once its calls are done.
+  virtual void clear_prefetched_ray_candidates() const {}
 };
 
 }  // namespace hfrt::render

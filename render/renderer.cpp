@@ -85,6 +85,9 @@ struct ThreadState {
   /// culling could not prove empty (see TileRenderer::cull_shadow_bundle).
   std::vector<std::vector<Span>> shadow_spans;
   std::vector<float> accum;  // per pixel: r g b hits depth nx ny nz
+  /// prefetch_analytic: the camera rays and segments whose candidates are traced together.
+  std::vector<Vec3> pf_o, pf_d;
+  std::vector<float> pf_a, pf_b;
   double cull_seconds = 0, search_seconds = 0, shade_seconds = 0;
   uint64_t primary_rays = 0, shadow_rays = 0, hits = 0;
   size_t tiles_empty = 0;
@@ -156,6 +159,10 @@ class TileRenderer {
       } else {
         search_primary_batched(ts);
       }
+    } else if (use_analytic_) {
+      prefetch_analytic(ts);
+      for (Sample& s : ts.samples) search_primary(s, ts);
+      field_.clear_prefetched_ray_candidates();
     } else {
       for (Sample& s : ts.samples) search_primary(s, ts);
     }
@@ -229,6 +236,24 @@ class TileRenderer {
       *axis = -1;
     }
     return true;
+  }
+
+  /// The tile's camera rays' candidates traced together, in the order search_primary asks for
+  /// them (a mesh leaf traces them in packets of neighbouring pixels): the segment of each is
+  /// search_primary's.
+  void prefetch_analytic(ThreadState& ts) {
+    ts.pf_o.clear(), ts.pf_d.clear(), ts.pf_a.clear(), ts.pf_b.clear();
+    for (const Sample& s : ts.samples) {
+      float te, tx;
+      int axis;
+      if (!box_range(s.ray, &te, &tx, &axis)) continue;
+      const float a = std::max(ts.spans.front().a, te), b = std::min(ts.spans.back().b, tx);
+      if (!(a <= b)) continue;
+      ts.pf_o.push_back(s.ray.o), ts.pf_d.push_back(s.ray.d);
+      ts.pf_a.push_back(a), ts.pf_b.push_back(b);
+    }
+    field_.prefetch_ray_candidates(ts.pf_o.data(), ts.pf_d.data(), ts.pf_a.data(), ts.pf_b.data(),
+                                   ts.pf_o.size());
   }
 
   void search_primary(Sample& s, ThreadState& ts) {

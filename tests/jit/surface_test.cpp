@@ -431,6 +431,80 @@ TEST(SurfaceLeaf, CrossingsDecideTheSideOfClosedMeshesAlongARay) {
   EXPECT_LE(after.winding - before.winding, uint64_t(compared + 100));
 }
 
+TEST(SurfaceLeaf, PrefetchedCrossingsAreTheSameAndAnswerTheirRays) {
+  // Model::prefetch_ray_surface_crossings traces a batch of rays' leaf crossings together (the
+  // renderer: a tile's camera rays; meshes in packets); ray_surface_crossings calls for those
+  // rays, in that order with some skipped, take them from there. Their candidates and the sign
+  // queries after them are the same as without the prefetch, on a transformed closed mesh, an
+  // instance of it and an open mesh.
+  write_file("pf_bumpy.off", TestMesh::bumpy().off());
+  TestMesh open = TestMesh::cube(0.5);
+  open.t.resize(10);
+  for (P3& p : open.v) p[2] += 1.2;
+  write_file("pf_open.off", open.off());
+  const std::string text =
+      "my_model(x[3], a[1]) {\n  array p[3];\n  p[1] = x[1]; p[2] = x[2]; p[3] = x[3];\n"
+      "  t1 = hfRotate3DZ(p, 0.7);\n"
+      "  my_model = (hfMesh(x, \"pf_bumpy.off\") \\ hfMesh(p, \"pf_bumpy.off\")) | "
+      "hfMesh(x, \"pf_open.off\");\n}\n";
+  CompileResult r = compile_in_temp("pf.hf", text);
+  ASSERT_TRUE(r.ok()) << r.rendered;
+  const Model& m = *r.model;
+  ASSERT_TRUE(m.analytic_info().qualifies) << m.analytic_info().reason;
+  // A camera's rows of rays (coherent, as the renderer's tiles), from an eye outside.
+  const int n = 96;
+  std::vector<double> o(3 * n), d(3 * n), t0(n), t1(n);
+  for (int i = 0; i < n; ++i) {
+    const double px = -0.9 + 1.8 * (i % 12) / 11.0, py = -0.9 + 1.8 * (i / 12) / 7.0;
+    o[3 * i] = 0.3, o[3 * i + 1] = 0.2, o[3 * i + 2] = 6;
+    d[3 * i] = px - 0.3, d[3 * i + 1] = py - 0.2, d[3 * i + 2] = -6;
+    t0[i] = i % 7 == 3 ? 0.6 : 0.0;  // some segments start later,
+    t1[i] = i % 5 == 1 ? 0.8 : 2.0;  // some end early (inside the solid)
+  }
+  auto search = [&](int i, std::vector<double>* t, std::vector<float>* sign) {
+    t->clear();
+    m.ray_surface_crossings(&o[3 * i], &d[3 * i], t0[i], t1[i], t);
+    std::sort(t->begin(), t->end());
+    // Sign queries at the gaps' midpoints, right after the crossings (the record).
+    const int k = int(t->size()) + 1;
+    std::vector<float> xs(3 * k);
+    for (int j = 0; j < k; ++j) {
+      const double a = j == 0 ? t0[i] : (*t)[j - 1], b = j + 1 < k ? (*t)[j] : t1[i];
+      for (int c = 0; c < 3; ++c)
+        xs[c * k + j] = float(o[3 * i + c] + 0.5 * (a + b) * d[3 * i + c]);
+    }
+    sign->resize(k);
+    m.eval_batch_sign(k, xs.data(), sign->data());
+  };
+  std::vector<std::vector<double>> plain_t(n);
+  std::vector<std::vector<float>> plain_sign(n);
+  for (int i = 0; i < n; ++i) search(i, &plain_t[i], &plain_sign[i]);
+  const jit::RaySideCounts before = jit::ray_sides_counts();
+  m.prefetch_ray_surface_crossings(o.data(), d.data(), t0.data(), t1.data(), n);
+  int asked = 0, crossings = 0;
+  for (int i = 0; i < n; ++i) {
+    if (i % 9 == 4) continue;  // skipped rays (a camera ray that misses the box)
+    std::vector<double> t;
+    std::vector<float> sign;
+    search(i, &t, &sign);
+    EXPECT_EQ(t, plain_t[i]) << "ray " << i;
+    EXPECT_EQ(sign, plain_sign[i]) << "ray " << i;
+    ++asked;
+    crossings += int(t.size());
+  }
+  Model::clear_prefetched_surface_crossings();
+  const jit::RaySideCounts after = jit::ray_sides_counts();
+  // Three leaves per ray, every one from the prefetch.
+  EXPECT_EQ(after.prefetched - before.prefetched, uint64_t(3 * asked));
+  EXPECT_GT(crossings, 2 * asked);  // most rays cross the meshes: not vacuous
+  // After the clear, nothing comes from a prefetch.
+  std::vector<double> t;
+  std::vector<float> sign;
+  search(0, &t, &sign);
+  EXPECT_EQ(jit::ray_sides_counts().prefetched, after.prefetched);
+  EXPECT_EQ(t, plain_t[0]);
+}
+
 TEST(SurfaceLeaf, GradientOnTheSurfaceIsTheFaceNormal) {
   // At a ray hit the point lies on the surface to rounding: the closest-point direction is
   // noise there, and the gradient (the renderer's normal) must still be the inward normal.

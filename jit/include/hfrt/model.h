@@ -399,6 +399,16 @@ class Model {
 
   void ray_surface_crossings(const double o[3], const double d[3], double t0, double t1,
                              std::vector<double>* out) const;
+  /// Traces the mesh and patch leaves' crossings of n rays o + t d, t in [t0, t1], ahead, all
+  /// rays of a surface together (meshes in packets of eight: coherent rays such as a tile's
+  /// camera rays share their BVH nodes and triangles), on this thread: the calls of
+  /// ray_surface_crossings that follow for the same rays and segments, in the same order (some
+  /// may be skipped), take them from there, with the same results. o and d hold 3 n values.
+  /// Replaces this thread's earlier prefetch.
+  void prefetch_ray_surface_crossings(const double* o, const double* d, const double* t0,
+                                      const double* t1, size_t n) const;
+  /// Forgets this thread's prefetched crossings (prefetch_ray_surface_crossings).
+  static void clear_prefetched_surface_crossings();
 
   /// The mesh and patch surfaces of the object (empty for most models).
   std::vector<SurfaceStats> surface_stats() const;
