@@ -124,6 +124,26 @@ size_t render_packets(const Camera& cam, std::vector<float>* image, Trace&& trac
       std::plus<>());
 }
 
+// A frame's timing: `render_once` (returning the hits) once to warm up, then `frames` times.
+struct FrameTiming {
+  double seconds, cpu, mrays;  // per frame: wall, process CPU; rays per wall second / 1e6
+  size_t hits;
+};
+template <typename Render>
+FrameTiming time_frames(int frames, double rays, Render&& render_once) {
+  render_once();
+  const auto t = Clock::now();
+  const double c = cpu_seconds();
+  size_t hits = 0;
+  for (int f = 0; f < frames; ++f) hits = render_once();
+  FrameTiming r;
+  r.seconds = seconds_since(t) / frames;
+  r.cpu = (cpu_seconds() - c) / frames;
+  r.mrays = rays / r.seconds / 1e6;
+  r.hits = hits;
+  return r;
+}
+
 void write_pgm(const std::string& path, const std::vector<float>& img, int w, int h) {
   std::ofstream out(path, std::ios::binary);
   out << "P5\n" << w << " " << h << "\n255\n";
@@ -142,6 +162,20 @@ TriangleMesh replicate(const TriangleMesh& m, int copies) {
   }
   return out;
 }
+
+#ifdef HFRT_HAVE_EMBREE
+// Embree's packet of eight from n <= 8 rays (t in [0, inf)); lanes past n are invalid.
+void fill_ray8(const Ray* rays, int n, RTCRay8* ray, int valid[8]) {
+  for (int i = 0; i < 8; ++i) {
+    const Ray& r = rays[i < n ? i : 0];
+    valid[i] = i < n ? -1 : 0;
+    ray->org_x[i] = r.org.x, ray->org_y[i] = r.org.y, ray->org_z[i] = r.org.z;
+    ray->dir_x[i] = r.dir.x, ray->dir_y[i] = r.dir.y, ray->dir_z[i] = r.dir.z;
+    ray->tnear[i] = 0, ray->tfar[i] = std::numeric_limits<float>::infinity();
+    ray->mask[i] = ~0u, ray->flags[i] = 0, ray->time[i] = 0;
+  }
+}
+#endif
 
 }  // namespace
 
@@ -195,14 +229,10 @@ int main(int argc, char** argv) {
     *shade = std::abs(dot(h.normal, normalize(r.dir)));
     return true;
   };
-  render(cam, &img, hfrt_trace);  // warm-up
-  t0 = Clock::now();
-  double c0 = cpu_seconds();
-  size_t hits = 0;
-  for (int f = 0; f < frames; ++f) hits = render(cam, &img, hfrt_trace);
-  const double hfrt_s = seconds_since(t0) / frames;
-  const double hfrt_cpu = (cpu_seconds() - c0) / frames;
-  const double hfrt_mrays = res * double(res) / hfrt_s / 1e6;
+  const FrameTiming single =
+      time_frames(frames, res * double(res), [&] { return render(cam, &img, hfrt_trace); });
+  const double hfrt_s = single.seconds, hfrt_cpu = single.cpu, hfrt_mrays = single.mrays;
+  const size_t hits = single.hits;
   std::printf(
       "armadillo %dx%d primary rays, hfrt:   %7.2f Mrays/s (%.1f ms/frame, %zu hits; "
       "%.2f Mrays per CPU-second)\n",
@@ -223,14 +253,10 @@ int main(int argc, char** argv) {
       if (mask >> i & 1) shade[i] = std::abs(dot(h[i].normal, normalize(rays[i].dir)));
     return mask;
   };
-  render_packets(cam, &img, hfrt_trace8);  // warm-up
-  t0 = Clock::now();
-  c0 = cpu_seconds();
-  size_t phits = 0;
-  for (int f = 0; f < frames; ++f) phits = render_packets(cam, &img, hfrt_trace8);
-  const double hfrt8_s = seconds_since(t0) / frames;
-  const double hfrt8_cpu = (cpu_seconds() - c0) / frames;
-  const double hfrt8_mrays = res * double(res) / hfrt8_s / 1e6;
+  const FrameTiming packets = time_frames(frames, res * double(res),
+                                          [&] { return render_packets(cam, &img, hfrt_trace8); });
+  const double hfrt8_s = packets.seconds, hfrt8_cpu = packets.cpu, hfrt8_mrays = packets.mrays;
+  const size_t phits = packets.hits;
   std::printf(
       "armadillo %dx%d primary rays, hfrt packets of 8 (%s): %7.2f Mrays/s (%.1f ms/frame, %zu "
       "hits; %.2f Mrays per CPU-second; %.2fx the single rays' rate; pixels whose hit/miss "
@@ -358,14 +384,10 @@ int main(int argc, char** argv) {
       *shade = std::abs(dot(n, normalize(r.dir)));
       return true;
     };
-    render(cam, &img, embree_trace);
-    t0 = Clock::now();
-    c0 = cpu_seconds();
-    size_t ehits = 0;
-    for (int f = 0; f < frames; ++f) ehits = render(cam, &img, embree_trace);
-    const double e_s = seconds_since(t0) / frames;
-    const double e_cpu = (cpu_seconds() - c0) / frames;
-    const double e_mrays = res * double(res) / e_s / 1e6;
+    const FrameTiming e1 =
+        time_frames(frames, res * double(res), [&] { return render(cam, &img, embree_trace); });
+    const double e_s = e1.seconds, e_cpu = e1.cpu, e_mrays = e1.mrays;
+    const size_t ehits = e1.hits;
     size_t differ = 0;
     for (size_t i = 0; i < img.size(); ++i) differ += (img[i] > 0) != (hfrt_img[i] > 0);
     std::printf(
@@ -384,15 +406,8 @@ int main(int argc, char** argv) {
       rtcInitIntersectContext(&ctx);
       RTCRayHit8 rh;
       alignas(32) int valid[8];
-      for (int i = 0; i < 8; ++i) {
-        const Ray& r = rays[i < n ? i : 0];
-        valid[i] = i < n ? -1 : 0;
-        rh.ray.org_x[i] = r.org.x, rh.ray.org_y[i] = r.org.y, rh.ray.org_z[i] = r.org.z;
-        rh.ray.dir_x[i] = r.dir.x, rh.ray.dir_y[i] = r.dir.y, rh.ray.dir_z[i] = r.dir.z;
-        rh.ray.tnear[i] = 0, rh.ray.tfar[i] = std::numeric_limits<float>::infinity();
-        rh.ray.mask[i] = ~0u, rh.ray.flags[i] = 0, rh.ray.time[i] = 0;
-        rh.hit.geomID[i] = RTC_INVALID_GEOMETRY_ID;
-      }
+      fill_ray8(rays, n, &rh.ray, valid);
+      for (int i = 0; i < 8; ++i) rh.hit.geomID[i] = RTC_INVALID_GEOMETRY_ID;
       rtcIntersect8(valid, scene, &ctx, &rh);
       uint32_t mask = 0;
       for (int i = 0; i < n; ++i) {
@@ -403,14 +418,10 @@ int main(int argc, char** argv) {
       }
       return mask;
     };
-    render_packets(cam, &img, embree_trace8);
-    t0 = Clock::now();
-    c0 = cpu_seconds();
-    size_t e8hits = 0;
-    for (int f = 0; f < frames; ++f) e8hits = render_packets(cam, &img, embree_trace8);
-    const double e8_s = seconds_since(t0) / frames;
-    const double e8_cpu = (cpu_seconds() - c0) / frames;
-    const double e8_mrays = res * double(res) / e8_s / 1e6;
+    const FrameTiming e8 = time_frames(frames, res * double(res),
+                                       [&] { return render_packets(cam, &img, embree_trace8); });
+    const double e8_s = e8.seconds, e8_cpu = e8.cpu, e8_mrays = e8.mrays;
+    const size_t e8hits = e8.hits;
     std::printf(
         "armadillo %dx%d primary rays, Embree rtcIntersect8: %7.2f Mrays/s (%.1f ms/frame, %zu "
         "hits; %.2f Mrays per CPU-second)\n",
@@ -437,14 +448,7 @@ int main(int argc, char** argv) {
       rtcInitIntersectContext(&ctx);
       RTCRay8 ray;
       alignas(32) int valid[8];
-      for (int i = 0; i < 8; ++i) {
-        const Ray& r = rays[i < n ? i : 0];
-        valid[i] = i < n ? -1 : 0;
-        ray.org_x[i] = r.org.x, ray.org_y[i] = r.org.y, ray.org_z[i] = r.org.z;
-        ray.dir_x[i] = r.dir.x, ray.dir_y[i] = r.dir.y, ray.dir_z[i] = r.dir.z;
-        ray.tnear[i] = 0, ray.tfar[i] = std::numeric_limits<float>::infinity();
-        ray.mask[i] = ~0u, ray.flags[i] = 0, ray.time[i] = 0;
-      }
+      fill_ray8(rays, n, &ray, valid);
       rtcOccluded8(valid, scene, &ctx, &ray);
       uint32_t mask = 0;
       for (int i = 0; i < n; ++i) mask |= uint32_t(ray.tfar[i] < 0) << i;

@@ -506,6 +506,21 @@ const double* all_leaves(const Compiled& c, const std::vector<double>& a, const 
 }
 }  // namespace
 
+namespace {
+/// A surface leaf's ray in the surface's own space, from the leaves' polynomials `all`
+/// (all_leaves): false when it cannot be traced (not finite; a zero direction, where F is
+/// constant on the ray).
+bool leaf_ray(const double* all, const jit::PolySurfaceLeaf& s, geom::Ray* ray) {
+  for (int k = 0; k < 3; ++k) {
+    const double* coeffs = all + size_t(s.first_leaf + k) * jit::kPolyCoeffs;
+    ray->org[k] = float(coeffs[0]);
+    ray->dir[k] = float(coeffs[1]);
+  }
+  if (!is_finite(ray->org) || !is_finite(ray->dir)) return false;
+  return !(ray->dir.x == 0 && ray->dir.y == 0 && ray->dir.z == 0);
+}
+}  // namespace
+
 void Model::ray_polynomials(const double o[3], const double d[3], double* out) const {
   const Compiled& c = *impl_->compiled;
   const jit::PolyAnalysis& p = c.poly->analysis();
@@ -533,13 +548,7 @@ void Model::ray_surface_crossings(const double o[3], const double d[3], double t
   const float tmin = float(std::max(t0, -3e38)), tmax = float(std::min(t1, 3e38));
   for (const jit::PolySurfaceLeaf& s : p.program.surfaces) {
     geom::Ray ray;
-    for (int k = 0; k < 3; ++k) {
-      const double* coeffs = all + size_t(s.first_leaf + k) * jit::kPolyCoeffs;
-      ray.org[k] = float(coeffs[0]);
-      ray.dir[k] = float(coeffs[1]);
-    }
-    if (!is_finite(ray.org) || !is_finite(ray.dir)) continue;
-    if (ray.dir.x == 0 && ray.dir.y == 0 && ray.dir.z == 0) continue;  // F constant on the ray
+    if (!leaf_ray(all, s, &ray)) continue;
     const geom::Surface& surface = *c.fn.surfaces[s.surface];
     jit::ray_sides_crossings(surface, ray, tmin, tmax, &crossings);
     for (const geom::Crossing& x : crossings) out->push_back(x.t);
@@ -561,14 +570,8 @@ void Model::prefetch_ray_surface_crossings(const double* o, const double* d, con
       const float tmin = float(std::max(t0[i], -3e38)), tmax = float(std::min(t1[i], 3e38));
       for (const jit::PolySurfaceLeaf& s : p.program.surfaces) {
         geom::Ray ray;
-        for (int k = 0; k < 3; ++k) {
-          const double* coeffs = all + size_t(s.first_leaf + k) * jit::kPolyCoeffs;
-          ray.org[k] = float(coeffs[0]);
-          ray.dir[k] = float(coeffs[1]);
-        }
-        if (!is_finite(ray.org) || !is_finite(ray.dir)) continue;
-        if (ray.dir.x == 0 && ray.dir.y == 0 && ray.dir.z == 0) continue;
-        queries.push_back({&*c.fn.surfaces[s.surface], ray, tmin, tmax});
+        if (leaf_ray(all, s, &ray))
+          queries.push_back({&*c.fn.surfaces[s.surface], ray, tmin, tmax});
       }
     }
   }

@@ -369,6 +369,14 @@ std::string two_cubes_off() {
   return a.off();
 }
 
+/// A cube of half-size 0.5 without its last face (an open mesh), raised by 1.2 along z.
+TestMesh open_cube_above() {
+  TestMesh open = TestMesh::cube(0.5);
+  open.t.resize(10);  // without its last face: open
+  for (P3& p : open.v) p[2] += 1.2;
+  return open;
+}
+
 TEST(SurfaceLeaf, CrossingsDecideTheSideOfClosedMeshesAlongARay) {
   // The analytic search's sign queries at the gaps between a ray's candidates: on closed
   // meshes they come from the ray's crossings (jit/surface_ops.h), and must equal F's sign as
@@ -377,10 +385,7 @@ TEST(SurfaceLeaf, CrossingsDecideTheSideOfClosedMeshesAlongARay) {
   // keeps its winding numbers.
   write_file("rs_bumpy.off", TestMesh::bumpy().off());
   write_file("rs_two.off", two_cubes_off());
-  TestMesh open = TestMesh::cube(0.5);
-  open.t.resize(10);  // without its last face: open
-  for (P3& p : open.v) p[2] += 1.2;
-  write_file("rs_open.off", open.off());
+  write_file("rs_open.off", open_cube_above().off());
   const std::string text =
       "my_model(x[3], a[1]) {\n  array p[3];\n  p[1] = x[1]; p[2] = x[2]; p[3] = x[3];\n"
       "  t1 = hfShift3D(p, 0, 0, -0.4);\n  t2 = hfRotate3DZ(p, 0.7);\n"
@@ -438,10 +443,7 @@ TEST(SurfaceLeaf, PrefetchedCrossingsAreTheSameAndAnswerTheirRays) {
   // queries after them are the same as without the prefetch, on a transformed closed mesh, an
   // instance of it and an open mesh.
   write_file("pf_bumpy.off", TestMesh::bumpy().off());
-  TestMesh open = TestMesh::cube(0.5);
-  open.t.resize(10);
-  for (P3& p : open.v) p[2] += 1.2;
-  write_file("pf_open.off", open.off());
+  write_file("pf_open.off", open_cube_above().off());
   const std::string text =
       "my_model(x[3], a[1]) {\n  array p[3];\n  p[1] = x[1]; p[2] = x[2]; p[3] = x[3];\n"
       "  t1 = hfRotate3DZ(p, 0.7);\n"

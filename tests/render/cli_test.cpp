@@ -14,6 +14,7 @@
 #include <vector>
 
 #include "render/image.h"
+#include "tests/malloc_pages.h"
 
 namespace hfrt::render {
 namespace {
@@ -111,12 +112,8 @@ TEST(RenderCli, SameFileForAnyThreadCount) {
 // mode (base/memory.h, tools/hfrt/main.cpp), as `hfrt mesh` does; HFRT_MALLOC_HUGEPAGES=0
 // turns it off. The picture is the same either way.
 TEST(RenderCli, MallocOnHugePagesWhereTheKernelAdvisesThem) {
-  std::ifstream mode_file("/sys/kernel/mm/transparent_hugepage/enabled");
-  std::string mode;
-  std::getline(mode_file, mode);
-  const bool madvise_mode = mode.find("[madvise]") != std::string::npos;
-  const char* kHuge = "stats: memory: malloc on transparent huge pages";
-  const char* kDefault = "stats: memory: malloc on the kernel's default pages";
+  const std::string mode = hfrt::testing::thp_mode();
+  const char* kDefault = hfrt::testing::kMallocDefaultPagesLine;
   fs::path model = write_model("sphere_pages.hf", kSphereModel);
   fs::path on = temp_dir() / "pages_on.png", off = temp_dir() / "pages_off.png";
   std::string err;
@@ -124,7 +121,7 @@ TEST(RenderCli, MallocOnHugePagesWhereTheKernelAdvisesThem) {
       run_hfrt("render " + model.string() + " -o " + on.string() + " --size 40x32 --stats", &err),
       0)
       << err;
-  EXPECT_NE(err.find(madvise_mode ? kHuge : kDefault), std::string::npos)
+  EXPECT_NE(err.find(hfrt::testing::expected_malloc_line()), std::string::npos)
       << "THP mode '" << mode << "'\n"
       << err;
   ASSERT_EQ(

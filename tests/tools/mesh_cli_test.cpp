@@ -14,6 +14,7 @@
 #include <tuple>
 
 #include "geom/mesh.h"
+#include "tests/malloc_pages.h"
 #include "tests/mesher/mesh_check.h"
 #include "tests/tools/cli_fixture.h"
 
@@ -82,15 +83,11 @@ TEST_F(MeshCliTest, WritesAClosedSphereAsStl) {
 // them in madvise mode (base/memory.h); HFRT_MALLOC_HUGEPAGES=0 and a GLIBC_TUNABLES of the
 // user's that already sets glibc.malloc.hugetlb turn it off. The file is the same either way.
 TEST_F(MeshCliTest, MallocOnHugePagesWhereTheKernelAdvisesThem) {
-  std::ifstream mode_file("/sys/kernel/mm/transparent_hugepage/enabled");
-  std::string mode;
-  std::getline(mode_file, mode);
-  const bool madvise_mode = mode.find("[madvise]") != std::string::npos;
-  const char* kHuge = "stats: memory: malloc on transparent huge pages";
-  const char* kDefault = "stats: memory: malloc on the kernel's default pages";
+  const std::string mode = hfrt::testing::thp_mode();
+  const char* kDefault = hfrt::testing::kMallocDefaultPagesLine;
   CliRun on = hfrt("mesh sphere.hf -o on.ply --resolution 24 --stats");
   ASSERT_EQ(on.exit_code, 0) << on.err;
-  EXPECT_NE(on.err.find(madvise_mode ? kHuge : kDefault), std::string::npos)
+  EXPECT_NE(on.err.find(hfrt::testing::expected_malloc_line()), std::string::npos)
       << "THP mode '" << mode << "'\n"
       << on.err;
   CliRun off = shell("HFRT_MALLOC_HUGEPAGES=0 " HFRT_BINARY_DIR
