@@ -558,6 +558,25 @@ class TileRenderer {
     return *te <= *tx;
   }
 
+  /// The analytic shadow rays of the tile's n hits (as occluded() will search them, in its
+  /// order: hit by hit, light by light) traced together ahead.
+  void prefetch_shadows(ThreadState& ts, size_t n) {
+    ts.pf_o.clear(), ts.pf_d.clear(), ts.pf_a.clear(), ts.pf_b.clear();
+    for (size_t k = 0; k < n; ++k) {
+      const Vec3 p{ts.hx[k], ts.hy[k], ts.hz[k]}, nrm{ts.gx[k], ts.gy[k], ts.gz[k]};
+      for (const Light& light : lights_) {
+        if (dot(nrm, light_direction(light, p)) <= 0) continue;
+        Ray r;
+        float te, tx;
+        if (!shadow_ray(p, nrm, light, &r, &te, &tx)) continue;
+        ts.pf_o.push_back(r.o), ts.pf_d.push_back(r.d);
+        ts.pf_a.push_back(te), ts.pf_b.push_back(tx);
+      }
+    }
+    field_.prefetch_ray_candidates(ts.pf_o.data(), ts.pf_d.data(), ts.pf_a.data(), ts.pf_b.data(),
+                                   ts.pf_o.size());
+  }
+
   bool occluded(Vec3 p, Vec3 n, const Light& light, const std::vector<Span>* spans,
                 ThreadState& ts) {
     Ray r;
@@ -685,6 +704,10 @@ class TileRenderer {
       }
       rs.batch_run();
     }
+    // With the analytic search, the shadow rays' candidates of the whole tile are traced
+    // together first (packets of neighbouring hits' rays for mesh leaves).
+    const bool prefetched = opt_.shadows && use_analytic_;
+    if (prefetched) prefetch_shadows(ts, n);
     for (size_t k = 0; k < n; ++k) {
       Sample& s = ts.samples[ts.hit_index[k]];
       Vec3 p{ts.hx[k], ts.hy[k], ts.hz[k]};
@@ -720,6 +743,7 @@ class TileRenderer {
       acc[4] += s.t * length(s.ray.d);
       acc[5] += nrm.x, acc[6] += nrm.y, acc[7] += nrm.z;
     }
+    if (prefetched) field_.clear_prefetched_ray_candidates();
   }
 
   void resolve(int tx0, int ty0, int tx1, int ty1, ThreadState& ts) {
