@@ -5,6 +5,7 @@
 #include <llvm/Bitcode/BitcodeWriter.h>
 #include <llvm/ExecutionEngine/Orc/CompileUtils.h>
 #include <llvm/IR/Operator.h>
+#include <llvm/Object/ELFObjectFile.h>
 #include <llvm/Passes/StandardInstrumentations.h>
 #include <llvm/Support/BLAKE3.h>
 #include <llvm/Support/MemoryBuffer.h>
@@ -12,9 +13,11 @@
 #include <llvm/Transforms/Scalar/DCE.h>
 #include <llvm/Transforms/Scalar/EarlyCSE.h>
 #include <llvm/Transforms/Scalar/SROA.h>
+#include <unistd.h>
 
 #include <chrono>
 #include <cmath>
+#include <cstdio>
 #include <cstdlib>
 #include <cstring>
 #include <mutex>
@@ -34,6 +37,38 @@ namespace {
 template <typename F>
 void* fn_addr(F* f) {
   return reinterpret_cast<void*>(f);
+}
+
+/// The size of function `name` in an object file (0 when it is not there).
+uint64_t object_symbol_size(llvm::MemoryBufferRef buffer, llvm::StringRef name) {
+  auto obj = llvm::object::ObjectFile::createObjectFile(buffer);
+  if (!obj) {
+    llvm::consumeError(obj.takeError());
+    return 0;
+  }
+  for (const llvm::object::SymbolRef& s : (*obj)->symbols()) {
+    auto n = s.getName();
+    if (!n) {
+      llvm::consumeError(n.takeError());
+      continue;
+    }
+    if (*n == name) return llvm::object::ELFSymbolRef(s).getSize();
+  }
+  return 0;
+}
+
+/// A line of /tmp/perf-PID.map, the file in which `perf report` looks up the names of JIT
+/// code (HFRT_PERF_MAP=1, for profiling: the evaluators then show by unit instead of as bare
+/// addresses).
+void append_perf_map(uint64_t addr, uint64_t size, const std::string& name) {
+  static std::mutex mu;
+  std::lock_guard lock(mu);
+  const std::string path = "/tmp/perf-" + std::to_string(getpid()) + ".map";
+  if (FILE* f = std::fopen(path.c_str(), "a")) {
+    std::fprintf(f, "%llx %llx hfrt:%s\n", static_cast<unsigned long long>(addr),
+                 static_cast<unsigned long long>(size ? size : 1), name.c_str());
+    std::fclose(f);
+  }
 }
 
 /// libm (the very functions the interpreters call, so f64 results are bit-identical) and the
@@ -450,11 +485,16 @@ Result<std::unique_ptr<CompiledCode>> LlvmSession::compile(ModuleUnit unit,
       return drop("cannot define the surfaces' symbols: " + llvm_error_text(std::move(err)));
     }
   }
+  // HFRT_PERF_MAP=1: the entry's size in the object, for perf's map of JIT code (below).
+  static const bool perf_map = std::getenv("HFRT_PERF_MAP") != nullptr;
+  uint64_t entry_size = 0;
+  if (perf_map) entry_size = object_symbol_size(object->getMemBufferRef(), kEntryName);
   if (auto err = jit_->addObjectFile(jd, std::move(object))) {
     return drop("cannot add the object to the JIT: " + llvm_error_text(std::move(err)));
   }
   auto sym = jit_->lookup(jd, kEntryName);
   if (!sym) return drop("cannot link " + entry + ": " + llvm_error_text(sym.takeError()));
+  if (perf_map) append_perf_map(sym->getValue(), entry_size, unit.name);
   auto code =
       std::make_unique<CompiledCode>(&jit_->getExecutionSession(), &jd, sym->toPtr<void*>());
   if (stats) stats->codegen_ms = ms_since(t0);
