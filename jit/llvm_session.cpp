@@ -4,6 +4,8 @@
 
 #include <llvm/Bitcode/BitcodeWriter.h>
 #include <llvm/ExecutionEngine/Orc/CompileUtils.h>
+#include <llvm/ExecutionEngine/Orc/ExecutorProcessControl.h>
+#include <llvm/ExecutionEngine/Orc/TaskDispatch.h>
 #include <llvm/IR/Operator.h>
 #include <llvm/Object/ELFObjectFile.h>
 #include <llvm/Passes/StandardInstrumentations.h>
@@ -264,7 +266,16 @@ Result<LlvmSession*> LlvmSession::create() {
   s->jtmb_.addFeatures(features);
   s->jtmb_.setCodeGenOptLevel(llvm::CodeGenOptLevel::Aggressive);
 
+  // Materialisation (linking an object into memory) runs on the thread that asks for the
+  // symbol. ORC's default for an in-process session, a DynamicThreadPoolTaskDispatcher, starts
+  // a new thread for every task: ~20 threads created and joined per teapot render, for work
+  // of well under a millisecond each, while the asking thread waits anyway. Compiles stay
+  // concurrent (setSupportConcurrentCompilation below): each thread links what it compiled.
+  auto epc = llvm::orc::SelfExecutorProcessControl::Create(
+      nullptr, std::make_unique<llvm::orc::InPlaceTaskDispatcher>());
+  if (!epc) return Error{"cannot create the LLVM JIT: " + llvm_error_text(epc.takeError())};
   auto jit = llvm::orc::LLJITBuilder()
+                 .setExecutorProcessControl(std::move(*epc))
                  .setJITTargetMachineBuilder(s->jtmb_)
                  // No process symbols (every host function is registered below), hence no
                  // native platform either: JIT code has no static initialisers to run.
