@@ -31,10 +31,11 @@ void advise_huge_pages(void* p, size_t bytes) {
 namespace {
 constexpr std::string_view kHugetlbTunable = "glibc.malloc.hugetlb";
 constexpr std::string_view kMmapThresholdTunable = "glibc.malloc.mmap_threshold";
+constexpr std::string_view kArenaMaxTunable = "glibc.malloc.arena_max";
 }  // namespace
 
-std::optional<std::string> huge_page_malloc_tunables(const char* current,
-                                                     std::string_view thp_mode) {
+std::optional<std::string> huge_page_malloc_tunables(const char* current, std::string_view thp_mode,
+                                                     bool one_arena) {
   if (thp_mode.find("[madvise]") == std::string_view::npos) return std::nullopt;
   const std::string_view now = current ? current : "";
   if (now.find(kHugetlbTunable) != std::string_view::npos) return std::nullopt;
@@ -51,10 +52,11 @@ std::optional<std::string> huge_page_malloc_tunables(const char* current,
   // must fault in one by one (32 MiB is glibc's own ceiling for its moving threshold).
   if (now.find(kMmapThresholdTunable) == std::string_view::npos)
     add(kMmapThresholdTunable, "33554432");
+  if (one_arena && now.find(kArenaMaxTunable) == std::string_view::npos) add(kArenaMaxTunable, "1");
   return value;
 }
 
-void reexec_with_huge_page_malloc(char** argv) {
+void reexec_with_huge_page_malloc(char** argv, bool one_arena) {
 #if defined(__linux__) && defined(__GLIBC__) && \
     (__GLIBC__ > 2 || (__GLIBC__ == 2 && __GLIBC_MINOR__ >= 35))
   const char* opt = std::getenv("HFRT_MALLOC_HUGEPAGES");
@@ -66,7 +68,7 @@ void reexec_with_huge_page_malloc(char** argv) {
   const char* current = std::getenv("GLIBC_TUNABLES");
   const std::optional<std::string> previous =
       current ? std::optional<std::string>(current) : std::nullopt;
-  const std::optional<std::string> value = huge_page_malloc_tunables(current, mode);
+  const std::optional<std::string> value = huge_page_malloc_tunables(current, mode, one_arena);
   if (!value) return;
   if (setenv("GLIBC_TUNABLES", value->c_str(), 1) != 0) return;
   execv("/proc/self/exe", argv);
@@ -78,6 +80,7 @@ void reexec_with_huge_page_malloc(char** argv) {
   }
 #else
   (void)argv;
+  (void)one_arena;
 #endif
 }
 

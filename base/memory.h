@@ -29,8 +29,13 @@ void advise_huge_pages(void* p, size_t bytes);
 /// std::nullopt when nothing is to change: THP is not in madvise mode (with "always" malloc gets
 /// huge pages anyway, with "never" it cannot), or glibc.malloc.hugetlb is already set, by the
 /// user or by an earlier exec. Other tunables in the value are kept.
-std::optional<std::string> huge_page_malloc_tunables(const char* current,
-                                                     std::string_view thp_mode);
+/// `one_arena`: also one malloc arena for all threads (`glibc.malloc.arena_max=1`, unless the
+/// user set a maximum), for processes whose threads allocate little while they run (`hfrt
+/// render`: tools/hfrt/main.cpp): each further arena is a heap of its own, whose memory
+/// other threads never reuse and which its trims hand back to the kernel, so that it is faulted
+/// in (and, in huge pages, zeroed 2 MiB at a time) again.
+std::optional<std::string> huge_page_malloc_tunables(const char* current, std::string_view thp_mode,
+                                                     bool one_arena = false);
 
 /// Re-executes this program (/proc/self/exe, the same arguments and environment) with
 /// GLIBC_TUNABLES from huge_page_malloc_tunables, so that every allocation of the process
@@ -42,7 +47,7 @@ std::optional<std::string> huge_page_malloc_tunables(const char* current,
 /// 1.3-1.8 s in all (bench/README.md, "Memory"). The variable stays set for child processes,
 /// where it only gives the same advice.
 /// Call first thing in main(), before any thread starts.
-void reexec_with_huge_page_malloc(char** argv);
+void reexec_with_huge_page_malloc(char** argv, bool one_arena = false);
 
 /// Whether this process's malloc was started on huge pages (GLIBC_TUNABLES has
 /// glibc.malloc.hugetlb=1), for --stats.

@@ -53,5 +53,17 @@ TEST(Memory, HugePageTunablesOnlyInMadviseModeAndOnlyOnce) {
   EXPECT_EQ(huge_page_malloc_tunables(nullptr, ""), std::nullopt);
 }
 
+TEST(Memory, OneArenaUnlessTheUserSetAMaximum) {
+  const char* kMadvise = "always [madvise] never\n";
+  const std::string kBoth = "glibc.malloc.hugetlb=1:glibc.malloc.mmap_threshold=33554432";
+  EXPECT_EQ(huge_page_malloc_tunables(nullptr, kMadvise, true),
+            kBoth + ":glibc.malloc.arena_max=1");
+  EXPECT_EQ(huge_page_malloc_tunables("glibc.malloc.arena_max=4", kMadvise, true),
+            "glibc.malloc.arena_max=4:" + kBoth);
+  EXPECT_EQ(huge_page_malloc_tunables(nullptr, kMadvise, false), kBoth);
+  // Nothing changes where huge pages are already asked for: no exec only for the arena.
+  EXPECT_EQ(huge_page_malloc_tunables(kBoth.c_str(), kMadvise, true), std::nullopt);
+}
+
 }  // namespace
 }  // namespace hfrt

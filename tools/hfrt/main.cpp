@@ -57,7 +57,13 @@ int main(int argc, char** argv) {
     // and no more on small models (csg 0.36-0.38 -> 0.34 s). The other commands allocate
     // little: there the 2 MiB pages' zeroing and the exec cost ~5 ms of CPU (`hfrt eval` 127 ->
     // 133 ms) for nothing.
-    if (command == "mesh" || command == "render") hfrt::reexec_with_huge_page_malloc(argv);
+    // A render also runs on one malloc arena: its threads allocate little while they trace, and
+    // the teapot's process took 0.138-0.155 s with an arena per thread against 0.119-0.134 s
+    // (perf stat -r 10, three rounds alternating; the surface's build frees its temporaries on a
+    // TBB worker); the armadillo the same within the noise, c1_gear at --threads 8 0.23-0.25 ->
+    // 0.20-0.21 s. A mesh is the same either way (512^3 blend and gyroid): left as it was.
+    if (command == "mesh" || command == "render")
+      hfrt::reexec_with_huge_page_malloc(argv, /*one_arena=*/command == "render");
     return run_module(argc, argv, command);
   }
 
