@@ -41,20 +41,23 @@ void* fn_addr(F* f) {
   return reinterpret_cast<void*>(f);
 }
 
-/// The size of function `name` in an object file (0 when it is not there).
+/// The size of function `name` in an ELF object file (0 when it is not there, or the object
+/// is not ELF: only ELF symbols carry a size).
 uint64_t object_symbol_size(llvm::MemoryBufferRef buffer, llvm::StringRef name) {
   auto obj = llvm::object::ObjectFile::createObjectFile(buffer);
   if (!obj) {
     llvm::consumeError(obj.takeError());
     return 0;
   }
-  for (const llvm::object::SymbolRef& s : (*obj)->symbols()) {
+  const auto* elf = llvm::dyn_cast<llvm::object::ELFObjectFileBase>(obj->get());
+  if (!elf) return 0;
+  for (const llvm::object::ELFSymbolRef& s : elf->symbols()) {
     auto n = s.getName();
     if (!n) {
       llvm::consumeError(n.takeError());
       continue;
     }
-    if (*n == name) return llvm::object::ELFSymbolRef(s).getSize();
+    if (*n == name) return s.getSize();
   }
   return 0;
 }

@@ -34,9 +34,11 @@ TEST(Memory, AdviceOnSmallOddOrNoRangesIsHarmless) {
   EXPECT_EQ(big[big.size() - 1], 'b');
 }
 
+/// The kernel's THP mode where malloc needs the advice, and the tunables hfrt then adds.
+constexpr const char* kMadvise = "always [madvise] never\n";
+const std::string kBoth = "glibc.malloc.hugetlb=1:glibc.malloc.mmap_threshold=33554432";
+
 TEST(Memory, HugePageTunablesOnlyInMadviseModeAndOnlyOnce) {
-  const char* kMadvise = "always [madvise] never\n";
-  const std::string kBoth = "glibc.malloc.hugetlb=1:glibc.malloc.mmap_threshold=33554432";
   EXPECT_EQ(huge_page_malloc_tunables(nullptr, kMadvise), kBoth);
   EXPECT_EQ(huge_page_malloc_tunables("", kMadvise), kBoth);
   // The user's other tunables are kept, and their own mmap threshold too.
@@ -54,8 +56,6 @@ TEST(Memory, HugePageTunablesOnlyInMadviseModeAndOnlyOnce) {
 }
 
 TEST(Memory, OneArenaUnlessTheUserSetAMaximum) {
-  const char* kMadvise = "always [madvise] never\n";
-  const std::string kBoth = "glibc.malloc.hugetlb=1:glibc.malloc.mmap_threshold=33554432";
   EXPECT_EQ(huge_page_malloc_tunables(nullptr, kMadvise, true),
             kBoth + ":glibc.malloc.arena_max=1");
   EXPECT_EQ(huge_page_malloc_tunables("glibc.malloc.arena_max=4", kMadvise, true),
