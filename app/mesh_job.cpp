@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cstdio>
 #include <cstdlib>
+#include <thread>
 
 #include "app/model_field.h"
 #include "app/scene_job.h"
@@ -43,7 +44,10 @@ MeshJobResult run_mesh_job(const MeshJob& job) {
     return out;
   }
   ModelField field(model, job.file);
+  // The mesher's once-per-process set-up (tables, TBB's workers) beside the compile.
+  std::thread warm_up([threads = job.threads] { mesher::warm_up(threads); });
   PreparedCode prepared = prepare_render_code(model, /*interval=*/true, /*gradient=*/true);
+  warm_up.join();
   out.prepare_ms = prepared.ms;
   out.warnings = prepared.warnings;
 

@@ -22,8 +22,10 @@ void advise_huge_pages(void* p, size_t bytes);
 
 /// The GLIBC_TUNABLES value that puts glibc's malloc on transparent huge pages
 /// (`glibc.malloc.hugetlb=1`, glibc >= 2.35: its heaps and its mmap'ed chunks are advised
-/// MADV_HUGEPAGE) and serves blocks up to 32 MiB from its heaps (`glibc.malloc.mmap_threshold`,
-/// unless the user set one: a block mmap'ed on its own below 2 MiB cannot get a huge page),
+/// MADV_HUGEPAGE), serves blocks up to 32 MiB from its heaps (`glibc.malloc.mmap_threshold`,
+/// unless the user set one: a block mmap'ed on its own below 2 MiB cannot get a huge page)
+/// and grows its main heap 16 MiB at a time (`glibc.malloc.top_pad`, unless the user set it: a
+/// heap grown by small steps keeps 4 KiB pages at its top),
 /// given the variable's current value (nullptr: unset) and the kernel's THP mode (the contents
 /// of /sys/kernel/mm/transparent_hugepage/enabled, e.g. "always [madvise] never").
 /// std::nullopt when nothing is to change: THP is not in madvise mode (with "always" malloc gets

@@ -92,6 +92,24 @@ inline void with_threads(int threads, const std::function<void()>& f) {
 #endif
 }
 
+/// Starts the parallel runtime as with_threads(threads, ...) will use it (TBB's scheduler, its
+/// allocator and worker threads, which stay for the process), so that the first parallel
+/// call that matters does not pay for it: meant for a thread of its own while the caller is
+/// busy elsewhere (a JIT compile). Why: TBB's first arena costs ~2.5 ms on the 2-core VM
+/// (it reads the CPU topology, loads libtbbmalloc, probes for OpenMP), which the first
+/// `hfrt mesh` of a process paid inside the mesher. Nothing to do for the std::thread backend.
+inline void warm_up(int threads) {
+#ifdef HFRT_STD_THREADS
+  (void)threads;
+#else
+  if (threads <= 0) threads = default_concurrency();
+  with_threads(threads, [&] {
+    tbb::parallel_for(tbb::blocked_range<int>(0, threads, 1),
+                      [](const tbb::blocked_range<int>&) {});
+  });
+#endif
+}
+
 /// body(begin, end) over the chunks [k grain, min(n, (k + 1) grain)) of [0, n), each once, in
 /// any order and on any worker; returns when all are done.
 template <typename Body>

@@ -1209,6 +1209,11 @@ void grid_for(const MeshOptions& options, int cells[3], double size[3]) {
   }
 }
 
+void warm_up(int threads) {
+  (void)cube_table();
+  par::warm_up(threads);
+}
+
 TriMesh mesh_field(const render::Field& field, const MeshOptions& options, MeshStats* stats_out) {
   HFRT_CHECK(options.cell > 0 || options.resolution >= 1);
   MeshStats stats;

@@ -36,7 +36,8 @@ TEST(Memory, AdviceOnSmallOddOrNoRangesIsHarmless) {
 
 /// The kernel's THP mode where malloc needs the advice, and the tunables hfrt then adds.
 constexpr const char* kMadvise = "always [madvise] never\n";
-const std::string kBoth = "glibc.malloc.hugetlb=1:glibc.malloc.mmap_threshold=33554432";
+const std::string kBoth =
+    "glibc.malloc.hugetlb=1:glibc.malloc.mmap_threshold=33554432:glibc.malloc.top_pad=16777216";
 
 TEST(Memory, HugePageTunablesOnlyInMadviseModeAndOnlyOnce) {
   EXPECT_EQ(huge_page_malloc_tunables(nullptr, kMadvise), kBoth);
@@ -44,8 +45,11 @@ TEST(Memory, HugePageTunablesOnlyInMadviseModeAndOnlyOnce) {
   // The user's other tunables are kept, and their own mmap threshold too.
   EXPECT_EQ(huge_page_malloc_tunables("glibc.malloc.arena_max=2", kMadvise),
             "glibc.malloc.arena_max=2:" + kBoth);
-  EXPECT_EQ(huge_page_malloc_tunables("glibc.malloc.mmap_threshold=65536", kMadvise),
-            "glibc.malloc.mmap_threshold=65536:glibc.malloc.hugetlb=1");
+  EXPECT_EQ(
+      huge_page_malloc_tunables("glibc.malloc.mmap_threshold=65536", kMadvise),
+      "glibc.malloc.mmap_threshold=65536:glibc.malloc.hugetlb=1:glibc.malloc.top_pad=16777216");
+  EXPECT_EQ(huge_page_malloc_tunables("glibc.malloc.top_pad=0", kMadvise),
+            "glibc.malloc.top_pad=0:glibc.malloc.hugetlb=1:glibc.malloc.mmap_threshold=33554432");
   // Already set (by the user, or by the exec before): no change, so no second exec.
   EXPECT_EQ(huge_page_malloc_tunables(kBoth.c_str(), kMadvise), std::nullopt);
   EXPECT_EQ(huge_page_malloc_tunables("glibc.malloc.hugetlb=0", kMadvise), std::nullopt);

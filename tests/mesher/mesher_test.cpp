@@ -9,6 +9,7 @@
 
 #include <cmath>
 #include <numbers>
+#include <thread>
 
 #include "mesher/simplify.h"
 #include "tests/mesher/mesh_check.h"
@@ -353,6 +354,31 @@ TEST(Mesher, SameMeshOnOneAndTwoThreads) {
     ASSERT_EQ(a.vertices[i].z, b.vertices[i].z);
   }
   EXPECT_TRUE(a.triangles == b.triangles);
+}
+
+// warm_up (app/mesh_job runs it on a thread of its own beside the compile) may run while a
+// mesh is made on other threads, and asks for a thread count of its own: the meshes stay the
+// same as without it, on one thread and on two.
+TEST(Mesher, WarmUpBesideAMeshChangesNothing) {
+  TorusField torus(1.0, 0.3);
+  const Box box({-1.5f, -0.5f, -1.5f}, {1.5f, 0.5f, 1.5f});
+  const TriMesh before = mesh_field(torus, options_for(box, 48, 2));
+  for (int threads : {1, 2}) {
+    std::thread warm([threads] { warm_up(3 - threads); });
+    const TriMesh during = mesh_field(torus, options_for(box, 48, threads));
+    warm.join();
+    warm_up(threads);
+    const TriMesh after = mesh_field(torus, options_for(box, 48, threads));
+    for (const TriMesh* m : {&during, &after}) {
+      ASSERT_EQ(m->vertices.size(), before.vertices.size());
+      for (size_t i = 0; i < m->vertices.size(); ++i) {
+        ASSERT_EQ(m->vertices[i].x, before.vertices[i].x);
+        ASSERT_EQ(m->vertices[i].y, before.vertices[i].y);
+        ASSERT_EQ(m->vertices[i].z, before.vertices[i].z);
+      }
+      EXPECT_TRUE(m->triangles == before.triangles);
+    }
+  }
 }
 
 TEST(Mesher, ColoursFromAttributes) {
