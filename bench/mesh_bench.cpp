@@ -15,6 +15,7 @@
 #include <tbb/parallel_for.h>
 #include <tbb/parallel_reduce.h>
 
+#include <algorithm>
 #include <bit>
 #include <chrono>
 #include <cstdio>
@@ -180,7 +181,7 @@ void fill_ray8(const Ray* rays, int n, RTCRay8* ray, int valid[8]) {
 }  // namespace
 
 int main(int argc, char** argv) {
-  int threads = static_cast<int>(std::thread::hardware_concurrency());
+  int threads = std::max(1, static_cast<int>(std::thread::hardware_concurrency()));
   int frames = 5, copies = 20;
   std::string out_dir;
   std::string corpus = HFRT_CORPUS_DIR;
@@ -202,6 +203,11 @@ int main(int argc, char** argv) {
                    argv[0]);
       return 2;
     }
+  }
+  if (copies < 1 || frames < 1 || threads < 1) {
+    // (--copies 0 used to abort in the BVH build of an empty replicated mesh.)
+    std::fprintf(stderr, "%s: --copies, --frames and --threads must be at least 1\n", argv[0]);
+    return 2;
   }
   tbb::global_control gc(tbb::global_control::max_allowed_parallelism, threads);
   std::printf("threads: %d\n", threads);
