@@ -90,7 +90,7 @@ MeshJobResult run_mesh_job(const MeshJob& job) {
   opt.colors = job.colors;
   opt.progress = job.progress;
   out.mesh = mesher::mesh_field(field, opt, &out.stats);
-  if (std::string w = background_compile_warning(model); !w.empty()) out.warnings.push_back(w);
+  for (std::string& w : background_compile_warnings(model)) out.warnings.push_back(std::move(w));
   if (out.stats.nan_samples > 0) {
     out.warnings.push_back("hfrt: warning: F has no value at " +
                            std::to_string(out.stats.nan_samples) +

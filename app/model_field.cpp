@@ -326,12 +326,12 @@ PreparedCode prepare_render_code(const Model& model, bool interval, bool gradien
   bool ok[3] = {true, true, true};
   {
     std::thread interval_worker, gradient_worker;
-    // A large object's interval code compiles in the background while the tape VM answers
-    // with the same bits (Model::start_interval_compile): the render starts once the point
-    // and gradient code are ready, and the interval JIT takes over when it is.
+    // A large object's interval and gradient code compile in the background while the tape VM
+    // answers with the same bits (Model::start_interval_compile, start_gradient_compile): the
+    // render starts once the point code is ready, and each JIT takes over when it is.
     if (interval && !model.start_interval_compile())
       interval_worker = std::thread([&] { ok[1] = model.prepare_interval(&errors[1]); });
-    if (gradient) {
+    if (gradient && !model.start_gradient_compile(Precision::kF32)) {
       gradient_worker =
           std::thread([&] { ok[2] = model.prepare_gradient(Precision::kF32, &errors[2]); });
     }
@@ -351,12 +351,17 @@ PreparedCode prepare_render_code(const Model& model, bool interval, bool gradien
   return out;
 }
 
-std::string background_compile_warning(const Model& model) {
-  if (!model.stats().interval.background || model.interval_engine() == DomainEngine::kJit) {
-    return "";
-  }
-  return "hfrt: warning: interval JIT failed (compiled in the background); the tape VM answered "
-         "instead";
+std::vector<std::string> background_compile_warnings(const Model& model) {
+  const ModelStats st = model.stats();
+  std::vector<std::string> out;
+  auto add = [&](const char* what, bool background, DomainEngine engine) {
+    if (!background || engine == DomainEngine::kJit) return;
+    out.push_back(std::string("hfrt: warning: ") + what +
+                  " JIT failed (compiled in the background); the tape VM answered instead");
+  };
+  add("interval", st.interval.background, model.interval_engine());
+  add("gradient", st.gradient_f32.background, model.gradient_engine(Precision::kF32));
+  return out;
 }
 
 std::string describe_domain_engines(const Model& model) {

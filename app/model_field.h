@@ -140,9 +140,10 @@ struct PreparedCode {
 /// `interval` and `gradient` choose those domains (`hfrt slice` needs no gradients).
 PreparedCode prepare_render_code(const Model& model, bool interval = true, bool gradient = true);
 
-/// The warning for an interval JIT that failed in the background (Model::start_interval_compile;
-/// the tape VM answered instead), or "" when it did not. Read after the work that used it.
-std::string background_compile_warning(const Model& model);
+/// The warnings for an interval or gradient JIT that failed in the background
+/// (Model::start_interval_compile, start_gradient_compile; the tape VM answered instead), one
+/// line each; empty when none did. Read after the work that used them.
+std::vector<std::string> background_compile_warnings(const Model& model);
 
 /// One line describing the engines of the interval and gradient domains with their compile
 /// times, e.g. "interval JIT (4 lanes, 85.2 ms), gradient f32 JIT (8 lanes, 40.1 ms)".

@@ -223,7 +223,7 @@ RenderJobResult run_render_job(const RenderJob& job, render::RenderResult* out) 
   r.render_ms = ms_since(t_render);
   if (out->stats.cancelled) r.status = RenderJobStatus::kCancelled;
   r.report.engines = describe_domain_engines(model);
-  if (std::string w = background_compile_warning(model); !w.empty()) r.warnings.push_back(w);
+  for (std::string& w : background_compile_warnings(model)) r.warnings.push_back(std::move(w));
   r.report.culled = opt.tile_culling && field.has_interval();
   r.report.stats = out->stats;
   r.options = opt;

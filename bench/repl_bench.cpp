@@ -3,7 +3,8 @@
 // source), (2) the same definition again (served by the compile cache), (3) `:eval` of a
 // point, (4) a `:render` at 128x128 with the remembered options; then (5) the latency the REPL
 // exists for: from a changed definition (10 edits of one constant: a blend radius, a box size,
-// a gear radius) of three corpus models to the finished 512x512 image on all cores, each edit
+// a gear radius) of three corpus models (and of a generated 993-instruction model, 72 spheres
+// joined by max) to the finished 512x512 image on all cores, each edit
 // a compile and a `:render` through the Session, with where the time went (parse and lowering,
 // the JIT of the point, interval and gradient code, framing, auto probe, ray tracing, image
 // writing). Edits that change only numbers reuse the compiled code (Session::share_code); each
@@ -38,7 +39,7 @@ bool check(const hfrt::tools::SessionResult& r) {
 /// searched with `first` in the file, replaced with the edited values.
 struct EditCase {
   const char* name;
-  const char* file;      // under HFRT_CORPUS_DIR/models
+  const char* file;      // under HFRT_CORPUS_DIR/models; null: spheres_source()
   const char* original;  // the exact text changed in the file
   const char* pattern;   // printf pattern of the replacement, one %g
   double lo, hi;         // the edited values, evenly spread
@@ -51,7 +52,43 @@ const EditCase kCases[] = {
      "box = %g - m;", 0.8, 0.98},
     {"c1_gear", "github/alexander-penev__FRep-Designer-Bench/c1_gear.hf", "t6 = 0.850000023842;",
      "t6 = %g;", 0.8, 0.9},
+    // Issue 25's "compile time of a 1000-op model": 72 spheres joined by max (993 IR
+    // instructions of plain arithmetic), its first radius edited.
+    {"spheres72", nullptr, "r0 = 0.4;", "r0 = %g;", 0.35, 0.45},
 };
+
+/// 72 spheres of radius 0.2-0.6 (the first r0) at centres in [-1.5, 1.5]^3 joined by max: a
+/// fixed pseudo-random model (the same text on every machine).
+std::string spheres_source() {
+  uint32_t state = 12345;
+  auto next = [&] {
+    state = state * 1664525u + 1013904223u;
+    return double(state >> 8) / double(1u << 24);
+  };
+  std::string src = "my_model(x[3], a[1]) {\n  r0 = 0.4;\n";
+  char line[256];
+  for (int i = 0; i < 72; ++i) {
+    const double cx = -1.5 + 3 * next(), cy = -1.5 + 3 * next(), cz = -1.5 + 3 * next();
+    const double r = 0.2 + 0.4 * next();
+    std::snprintf(line, sizeof line,
+                  "  dx%d = x[1] - (%.3f); dy%d = x[2] - (%.3f); dz%d = x[3] - (%.3f);\n", i, cx, i,
+                  cy, i, cz);
+    src += line;
+    if (i == 0) {
+      std::snprintf(line, sizeof line, "  s0 = r0 * r0 - dx0*dx0 - dy0*dy0 - dz0*dz0;\n");
+    } else {
+      std::snprintf(line, sizeof line, "  s%d = %.4f - dx%d*dx%d - dy%d*dy%d - dz%d*dz%d;\n", i,
+                    r * r, i, i, i, i, i, i);
+    }
+    src += line;
+    if (i > 0) {
+      std::snprintf(line, sizeof line, "  u%d = max(%s%d, s%d);\n", i, i == 1 ? "s" : "u", i - 1,
+                    i);
+      src += line;
+    }
+  }
+  return src + "  my_model = u71;\n}\n";
+}
 
 std::string slurp(const std::string& path) {
   std::ifstream in(path, std::ios::binary);
@@ -79,10 +116,12 @@ struct Stat {
 /// Edits of one model: each a new definition (compile) then `:render` to 512x512. False on error.
 bool bench_edits(const EditCase& c, int edits, int size, const std::string& extra,
                  const std::string& out, bool share) {
-  const std::string text = slurp(std::string(HFRT_CORPUS_DIR) + "/models/" + c.file);
+  const std::string text =
+      c.file ? slurp(std::string(HFRT_CORPUS_DIR) + "/models/" + c.file) : spheres_source();
   const size_t at = text.find(c.original);
   if (text.empty() || at == std::string::npos) {
-    std::fprintf(stderr, "%s: cannot find '%s' in %s\n", c.name, c.original, c.file);
+    std::fprintf(stderr, "%s: cannot find '%s' in %s\n", c.name, c.original,
+                 c.file ? c.file : "the generated model");
     return false;
   }
   hfrt::tools::Session s;

@@ -95,15 +95,50 @@ void ScalarEngine::eval_batch_sign(int64_t n, const float* xs, const std::vector
   jit->f32()(n, xs, a32.data(), out_f, nullptr);
 }
 
+// --- Tapes and background compiles -------------------------------------------------------------
+
+std::shared_ptr<const TapeCache::Entry> TapeCache::entry(const std::vector<double>& a) const {
+  std::shared_ptr<const Entry> e = entry_.load(std::memory_order_acquire);
+  if (e && e->params == a) return e;
+  std::lock_guard<std::mutex> lock(mutex_);
+  e = entry_.load(std::memory_order_acquire);
+  if (!e || e->params != a) {
+    std::shared_ptr<const Tape> tape = Tape::build(fn_, a);
+    const bool gradient = tape && TapeVm::has_gradient(*tape);
+    e = std::make_shared<const Entry>(Entry{a, std::move(tape), gradient});
+    entry_.store(e, std::memory_order_release);
+  }
+  return e;
+}
+
+std::shared_ptr<const Tape> TapeCache::get(const std::vector<double>& a) const {
+  return entry(a)->tape;
+}
+
+bool TapeCache::has_gradient(const std::vector<double>& a) const {
+  return entry(a)->gradient;
+}
+
+BackgroundCompile::~BackgroundCompile() {
+  std::lock_guard<std::mutex> lock(mutex_);
+  if (thread_.joinable()) thread_.join();
+}
+
+bool BackgroundCompile::start(const std::function<bool()>& eligible,
+                              std::function<void()> compile) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  if (started_.load(std::memory_order_relaxed)) return true;
+  if (!eligible()) return false;
+  thread_ = std::thread(std::move(compile));
+  started_.store(true, std::memory_order_release);
+  return true;
+}
+
 // --- Interval domain --------------------------------------------------------------------------
 
-IntervalEngine::IntervalEngine(const Function& fn, const EngineOptions& options)
-    : fn_(fn), options_(options), pool_(fn) {}
-
-IntervalEngine::~IntervalEngine() {
-  std::lock_guard<std::mutex> lock(background_mutex_);
-  if (background_.joinable()) background_.join();
-}
+IntervalEngine::IntervalEngine(const Function& fn, const EngineOptions& options,
+                               const TapeCache* tapes)
+    : fn_(fn), options_(options), tapes_(tapes), pool_(fn) {}
 
 const IntervalJit* IntervalEngine::code() const {
   if (!options_.interval_jit) return nullptr;
@@ -119,22 +154,19 @@ const IntervalJit* IntervalEngine::code() const {
 }
 
 const IntervalJit* IntervalEngine::ready_code() const {
-  if (background_started_.load(std::memory_order_acquire)) return jit_.peek();
+  if (background_.started()) return jit_.peek();
   return code();
 }
 
 bool IntervalEngine::compile_in_background(const std::vector<double>& a) const {
   if (!options_.interval_jit || options_.background_interval_min_insts < 0) return false;
-  std::lock_guard<std::mutex> lock(background_mutex_);
-  if (background_started_.load(std::memory_order_relaxed)) return true;
-  if (jit_.state.load(std::memory_order_acquire) != 0) return false;  // compiled or failed
-  if (static_cast<int64_t>(fn_.insts.size()) < options_.background_interval_min_insts) {
-    return false;
-  }
-  if (!tape_form(a)) return false;  // the interpreter would answer: ~15x slower than the VM
-  background_ = std::thread([this] { code(); });
-  background_started_.store(true, std::memory_order_release);
-  return true;
+  return background_.start(
+      [&] {
+        return jit_.state.load(std::memory_order_acquire) == 0 &&  // not compiled nor failed
+               static_cast<int64_t>(fn_.insts.size()) >= options_.background_interval_min_insts &&
+               tapes_->get(a) != nullptr;  // else the interpreter answers: ~15x slower than the VM
+      },
+      [this] { code(); });
 }
 
 Interval IntervalEngine::eval(std::span<const double> lo, std::span<const double> hi,
@@ -169,21 +201,8 @@ std::shared_ptr<const Tape> IntervalEngine::tape(const std::vector<double>& a) c
   if (!options_.use_jit) return nullptr;
   // The JIT answers once it is compiled, or (without a background compile) from the first
   // call on, when code() compiles it.
-  if (background_started_.load(std::memory_order_acquire) ? jit_.peek() != nullptr : uses_jit())
-    return nullptr;
-  return tape_form(a);
-}
-
-std::shared_ptr<const Tape> IntervalEngine::tape_form(const std::vector<double>& a) const {
-  std::shared_ptr<const TapeEntry> e = tape_entry_.load(std::memory_order_acquire);
-  if (e && e->params == a) return e->tape;
-  std::lock_guard<std::mutex> lock(tape_mutex_);
-  e = tape_entry_.load(std::memory_order_acquire);
-  if (!e || e->params != a) {
-    e = std::make_shared<const TapeEntry>(TapeEntry{a, Tape::build(fn_, a)});
-    tape_entry_.store(e, std::memory_order_release);
-  }
-  return e->tape;
+  if (background_.started() ? jit_.peek() != nullptr : uses_jit()) return nullptr;
+  return tapes_->get(a);
 }
 
 void IntervalEngine::eval_batch(int64_t n, const double* lo, const double* hi,
@@ -228,8 +247,9 @@ void IntervalEngine::eval_batch(int64_t n, const double* lo, const double* hi,
 
 // --- Gradient domain --------------------------------------------------------------------------
 
-GradientEngine::GradientEngine(const Function& fn, const EngineOptions& options)
-    : fn_(fn), options_(options), pool_(fn) {}
+GradientEngine::GradientEngine(const Function& fn, const EngineOptions& options,
+                               const TapeCache* tapes)
+    : fn_(fn), options_(options), tapes_(tapes), pool_(fn) {}
 
 const GradientJit* GradientEngine::code(Precision p) const {
   if (!options_.gradient_jit) return nullptr;
@@ -241,8 +261,37 @@ const GradientJit* GradientEngine::code(Precision p) const {
   });
 }
 
+const GradientJit* GradientEngine::ready_code(Precision p) const {
+  if (background_[index(p)].started()) return jit_[index(p)].peek();
+  return code(p);
+}
+
+bool GradientEngine::compile_in_background(Precision p, const std::vector<double>& a) const {
+  if (!options_.gradient_jit || options_.background_gradient_min_insts < 0) return false;
+  return background_[index(p)].start(
+      [&] {
+        return jit_[index(p)].state.load(std::memory_order_acquire) == 0 &&
+               static_cast<int64_t>(fn_.insts.size()) >= options_.background_gradient_min_insts &&
+               tapes_->has_gradient(a);  // else the interpreter would answer: far slower
+      },
+      [this, p] { code(p); });
+}
+
+std::shared_ptr<const Tape> GradientEngine::tape(Precision p, const std::vector<double>& a) const {
+  if (!options_.use_jit) return nullptr;
+  if (background_[index(p)].started() ? jit_[index(p)].peek() != nullptr : uses_jit(p)) {
+    return nullptr;
+  }
+  return tapes_->has_gradient(a) ? tapes_->get(a) : nullptr;
+}
+
 Dual GradientEngine::eval(std::span<const double> x, const std::vector<double>& a) const {
-  if (const GradientJit* jit = code(Precision::kF64)) return jit->eval_one(x, a);
+  if (const GradientJit* jit = ready_code(Precision::kF64)) return jit->eval_one(x, a);
+  if (tape(Precision::kF64, a)) {
+    double out[4];
+    eval_batch_t<double>(Precision::kF64, 1, x.data(), a, out);
+    return {out[0], {out[1], out[2], out[3]}};
+  }
   return pool_.take()->eval(x, a);
 }
 
@@ -260,24 +309,31 @@ void GradientEngine::interpret_batch(int64_t n, const T* xs, const std::vector<d
   }
 }
 
-void GradientEngine::eval_batch(int64_t n, const double* xs, const std::vector<double>& a,
-                                double* out) const {
+template <typename T>
+void GradientEngine::eval_batch_t(Precision p, int64_t n, const T* xs, const std::vector<double>& a,
+                                  T* out) const {
   if (n <= 0) return;
-  if (const GradientJit* jit = code(Precision::kF64)) {
+  if (const GradientJit* jit = ready_code(p)) {
     jit->eval(n, xs, a, out);
+  } else if (std::shared_ptr<const Tape> t = tape(p, a)) {
+    thread_local TapeVm vm;
+    thread_local std::vector<const T*> in;
+    in.clear();
+    for (int k = 0; k < fn_.num_inputs; ++k) in.push_back(xs + size_t(k) * size_t(n));
+    vm.eval_gradient<T>(*t, size_t(n), in, out);
   } else {
     interpret_batch(n, xs, a, out);
   }
 }
 
+void GradientEngine::eval_batch(int64_t n, const double* xs, const std::vector<double>& a,
+                                double* out) const {
+  eval_batch_t<double>(Precision::kF64, n, xs, a, out);
+}
+
 void GradientEngine::eval_batch(int64_t n, const float* xs, const std::vector<double>& a,
                                 float* out) const {
-  if (n <= 0) return;
-  if (const GradientJit* jit = code(Precision::kF32)) {
-    jit->eval(n, xs, a, out);
-  } else {
-    interpret_batch(n, xs, a, out);
-  }
+  eval_batch_t<float>(Precision::kF32, n, xs, a, out);
 }
 
 // --- Polynomial domain ------------------------------------------------------------------------

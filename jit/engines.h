@@ -7,6 +7,7 @@
 
 #include <atomic>
 #include <cstdint>
+#include <functional>
 #include <memory>
 #include <mutex>
 #include <span>
@@ -108,6 +109,51 @@ struct LazySlot {
   }
 };
 
+/// The object's tape (jit/tape.h) for a parameter vector, built on first use and again when
+/// the parameters change, shared by the interval and gradient engines (the tape VM answers for
+/// them). Render threads read it on every call without a lock: the entry is swapped whole; a
+/// build takes the mutex.
+class TapeCache {
+ public:
+  explicit TapeCache(const Function& fn) : fn_(fn) {}
+  /// The tape for `a`, or null when the object has no tape form.
+  std::shared_ptr<const Tape> get(const std::vector<double>& a) const;
+  /// Whether the object's tape runs in the tape VM's gradient pass (TapeVm::has_gradient);
+  /// false without a tape form. Decided once (the parameters do not change the ops).
+  bool has_gradient(const std::vector<double>& a) const;
+
+ private:
+  struct Entry {
+    std::vector<double> params;
+    std::shared_ptr<const Tape> tape;  ///< null: no tape form
+    bool gradient = false;             ///< TapeVm::has_gradient(*tape)
+  };
+  std::shared_ptr<const Entry> entry(const std::vector<double>& a) const;
+  const Function& fn_;
+  mutable std::mutex mutex_;
+  mutable std::atomic<std::shared_ptr<const Entry>> entry_;
+};
+
+/// A JIT compile on a thread of its own (the engines' compile_in_background): started at
+/// most once; the destructor waits for it (the code it compiles refers to the engine).
+class BackgroundCompile {
+ public:
+  BackgroundCompile() = default;
+  BackgroundCompile(const BackgroundCompile&) = delete;
+  BackgroundCompile& operator=(const BackgroundCompile&) = delete;
+  ~BackgroundCompile();
+  /// Starts `compile` on a new thread if nothing was started yet and `eligible()` (asked
+  /// under the lock, so two callers cannot both start one) says so. True when a compile was
+  /// started, now or before.
+  bool start(const std::function<bool()>& eligible, std::function<void()> compile);
+  bool started() const { return started_.load(std::memory_order_acquire); }
+
+ private:
+  std::mutex mutex_;
+  std::thread thread_;
+  std::atomic<bool> started_{false};
+};
+
 /// How an object's engines are built (from ModelOptions and the object's size).
 struct EngineOptions {
   bool use_jit = true;  ///< false: the interpreter backend, every domain interpreted
@@ -119,6 +165,9 @@ struct EngineOptions {
   /// IntervalEngine::compile_in_background starts nothing below this many IR instructions
   /// (-1: never): ModelOptions::background_interval_min_insts.
   int background_interval_min_insts = -1;
+  /// The same for GradientEngine::compile_in_background:
+  /// ModelOptions::background_gradient_min_insts.
+  int background_gradient_min_insts = -1;
 };
 
 /// The scalar domain: F and s[] at points, f64 and f32.
@@ -158,9 +207,8 @@ class ScalarEngine {
 /// The interval domain: sound enclosures over boxes (jit/interval.h).
 class IntervalEngine {
  public:
-  IntervalEngine(const Function& fn, const EngineOptions& options);
-  /// Waits for a compile started by compile_in_background().
-  ~IntervalEngine();
+  /// `tapes`: the object's tapes (outlives the engine).
+  IntervalEngine(const Function& fn, const EngineOptions& options, const TapeCache* tapes);
   /// The JIT, or null when the interpreter must be used (compiles on first call, or waits
   /// for the compile that compile_in_background() started).
   const IntervalJit* code() const;
@@ -178,7 +226,7 @@ class IntervalEngine {
   /// started (now or before).
   bool compile_in_background(const std::vector<double>& a) const;
   /// A compile was started by compile_in_background().
-  bool background() const { return background_started_.load(std::memory_order_acquire); }
+  bool background() const { return background_.started(); }
   /// The tape (jit/tape.h) that evaluates boxes in place of the interpreter when the JIT is
   /// wanted but not used (an object above ModelOptions::interval_jit_max_insts, or a failed
   /// compile): the tape VM's batched pass is ~15x the interpreter's boxes per second on
@@ -201,36 +249,39 @@ class IntervalEngine {
   /// The code the evaluations take now: code(), except while a background compile runs
   /// (then null: the tape VM or the interpreter answers).
   const IntervalJit* ready_code() const;
-  /// The object's tape for `a` (cached), whatever the engine; null without a tape form.
-  std::shared_ptr<const Tape> tape_form(const std::vector<double>& a) const;
   const Function& fn_;
   EngineOptions options_;
+  const TapeCache* tapes_;
   mutable LazySlot<IntervalJit> jit_;
   mutable Pool<IntervalInterpreter> pool_;
-  /// The tape and the parameters it was built for, swapped whole: render threads read it on
-  /// every call without a lock; a build (first use, new parameters) takes tape_mutex_.
-  struct TapeEntry {
-    std::vector<double> params;
-    std::shared_ptr<const Tape> tape;  ///< null: no tape form
-  };
-  mutable std::mutex tape_mutex_;
-  mutable std::atomic<std::shared_ptr<const TapeEntry>> tape_entry_;
-  /// compile_in_background(): the compile's thread (joined by the destructor), started once.
-  mutable std::mutex background_mutex_;
-  mutable std::thread background_;
-  mutable std::atomic<bool> background_started_{false};
+  /// Declared last: destroyed (joined) first, while the slot it compiles into still lives.
+  mutable BackgroundCompile background_;
 };
 
 /// The gradient domain: F and dF/dx[1..3] by forward-mode AD (jit/gradient.h).
 class GradientEngine {
  public:
-  GradientEngine(const Function& fn, const EngineOptions& options);
+  /// `tapes`: the object's tapes (outlives the engine).
+  GradientEngine(const Function& fn, const EngineOptions& options, const TapeCache* tapes);
   const GradientJit* code(Precision p) const;
   const GradientJit* peek(Precision p) const { return jit_[index(p)].peek(); }
   bool uses_jit(Precision p) const {
     return options_.gradient_jit && jit_[index(p)].state.load() != 2;
   }
   bool wants_jit() const { return options_.gradient_jit; }
+  /// As IntervalEngine::compile_in_background, for the JIT of precision `p`: starts its
+  /// compile on a thread of its own when it is wanted and not compiled yet, the object has at
+  /// least EngineOptions::background_gradient_min_insts instructions and a tape that the tape
+  /// VM's gradient pass runs (TapeVm::has_gradient). Until the code is ready the tape VM
+  /// answers with the JIT's bits (TapeVm::eval_gradient), so a render or a mesh does not
+  /// depend on which one did. True when a compile was started (now or before).
+  bool compile_in_background(Precision p, const std::vector<double>& a) const;
+  bool background(Precision p) const { return background_[index(p)].started(); }
+  /// The tape that the tape VM evaluates in place of the JIT (while a background compile runs,
+  /// or when the JIT is wanted but not used: an object above
+  /// ModelOptions::gradient_jit_max_insts, a failed compile), or null: the JIT answers, the
+  /// interpreter backend, or no tape with a gradient form (then the interpreter answers).
+  std::shared_ptr<const Tape> tape(Precision p, const std::vector<double>& a) const;
   const std::string& error(Precision p) const { return jit_[index(p)].error; }
   double compile_ms(Precision p) const { return jit_[index(p)].compile_ms; }
   /// One point (padded to the object's inputs by the caller).
@@ -242,10 +293,18 @@ class GradientEngine {
   static int index(Precision p) { return p == Precision::kF64 ? 0 : 1; }
   template <typename T>
   void interpret_batch(int64_t n, const T* xs, const std::vector<double>& a, T* out) const;
+  template <typename T>
+  void eval_batch_t(Precision p, int64_t n, const T* xs, const std::vector<double>& a,
+                    T* out) const;
+  /// code(p), except while a background compile runs (then null until it is ready).
+  const GradientJit* ready_code(Precision p) const;
   const Function& fn_;
   EngineOptions options_;
+  const TapeCache* tapes_;
   mutable LazySlot<GradientJit> jit_[2];
   mutable Pool<GradientInterpreter> pool_;
+  /// Declared last: destroyed (joined) first, while the slots they compile into still live.
+  mutable BackgroundCompile background_[2];
 };
 
 /// The polynomial domain (analytic ray tracing): the analysis, computed on first use, and the

@@ -85,6 +85,8 @@ struct Compiled {
   int user_params = 0;
   /// The options that shape the code and fn's structure_key (Model::code_key).
   std::string key;
+  /// The tapes of the interval and gradient engines (declared before them: it outlives them).
+  std::optional<jit::TapeCache> tapes;
   std::optional<jit::ScalarEngine> scalar;
   std::optional<jit::IntervalEngine> interval;
   std::optional<jit::GradientEngine> gradient;
@@ -168,9 +170,11 @@ struct Model::Impl {
     eo.interval_jit = eo.use_jit && within(options.interval_jit_max_insts);
     eo.gradient_jit = eo.use_jit && within(options.gradient_jit_max_insts);
     eo.background_interval_min_insts = options.background_interval_min_insts;
+    eo.background_gradient_min_insts = options.background_gradient_min_insts;
+    c->tapes.emplace(c->fn);
     c->scalar.emplace(c->fn, eo);
-    c->interval.emplace(c->fn, eo);
-    c->gradient.emplace(c->fn, eo);
+    c->interval.emplace(c->fn, eo, &*c->tapes);
+    c->gradient.emplace(c->fn, eo, &*c->tapes);
     c->poly.emplace(c->fn, eo);
     c->key = std::to_string(static_cast<int>(options.backend)) + ' ' +
              std::to_string(options.opt_level) + ' ' + std::to_string(options.lanes) + ' ' +
@@ -467,8 +471,14 @@ void Model::eval_gradient_batch(int64_t n, const float* xs, float* out) const {
 }
 
 DomainEngine Model::gradient_engine(Precision precision) const {
-  return impl_->compiled->gradient->uses_jit(to_jit(precision)) ? DomainEngine::kJit
-                                                                : DomainEngine::kInterp;
+  const jit::GradientEngine& e = *impl_->compiled->gradient;
+  if (e.uses_jit(to_jit(precision))) return DomainEngine::kJit;
+  return e.tape(to_jit(precision), impl_->params_f64) ? DomainEngine::kTapeVm
+                                                      : DomainEngine::kInterp;
+}
+
+bool Model::start_gradient_compile(Precision precision) const {
+  return impl_->compiled->gradient->compile_in_background(to_jit(precision), impl_->params_f64);
 }
 
 bool Model::prepare_gradient(Precision precision, std::string* error) const {
@@ -716,6 +726,8 @@ ModelStats Model::stats() const {
   if (const jit::GradientJit* code = c.gradient->peek(jit::Precision::kF32)) {
     domain(c.gradient->compile_ms(jit::Precision::kF32), code->lanes(), &s.gradient_f32);
   }
+  s.gradient_f64.background = c.gradient->background(jit::Precision::kF64);
+  s.gradient_f32.background = c.gradient->background(jit::Precision::kF32);
   return s;
 }
 

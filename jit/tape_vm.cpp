@@ -633,4 +633,290 @@ void TapeVm::eval_intervals(const Tape& tape, size_t n, std::span<const double* 
   }
 }
 
+// --- The gradient pass --------------------------------------------------------------------------
+
+namespace {
+
+/// The ops the gradient pass runs: those whose value and derivatives are exact IEEE arithmetic
+/// (or piecewise constant), so that it gives the gradient JIT's and the gradient interpreter's
+/// bits in the same precision. The others (libm calls, powers) are left to those engines:
+/// a libm call lane by lane need not round as the JIT's code does.
+constexpr bool gradient_op(Op op) {
+  switch (op) {
+    case Op::kConst:
+    case Op::kInput:
+    case Op::kCheck:
+    case Op::kAdd:
+    case Op::kSub:
+    case Op::kMul:
+    case Op::kDiv:
+    case Op::kNeg:
+    case Op::kAbs:
+    case Op::kMin:
+    case Op::kMax:
+    case Op::kSqrt:
+    case Op::kSelect:
+      HFRT_OP_CASES_PIECEWISE_CONSTANT
+      return true;
+    case Op::kExp:
+    case Op::kLog:
+    case Op::kLog10:
+    case Op::kSin:
+    case Op::kCos:
+    case Op::kTan:
+    case Op::kAsin:
+    case Op::kAcos:
+    case Op::kAtan:
+    case Op::kAtan2:
+    case Op::kSinh:
+    case Op::kCosh:
+    case Op::kTanh:
+    case Op::kFmod:
+    case Op::kPow:
+    case Op::kPowHF:
+    case Op::kCbrt:
+      HFRT_TAPE_NO_FORM_CASES
+      return false;
+  }
+  return false;
+}
+
+/// The gradient registers of one pass: per register kLanes values, then kLanes of each of the
+/// three partial derivatives.
+template <typename T>
+struct DualLanes {
+  T* v;
+  T* d[3];
+};
+
+template <typename T>
+HFRT_TAPE_INLINE DualLanes<T> dual_reg(T* regs, uint32_t r) {
+  T* base = regs + size_t(r) * 4 * kLanes;
+  return {base, {base + kLanes, base + 2 * kLanes, base + 3 * kLanes}};
+}
+
+/// The chain rule's term k * a' with the gradient JIT's and apply_dual's convention: a
+/// component that is exactly 0 stays 0 (no 0 * inf NaN from a constant sub-expression).
+template <typename T>
+HFRT_TAPE_INLINE T chain_term(T ad, T k) {
+  return ad == T(0) ? T(0) : k * ad;
+}
+
+// The lane loops of the dual ops, the formulas of ir/dual_ops.cpp (and of the gradient JIT,
+// llvm_gradient.cpp) operation for operation. The result may be one of the operands'
+// registers (freed at its last use): every lane reads all it needs before it writes, and no
+// lane reads another, which is what `ivdep` promises.
+
+/// v = op(a, b) with derivative ka a' + kb b' (the unary ops pass kb = 0 over b = a).
+template <Op kOp, typename T>
+HFRT_TAPE_INLINE void dual_lanes(DualLanes<T> o, DualLanes<T> a, DualLanes<T> b) {
+#pragma GCC ivdep
+  for (size_t i = 0; i < kLanes; ++i) {
+    const T av = a.v[i], bv = b.v[i];
+    const T v = apply_op_t<T>(kOp, av, bv, T(0));
+    T ka, kb;
+    if constexpr (kOp == Op::kAdd) {
+      ka = T(1), kb = T(1);
+    } else if constexpr (kOp == Op::kSub) {
+      ka = T(1), kb = T(-1);
+    } else if constexpr (kOp == Op::kMul) {
+      ka = bv, kb = av;
+    } else if constexpr (kOp == Op::kDiv) {
+      ka = T(1) / bv, kb = -(v / bv);
+    } else if constexpr (kOp == Op::kNeg) {
+      ka = T(-1), kb = T(0);
+    } else if constexpr (kOp == Op::kAbs) {
+      ka = av < T(0) ? T(-1) : T(1), kb = T(0);
+    } else {
+      static_assert(kOp == Op::kSqrt);
+      ka = T(0.5) / v, kb = T(0);
+    }
+    T d[3];
+    for (int c = 0; c < 3; ++c) {
+      d[c] = chain_term(a.d[c][i], ka);
+      if constexpr (op_num_args(kOp) == 2) d[c] = d[c] + chain_term(b.d[c][i], kb);
+    }
+    o.v[i] = v;
+    for (int c = 0; c < 3; ++c) o.d[c][i] = d[c];
+  }
+}
+
+/// min / max / select: the chosen operand's dual (the value as apply_op_t computes it).
+template <Op kOp, typename T>
+HFRT_TAPE_INLINE void pick_lanes(DualLanes<T> o, DualLanes<T> a, DualLanes<T> b, DualLanes<T> c) {
+#pragma GCC ivdep
+  for (size_t i = 0; i < kLanes; ++i) {
+    bool first;
+    DualLanes<T> x = a, y = b;
+    if constexpr (kOp == Op::kMin) {
+      first = a.v[i] < b.v[i];
+    } else if constexpr (kOp == Op::kMax) {
+      first = a.v[i] > b.v[i];
+    } else {
+      static_assert(kOp == Op::kSelect);
+      first = a.v[i] != T(0);  // NaN counts as nonzero, as the JIT's `nonzero`
+      x = b, y = c;
+    }
+    const T v = first ? x.v[i] : y.v[i];
+    T d[3];
+    for (int k = 0; k < 3; ++k) d[k] = first ? x.d[k][i] : y.d[k][i];
+    o.v[i] = v;
+    for (int k = 0; k < 3; ++k) o.d[k][i] = d[k];
+  }
+}
+
+/// The piecewise-constant ops: the value, derivative 0.
+template <Op kOp, typename T>
+HFRT_TAPE_INLINE void step_lanes(DualLanes<T> o, DualLanes<T> a, DualLanes<T> b) {
+#pragma GCC ivdep
+  for (size_t i = 0; i < kLanes; ++i) o.v[i] = apply_op_t<T>(kOp, a.v[i], b.v[i], T(0));
+  for (int k = 0; k < 3; ++k) std::fill_n(o.d[k], kLanes, T(0));
+}
+
+/// One pass of the register code over kLanes points, in dual numbers. Register num_regs() is
+/// the constant operand's: its derivatives stay 0, its value is spread per instruction.
+template <typename T>
+HFRT_TAPE_INLINE void run_gradient(std::span<const TapeInst> code, T* regs, uint32_t imm_reg,
+                                   uint8_t* err, std::span<const T* const> inputs, size_t begin,
+                                   size_t m) {
+  const DualLanes<T> imm = dual_reg(regs, imm_reg);
+  for (const TapeInst& t : code) {
+    const DualLanes<T> o = dual_reg(regs, t.out);
+    if (t.flags & (TapeInst::kImmA | TapeInst::kImmB)) std::fill_n(imm.v, kLanes, T(t.imm));
+    const DualLanes<T> a = (t.flags & TapeInst::kImmA) ? imm : dual_reg(regs, t.a);
+    const DualLanes<T> b = (t.flags & TapeInst::kImmB) ? imm : dual_reg(regs, t.b);
+    switch (t.op) {
+      case Op::kConst:
+        std::fill_n(o.v, kLanes, static_cast<T>(t.imm));
+        for (int k = 0; k < 3; ++k) std::fill_n(o.d[k], kLanes, T(0));
+        break;
+      case Op::kInput:
+        if (t.a < inputs.size()) {
+          std::copy_n(inputs[t.a] + begin, m, o.v);
+          std::fill(o.v + m, o.v + kLanes, T(0));
+        } else {
+          std::fill_n(o.v, kLanes, T(0));
+        }
+        for (uint32_t k = 0; k < 3; ++k) {
+          std::fill_n(o.d[k], kLanes, T(k == t.a && t.a < inputs.size() ? 1 : 0));
+        }
+        break;
+      case Op::kCheck:
+        for (size_t i = 0; i < kLanes; ++i) err[i] |= a.v[i] != T(0);  // NaN fires too
+        break;
+#define HFRT_GRADIENT_CASE(name)         \
+  case Op::k##name:                      \
+    dual_lanes<Op::k##name, T>(o, a, b); \
+    break;
+        HFRT_GRADIENT_CASE(Add)
+        HFRT_GRADIENT_CASE(Sub)
+        HFRT_GRADIENT_CASE(Mul)
+        HFRT_GRADIENT_CASE(Div)
+        HFRT_GRADIENT_CASE(Neg)
+        HFRT_GRADIENT_CASE(Abs)
+        HFRT_GRADIENT_CASE(Sqrt)
+#undef HFRT_GRADIENT_CASE
+      case Op::kMin:
+        pick_lanes<Op::kMin, T>(o, a, b, b);
+        break;
+      case Op::kMax:
+        pick_lanes<Op::kMax, T>(o, a, b, b);
+        break;
+      case Op::kSelect:
+        pick_lanes<Op::kSelect, T>(o, a, b, dual_reg(regs, t.c));
+        break;
+#define HFRT_STEP_CASE(name, n, f, kind, ...)                                 \
+  HFRT_OP_IF_PIECEWISE_CONSTANT_##kind(case Op::k##name                       \
+                                       : step_lanes<Op::k##name, T>(o, a, b); \
+                                       break;)
+        HFRT_IR_OPS(HFRT_STEP_CASE)
+#undef HFRT_STEP_CASE
+      case Op::kExp:
+      case Op::kLog:
+      case Op::kLog10:
+      case Op::kSin:
+      case Op::kCos:
+      case Op::kTan:
+      case Op::kAsin:
+      case Op::kAcos:
+      case Op::kAtan:
+      case Op::kAtan2:
+      case Op::kSinh:
+      case Op::kCosh:
+      case Op::kTanh:
+      case Op::kFmod:
+      case Op::kPow:
+      case Op::kPowHF:
+      case Op::kCbrt:
+        HFRT_TAPE_NO_FORM_CASES
+        HFRT_CHECK_MSG(false, "tape VM: no gradient form for " << op_name(t.op));
+        break;
+    }
+  }
+}
+
+HFRT_AVX2_CLONES
+void run_gradient_f32(std::span<const TapeInst> code, float* regs, uint32_t imm_reg, uint8_t* err,
+                      std::span<const float* const> inputs, size_t begin, size_t m) {
+  run_gradient<float>(code, regs, imm_reg, err, inputs, begin, m);
+}
+
+HFRT_AVX2_CLONES
+void run_gradient_f64(std::span<const TapeInst> code, double* regs, uint32_t imm_reg, uint8_t* err,
+                      std::span<const double* const> inputs, size_t begin, size_t m) {
+  run_gradient<double>(code, regs, imm_reg, err, inputs, begin, m);
+}
+
+void run_gradient_pass(std::span<const TapeInst> code, float* regs, uint32_t imm_reg, uint8_t* err,
+                       std::span<const float* const> inputs, size_t begin, size_t m) {
+  run_gradient_f32(code, regs, imm_reg, err, inputs, begin, m);
+}
+void run_gradient_pass(std::span<const TapeInst> code, double* regs, uint32_t imm_reg, uint8_t* err,
+                       std::span<const double* const> inputs, size_t begin, size_t m) {
+  run_gradient_f64(code, regs, imm_reg, err, inputs, begin, m);
+}
+
+}  // namespace
+
+bool TapeVm::has_gradient(const Tape& tape) {
+  for (const TapeInst& t : tape.code()) {
+    if (!gradient_op(t.op)) return false;
+  }
+  return true;
+}
+
+template <typename T>
+void TapeVm::eval_gradient(const Tape& tape, size_t n, std::span<const T* const> inputs, T* out) {
+  HFRT_CHECK_MSG(has_gradient(tape), "tape VM: eval_gradient on a tape without a gradient form");
+  // (The JIT reads an input's value and gives it its unit derivative by the function's
+  // inputs: the same only when the caller passes them all.)
+  HFRT_CHECK(inputs.size() == size_t(std::max(tape.num_inputs(), 0)));
+  std::vector<T>& regs = regs_of<T>(grad_f32_, grad_f64_);
+  const uint32_t imm_reg = tape.num_regs();
+  const size_t need = (size_t(imm_reg) + 1) * 4 * kLanes;
+  if (regs.size() < need) regs.resize(need);
+  // The constant operand's derivatives: 0, never written.
+  std::fill(regs.begin() + ptrdiff_t(imm_reg) * 4 * kLanes + kLanes, regs.begin() + ptrdiff_t(need),
+            T(0));
+  err_.resize(kLanes);
+  const DualLanes<T> r = dual_reg(regs.data(), tape.result_reg());
+  for (size_t begin = 0; begin < n; begin += kLanes) {
+    const size_t m = std::min(kLanes, n - begin);
+    std::fill(err_.begin(), err_.end(), 0);
+    run_gradient_pass(tape.code(), regs.data(), imm_reg, err_.data(), inputs, begin, m);
+    for (size_t i = 0; i < m; ++i) {
+      const bool nan = err_[i] != 0;
+      out[begin + i] = nan ? std::numeric_limits<T>::quiet_NaN() : r.v[i];
+      for (int k = 0; k < 3; ++k) {
+        out[(k + 1) * n + begin + i] = nan ? std::numeric_limits<T>::quiet_NaN() : r.d[k][i];
+      }
+    }
+  }
+}
+
+template void TapeVm::eval_gradient<float>(const Tape&, size_t, std::span<const float* const>,
+                                           float*);
+template void TapeVm::eval_gradient<double>(const Tape&, size_t, std::span<const double* const>,
+                                            double*);
+
 }  // namespace hfrt::jit

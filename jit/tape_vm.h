@@ -31,6 +31,21 @@ class TapeVm {
   template <typename T>
   void eval(const Tape& tape, size_t n, std::span<const T* const> inputs, T* out);
 
+  /// F and dF/dx[1..3] at n points in precision T (float or double) by forward-mode dual numbers,
+  /// kLanes points per pass. Coordinate k of point i is inputs[k][i], one array per input of
+  /// the tape (inputs.size() == tape.num_inputs()); out[c*n + i] gets F (c = 0) and dF/dx[c]
+  /// (c = 1..3), NaN in all four where a kCheck fires. Requires has_gradient(tape). The
+  /// formulas are apply_dual's (ir/dual_ops.cpp) operation for operation in T, so the results
+  /// are the gradient JIT's of the same precision bit for bit (and, in double, the gradient
+  /// interpreter's): an engine may answer with either (GradientEngine's background compile).
+  template <typename T>
+  void eval_gradient(const Tape& tape, size_t n, std::span<const T* const> inputs, T* out);
+  /// Whether eval_gradient runs `tape`: every instruction is exact IEEE arithmetic (+ - * /,
+  /// neg, abs, min, max, sqrt, select) or piecewise constant (comparisons, floor, ...). The
+  /// libm-based ops are left to the JIT and the interpreter, whose lane-by-lane calls and
+  /// vector forms the VM does not reproduce bit for bit.
+  static bool has_gradient(const Tape& tape);
+
   /// An enclosure of F over the box inputs[k] (missing coordinates are the point 0), sound in
   /// the sense of jit/interval.h. Records choices() and check_can_fire() for prune_last().
   Interval eval_interval(const Tape& tape, std::span<const Interval> inputs);
@@ -60,6 +75,9 @@ class TapeVm {
   std::vector<float> regs_f32_;
   std::vector<double> regs_f64_;
   std::vector<uint8_t> err_;
+  // eval_gradient: per register kLanes values then kLanes of each derivative.
+  std::vector<float> grad_f32_;
+  std::vector<double> grad_f64_;
   std::vector<Interval> regs_iv_;
   // eval_intervals: per register kLanes lower bounds, upper bounds and NaN flags, the checks
   // that may fire per box, and scratch lanes (constants, R-function results).
@@ -74,5 +92,9 @@ extern template void TapeVm::eval<float>(const Tape&, size_t, std::span<const fl
                                          float*);
 extern template void TapeVm::eval<double>(const Tape&, size_t, std::span<const double* const>,
                                           double*);
+extern template void TapeVm::eval_gradient<float>(const Tape&, size_t,
+                                                  std::span<const float* const>, float*);
+extern template void TapeVm::eval_gradient<double>(const Tape&, size_t,
+                                                   std::span<const double* const>, double*);
 
 }  // namespace hfrt::jit

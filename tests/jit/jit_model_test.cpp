@@ -499,9 +499,10 @@ TEST(JitModelTest, HeavyObjectsUseTheDomainInterpreters) {
   CompileResult heavy = Model::compile(source, mo);
   ASSERT_TRUE(heavy.ok()) << heavy.rendered;
   EXPECT_GT(heavy.model->stats().domain_jit_weight, 2000);
-  // Straight-line code: the tape VM stands in for the interval JIT.
+  // Straight-line code: the tape VM stands in for the interval and gradient JITs (exact
+  // arithmetic only: the gradient pass has a form for it).
   EXPECT_EQ(heavy.model->interval_engine(), DomainEngine::kTapeVm);
-  EXPECT_EQ(heavy.model->gradient_engine(), DomainEngine::kInterp);
+  EXPECT_EQ(heavy.model->gradient_engine(), DomainEngine::kTapeVm);
   IntervalValue iv = heavy.model->eval_interval({1, 1, 1}, {2, 2, 2});
   EXPECT_NEAR(iv.lo, 1 - 2 * sum, 1e-9);
   EXPECT_NEAR(iv.hi, 1 - sum, 1e-9);
@@ -515,7 +516,7 @@ TEST(JitModelTest, HeavyObjectsUseTheDomainInterpreters) {
   CompileResult forced = Model::compile(kTorusModel, mo);
   ASSERT_TRUE(forced.ok());
   EXPECT_EQ(forced.model->interval_engine(), DomainEngine::kTapeVm);
-  EXPECT_EQ(forced.model->gradient_engine(Precision::kF32), DomainEngine::kInterp);
+  EXPECT_EQ(forced.model->gradient_engine(Precision::kF32), DomainEngine::kTapeVm);
   mo.interval_jit_max_insts = -1;
   CompileResult jit = Model::compile(kTorusModel, mo);
   ASSERT_TRUE(jit.ok());
@@ -677,6 +678,83 @@ TEST(JitModelTest, BackgroundIntervalCompileOnlyForLargeStraightLineObjects) {
     CompileResult gone = Model::compile(kTorusModel, mo);
     ASSERT_TRUE(gone.ok());
     EXPECT_TRUE(gone.model->start_interval_compile());
+  }
+}
+
+TEST(JitModelTest, BackgroundGradientCompileGivesTheJitsBitsFromTheStart) {
+  // Model::start_gradient_compile: the f32 gradient JIT compiles on a thread of its own while
+  // the tape VM's gradient pass answers. Every answer, before, during and after the compile,
+  // from several threads, equals the JIT's of a model compiled the usual way, bit for bit.
+  ModelOptions mo;
+  mo.eager_f64 = false;
+  mo.background_gradient_min_insts = 0;  // the torus is small: the threshold off
+  CompileResult bg = Model::compile(kTorusModel, mo);
+  ASSERT_TRUE(bg.ok()) << bg.rendered;
+  const Model ref = compile_or_die(kTorusModel, Backend::kJit);
+  ASSERT_TRUE(ref.prepare_gradient(Precision::kF32));
+  ASSERT_TRUE(bg.model->start_gradient_compile(Precision::kF32));
+  EXPECT_TRUE(bg.model->start_gradient_compile(Precision::kF32));  // once; says so again
+  EXPECT_EQ(bg.model->gradient_engine(Precision::kF32), DomainEngine::kJit);
+  EXPECT_TRUE(bg.model->stats().gradient_f32.background);
+  EXPECT_FALSE(bg.model->stats().gradient_f64.background);
+
+  constexpr int64_t kN = 100;
+  std::vector<float> xs(3 * kN);
+  for (int64_t i = 0; i < kN; ++i) {
+    for (int k = 0; k < 3; ++k) xs[k * kN + i] = -4.5f + 0.09f * float((i * (7 + 5 * k)) % kN);
+  }
+  std::vector<float> want(4 * kN);
+  ref.eval_gradient_batch(kN, xs.data(), want.data());
+  std::vector<std::thread> threads;
+  std::vector<int> bad(3, 0), before(3, 0);
+  for (int t = 0; t < 3; ++t) {
+    threads.emplace_back([&, t] {
+      std::vector<float> got(4 * kN);
+      for (int round = 0; round < 200; ++round) {
+        before[t] += !bg.model->stats().gradient_f32.compiled;
+        bg.model->eval_gradient_batch(kN, xs.data(), got.data());
+        for (int64_t i = 0; i < 4 * kN; ++i) {
+          bad[t] += std::memcmp(&got[i], &want[i], sizeof(float)) != 0;
+        }
+      }
+    });
+  }
+  for (auto& th : threads) th.join();
+  for (int t = 0; t < 3; ++t) EXPECT_EQ(bad[t], 0) << "thread " << t;
+  std::printf("background gradient compile: %d, %d, %d of 200 rounds began before it was ready\n",
+              before[0], before[1], before[2]);
+  std::string error;
+  EXPECT_TRUE(bg.model->prepare_gradient(Precision::kF32, &error)) << error;
+  EXPECT_TRUE(bg.model->stats().gradient_f32.compiled);
+  EXPECT_EQ(bg.model->gradient_engine(Precision::kF32), DomainEngine::kJit);
+  std::vector<float> after(4 * kN);
+  bg.model->eval_gradient_batch(kN, xs.data(), after.data());
+  EXPECT_EQ(std::memcmp(after.data(), want.data(), after.size() * sizeof(float)), 0);
+
+  // The default threshold: the torus compiles its gradients the usual way.
+  mo.background_gradient_min_insts = ModelOptions().background_gradient_min_insts;
+  CompileResult small = Model::compile(kTorusModel, mo);
+  ASSERT_TRUE(small.ok());
+  EXPECT_FALSE(small.model->start_gradient_compile(Precision::kF32));
+  // A libm op has no gradient form in the VM (its lane calls need not round as the JIT's
+  // code): the JIT is waited for, as before.
+  mo.background_gradient_min_insts = 0;
+  CompileResult trig = Model::compile("my_model(x[3], a[1]) { my_model = sin(x[1]) - x[2]; }", mo);
+  ASSERT_TRUE(trig.ok()) << trig.rendered;
+  EXPECT_FALSE(trig.model->start_gradient_compile(Precision::kF32));
+  EXPECT_EQ(trig.model->gradient_engine(Precision::kF32), DomainEngine::kJit);
+  // The interpreter backend has no JIT to compile.
+  mo.backend = Backend::kInterp;
+  CompileResult interp = Model::compile(kTorusModel, mo);
+  ASSERT_TRUE(interp.ok());
+  EXPECT_FALSE(interp.model->start_gradient_compile(Precision::kF32));
+  EXPECT_EQ(interp.model->gradient_engine(Precision::kF32), DomainEngine::kInterp);
+  // A model destroyed while its compile runs waits for it.
+  mo.backend = Backend::kJit;
+  for (int i = 0; i < 3; ++i) {
+    CompileResult gone = Model::compile(kTorusModel, mo);
+    ASSERT_TRUE(gone.ok());
+    EXPECT_TRUE(gone.model->start_gradient_compile(Precision::kF32));
   }
 }
 

@@ -6,7 +6,8 @@
 //    full tape's f32 value except where f32 rounding contradicts the f64 enclosure (counted,
 //    and required to be rare and within rounding); the pruned interval encloses the full
 //    f64 values; tapes never grow and do shrink somewhere;
-//  - the f32 VM on the full tape agrees with the f32 JIT (Model::eval_batch).
+//  - the f32 VM on the full tape agrees with the f32 JIT (Model::eval_batch);
+//  - the gradient pass equals the gradient JIT bit for bit (f64 and f32) where it has a form.
 // Counts are asserted, so the test cannot pass with nothing checked.
 
 #include "jit/tape.h"
@@ -324,6 +325,106 @@ TEST(TapeTest, F32VmAgreesWithF32Jit) {
   std::printf("tape f32 VM vs f32 JIT: %d values, %d bit for bit\n", compared, exact);
   EXPECT_GE(compared, 2000);
   EXPECT_GE(exact, compared * 9 / 10);
+}
+
+/// The gradient JIT of a precision at n points (Model::eval_gradient_batch), against the tape
+/// VM's gradient pass (TapeVm::eval_gradient) on the model's tape: the same bits in all four
+/// components, NaN where a check fires. Returns the points compared.
+template <typename T>
+int64_t compare_gradients(const Model& model, const Tape& tape, std::mt19937& rng,
+                          const std::string& what) {
+  constexpr size_t kN = 150;  // three passes of the lanes, the last one partial
+  const int dims = std::max(model.num_inputs(), 1);
+  std::uniform_real_distribution<double> u(-3.5, 3.5);
+  std::vector<T> xs(size_t(dims) * kN, T(0));
+  for (int k = 0; k < std::min(dims, 3); ++k) {
+    for (size_t i = 0; i < kN; ++i) {
+      // A few points on the coordinate planes and at integers (ties of min/max, |x|, x = 0).
+      const double v = i % 10 == 0 ? 0.0 : i % 10 == 1 ? std::round(u(rng)) : u(rng);
+      xs[k * kN + i] = static_cast<T>(v);
+    }
+  }
+  std::vector<T> jit(4 * kN), vm_out(4 * kN);
+  model.eval_gradient_batch(int64_t(kN), xs.data(), jit.data());
+  std::vector<const T*> in;
+  for (int k = 0; k < model.num_inputs(); ++k) in.push_back(xs.data() + k * kN);
+  TapeVm vm;
+  vm.eval_gradient<T>(tape, kN, in, vm_out.data());
+  for (size_t c = 0; c < 4; ++c) {
+    for (size_t i = 0; i < kN; ++i) {
+      EXPECT_TRUE(same_bits(jit[c * kN + i], vm_out[c * kN + i]))
+          << what << " component " << c << " point " << i << ": JIT " << jit[c * kN + i] << " VM "
+          << vm_out[c * kN + i];
+      if (!same_bits(jit[c * kN + i], vm_out[c * kN + i])) return 0;
+    }
+  }
+  return int64_t(kN);
+}
+
+TEST(TapeTest, GradientPassEqualsTheGradientJitOnCorpus) {
+  // Every corpus model whose tape has a gradient form (exact arithmetic only): the tape VM's
+  // gradient pass gives the gradient JIT's bits, f64 and f32 (what lets GradientEngine answer
+  // with it while the JIT compiles in the background without changing a render or a mesh).
+  int models = 0, skipped = 0;
+  int64_t points = 0;
+  for (const std::string& file : corpus_files()) {
+    if (file.find("prospero") != std::string::npos) continue;  // its gradient JIT: minutes
+    ModelOptions mo;
+    mo.eager_f64 = false;
+    mo.gradient_jit_max_insts = -1;  // the JIT whatever the size: it is the reference
+    mo.background_gradient_min_insts = -1;
+    auto compiled = Model::compile_file(file, mo);
+    if (!compiled.ok()) continue;
+    const Model& model = *compiled.model;
+    std::shared_ptr<const Tape> tape = model.tape();
+    if (!tape) continue;
+    if (!TapeVm::has_gradient(*tape)) {
+      skipped++;
+      continue;
+    }
+    ASSERT_EQ(model.gradient_engine(hfrt::Precision::kF32), DomainEngine::kJit) << file;
+    std::mt19937 rng(11);
+    const int64_t d = compare_gradients<double>(model, *tape, rng, file + " f64");
+    const int64_t f = compare_gradients<float>(model, *tape, rng, file + " f32");
+    ASSERT_GT(d, 0) << file;
+    ASSERT_GT(f, 0) << file;
+    points += d + f;
+    models++;
+  }
+  std::printf(
+      "gradient pass vs gradient JIT: %d models, %lld points bit for bit (%d tapes with "
+      "libm ops left to the JIT)\n",
+      models, static_cast<long long>(points), skipped);
+  EXPECT_GE(models, 10);
+}
+
+TEST(TapeTest, GradientPassChecksAndNaN) {
+  // A check that fires (sqrt of a negative value) makes all four components NaN at that point
+  // only, in the VM as in the JIT; min/max ties and |x| at 0 follow the JIT's choices.
+  auto compiled = Model::compile(
+      "m(x[3], a[1]) { r = sqrt(x[1]) + abs(x[2]) * min(x[1], x[3]) / (1 + x[3]*x[3]);"
+      " m = max(r, x[2] - 4) - floor(x[1]); }");
+  ASSERT_TRUE(compiled.ok()) << compiled.rendered;
+  std::shared_ptr<const Tape> tape = compiled.model->tape();
+  ASSERT_NE(tape, nullptr);
+  ASSERT_TRUE(TapeVm::has_gradient(*tape));
+  const float xs[9] = {-1, 0, 2, 0, 0, -3, 1, 0, 2};  // (-1,0,1), (0,0,0), (2,-3,2)
+  float vm_out[12], jit[12];
+  compiled.model->eval_gradient_batch(3, xs, jit);
+  const float* in[3] = {xs, xs + 3, xs + 6};
+  TapeVm vm;
+  vm.eval_gradient<float>(*tape, 3, in, vm_out);
+  for (int c = 0; c < 4; ++c) {
+    EXPECT_TRUE(std::isnan(vm_out[c * 3])) << c;
+    for (int i = 0; i < 3; ++i) EXPECT_TRUE(same_bits(jit[c * 3 + i], vm_out[c * 3 + i])) << c;
+  }
+  // At (2, -3, 2): r = sqrt(2) + 3 * 2 / 5, d/dx1 = 1 / (2 sqrt(2)), d/dx2 = -(2 / 5).
+  EXPECT_NEAR(vm_out[1 * 3 + 2], 0.5f / std::sqrt(2.0f), 1e-6);
+  EXPECT_NEAR(vm_out[2 * 3 + 2], -0.4f, 1e-6);
+  // libm ops have no gradient form: left to the JIT.
+  auto with_sin = Model::compile("m(x[3], a[1]) { m = sin(x[1]) - x[2]; }");
+  ASSERT_TRUE(with_sin.ok());
+  EXPECT_FALSE(TapeVm::has_gradient(*with_sin.model->tape()));
 }
 
 TEST(TapeTest, UnsupportedFunctionsSayWhy) {

@@ -22,8 +22,10 @@
 namespace hfrt::tools {
 namespace {
 
-/// The session's ModelOptions::background_interval_min_insts (see Session::model_for).
+/// The session's ModelOptions::background_interval_min_insts and
+/// background_gradient_min_insts (see Session::model_for).
 constexpr int kBackgroundIntervalInsts = 200;
+constexpr int kBackgroundGradientInsts = 200;
 
 /// Gives a cached model the parameters and time of one render or mesh (-a, --time) and its own
 /// back when the scope ends.
@@ -254,6 +256,9 @@ const Model* Session::model_for(const std::string& source, const std::string& ob
   // of 686-696 ms (`HFRT_NO_CACHE=1 hfrt_bench_repl --only c1_gear`, bench/README.md). Small
   // models compile in a few tens of ms: the JIT from the first box serves them better.
   mo.background_interval_min_insts = kBackgroundIntervalInsts;
+  // The same for the gradient code of a model of exact arithmetic (the tape VM's gradient
+  // pass answering meanwhile, with the same bits).
+  mo.background_gradient_min_insts = kBackgroundGradientInsts;
   auto t0 = std::chrono::steady_clock::now();
   CompileResult r = Model::compile(source, mo, "<session>");
   ++compiles_;

@@ -92,6 +92,13 @@ struct ModelOptions {
   /// interval compile for a 0.26 s render) gains nothing, since the render threads and the
   /// compile then share the two cores and the tape VM's boxes cost more than the JIT's.
   int background_interval_min_insts = 500;
+  /// The same for Model::start_gradient_compile: the gradient JIT compiles in the background
+  /// (the tape VM's gradient pass answering with the same bits until it is ready) for objects
+  /// of at least this many IR instructions whose tape has a gradient form
+  /// (TapeVm::has_gradient: straight-line exact arithmetic); -1: never. A 993-instruction
+  /// model's f32 gradient compile takes ~130-150 ms on 2 cores (bench/README.md, "The compile
+  /// time of a 1000-instruction model").
+  int background_gradient_min_insts = 500;
   /// Boxes per SIMD block of the interval JIT (a power of two; 0 = the host's f64 width).
   /// The host's width by default: a block costs about the same at 1 and 8 lanes (s3_blend:
   /// 133 ns and 143 ns), so batches of boxes (the renderer's) go up to 8x faster, and a single
@@ -153,8 +160,9 @@ struct GradientValue {
 enum class DomainEngine {
   kJit,     ///< LLVM code, compiled on first use
   kInterp,  ///< the interpreter (backend kInterp, a large object, or a failed JIT compile)
-  /// Intervals only: the tape VM (jit/tape_vm.h), in place of the interpreter for an object
-  /// above ModelOptions::interval_jit_max_insts (or whose JIT failed) that has a tape form.
+  /// The tape VM (jit/tape_vm.h), in place of the interpreter for an object above
+  /// ModelOptions::interval_jit_max_insts / gradient_jit_max_insts (or whose JIT failed) that
+  /// has a tape form (for gradients: one of exact arithmetic, TapeVm::has_gradient).
   kTapeVm,
 };
 
@@ -209,7 +217,7 @@ struct ModelStats {
     int lanes = 0;
     double compile_ms = 0;
     /// Compiled (or, while !compiled, being compiled) on a thread of its own while another
-    /// engine answered (Model::start_interval_compile).
+    /// engine answered (Model::start_interval_compile, Model::start_gradient_compile).
     bool background = false;
   };
   Domain interval, gradient_f64, gradient_f32;
@@ -338,7 +346,9 @@ class Model {
   // --- The gradient domain ----------------------------------------------------------------
   // Engine: the gradient JIT of the precision (lazily compiled, like the scalar one) unless
   // the backend is kInterp or the object has more than gradient_jit_max_insts instructions;
-  // then the gradient interpreter (f64; f32 batches are converted).
+  // then the tape VM's gradient pass in the precision when the object's tape has a gradient
+  // form (TapeVm::has_gradient), else the gradient interpreter (f64; f32 batches are
+  // converted).
 
   /// F and dF/dx[1..3] at one point, in f64 (missing coordinates are 0).
   GradientValue eval_gradient(std::span<const double> x) const;
@@ -367,6 +377,13 @@ class Model {
   /// object is small or has no tape form): prepare_interval() then compiles as usual. The
   /// Model's (last sharer's) destructor waits for the compile.
   bool start_interval_compile() const;
+
+  /// The same for the gradient JIT of a precision (ModelOptions::background_gradient_min_insts):
+  /// until its code is ready, gradients come from the tape VM's gradient pass, the JIT's bits
+  /// (TapeVm::eval_gradient); gradient_engine() says kJit meanwhile. False when nothing was
+  /// started (the JIT is not wanted, is compiled already, or the object is small or its tape
+  /// has ops the gradient pass does not run): prepare_gradient() then compiles as usual.
+  bool start_gradient_compile(Precision precision) const;
 
   /// Compiles the JIT code of a precision now instead of on first use. Returns false (with
   /// `error`) when the JIT fails; evaluation then falls back to the interpreter.
