@@ -320,7 +320,8 @@ std::string ModelField::explain_nan(render::Vec3 p) const {
   return text + where;
 }
 
-PreparedCode prepare_render_code(const Model& model, bool interval, bool gradient) {
+PreparedCode prepare_render_code(const Model& model, bool interval, bool gradient,
+                                 bool polynomial) {
   const auto t0 = Clock::now();
   std::string errors[3];
   bool ok[3] = {true, true, true};
@@ -335,7 +336,11 @@ PreparedCode prepare_render_code(const Model& model, bool interval, bool gradien
       gradient_worker =
           std::thread([&] { ok[2] = model.prepare_gradient(Precision::kF32, &errors[2]); });
     }
-    ok[0] = model.prepare(Precision::kF32, &errors[0]);
+    // The same for the point code of a large object of exact arithmetic, and for the
+    // polynomial code of a large one that the analytic search may trace (a small one compiles
+    // on the first ray, as before).
+    if (polynomial) model.start_polynomial_compile();
+    if (!model.start_point_compile()) ok[0] = model.prepare(Precision::kF32, &errors[0]);
     if (interval_worker.joinable()) interval_worker.join();
     if (gradient_worker.joinable()) gradient_worker.join();
   }
@@ -390,8 +395,28 @@ std::string describe_domain_engines(const Model& model) {
     }
     return std::string(buf);
   };
-  return one("interval", model.interval_engine(), st.interval) + ", " +
-         one("gradient f32", model.gradient_engine(Precision::kF32), st.gradient_f32);
+  std::string point;
+  if (st.jit_f32.background) {
+    // (Only when it was compiled in the background: otherwise the point code is the
+    // "compile" figure's.)
+    ModelStats::Domain d;
+    d.compiled = st.jit_f32.compiled;
+    d.lanes = st.jit_f32.lanes;
+    d.compile_ms = st.jit_f32.emit_ms + st.jit_f32.optimize_ms + st.jit_f32.codegen_ms;
+    d.background = true;
+    point = one("point f32", DomainEngine::kJit, d) + ", ";
+  }
+  std::string out = point + one("interval", model.interval_engine(), st.interval) + ", " +
+                    one("gradient f32", model.gradient_engine(Precision::kF32), st.gradient_f32);
+  // The polynomial code of the analytic search: on the first ray or in the background.
+  if (st.polynomial.compiled) {
+    char buf[128];
+    std::snprintf(buf, sizeof buf, ", polynomial JIT (%.1f ms, %s)", st.polynomial.compile_ms,
+                  st.polynomial.background ? "in the background, the interpreter until then"
+                                           : "on the first ray");
+    out += buf;
+  }
+  return out;
 }
 
 std::vector<std::string> open_surface_warnings(const Model& model, const std::string& file) {

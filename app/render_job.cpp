@@ -163,7 +163,10 @@ RenderJobResult run_render_job(const RenderJob& job, render::RenderResult* out) 
   RenderJobResult r;
   const Model& model = *job.model;
   ModelField model_field(model, job.file);
-  const PreparedCode prepared = prepare_render_code(model);
+  const render::RootMode root = job.setup.options.root;
+  const PreparedCode prepared =
+      prepare_render_code(model, /*interval=*/true, /*gradient=*/true,
+                          root == render::RootMode::kAuto || root == render::RootMode::kAnalytic);
   r.warnings = prepared.warnings;
   r.report.prepare_ms = prepared.ms;
   WithoutIntervals sampled(model_field);

@@ -11,8 +11,20 @@ namespace hfrt::jit {
 
 // --- Scalar domain ----------------------------------------------------------------------------
 
-ScalarEngine::ScalarEngine(const Function& fn, const EngineOptions& options)
-    : fn_(fn), options_(options), interp_(std::make_unique<Interpreter>(fn)) {}
+ScalarEngine::ScalarEngine(const Function& fn, const EngineOptions& options, const TapeCache* tapes)
+    : fn_(fn), options_(options), tapes_(tapes), interp_(std::make_unique<Interpreter>(fn)) {}
+
+bool ScalarEngine::compile_in_background_f32(const std::vector<double>& a) const {
+  if (!options_.use_jit || options_.background_point_min_insts < 0) return false;
+  LazySlot<JitFunction>& slot = jit_[index(Precision::kF32)];
+  return background_.start(
+      [&] {
+        return slot.state.load(std::memory_order_acquire) == 0 &&
+               static_cast<int64_t>(fn_.insts.size()) >= options_.background_point_min_insts &&
+               tapes_->is_exact(a);
+      },
+      [this] { code(Precision::kF32); });
+}
 
 std::string ScalarEngine::llvm_ir(Precision p) const {
   if (!options_.use_jit) return "";
@@ -65,6 +77,18 @@ void ScalarEngine::eval_batch(int64_t n, const double* xs, const std::vector<dou
 
 void ScalarEngine::eval_batch(int64_t n, const float* xs, const std::vector<float>& a32,
                               const std::vector<double>& a64, float* out_f, float* out_s) const {
+  // While a background compile runs: the tape VM's float pass, the JIT's bits (an exact tape;
+  // attributes are not on the tape: such calls wait for the code below).
+  if (background_.started() && !out_s && n > 0 && !jit_[index(Precision::kF32)].peek()) {
+    if (std::shared_ptr<const Tape> t = tapes_->get(a64)) {
+      thread_local TapeVm vm;
+      thread_local std::vector<const float*> in;
+      in.clear();
+      for (int k = 0; k < fn_.num_inputs; ++k) in.push_back(xs + size_t(k) * size_t(n));
+      vm.eval<float>(*t, size_t(n), in, out_f);
+      return;
+    }
+  }
   if (const JitFunction* jit = code(Precision::kF32)) {
     jit->f32()(n, xs, a32.data(), out_f, out_s);
   } else {
@@ -104,8 +128,8 @@ std::shared_ptr<const TapeCache::Entry> TapeCache::entry(const std::vector<doubl
   e = entry_.load(std::memory_order_acquire);
   if (!e || e->params != a) {
     std::shared_ptr<const Tape> tape = Tape::build(fn_, a);
-    const bool gradient = tape && TapeVm::has_gradient(*tape);
-    e = std::make_shared<const Entry>(Entry{a, std::move(tape), gradient});
+    const bool exact = tape && TapeVm::is_exact(*tape);
+    e = std::make_shared<const Entry>(Entry{a, std::move(tape), exact});
     entry_.store(e, std::memory_order_release);
   }
   return e;
@@ -115,8 +139,8 @@ std::shared_ptr<const Tape> TapeCache::get(const std::vector<double>& a) const {
   return entry(a)->tape;
 }
 
-bool TapeCache::has_gradient(const std::vector<double>& a) const {
-  return entry(a)->gradient;
+bool TapeCache::is_exact(const std::vector<double>& a) const {
+  return entry(a)->exact;
 }
 
 BackgroundCompile::~BackgroundCompile() {
@@ -272,7 +296,7 @@ bool GradientEngine::compile_in_background(Precision p, const std::vector<double
       [&] {
         return jit_[index(p)].state.load(std::memory_order_acquire) == 0 &&
                static_cast<int64_t>(fn_.insts.size()) >= options_.background_gradient_min_insts &&
-               tapes_->has_gradient(a);  // else the interpreter would answer: far slower
+               tapes_->is_exact(a);  // else the interpreter would answer: far slower
       },
       [this, p] { code(p); });
 }
@@ -282,7 +306,7 @@ std::shared_ptr<const Tape> GradientEngine::tape(Precision p, const std::vector<
   if (background_[index(p)].started() ? jit_[index(p)].peek() != nullptr : uses_jit(p)) {
     return nullptr;
   }
-  return tapes_->has_gradient(a) ? tapes_->get(a) : nullptr;
+  return tapes_->is_exact(a) ? tapes_->get(a) : nullptr;
 }
 
 Dual GradientEngine::eval(std::span<const double> x, const std::vector<double>& a) const {
@@ -355,9 +379,21 @@ const PolyJit* PolyEngine::code() const {
   return jit_.get([&] { return PolyJit::compile(fn_, analysis_.program, 1, options_.opt_level); });
 }
 
+bool PolyEngine::compile_in_background() const {
+  if (!options_.use_jit || options_.background_polynomial_min_insts < 0) return false;
+  return background_.start(
+      [&] {
+        return jit_.state.load(std::memory_order_acquire) == 0 &&
+               static_cast<int64_t>(fn_.insts.size()) >= options_.background_polynomial_min_insts &&
+               analysis().qualifies;
+      },
+      [this] { code(); });
+}
+
 void PolyEngine::eval(const double o[3], const double d[3], const std::vector<double>& a,
                       double* out) const {
-  if (const PolyJit* jit = code()) {
+  // While a background compile runs, the interpreter (the same coefficients).
+  if (const PolyJit* jit = background_.started() ? jit_.peek() : code()) {
     jit->eval_one(o, d, a, out);
   } else {
     analysis();

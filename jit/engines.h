@@ -118,15 +118,15 @@ class TapeCache {
   explicit TapeCache(const Function& fn) : fn_(fn) {}
   /// The tape for `a`, or null when the object has no tape form.
   std::shared_ptr<const Tape> get(const std::vector<double>& a) const;
-  /// Whether the object's tape runs in the tape VM's gradient pass (TapeVm::has_gradient);
-  /// false without a tape form. Decided once (the parameters do not change the ops).
-  bool has_gradient(const std::vector<double>& a) const;
+  /// Whether the object's tape is exact arithmetic (TapeVm::is_exact: the VM's point and
+  /// gradient passes give the JITs' bits); false without a tape form.
+  bool is_exact(const std::vector<double>& a) const;
 
  private:
   struct Entry {
     std::vector<double> params;
     std::shared_ptr<const Tape> tape;  ///< null: no tape form
-    bool gradient = false;             ///< TapeVm::has_gradient(*tape)
+    bool exact = false;                ///< TapeVm::is_exact(*tape)
   };
   std::shared_ptr<const Entry> entry(const std::vector<double>& a) const;
   const Function& fn_;
@@ -168,12 +168,27 @@ struct EngineOptions {
   /// The same for GradientEngine::compile_in_background:
   /// ModelOptions::background_gradient_min_insts.
   int background_gradient_min_insts = -1;
+  /// The same for ScalarEngine::compile_in_background_f32:
+  /// ModelOptions::background_point_min_insts.
+  int background_point_min_insts = -1;
+  /// The same for PolyEngine::compile_in_background:
+  /// ModelOptions::background_polynomial_min_insts.
+  int background_polynomial_min_insts = -1;
 };
 
 /// The scalar domain: F and s[] at points, f64 and f32.
 class ScalarEngine {
  public:
-  ScalarEngine(const Function& fn, const EngineOptions& options);
+  /// `tapes`: the object's tapes (outlives the engine).
+  ScalarEngine(const Function& fn, const EngineOptions& options, const TapeCache* tapes);
+  /// As IntervalEngine::compile_in_background, for the f32 code: starts its compile on a
+  /// thread of its own when the JIT is used and the code is not compiled yet, the object has
+  /// at least EngineOptions::background_point_min_insts instructions and an exact tape
+  /// (TapeVm::is_exact). Until the code is ready the f32 eval_batch answers from the tape
+  /// VM's float pass with the JIT's bits (calls that ask for attributes s[] wait for the
+  /// code). True when a compile was started (now or before).
+  bool compile_in_background_f32(const std::vector<double>& a) const;
+  bool background_f32() const { return background_.started(); }
   /// The JIT code of a precision (compiled on first use), or null: interpreter backend or
   /// failed compile (error() says why).
   const JitFunction* code(Precision p) const;
@@ -198,10 +213,13 @@ class ScalarEngine {
   static int index(Precision p) { return p == Precision::kF64 ? 0 : 1; }
   const Function& fn_;
   EngineOptions options_;
+  const TapeCache* tapes_;
   std::unique_ptr<Interpreter> interp_;
   mutable LazySlot<JitFunction> jit_[2];
   /// f32 code with JitOptions::surface_sign_only.
   mutable LazySlot<JitFunction> sign_;
+  /// Declared last: destroyed (joined) first, while the slot it compiles into still lives.
+  mutable BackgroundCompile background_;
 };
 
 /// The interval domain: sound enclosures over boxes (jit/interval.h).
@@ -272,7 +290,7 @@ class GradientEngine {
   /// As IntervalEngine::compile_in_background, for the JIT of precision `p`: starts its
   /// compile on a thread of its own when it is wanted and not compiled yet, the object has at
   /// least EngineOptions::background_gradient_min_insts instructions and a tape that the tape
-  /// VM's gradient pass runs (TapeVm::has_gradient). Until the code is ready the tape VM
+  /// VM's gradient pass runs (TapeVm::is_exact). Until the code is ready the tape VM
   /// answers with the JIT's bits (TapeVm::eval_gradient), so a render or a mesh does not
   /// depend on which one did. True when a compile was started (now or before).
   bool compile_in_background(Precision p, const std::vector<double>& a) const;
@@ -317,6 +335,13 @@ class PolyEngine {
   /// qualify, or a failed compile.
   const PolyJit* code() const;
   const PolyJit* peek() const { return jit_.peek(); }
+  /// As IntervalEngine::compile_in_background, for the polynomial JIT of an object that
+  /// qualifies, of at least EngineOptions::background_polynomial_min_insts instructions: until
+  /// the code is ready, eval() answers from the polynomial interpreter, whose coefficients are
+  /// the JIT's bit for bit (tests/jit/poly_test.cpp). True when a compile was started (now or
+  /// before).
+  bool compile_in_background() const;
+  bool background() const { return background_.started(); }
   bool wants_jit() const { return options_.use_jit; }
   const std::string& error() const { return jit_.error; }
   double compile_ms() const { return jit_.compile_ms; }
@@ -330,6 +355,8 @@ class PolyEngine {
   mutable PolyAnalysis analysis_;
   mutable std::unique_ptr<PolyInterpreter> interp_;
   mutable LazySlot<PolyJit> jit_;
+  /// Declared last: destroyed (joined) first, while the slot it compiles into still lives.
+  mutable BackgroundCompile background_;
 };
 
 }  // namespace hfrt::jit

@@ -535,6 +535,14 @@ Result<std::unique_ptr<JitFunction>> JitFunction::compile(const Function& fn, Pr
   po.codegen = options.opt_level <= 0   ? llvm::CodeGenOptLevel::None
                : options.opt_level == 1 ? llvm::CodeGenOptLevel::Less
                                         : llvm::CodeGenOptLevel::Aggressive;
+  // Straight-line code (no if/while) takes the light IR pipeline at levels 1 and 2: SROA and
+  // EarlyCSE do what the default pipelines find in it, and the rest of O2 (instcombine and
+  // simplifycfg above all) is most of the optimisation time. A 993-instruction model (72
+  // spheres joined by max): optimise 19-28 -> 5-8 ms for 844 -> 846 LLVM instructions; c1_gear's
+  // compile 34-44 -> 24-29 ms; renders of spheres, c1_gear, the blend, gyroid and twist as fast
+  // (bench/README.md, "The compile time of a 1000-instruction model"). Code with branches and
+  // loops, and -O3, keep the default pipelines.
+  po.light = !fn.has_control_flow && (options.opt_level == 1 || options.opt_level == 2);
   po.keep_ir = options.keep_llvm_ir;
   po.fast_codegen_calls = options.fast_codegen_calls;
   auto code = session.value()->compile(std::move(unit), name, po, &impl->stats, &impl->llvm_ir);

@@ -53,7 +53,9 @@ struct PipelineOptions {
   /// LLVM's default new-pass-manager pipelines O0..O3, or (light = true) the light pipeline:
   /// SROA (keeping the CFG), EarlyCSE, instcombine-free DCE. The light pipeline is for very
   /// wide code (interval, gradient) where the default pipelines' block merging and
-  /// instcombine cost minutes on large models and find little.
+  /// instcombine cost minutes on large models and find little, and for straight-line scalar
+  /// code (JitFunction::compile), where they cost most of the optimisation time and find
+  /// nothing that changes the code's speed.
   int opt_level = 2;
   bool light = false;
   /// The code generator's level (instruction selection, scheduling, register allocation).

@@ -77,6 +77,15 @@ jit::Precision to_jit(Precision p) {
   return p == Precision::kF64 ? jit::Precision::kF64 : jit::Precision::kF32;
 }
 
+/// Parameters for the code of `fn` with zeros for the user's and `hoisted` after them (what
+/// pad_params builds before the user sets any).
+std::vector<double> code_params(const jit::Function& fn, const std::vector<double>& hoisted) {
+  std::vector<double> p(size_t(std::max(fn.num_params, 1)), 0.0);
+  const size_t user = size_t(fn.num_params) - std::min(hoisted.size(), size_t(fn.num_params));
+  for (size_t j = 0; j < hoisted.size() && user + j < p.size(); ++j) p[user + j] = hoisted[j];
+  return p;
+}
+
 /// One lowered object with its engines (jit/engines.h), shared read-only by the models
 /// whose code it is (Model::share_code). The engines refer to fn, so it never moves.
 struct Compiled {
@@ -171,8 +180,10 @@ struct Model::Impl {
     eo.gradient_jit = eo.use_jit && within(options.gradient_jit_max_insts);
     eo.background_interval_min_insts = options.background_interval_min_insts;
     eo.background_gradient_min_insts = options.background_gradient_min_insts;
+    eo.background_point_min_insts = options.background_point_min_insts;
+    eo.background_polynomial_min_insts = options.background_polynomial_min_insts;
     c->tapes.emplace(c->fn);
-    c->scalar.emplace(c->fn, eo);
+    c->scalar.emplace(c->fn, eo, &*c->tapes);
     c->interval.emplace(c->fn, eo, &*c->tapes);
     c->gradient.emplace(c->fn, eo, &*c->tapes);
     c->poly.emplace(c->fn, eo);
@@ -183,6 +194,13 @@ struct Model::Impl {
     if (eo.use_jit) {
       for (Precision p : {Precision::kF64, Precision::kF32}) {
         bool eager = p == Precision::kF64 ? options.eager_f64 : options.eager_f32;
+        // A large object of exact arithmetic: its f32 code compiles in the background, the
+        // tape VM answering with its bits meanwhile (ModelOptions::background_point_min_insts).
+        // The tape's ops do not depend on the parameters: the hoisted numbers and zeros do.
+        if (eager && p == Precision::kF32 &&
+            c->scalar->compile_in_background_f32(code_params(c->fn, *hoisted))) {
+          continue;
+        }
         if (eager && !c->scalar->code(to_jit(p))) {
           *error = c->scalar->error(to_jit(p));
           return nullptr;
@@ -477,6 +495,10 @@ DomainEngine Model::gradient_engine(Precision precision) const {
                                                       : DomainEngine::kInterp;
 }
 
+bool Model::start_point_compile() const {
+  return impl_->compiled->scalar->compile_in_background_f32(impl_->params_f64);
+}
+
 bool Model::start_gradient_compile(Precision precision) const {
   return impl_->compiled->gradient->compile_in_background(to_jit(precision), impl_->params_f64);
 }
@@ -637,6 +659,10 @@ std::vector<SurfaceStats> Model::surface_stats() const {
   return out;
 }
 
+bool Model::start_polynomial_compile() const {
+  return impl_->compiled->poly->compile_in_background();
+}
+
 bool Model::prepare_polynomial(std::string* error) const {
   const jit::PolyEngine& e = *impl_->compiled->poly;
   if (!e.wants_jit() || !e.analysis().qualifies || e.code()) return true;
@@ -696,6 +722,7 @@ ModelStats Model::stats() const {
     const jit::JitFunction* code =
         c.scalar->peek(k == 0 ? jit::Precision::kF64 : jit::Precision::kF32);
     ModelStats::Jit& j = k == 0 ? s.jit_f64 : s.jit_f32;
+    if (k == 1) j.background = c.scalar->background_f32();
     if (!code) continue;
     const jit::JitStats& js = code->stats();
     j.compiled = true;
@@ -720,6 +747,7 @@ ModelStats Model::stats() const {
   if (const jit::PolyJit* code = c.poly->peek()) {
     domain(c.poly->compile_ms(), code->lanes(), &s.polynomial);
   }
+  s.polynomial.background = c.poly->background();
   if (const jit::GradientJit* code = c.gradient->peek(jit::Precision::kF64)) {
     domain(c.gradient->compile_ms(jit::Precision::kF64), code->lanes(), &s.gradient_f64);
   }

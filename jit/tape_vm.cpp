@@ -18,7 +18,7 @@ namespace {
 
 constexpr size_t kLanes = TapeVm::kLanes;
 
-/// One instruction over kLanes lanes: a loop with a constant trip count around apply_op_t of
+/// One instruction over W lanes: a loop with a constant trip count around apply_op_t of
 /// a constant op, which inlines to the op's formula (vector code for the inline ops, a libm
 /// call per lane for the others).
 // always_inline: the lane loops must be compiled inside each target clone of the pass (AVX2 or
@@ -42,61 +42,62 @@ constexpr size_t kLanes = TapeVm::kLanes;
   case Op::kLoopTest:           \
   case Op::kEndLoop:
 
-template <Op kOp, typename T>
+template <Op kOp, typename T, size_t W>
 HFRT_TAPE_INLINE void lanes(const TapeInst& t, T* regs) {
-  T* out = regs + size_t(t.out) * kLanes;
+  T* out = regs + size_t(t.out) * W;
   constexpr int kArgs = op_num_args(kOp);
   if constexpr (kArgs == 1) {
-    const T* a = regs + size_t(t.a) * kLanes;
-    for (size_t i = 0; i < kLanes; ++i) out[i] = apply_op_t<T>(kOp, a[i], T(0), T(0));
+    const T* a = regs + size_t(t.a) * W;
+    for (size_t i = 0; i < W; ++i) out[i] = apply_op_t<T>(kOp, a[i], T(0), T(0));
   } else if constexpr (kArgs == 2) {
     if (t.flags & TapeInst::kImmB) {
-      const T* a = regs + size_t(t.a) * kLanes;
+      const T* a = regs + size_t(t.a) * W;
       const T b = static_cast<T>(t.imm);
-      for (size_t i = 0; i < kLanes; ++i) out[i] = apply_op_t<T>(kOp, a[i], b, T(0));
+      for (size_t i = 0; i < W; ++i) out[i] = apply_op_t<T>(kOp, a[i], b, T(0));
     } else if (t.flags & TapeInst::kImmA) {
       const T a = static_cast<T>(t.imm);
-      const T* b = regs + size_t(t.b) * kLanes;
-      for (size_t i = 0; i < kLanes; ++i) out[i] = apply_op_t<T>(kOp, a, b[i], T(0));
+      const T* b = regs + size_t(t.b) * W;
+      for (size_t i = 0; i < W; ++i) out[i] = apply_op_t<T>(kOp, a, b[i], T(0));
     } else {
-      const T* a = regs + size_t(t.a) * kLanes;
-      const T* b = regs + size_t(t.b) * kLanes;
-      for (size_t i = 0; i < kLanes; ++i) out[i] = apply_op_t<T>(kOp, a[i], b[i], T(0));
+      const T* a = regs + size_t(t.a) * W;
+      const T* b = regs + size_t(t.b) * W;
+      for (size_t i = 0; i < W; ++i) out[i] = apply_op_t<T>(kOp, a[i], b[i], T(0));
     }
   } else {
-    const T* a = regs + size_t(t.a) * kLanes;
-    const T* b = regs + size_t(t.b) * kLanes;
-    const T* c = regs + size_t(t.c) * kLanes;
-    for (size_t i = 0; i < kLanes; ++i) out[i] = apply_op_t<T>(kOp, a[i], b[i], c[i]);
+    const T* a = regs + size_t(t.a) * W;
+    const T* b = regs + size_t(t.b) * W;
+    const T* c = regs + size_t(t.c) * W;
+    for (size_t i = 0; i < W; ++i) out[i] = apply_op_t<T>(kOp, a[i], b[i], c[i]);
   }
 }
 
-/// One pass of the register code over kLanes points (inputs already in their lanes).
-template <typename T>
+/// One pass of the register code over W points (W lanes per register; the inputs' m <= W
+/// points copied into their lanes).
+template <typename T, size_t W>
 HFRT_TAPE_INLINE void run_points(std::span<const TapeInst> code, T* regs, uint8_t* err,
                                  std::span<const T* const> inputs, size_t begin, size_t m) {
   for (const TapeInst& t : code) {
     switch (t.op) {
 #define HFRT_TAPE_LANES(name, n, f, kind, ...) \
-  HFRT_OP_IF_ARITH_##kind(case Op::k##name : lanes<Op::k##name, T>(t, regs); break;)
+  HFRT_OP_IF_ARITH_##kind(case Op::k##name : lanes<Op::k##name, T, W>(t, regs); break;)
       HFRT_IR_OPS(HFRT_TAPE_LANES)
 #undef HFRT_TAPE_LANES
       case Op::kConst:
-        std::fill_n(regs + size_t(t.out) * kLanes, kLanes, static_cast<T>(t.imm));
+        std::fill_n(regs + size_t(t.out) * W, W, static_cast<T>(t.imm));
         break;
       case Op::kInput: {
-        T* out = regs + size_t(t.out) * kLanes;
+        T* out = regs + size_t(t.out) * W;
         if (t.a < inputs.size()) {
           std::copy_n(inputs[t.a] + begin, m, out);
-          std::fill(out + m, out + kLanes, T(0));
+          std::fill(out + m, out + W, T(0));
         } else {
-          std::fill_n(out, kLanes, T(0));
+          std::fill_n(out, W, T(0));
         }
         break;
       }
       case Op::kCheck: {
-        const T* a = regs + size_t(t.a) * kLanes;
-        for (size_t i = 0; i < kLanes; ++i) err[i] |= a[i] != 0;  // NaN != 0 fires too
+        const T* a = regs + size_t(t.a) * W;
+        for (size_t i = 0; i < W; ++i) err[i] |= a[i] != 0;  // NaN != 0 fires too
         break;
       }
         HFRT_TAPE_NO_FORM_CASES
@@ -122,22 +123,44 @@ HFRT_TAPE_INLINE void run_points(std::span<const TapeInst> code, T* regs, uint8_
 HFRT_AVX2_CLONES
 void run_points_f32(std::span<const TapeInst> code, float* regs, uint8_t* err,
                     std::span<const float* const> inputs, size_t begin, size_t m) {
-  run_points<float>(code, regs, err, inputs, begin, m);
+  run_points<float, kLanes>(code, regs, err, inputs, begin, m);
 }
 
 HFRT_AVX2_CLONES
 void run_points_f64(std::span<const TapeInst> code, double* regs, uint8_t* err,
                     std::span<const double* const> inputs, size_t begin, size_t m) {
-  run_points<double>(code, regs, err, inputs, begin, m);
+  run_points<double, kLanes>(code, regs, err, inputs, begin, m);
 }
 
-void run_pass(std::span<const TapeInst> code, float* regs, uint8_t* err,
-              std::span<const float* const> inputs, size_t begin, size_t m) {
-  run_points_f32(code, regs, err, inputs, begin, m);
+/// The narrow passes: kNarrowLanes points, for calls of a few points (a ray's candidates in
+/// the analytic search, a shading point), where a full pass would evaluate 64 lanes for one.
+HFRT_AVX2_CLONES
+void run_points_f32_narrow(std::span<const TapeInst> code, float* regs, uint8_t* err,
+                           std::span<const float* const> inputs, size_t begin, size_t m) {
+  run_points<float, TapeVm::kNarrowLanes>(code, regs, err, inputs, begin, m);
 }
-void run_pass(std::span<const TapeInst> code, double* regs, uint8_t* err,
+
+HFRT_AVX2_CLONES
+void run_points_f64_narrow(std::span<const TapeInst> code, double* regs, uint8_t* err,
+                           std::span<const double* const> inputs, size_t begin, size_t m) {
+  run_points<double, TapeVm::kNarrowLanes>(code, regs, err, inputs, begin, m);
+}
+
+void run_pass(bool narrow, std::span<const TapeInst> code, float* regs, uint8_t* err,
+              std::span<const float* const> inputs, size_t begin, size_t m) {
+  if (narrow) {
+    run_points_f32_narrow(code, regs, err, inputs, begin, m);
+  } else {
+    run_points_f32(code, regs, err, inputs, begin, m);
+  }
+}
+void run_pass(bool narrow, std::span<const TapeInst> code, double* regs, uint8_t* err,
               std::span<const double* const> inputs, size_t begin, size_t m) {
-  run_points_f64(code, regs, err, inputs, begin, m);
+  if (narrow) {
+    run_points_f64_narrow(code, regs, err, inputs, begin, m);
+  } else {
+    run_points_f64(code, regs, err, inputs, begin, m);
+  }
 }
 
 template <typename T>
@@ -154,14 +177,16 @@ std::vector<T>& regs_of(std::vector<float>& f, std::vector<double>& d) {
 template <typename T>
 void TapeVm::eval(const Tape& tape, size_t n, std::span<const T* const> inputs, T* out) {
   std::vector<T>& regs = regs_of<T>(regs_f32_, regs_f64_);
-  const size_t need = size_t(tape.num_regs()) * kLanes;
+  const bool narrow = n <= kNarrowLanes;
+  const size_t width = narrow ? kNarrowLanes : kLanes;
+  const size_t need = size_t(tape.num_regs()) * width;
   if (regs.size() < need) regs.resize(need);
   err_.resize(kLanes);
-  const T* result = regs.data() + size_t(tape.result_reg()) * kLanes;
-  for (size_t begin = 0; begin < n; begin += kLanes) {
-    const size_t m = std::min(kLanes, n - begin);
+  const T* result = regs.data() + size_t(tape.result_reg()) * width;
+  for (size_t begin = 0; begin < n; begin += width) {
+    const size_t m = std::min(width, n - begin);
     std::fill(err_.begin(), err_.end(), 0);
-    run_pass(tape.code(), regs.data(), err_.data(), inputs, begin, m);
+    run_pass(narrow, tape.code(), regs.data(), err_.data(), inputs, begin, m);
     for (size_t i = 0; i < m; ++i) {
       out[begin + i] = err_[i] ? std::numeric_limits<T>::quiet_NaN() : result[i];
     }
@@ -878,7 +903,7 @@ void run_gradient_pass(std::span<const TapeInst> code, double* regs, uint32_t im
 
 }  // namespace
 
-bool TapeVm::has_gradient(const Tape& tape) {
+bool TapeVm::is_exact(const Tape& tape) {
   for (const TapeInst& t : tape.code()) {
     if (!gradient_op(t.op)) return false;
   }
@@ -887,7 +912,7 @@ bool TapeVm::has_gradient(const Tape& tape) {
 
 template <typename T>
 void TapeVm::eval_gradient(const Tape& tape, size_t n, std::span<const T* const> inputs, T* out) {
-  HFRT_CHECK_MSG(has_gradient(tape), "tape VM: eval_gradient on a tape without a gradient form");
+  HFRT_CHECK_MSG(is_exact(tape), "tape VM: eval_gradient on a tape without a gradient form");
   // (The JIT reads an input's value and gives it its unit derivative by the function's
   // inputs: the same only when the caller passes them all.)
   HFRT_CHECK(inputs.size() == size_t(std::max(tape.num_inputs(), 0)));

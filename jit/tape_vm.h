@@ -25,26 +25,33 @@ class TapeVm {
  public:
   /// Points evaluated per pass of the register code.
   static constexpr size_t kLanes = 64;
+  /// Points per pass of eval() for calls of at most this many points.
+  static constexpr size_t kNarrowLanes = 8;
 
   /// F at n points in precision T (float or double): coordinate k of point i is
   /// inputs[k][i] (inputs beyond inputs.size() read as 0). A point where a kCheck fires is NaN.
+  /// kLanes points per pass, or kNarrowLanes for calls of that many points or fewer (the same
+  /// values: each lane is computed alone).
   template <typename T>
   void eval(const Tape& tape, size_t n, std::span<const T* const> inputs, T* out);
 
   /// F and dF/dx[1..3] at n points in precision T (float or double) by forward-mode dual numbers,
   /// kLanes points per pass. Coordinate k of point i is inputs[k][i], one array per input of
   /// the tape (inputs.size() == tape.num_inputs()); out[c*n + i] gets F (c = 0) and dF/dx[c]
-  /// (c = 1..3), NaN in all four where a kCheck fires. Requires has_gradient(tape). The
+  /// (c = 1..3), NaN in all four where a kCheck fires. Requires is_exact(tape). The
   /// formulas are apply_dual's (ir/dual_ops.cpp) operation for operation in T, so the results
   /// are the gradient JIT's of the same precision bit for bit (and, in double, the gradient
   /// interpreter's): an engine may answer with either (GradientEngine's background compile).
   template <typename T>
   void eval_gradient(const Tape& tape, size_t n, std::span<const T* const> inputs, T* out);
-  /// Whether eval_gradient runs `tape`: every instruction is exact IEEE arithmetic (+ - * /,
-  /// neg, abs, min, max, sqrt, select) or piecewise constant (comparisons, floor, ...). The
-  /// libm-based ops are left to the JIT and the interpreter, whose lane-by-lane calls and
-  /// vector forms the VM does not reproduce bit for bit.
-  static bool has_gradient(const Tape& tape);
+  /// Whether every instruction of `tape` is exact IEEE arithmetic (+ - * /, neg, abs, min,
+  /// max, sqrt, select) or piecewise constant (comparisons, floor, ...): then eval_gradient
+  /// runs it, and eval() and eval_gradient() give the scalar and gradient JITs' bits of the
+  /// same precision (no op whose rounding depends on how it is computed), which lets the
+  /// engines answer with the VM while those JITs compile. The libm-based ops are left to the
+  /// JITs and the interpreters, whose lane-by-lane calls and vector forms the VM does not
+  /// reproduce bit for bit.
+  static bool is_exact(const Tape& tape);
 
   /// An enclosure of F over the box inputs[k] (missing coordinates are the point 0), sound in
   /// the sense of jit/interval.h. Records choices() and check_can_fire() for prune_last().

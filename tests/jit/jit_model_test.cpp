@@ -758,6 +758,133 @@ TEST(JitModelTest, BackgroundGradientCompileGivesTheJitsBitsFromTheStart) {
   }
 }
 
+TEST(JitModelTest, BackgroundPointCompileGivesTheJitsBitsFromTheStart) {
+  // ModelOptions::background_point_min_insts: compile() with eager_f32 starts the f32 JIT on
+  // a thread of its own for an object of exact arithmetic, the tape VM's float pass answering
+  // meanwhile. Every answer, before, during and after, from several threads, in batches of
+  // one to many points, equals the JIT's of a model compiled the usual way, bit for bit.
+  ModelOptions mo;
+  mo.eager_f64 = false;
+  mo.eager_f32 = true;
+  mo.background_point_min_insts = 0;  // the torus is small: the threshold off
+  CompileResult bg = Model::compile(kTorusModel, mo);
+  ASSERT_TRUE(bg.ok()) << bg.rendered;
+  EXPECT_TRUE(bg.model->stats().jit_f32.background);
+  EXPECT_TRUE(bg.model->start_point_compile());  // started by compile(); says so
+  mo.background_point_min_insts = -1;
+  CompileResult ref = Model::compile(kTorusModel, mo);
+  ASSERT_TRUE(ref.ok());
+  EXPECT_TRUE(ref.model->stats().jit_f32.compiled);
+  EXPECT_FALSE(ref.model->stats().jit_f32.background);
+
+  constexpr int64_t kN = 100;
+  std::vector<float> xs(3 * kN);
+  for (int64_t i = 0; i < kN; ++i) {
+    for (int k = 0; k < 3; ++k) xs[k * kN + i] = -4.5f + 0.09f * float((i * (7 + 5 * k)) % kN);
+  }
+  std::vector<float> want(kN);
+  ref.model->eval_batch(kN, xs.data(), want.data());
+  std::vector<std::thread> threads;
+  std::vector<int> bad(3, 0), before(3, 0);
+  for (int t = 0; t < 3; ++t) {
+    threads.emplace_back([&, t] {
+      std::vector<float> got(kN), one(3);
+      for (int round = 0; round < 200; ++round) {
+        before[t] += !bg.model->stats().jit_f32.compiled;
+        bg.model->eval_batch(kN, xs.data(), got.data());
+        bad[t] += std::memcmp(got.data(), want.data(), sizeof(float) * kN) != 0;
+        // A call of one point (the narrow pass): point `round % kN`.
+        const int64_t i = round % kN;
+        const float p[3] = {xs[i], xs[kN + i], xs[2 * kN + i]};
+        bg.model->eval_batch(1, p, one.data());
+        bad[t] += std::memcmp(&one[0], &want[i], sizeof(float)) != 0;
+      }
+    });
+  }
+  for (auto& th : threads) th.join();
+  for (int t = 0; t < 3; ++t) EXPECT_EQ(bad[t], 0) << "thread " << t;
+  std::printf("background point compile: %d, %d, %d of 200 rounds began before it was ready\n",
+              before[0], before[1], before[2]);
+  std::string error;
+  EXPECT_TRUE(bg.model->prepare(Precision::kF32, &error)) << error;  // waits for it
+  EXPECT_TRUE(bg.model->stats().jit_f32.compiled);
+  std::vector<float> after(kN);
+  bg.model->eval_batch(kN, xs.data(), after.data());
+  EXPECT_EQ(std::memcmp(after.data(), want.data(), sizeof(float) * kN), 0);
+
+  // Not for a libm op (its lane calls need not round as the JIT's code), nor for a small
+  // object at the default threshold, nor with the interpreter backend: compiled as usual.
+  mo.background_point_min_insts = 0;
+  CompileResult trig = Model::compile("my_model(x[3], a[1]) { my_model = sin(x[1]) - x[2]; }", mo);
+  ASSERT_TRUE(trig.ok()) << trig.rendered;
+  EXPECT_FALSE(trig.model->stats().jit_f32.background);
+  EXPECT_TRUE(trig.model->stats().jit_f32.compiled);
+  mo.background_point_min_insts = ModelOptions().background_point_min_insts;
+  CompileResult small = Model::compile(kTorusModel, mo);
+  ASSERT_TRUE(small.ok());
+  EXPECT_FALSE(small.model->stats().jit_f32.background);
+  EXPECT_FALSE(small.model->start_point_compile());
+  mo.background_point_min_insts = 0;
+  mo.backend = Backend::kInterp;
+  CompileResult interp = Model::compile(kTorusModel, mo);
+  ASSERT_TRUE(interp.ok());
+  EXPECT_FALSE(interp.model->start_point_compile());
+  // A model destroyed while its compile runs waits for it.
+  mo.backend = Backend::kJit;
+  for (int i = 0; i < 3; ++i) {
+    CompileResult gone = Model::compile(kTorusModel, mo);
+    ASSERT_TRUE(gone.ok());
+    EXPECT_TRUE(gone.model->stats().jit_f32.background);
+  }
+}
+
+TEST(JitModelTest, BackgroundPolynomialCompileGivesTheJitsCoefficientsFromTheStart) {
+  // Model::start_polynomial_compile: the polynomial JIT compiles on a thread of its own while
+  // the polynomial interpreter answers ray_polynomials with the same coefficients.
+  ModelOptions mo;
+  mo.background_polynomial_min_insts = 0;  // the torus is small: the threshold off
+  CompileResult bg = Model::compile(kTorusModel, mo);
+  ASSERT_TRUE(bg.ok()) << bg.rendered;
+  ASSERT_TRUE(bg.model->analytic_info().qualifies);
+  const Model ref = compile_or_die(kTorusModel, Backend::kJit);
+  ASSERT_TRUE(ref.prepare_polynomial());
+  ASSERT_TRUE(bg.model->start_polynomial_compile());
+  EXPECT_TRUE(bg.model->start_polynomial_compile());
+  EXPECT_TRUE(bg.model->stats().polynomial.background);
+  const size_t rows = size_t(bg.model->analytic_info().num_leaves) * 5;
+  std::vector<std::thread> threads;
+  std::vector<int> bad(3, 0);
+  for (int t = 0; t < 3; ++t) {
+    threads.emplace_back([&, t] {
+      std::vector<double> got(rows), want(rows);
+      for (int round = 0; round < 300; ++round) {
+        const double o[3] = {-5.0 + 0.01 * round, 0.3 * t, 2.0};
+        const double d[3] = {1.0, 0.1, -0.3 + 0.002 * round};
+        bg.model->ray_polynomials(o, d, got.data());
+        ref.ray_polynomials(o, d, want.data());
+        bad[t] += std::memcmp(got.data(), want.data(), rows * sizeof(double)) != 0;
+      }
+    });
+  }
+  for (auto& th : threads) th.join();
+  for (int t = 0; t < 3; ++t) EXPECT_EQ(bad[t], 0) << "thread " << t;
+  EXPECT_TRUE(bg.model->prepare_polynomial());
+  EXPECT_TRUE(bg.model->stats().polynomial.compiled);
+  // The default threshold, a model that does not qualify, the interpreter backend: nothing.
+  mo.background_polynomial_min_insts = ModelOptions().background_polynomial_min_insts;
+  CompileResult small = Model::compile(kTorusModel, mo);
+  ASSERT_TRUE(small.ok());
+  EXPECT_FALSE(small.model->start_polynomial_compile());
+  mo.background_polynomial_min_insts = 0;
+  CompileResult blend = Model::compile("my_model(x[3], a[1]) { my_model = sin(x[1]) - x[2]; }", mo);
+  ASSERT_TRUE(blend.ok());
+  EXPECT_FALSE(blend.model->start_polynomial_compile());
+  mo.backend = Backend::kInterp;
+  CompileResult interp = Model::compile(kTorusModel, mo);
+  ASSERT_TRUE(interp.ok());
+  EXPECT_FALSE(interp.model->start_polynomial_compile());
+}
+
 TEST(JitModelTest, ManyThreadsEvaluateDomainsAtOnce) {
   for (Backend backend : {Backend::kJit, Backend::kInterp}) {
     // `m` compiles its domain code lazily, under contention; `ref`, a second model of the

@@ -67,7 +67,9 @@ struct ModelOptions {
   Backend backend = Backend::kJit;
   int opt_level = 2;  ///< LLVM pipeline O0..O3 (JIT backend)
   int lanes = 0;      ///< JIT SIMD lanes per block (power of two); 0 = host width
-  /// Precisions the JIT compiles inside compile(); the others compile on first use.
+  /// Precisions the JIT compiles inside compile(); the others compile on first use. (An eager
+  /// f32 compile of a large object of exact arithmetic starts in the background instead:
+  /// background_point_min_insts.)
   bool eager_f64 = true;
   bool eager_f32 = false;
   /// The interval evaluator is compiled by the JIT only for objects whose weight
@@ -95,10 +97,22 @@ struct ModelOptions {
   /// The same for Model::start_gradient_compile: the gradient JIT compiles in the background
   /// (the tape VM's gradient pass answering with the same bits until it is ready) for objects
   /// of at least this many IR instructions whose tape has a gradient form
-  /// (TapeVm::has_gradient: straight-line exact arithmetic); -1: never. A 993-instruction
+  /// (TapeVm::is_exact: straight-line exact arithmetic); -1: never. A 993-instruction
   /// model's f32 gradient compile takes ~130-150 ms on 2 cores (bench/README.md, "The compile
   /// time of a 1000-instruction model").
   int background_gradient_min_insts = 500;
+  /// The same for Model::start_polynomial_compile (the polynomial interpreter answers
+  /// ray_polynomials with the JIT's coefficients until it is ready): the 993-instruction model
+  /// of 72 spheres compiles its polynomial code in ~200 ms, which every render thread waited
+  /// for on its first ray; -1: never.
+  int background_polynomial_min_insts = 500;
+  /// The same for the f32 point code (Model::start_point_compile, and eager_f32 inside
+  /// compile()): for an object of at least this many instructions whose tape is exact
+  /// arithmetic, the f32 JIT compiles in the background while the tape VM's float pass answers
+  /// eval_batch (f32, without attributes) with the same bits; -1: never. With the interval and
+  /// gradient code also in the background, a render or a mesh of such an object starts without
+  /// waiting for any LLVM compile (a 993-instruction model: ~45 ms of f32 compile on 2 cores).
+  int background_point_min_insts = 500;
   /// Boxes per SIMD block of the interval JIT (a power of two; 0 = the host's f64 width).
   /// The host's width by default: a block costs about the same at 1 and 8 lanes (s3_blend:
   /// 133 ns and 143 ns), so batches of boxes (the renderer's) go up to 8x faster, and a single
@@ -162,7 +176,7 @@ enum class DomainEngine {
   kInterp,  ///< the interpreter (backend kInterp, a large object, or a failed JIT compile)
   /// The tape VM (jit/tape_vm.h), in place of the interpreter for an object above
   /// ModelOptions::interval_jit_max_insts / gradient_jit_max_insts (or whose JIT failed) that
-  /// has a tape form (for gradients: one of exact arithmetic, TapeVm::has_gradient).
+  /// has a tape form (for gradients: one of exact arithmetic, TapeVm::is_exact).
   kTapeVm,
 };
 
@@ -204,6 +218,9 @@ struct ModelStats {
   int64_t domain_jit_weight = 0;
   struct Jit {
     bool compiled = false;
+    /// (f32) Compiled, or being compiled, on a thread of its own while the tape VM answered
+    /// (Model::start_point_compile).
+    bool background = false;
     int lanes = 0;
     double emit_ms = 0, optimize_ms = 0, codegen_ms = 0;
     size_t llvm_insts_before = 0, llvm_insts_after = 0;
@@ -347,7 +364,7 @@ class Model {
   // Engine: the gradient JIT of the precision (lazily compiled, like the scalar one) unless
   // the backend is kInterp or the object has more than gradient_jit_max_insts instructions;
   // then the tape VM's gradient pass in the precision when the object's tape has a gradient
-  // form (TapeVm::has_gradient), else the gradient interpreter (f64; f32 batches are
+  // form (TapeVm::is_exact), else the gradient interpreter (f64; f32 batches are
   // converted).
 
   /// F and dF/dx[1..3] at one point, in f64 (missing coordinates are 0).
@@ -378,6 +395,14 @@ class Model {
   /// Model's (last sharer's) destructor waits for the compile.
   bool start_interval_compile() const;
 
+  /// The same for the f32 point code (ModelOptions::background_point_min_insts): until it is
+  /// ready, f32 eval_batch without attributes answers from the tape VM's float pass with the
+  /// JIT's bits (an exact tape: TapeVm::is_exact); calls that ask for attributes, and
+  /// prepare(kF32), wait for it. compile() with eager_f32 starts it so for such an object.
+  /// False when nothing was started (compiled already, the interpreter backend, a small object
+  /// or one whose tape is not exact arithmetic): prepare(kF32) then compiles as usual.
+  bool start_point_compile() const;
+
   /// The same for the gradient JIT of a precision (ModelOptions::background_gradient_min_insts):
   /// until its code is ready, gradients come from the tape VM's gradient pass, the JIT's bits
   /// (TapeVm::eval_gradient); gradient_engine() says kJit meanwhile. False when nothing was
@@ -400,6 +425,12 @@ class Model {
   /// call, like the other domains; the interpreter when that compile fails), else the
   /// reference polynomial interpreter; both give the same values.
   void ray_polynomials(const double o[3], const double d[3], double* out) const;
+  /// Starts the polynomial JIT's compile on a thread of its own and returns at once, for an
+  /// object that qualifies with at least ModelOptions::background_polynomial_min_insts
+  /// instructions: until the code is ready, ray_polynomials answers from the polynomial
+  /// interpreter (the same coefficients, bit for bit). False when nothing was started (compiled
+  /// already, the interpreter backend, a small object or one that does not qualify).
+  bool start_polynomial_compile() const;
   /// Compiles the polynomial JIT now instead of on the first ray_polynomials call (no-op with
   /// the interpreter backend or an object that does not qualify). False (with `error`) when
   /// the JIT fails; ray_polynomials then uses the interpreter.
