@@ -683,23 +683,8 @@ constexpr bool gradient_op(Op op) {
     case Op::kSelect:
       HFRT_OP_CASES_PIECEWISE_CONSTANT
       return true;
-    case Op::kExp:
-    case Op::kLog:
-    case Op::kLog10:
-    case Op::kSin:
-    case Op::kCos:
-    case Op::kTan:
-    case Op::kAsin:
-    case Op::kAcos:
-    case Op::kAtan:
-    case Op::kAtan2:
-    case Op::kSinh:
-    case Op::kCosh:
-    case Op::kTanh:
-    case Op::kFmod:
-    case Op::kPow:
-    case Op::kPowHF:
-    case Op::kCbrt:
+      // The ops computed by a libm or hfrt helper call per lane (ir_ops.h's lane column).
+      HFRT_OP_CASES_LANE_CALL
       HFRT_TAPE_NO_FORM_CASES
       return false;
   }
@@ -856,23 +841,7 @@ HFRT_TAPE_INLINE void run_gradient(std::span<const TapeInst> code, T* regs, uint
                                        break;)
         HFRT_IR_OPS(HFRT_STEP_CASE)
 #undef HFRT_STEP_CASE
-      case Op::kExp:
-      case Op::kLog:
-      case Op::kLog10:
-      case Op::kSin:
-      case Op::kCos:
-      case Op::kTan:
-      case Op::kAsin:
-      case Op::kAcos:
-      case Op::kAtan:
-      case Op::kAtan2:
-      case Op::kSinh:
-      case Op::kCosh:
-      case Op::kTanh:
-      case Op::kFmod:
-      case Op::kPow:
-      case Op::kPowHF:
-      case Op::kCbrt:
+        HFRT_OP_CASES_LANE_CALL
         HFRT_TAPE_NO_FORM_CASES
         HFRT_CHECK_MSG(false, "tape VM: no gradient form for " << op_name(t.op));
         break;
