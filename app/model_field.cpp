@@ -320,8 +320,7 @@ std::string ModelField::explain_nan(render::Vec3 p) const {
   return text + where;
 }
 
-PreparedCode prepare_render_code(const Model& model, bool interval, bool gradient,
-                                 bool polynomial) {
+PreparedCode prepare_render_code(const Model& model, bool interval, bool gradient) {
   const auto t0 = Clock::now();
   std::string errors[3];
   bool ok[3] = {true, true, true};
@@ -336,10 +335,7 @@ PreparedCode prepare_render_code(const Model& model, bool interval, bool gradien
       gradient_worker =
           std::thread([&] { ok[2] = model.prepare_gradient(Precision::kF32, &errors[2]); });
     }
-    // The same for the point code of a large object of exact arithmetic, and for the
-    // polynomial code of a large one that the analytic search may trace (a small one compiles
-    // on the first ray, as before).
-    if (polynomial) model.start_polynomial_compile();
+    // The same for the point code of a large object of exact arithmetic.
     if (!model.start_point_compile()) ok[0] = model.prepare(Precision::kF32, &errors[0]);
     if (interval_worker.joinable()) interval_worker.join();
     if (gradient_worker.joinable()) gradient_worker.join();
@@ -408,12 +404,10 @@ std::string describe_domain_engines(const Model& model) {
   }
   std::string out = point + one("interval", model.interval_engine(), st.interval) + ", " +
                     one("gradient f32", model.gradient_engine(Precision::kF32), st.gradient_f32);
-  // The polynomial code of the analytic search: on the first ray or in the background.
+  // The polynomial code of the analytic search (ModelField::prepare_render, before the render).
   if (st.polynomial.compiled) {
-    char buf[128];
-    std::snprintf(buf, sizeof buf, ", polynomial JIT (%.1f ms, %s)", st.polynomial.compile_ms,
-                  st.polynomial.background ? "in the background, the interpreter until then"
-                                           : "on the first ray");
+    char buf[96];
+    std::snprintf(buf, sizeof buf, ", polynomial JIT (%.1f ms)", st.polynomial.compile_ms);
     out += buf;
   }
   return out;

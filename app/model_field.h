@@ -137,13 +137,10 @@ struct PreparedCode {
   double ms = 0;                      ///< wall time
   std::vector<std::string> warnings;  ///< one line each, without a newline
 };
-/// `interval` and `gradient` choose those domains (`hfrt slice` needs no gradients);
-/// `polynomial`: the render may take the analytic search (--root auto or analytic), so a large
-/// object's polynomial code starts compiling in the background (Model::start_polynomial_compile).
-/// The code of large objects compiles in the background (Model::start_point_compile,
+/// `interval` and `gradient` choose those domains (`hfrt slice` needs no gradients). The code
+/// of large objects compiles in the background (Model::start_point_compile,
 /// start_interval_compile, start_gradient_compile): the tape VM answers with the same bits.
-PreparedCode prepare_render_code(const Model& model, bool interval = true, bool gradient = true,
-                                 bool polynomial = false);
+PreparedCode prepare_render_code(const Model& model, bool interval = true, bool gradient = true);
 
 /// The warnings for an interval or gradient JIT that failed in the background
 /// (Model::start_interval_compile, start_gradient_compile; the tape VM answered instead), one

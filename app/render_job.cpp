@@ -62,6 +62,8 @@ render::RootDecision settle_root(const render::Field& field, render::RenderOptio
                                  const AnalyticInfo* analytic, const std::string& file) {
   render::AnalyticRootInfo info;
   if (analytic && analytic->qualifies) {
+    info.num_leaves = analytic->num_leaves;
+    info.num_surface_leaves = analytic->num_surface_leaves;
     char buf[160];
     if (analytic->num_surface_leaves > 0) {
       std::snprintf(buf, sizeof buf,
@@ -163,10 +165,7 @@ RenderJobResult run_render_job(const RenderJob& job, render::RenderResult* out) 
   RenderJobResult r;
   const Model& model = *job.model;
   ModelField model_field(model, job.file);
-  const render::RootMode root = job.setup.options.root;
-  const PreparedCode prepared =
-      prepare_render_code(model, /*interval=*/true, /*gradient=*/true,
-                          root == render::RootMode::kAuto || root == render::RootMode::kAnalytic);
+  const PreparedCode prepared = prepare_render_code(model);
   r.warnings = prepared.warnings;
   r.report.prepare_ms = prepared.ms;
   WithoutIntervals sampled(model_field);

@@ -379,21 +379,9 @@ const PolyJit* PolyEngine::code() const {
   return jit_.get([&] { return PolyJit::compile(fn_, analysis_.program, 1, options_.opt_level); });
 }
 
-bool PolyEngine::compile_in_background() const {
-  if (!options_.use_jit || options_.background_polynomial_min_insts < 0) return false;
-  return background_.start(
-      [&] {
-        return jit_.state.load(std::memory_order_acquire) == 0 &&
-               static_cast<int64_t>(fn_.insts.size()) >= options_.background_polynomial_min_insts &&
-               analysis().qualifies;
-      },
-      [this] { code(); });
-}
-
 void PolyEngine::eval(const double o[3], const double d[3], const std::vector<double>& a,
                       double* out) const {
-  // While a background compile runs, the interpreter (the same coefficients).
-  if (const PolyJit* jit = background_.started() ? jit_.peek() : code()) {
+  if (const PolyJit* jit = code()) {
     jit->eval_one(o, d, a, out);
   } else {
     analysis();

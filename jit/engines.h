@@ -171,9 +171,6 @@ struct EngineOptions {
   /// The same for ScalarEngine::compile_in_background_f32:
   /// ModelOptions::background_point_min_insts.
   int background_point_min_insts = -1;
-  /// The same for PolyEngine::compile_in_background:
-  /// ModelOptions::background_polynomial_min_insts.
-  int background_polynomial_min_insts = -1;
 };
 
 /// The scalar domain: F and s[] at points, f64 and f32.
@@ -335,13 +332,6 @@ class PolyEngine {
   /// qualify, or a failed compile.
   const PolyJit* code() const;
   const PolyJit* peek() const { return jit_.peek(); }
-  /// As IntervalEngine::compile_in_background, for the polynomial JIT of an object that
-  /// qualifies, of at least EngineOptions::background_polynomial_min_insts instructions: until
-  /// the code is ready, eval() answers from the polynomial interpreter, whose coefficients are
-  /// the JIT's bit for bit (tests/jit/poly_test.cpp). True when a compile was started (now or
-  /// before).
-  bool compile_in_background() const;
-  bool background() const { return background_.started(); }
   bool wants_jit() const { return options_.use_jit; }
   const std::string& error() const { return jit_.error; }
   double compile_ms() const { return jit_.compile_ms; }
@@ -355,8 +345,6 @@ class PolyEngine {
   mutable PolyAnalysis analysis_;
   mutable std::unique_ptr<PolyInterpreter> interp_;
   mutable LazySlot<PolyJit> jit_;
-  /// Declared last: destroyed (joined) first, while the slot it compiles into still lives.
-  mutable BackgroundCompile background_;
 };
 
 }  // namespace hfrt::jit

@@ -181,7 +181,6 @@ struct Model::Impl {
     eo.background_interval_min_insts = options.background_interval_min_insts;
     eo.background_gradient_min_insts = options.background_gradient_min_insts;
     eo.background_point_min_insts = options.background_point_min_insts;
-    eo.background_polynomial_min_insts = options.background_polynomial_min_insts;
     c->tapes.emplace(c->fn);
     c->scalar.emplace(c->fn, eo, &*c->tapes);
     c->interval.emplace(c->fn, eo, &*c->tapes);
@@ -659,10 +658,6 @@ std::vector<SurfaceStats> Model::surface_stats() const {
   return out;
 }
 
-bool Model::start_polynomial_compile() const {
-  return impl_->compiled->poly->compile_in_background();
-}
-
 bool Model::prepare_polynomial(std::string* error) const {
   const jit::PolyEngine& e = *impl_->compiled->poly;
   if (!e.wants_jit() || !e.analysis().qualifies || e.code()) return true;
@@ -747,7 +742,6 @@ ModelStats Model::stats() const {
   if (const jit::PolyJit* code = c.poly->peek()) {
     domain(c.poly->compile_ms(), code->lanes(), &s.polynomial);
   }
-  s.polynomial.background = c.poly->background();
   if (const jit::GradientJit* code = c.gradient->peek(jit::Precision::kF64)) {
     domain(c.gradient->compile_ms(jit::Precision::kF64), code->lanes(), &s.gradient_f64);
   }

@@ -49,13 +49,20 @@ class ProbeField final : public Field {
   mutable std::atomic<uint64_t> calls_{0};
 };
 
-/// The interval-or-march probe of settle_root(). Returns the reason, for the user.
-std::string probe_auto_root(const Field& field, RenderOptions* opt) {
-  RenderOptions probe = *opt;
-  const float scale = float(kAutoProbeSize) / float(std::max(opt->width, opt->height));
+/// A probe render with the interval search: whether its evaluations stayed within
+/// kAutoMaxIntervalEvalsPerRay per ray, and how many it made per ray.
+struct IntervalProbe {
+  bool tight = false;
+  double per_ray = 0;
+  int width = 0, height = 0;
+};
+
+IntervalProbe probe_intervals(const Field& field, const RenderOptions& opt) {
+  RenderOptions probe = opt;
+  const float scale = float(kAutoProbeSize) / float(std::max(opt.width, opt.height));
   if (scale < 1) {
-    probe.width = std::max(1, int(std::lround(float(opt->width) * scale)));
-    probe.height = std::max(1, int(std::lround(float(opt->height) * scale)));
+    probe.width = std::max(1, int(std::lround(float(opt.width) * scale)));
+    probe.height = std::max(1, int(std::lround(float(opt.height) * scale)));
   }
   probe.spp = 1;
   probe.shadows = false;
@@ -65,24 +72,34 @@ std::string probe_auto_root(const Field& field, RenderOptions* opt) {
   // (the pruned march spends 2-3 more interval evaluations per ray to save point samples).
   probe.interval_pruned_march = false;
   probe.progress = nullptr;
-  probe.threads = opt->threads;
+  probe.threads = opt.threads;
   const uint64_t rays = uint64_t(probe.width) * uint64_t(probe.height);
   const uint64_t budget = uint64_t(kAutoMaxIntervalEvalsPerRay * double(rays)) + 1;
   ProbeField counted(field, budget);
   render(counted, probe);
+  IntervalProbe r;
+  r.tight = counted.calls() <= budget;
+  r.per_ray = double(counted.calls()) / double(std::max<uint64_t>(rays, 1));
+  r.width = probe.width;
+  r.height = probe.height;
+  return r;
+}
+
+/// The interval-or-march probe of settle_root(). Returns the reason, for the user.
+std::string probe_auto_root(const Field& field, RenderOptions* opt) {
+  const IntervalProbe p = probe_intervals(field, *opt);
   char buf[220];
-  if (counted.calls() > budget) {
+  if (!p.tight) {
     std::snprintf(buf, sizeof buf,
                   "loose interval enclosures, over %.0f interval evaluations per ray in a %dx%d "
                   "probe; --root interval forces the interval search",
-                  kAutoMaxIntervalEvalsPerRay, probe.width, probe.height);
+                  kAutoMaxIntervalEvalsPerRay, p.width, p.height);
     opt->root = RootMode::kSign;
     opt->tile_culling = false;
     return buf;
   }
   std::snprintf(buf, sizeof buf, "interval evaluator, %.0f evaluations per ray in a %dx%d probe",
-                double(counted.calls()) / double(std::max<uint64_t>(rays, 1)), probe.width,
-                probe.height);
+                p.per_ray, p.width, p.height);
   opt->root = RootMode::kInterval;
   return buf;
 }
@@ -93,9 +110,33 @@ RootDecision choose_root(const Field& field, RenderOptions* opt, const AnalyticR
   RootDecision d;
   if (opt->root != RootMode::kAuto) return d;
   if (field.has_ray_candidates()) {
-    // Exact roots, no step, no probe: every leaf is a polynomial of degree <= 4 on a ray.
+    // Exact roots, no step: every leaf is a polynomial of degree <= 4 on a ray.
     d.why = analytic.description.empty() ? "analytic: polynomial leaves" : analytic.description;
     opt->root = RootMode::kAnalytic;
+    // Many leaves: every ray solves them all, and tight enclosures make the interval search
+    // cheaper (kAutoProbeAnalyticLeaves). Loose ones (quartics, R-function blends) keep the
+    // exact roots.
+    if (analytic.num_leaves >= kAutoProbeAnalyticLeaves && analytic.num_surface_leaves == 0 &&
+        field.has_interval()) {
+      const auto t0 = Clock::now();
+      const IntervalProbe p = probe_intervals(field, *opt);
+      d.probed = true;
+      d.probe_ms = ms_since(t0);
+      char buf[200];
+      if (p.tight) {
+        std::snprintf(buf, sizeof buf,
+                      "interval evaluator, %.0f evaluations per ray in a %dx%d probe, cheaper "
+                      "than solving %d polynomial leaves per ray; --root analytic forces exact "
+                      "roots",
+                      p.per_ray, p.width, p.height, analytic.num_leaves);
+        d.why = buf;
+        opt->root = RootMode::kInterval;
+      } else {
+        std::snprintf(buf, sizeof buf, "; loose interval enclosures in a %dx%d probe", p.width,
+                      p.height);
+        d.why += buf;
+      }
+    }
     return d;
   }
   d.analytic_fallback = analytic.not_qualified;

@@ -838,53 +838,6 @@ TEST(JitModelTest, BackgroundPointCompileGivesTheJitsBitsFromTheStart) {
   }
 }
 
-TEST(JitModelTest, BackgroundPolynomialCompileGivesTheJitsCoefficientsFromTheStart) {
-  // Model::start_polynomial_compile: the polynomial JIT compiles on a thread of its own while
-  // the polynomial interpreter answers ray_polynomials with the same coefficients.
-  ModelOptions mo;
-  mo.background_polynomial_min_insts = 0;  // the torus is small: the threshold off
-  CompileResult bg = Model::compile(kTorusModel, mo);
-  ASSERT_TRUE(bg.ok()) << bg.rendered;
-  ASSERT_TRUE(bg.model->analytic_info().qualifies);
-  const Model ref = compile_or_die(kTorusModel, Backend::kJit);
-  ASSERT_TRUE(ref.prepare_polynomial());
-  ASSERT_TRUE(bg.model->start_polynomial_compile());
-  EXPECT_TRUE(bg.model->start_polynomial_compile());
-  EXPECT_TRUE(bg.model->stats().polynomial.background);
-  const size_t rows = size_t(bg.model->analytic_info().num_leaves) * 5;
-  std::vector<std::thread> threads;
-  std::vector<int> bad(3, 0);
-  for (int t = 0; t < 3; ++t) {
-    threads.emplace_back([&, t] {
-      std::vector<double> got(rows), want(rows);
-      for (int round = 0; round < 300; ++round) {
-        const double o[3] = {-5.0 + 0.01 * round, 0.3 * t, 2.0};
-        const double d[3] = {1.0, 0.1, -0.3 + 0.002 * round};
-        bg.model->ray_polynomials(o, d, got.data());
-        ref.ray_polynomials(o, d, want.data());
-        bad[t] += std::memcmp(got.data(), want.data(), rows * sizeof(double)) != 0;
-      }
-    });
-  }
-  for (auto& th : threads) th.join();
-  for (int t = 0; t < 3; ++t) EXPECT_EQ(bad[t], 0) << "thread " << t;
-  EXPECT_TRUE(bg.model->prepare_polynomial());
-  EXPECT_TRUE(bg.model->stats().polynomial.compiled);
-  // The default threshold, a model that does not qualify, the interpreter backend: nothing.
-  mo.background_polynomial_min_insts = ModelOptions().background_polynomial_min_insts;
-  CompileResult small = Model::compile(kTorusModel, mo);
-  ASSERT_TRUE(small.ok());
-  EXPECT_FALSE(small.model->start_polynomial_compile());
-  mo.background_polynomial_min_insts = 0;
-  CompileResult blend = Model::compile("my_model(x[3], a[1]) { my_model = sin(x[1]) - x[2]; }", mo);
-  ASSERT_TRUE(blend.ok());
-  EXPECT_FALSE(blend.model->start_polynomial_compile());
-  mo.backend = Backend::kInterp;
-  CompileResult interp = Model::compile(kTorusModel, mo);
-  ASSERT_TRUE(interp.ok());
-  EXPECT_FALSE(interp.model->start_polynomial_compile());
-}
-
 TEST(JitModelTest, ManyThreadsEvaluateDomainsAtOnce) {
   for (Backend backend : {Backend::kJit, Backend::kInterp}) {
     // `m` compiles its domain code lazily, under contention; `ref`, a second model of the

@@ -9,6 +9,7 @@
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <functional>
 #include <sstream>
 #include <string>
 #include <vector>
@@ -240,6 +241,68 @@ TEST(RenderCli, AutoPicksIntervalsUnlessTheyAreLoose) {
       0)
       << err;
   EXPECT_NE(err.find("root search interval"), std::string::npos) << err;
+}
+
+/// A union (max) of `n` leaves, `leaf(i)` giving leaf i's definition of `t<i>` (one line).
+std::string union_model(int n, const std::function<std::string(int)>& leaf) {
+  std::string src = "my_model(x[3], a[1]) {\n";
+  for (int i = 0; i < n; ++i) {
+    src += leaf(i);
+    if (i > 0) {
+      src += "  u" + std::to_string(i) + " = max(" + (i == 1 ? "t0" : "u" + std::to_string(i - 1)) +
+             ", t" + std::to_string(i) + ");\n";
+    }
+  }
+  return src + "  my_model = u" + std::to_string(n - 1) + ";\n}\n";
+}
+
+TEST(RenderCli, AutoProbesIntervalsForManyPolynomialLeaves) {
+  // From kAutoProbeAnalyticLeaves (16) polynomial leaves, `auto` probes the interval search:
+  // 16 spheres have tight enclosures and take it (every ray would solve 16 leaves) ...
+  auto sphere = [](int i) {
+    char buf[160];
+    std::snprintf(buf, sizeof buf,
+                  "  dx%d = x[1] - (%.2f); t%d = 0.09 - dx%d*dx%d - x[2]*x[2] - x[3]*x[3];\n", i,
+                  -3 + 0.4 * i, i, i, i);
+    return std::string(buf);
+  };
+  fs::path spheres = write_model("spheres16.hf", union_model(16, sphere));
+  fs::path out = temp_dir() / "many_leaves.png";
+  std::string err;
+  ASSERT_EQ(run_hfrt("render " + spheres.string() + " -o " + out.string() + " --size 32x32 --stats",
+                     &err),
+            0)
+      << err;
+  EXPECT_NE(err.find("root search interval (auto: interval evaluator, "), std::string::npos) << err;
+  EXPECT_NE(err.find("cheaper than solving 16 polynomial leaves per ray; --root analytic forces "
+                     "exact roots"),
+            std::string::npos)
+      << err;
+  EXPECT_EQ(err.find("auto probe 0.0 ms"), std::string::npos) << err;  // a probe was made
+  // ... 15 do not (no probe) ...
+  fs::path fifteen = write_model("spheres15.hf", union_model(15, sphere));
+  ASSERT_EQ(run_hfrt("render " + fifteen.string() + " -o " + out.string() + " --size 32x32", &err),
+            0)
+      << err;
+  EXPECT_NE(err.find("root search analytic (auto: analytic: 15 polynomial leaves"),
+            std::string::npos)
+      << err;
+  // ... and 16 quartic tori, whose enclosures are loose, keep the exact roots.
+  auto torus = [](int i) {
+    char buf[200];
+    std::snprintf(buf, sizeof buf,
+                  "  p%d = x[1] - (%.2f); q%d = p%d*p%d + x[2]*x[2] + x[3]*x[3] + 0.8; t%d = "
+                  "3.2*(p%d*p%d + x[2]*x[2]) - q%d*q%d;\n",
+                  i, -3 + 0.4 * i, i, i, i, i, i, i, i, i);
+    return std::string(buf);
+  };
+  fs::path tori = write_model("tori16.hf", union_model(16, torus));
+  ASSERT_EQ(run_hfrt("render " + tori.string() + " -o " + out.string() + " --size 32x32", &err), 0)
+      << err;
+  EXPECT_NE(err.find("root search analytic (auto: analytic: 16 polynomial leaves of degree <= 4; "
+                     "loose interval enclosures in a 24x24 probe)"),
+            std::string::npos)
+      << err;
 }
 
 TEST(RenderCli, AutoPicksAnalyticForPolynomialModels) {

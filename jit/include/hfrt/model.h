@@ -101,11 +101,6 @@ struct ModelOptions {
   /// model's f32 gradient compile takes ~130-150 ms on 2 cores (bench/README.md, "The compile
   /// time of a 1000-instruction model").
   int background_gradient_min_insts = 500;
-  /// The same for Model::start_polynomial_compile (the polynomial interpreter answers
-  /// ray_polynomials with the JIT's coefficients until it is ready): the 993-instruction model
-  /// of 72 spheres compiles its polynomial code in ~200 ms, which every render thread waited
-  /// for on its first ray; -1: never.
-  int background_polynomial_min_insts = 500;
   /// The same for the f32 point code (Model::start_point_compile, and eager_f32 inside
   /// compile()): for an object of at least this many instructions whose tape is exact
   /// arithmetic, the f32 JIT compiles in the background while the tape VM's float pass answers
@@ -425,12 +420,6 @@ class Model {
   /// call, like the other domains; the interpreter when that compile fails), else the
   /// reference polynomial interpreter; both give the same values.
   void ray_polynomials(const double o[3], const double d[3], double* out) const;
-  /// Starts the polynomial JIT's compile on a thread of its own and returns at once, for an
-  /// object that qualifies with at least ModelOptions::background_polynomial_min_insts
-  /// instructions: until the code is ready, ray_polynomials answers from the polynomial
-  /// interpreter (the same coefficients, bit for bit). False when nothing was started (compiled
-  /// already, the interpreter backend, a small object or one that does not qualify).
-  bool start_polynomial_compile() const;
   /// Compiles the polynomial JIT now instead of on the first ray_polynomials call (no-op with
   /// the interpreter backend or an object that does not qualify). False (with `error`) when
   /// the JIT fails; ray_polynomials then uses the interpreter.
