@@ -37,6 +37,18 @@ class ProbeField final : public Field {
     }
     return field_.eval_interval(box, maybe_nan);
   }
+  /// The renderer's batches go to the field as batches (the same counts and answers as box by
+  /// box: the boxes past the budget are empty): one box at a time, the probe of a
+  /// 993-instruction model took ~95 ms on the tape VM's one-box pass.
+  void eval_intervals(size_t n, const Box* boxes, Interval* out, bool* maybe_nan) const override {
+    const uint64_t first = calls_.fetch_add(n, std::memory_order_relaxed);
+    const size_t within = first >= budget_ ? 0 : size_t(std::min<uint64_t>(n, budget_ - first));
+    if (within > 0) field_.eval_intervals(within, boxes, out, maybe_nan);
+    for (size_t i = within; i < n; ++i) {
+      maybe_nan[i] = false;
+      out[i] = {-1, -1};
+    }
+  }
   void eval_gradient(size_t n, const float* x, const float* y, const float* z, float* f, float* dx,
                      float* dy, float* dz) const override {
     field_.eval_gradient(n, x, y, z, f, dx, dy, dz);
