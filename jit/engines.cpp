@@ -309,11 +309,20 @@ std::shared_ptr<const Tape> GradientEngine::tape(Precision p, const std::vector<
   return tapes_->is_exact(a) ? tapes_->get(a) : nullptr;
 }
 
+template <typename T>
+void GradientEngine::vm_batch(const Tape& tape, int64_t n, const T* xs, T* out) const {
+  thread_local TapeVm vm;
+  thread_local std::vector<const T*> in;
+  in.clear();
+  for (int k = 0; k < fn_.num_inputs; ++k) in.push_back(xs + size_t(k) * size_t(n));
+  vm.eval_gradient<T>(tape, size_t(n), in, out);
+}
+
 Dual GradientEngine::eval(std::span<const double> x, const std::vector<double>& a) const {
   if (const GradientJit* jit = ready_code(Precision::kF64)) return jit->eval_one(x, a);
-  if (tape(Precision::kF64, a)) {
+  if (std::shared_ptr<const Tape> t = tape(Precision::kF64, a)) {
     double out[4];
-    eval_batch_t<double>(Precision::kF64, 1, x.data(), a, out);
+    vm_batch<double>(*t, 1, x.data(), out);
     return {out[0], {out[1], out[2], out[3]}};
   }
   return pool_.take()->eval(x, a);
@@ -340,11 +349,7 @@ void GradientEngine::eval_batch_t(Precision p, int64_t n, const T* xs, const std
   if (const GradientJit* jit = ready_code(p)) {
     jit->eval(n, xs, a, out);
   } else if (std::shared_ptr<const Tape> t = tape(p, a)) {
-    thread_local TapeVm vm;
-    thread_local std::vector<const T*> in;
-    in.clear();
-    for (int k = 0; k < fn_.num_inputs; ++k) in.push_back(xs + size_t(k) * size_t(n));
-    vm.eval_gradient<T>(*t, size_t(n), in, out);
+    vm_batch<T>(*t, n, xs, out);
   } else {
     interpret_batch(n, xs, a, out);
   }

@@ -308,6 +308,9 @@ class GradientEngine {
   static int index(Precision p) { return p == Precision::kF64 ? 0 : 1; }
   template <typename T>
   void interpret_batch(int64_t n, const T* xs, const std::vector<double>& a, T* out) const;
+  /// n points through the tape VM's gradient pass on `tape` (inputs as eval_batch's).
+  template <typename T>
+  void vm_batch(const Tape& tape, int64_t n, const T* xs, T* out) const;
   template <typename T>
   void eval_batch_t(Precision p, int64_t n, const T* xs, const std::vector<double>& a,
                     T* out) const;

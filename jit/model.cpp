@@ -77,12 +77,16 @@ jit::Precision to_jit(Precision p) {
   return p == Precision::kF64 ? jit::Precision::kF64 : jit::Precision::kF32;
 }
 
-/// Parameters for the code of `fn` with zeros for the user's and `hoisted` after them (what
-/// pad_params builds before the user sets any).
-std::vector<double> code_params(const jit::Function& fn, const std::vector<double>& hoisted) {
-  std::vector<double> p(size_t(std::max(fn.num_params, 1)), 0.0);
-  const size_t user = size_t(fn.num_params) - std::min(hoisted.size(), size_t(fn.num_params));
-  for (size_t j = 0; j < hoisted.size() && user + j < p.size(); ++j) p[user + j] = hoisted[j];
+/// The parameters the code of `fn` is called with: its first `user_params` from `params` (0
+/// where the user gave fewer), then the hoisted numbers `hoisted`; at least one.
+std::vector<double> code_params(const jit::Function& fn, int user_params,
+                                const std::vector<double>& params,
+                                const std::vector<double>& hoisted) {
+  const size_t n = static_cast<size_t>(std::max(fn.num_params, 1));
+  const size_t user = static_cast<size_t>(user_params);
+  std::vector<double> p(n, 0.0);
+  for (size_t i = 0; i < user && i < params.size(); ++i) p[i] = params[i];
+  for (size_t j = 0; j < hoisted.size() && user + j < n; ++j) p[user + j] = hoisted[j];
   return p;
 }
 
@@ -144,12 +148,7 @@ struct Model::Impl {
   ModelStats stats;
 
   void pad_params() {
-    size_t n = static_cast<size_t>(std::max(compiled->fn.num_params, 1));
-    size_t user = static_cast<size_t>(compiled->user_params);
-    params_f64.assign(n, 0.0);
-    for (size_t i = 0; i < user && i < params.size(); ++i) params_f64[i] = params[i];
-    for (size_t j = 0; j < constants.size() && user + j < n; ++j)
-      params_f64[user + j] = constants[j];
+    params_f64 = code_params(compiled->fn, compiled->user_params, params, constants);
     params_f32.assign(params_f64.begin(), params_f64.end());
     const jit::Function& fn = compiled->fn;
     poly_args.assign(size_t(std::max(jit::poly_num_params(fn), 1)), 0.0);
@@ -197,7 +196,8 @@ struct Model::Impl {
         // tape VM answering with its bits meanwhile (ModelOptions::background_point_min_insts).
         // The tape's ops do not depend on the parameters: the hoisted numbers and zeros do.
         if (eager && p == Precision::kF32 &&
-            c->scalar->compile_in_background_f32(code_params(c->fn, *hoisted))) {
+            c->scalar->compile_in_background_f32(
+                code_params(c->fn, c->user_params, {}, *hoisted))) {
           continue;
         }
         if (eager && !c->scalar->code(to_jit(p))) {
