@@ -113,6 +113,40 @@ class ModelTapeEvaluator final : public render::TapeEvaluator {
     return to_render_interval({r.lo, r.hi, r.maybe_nan}, maybe_nan);
   }
 
+  void eval_intervals(const render::FieldTape& tape, size_t n, const render::Box* boxes,
+                      render::Interval* out, bool* maybe_nan) override {
+    if (n == 0) return;
+    // Structure of arrays of x, y, z (and the time, a point) for the batched pass.
+    const size_t k = dims_ > 3 ? 4 : 3;
+    lo_.resize(k * n);
+    hi_.resize(k * n);
+    for (size_t c = 0; c < 3; ++c) {
+      double* lo = lo_.data() + c * n;
+      double* hi = hi_.data() + c * n;
+      for (size_t i = 0; i < n; ++i) {
+        lo[i] = boxes[i].lo[int(c)];
+        hi[i] = boxes[i].hi[int(c)];
+      }
+    }
+    if (k == 4) {
+      std::fill_n(lo_.data() + 3 * n, n, time_);
+      std::fill_n(hi_.data() + 3 * n, n, time_);
+    }
+    const double* lo[4] = {lo_.data(), lo_.data() + n, lo_.data() + 2 * n, lo_.data() + 3 * n};
+    const double* hi[4] = {hi_.data(), hi_.data() + n, hi_.data() + 2 * n, hi_.data() + 3 * n};
+    out_lo_.resize(n);
+    out_hi_.resize(n);
+    out_nan_.resize(n);
+    vm_.eval_intervals(static_cast<const ModelTape&>(tape).tape, n, {lo, k}, {hi, k},
+                       out_lo_.data(), out_hi_.data(), out_nan_.data());
+    for (size_t i = 0; i < n; ++i) {
+      const render::Interval r =
+          to_render_interval({out_lo_[i], out_hi_[i], out_nan_[i] != 0}, &maybe_nan[i]);
+      out[i].lo = r.lo;
+      out[i].hi = r.hi;
+    }
+  }
+
   bool prune_last(const render::FieldTape& tape, render::FieldTape* child) override {
     return vm_.prune_last(static_cast<const ModelTape&>(tape).tape,
                           &static_cast<ModelTape*>(child)->tape);
@@ -136,6 +170,8 @@ class ModelTapeEvaluator final : public render::TapeEvaluator {
   double time_;
   jit::TapeVm vm_;
   std::vector<float> time_lanes_;
+  std::vector<double> lo_, hi_, out_lo_, out_hi_;
+  std::vector<uint8_t> out_nan_;
 };
 
 bool ModelField::prepare_tapes(std::string* why) {

@@ -147,6 +147,15 @@ std::string format_render_stats(const RenderReport& r) {
                 "shading %.3f s\n",
                 st.tiles, tiles.c_str(), st.cull_seconds, st.search_seconds, st.shade_seconds);
   out += buf;
+  if (st.pruned_regions > 0) {
+    std::snprintf(buf, sizeof buf,
+                  "stats: pruned tapes: %llu slab tapes of %.1f instructions on average; "
+                  "interval boxes on them %llu, on the whole program %llu\n",
+                  (unsigned long long)st.pruned_regions,
+                  double(st.pruned_region_length) / double(st.pruned_regions),
+                  (unsigned long long)st.pruned_boxes, (unsigned long long)st.full_boxes);
+    out += buf;
+  }
   if (st.root_used == render::RootMode::kAnalytic) {
     std::snprintf(buf, sizeof buf, "stats: analytic candidates: %llu calls, %.2f per call\n",
                   (unsigned long long)e.candidate_calls,
@@ -202,6 +211,12 @@ RenderJobResult run_render_job(const RenderJob& job, render::RenderResult* out) 
   // The analytic search samples only F's sign: mesh and patch leaves then cost a winding
   // number instead of a distance query, closed meshes not even that.
   model_field.prepare_render(opt.root);
+  // The interval search evaluates each tile's boxes on tapes pruned for its culling slabs
+  // (render/tape_regions.h), when the object is straight-line code.
+  if (opt.root == render::RootMode::kInterval && opt.tile_culling && opt.pruned_tapes &&
+      &field == &model_field) {
+    model_field.prepare_tapes();
+  }
   if (opt.root == render::RootMode::kAnalytic) {
     for (std::string& w : open_surface_warnings(model, job.file))
       r.warnings.push_back(std::move(w));

@@ -11,6 +11,8 @@
 // set of edits is measured that way and again with every edit compiled anew (the compile
 // cache on disk off), which is what an edit of the structure costs. Run:
 //   build/bench/hfrt_bench_repl [--rounds N] [--edits N] [--size N] [--only NAME]
+//                               [--extra "OPTIONS"]   (appended to every edit's :render, e.g.
+//                                                      " --no-prune" for an A/B in one run)
 #include <algorithm>
 #include <chrono>
 #include <cstdio>
@@ -168,8 +170,9 @@ bool bench_edits(const EditCase& c, int edits, int size, const std::string& extr
 
 int main(int argc, char** argv) {
   int rounds = 5, edits = 10, size = 512;
-  std::string only;
+  std::string only, extra_all;
   for (int i = 1; i + 1 < argc; ++i) {
+    if (std::strcmp(argv[i], "--extra") == 0) extra_all = std::string(" ") + argv[i + 1];
     if (std::strcmp(argv[i], "--rounds") == 0) rounds = std::atoi(argv[i + 1]);
     if (std::strcmp(argv[i], "--edits") == 0) edits = std::max(1, std::atoi(argv[i + 1]));
     if (std::strcmp(argv[i], "--size") == 0) size = std::max(8, std::atoi(argv[i + 1]));
@@ -228,7 +231,7 @@ int main(int argc, char** argv) {
     if (!m.share) hfrt::configure_compile_cache(false);
     for (const EditCase& c : kCases) {
       if (!only.empty() && only != c.name) continue;
-      if (!bench_edits(c, edits, size, m.extra, out512, m.share)) return 1;
+      if (!bench_edits(c, edits, size, m.extra + extra_all, out512, m.share)) return 1;
     }
     hfrt::configure_compile_cache(cache_was_on);
   }

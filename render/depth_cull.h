@@ -6,6 +6,7 @@
 
 #include <cmath>
 #include <cstdint>
+#include <type_traits>
 #include <vector>
 
 #include "render/field.h"
@@ -16,6 +17,7 @@ namespace hfrt::render {
 struct DepthPiece {
   float a, b;
   int level;
+  int node = -1;  ///< the caller's tag of the piece's parent (SlabTest::node), -1 at the top
 };
 
 /// What a culling test found in the box of the depths [a, b] of a ray bundle.
@@ -26,6 +28,9 @@ struct SlabTest {
   /// can be seen, so the bisection stops after keeping it. (A piece the box clipped does not
   /// hide: a ray passing it outside the box meets the solid's cap later.)
   bool hides = false;
+  /// A tag the test gives the piece's children (e.g. the tape pruned for this piece's box,
+  /// render/tape_regions.h); -1 when none.
+  int node = -1;
 };
 
 /// A camera culling's verdict on `box` from F's interval over it (one more count in
@@ -44,7 +49,8 @@ inline SlabTest interval_slab_test(const Field& field, const Box& box, bool uncl
   return s;
 }
 
-/// Bisects [t0, t1] front to back. Each piece is judged by `test(a, b)` (a SlabTest); a piece
+/// Bisects [t0, t1] front to back. Each piece is judged by `test(a, b)` or `test(a, b, node)`
+/// (a SlabTest; `node` is the parent's SlabTest::node, -1 for [t0, t1]); a piece
 /// that is not empty and not inside is halved while it is longer than `width(b)` and less than
 /// 20 halvings deep; every other non-empty piece goes to `keep(a, b, test)`, in increasing
 /// depth, with its SlabTest (whether it was proven inside). The walk ends after a piece that
@@ -57,13 +63,18 @@ void bisect_depths(float t0, float t1, std::vector<DepthPiece>* stack, Test&& te
   while (!stack->empty()) {
     const DepthPiece p = stack->back();
     stack->pop_back();
-    const SlabTest s = test(p.a, p.b);
+    SlabTest s;
+    if constexpr (std::is_invocable_v<Test&, float, float, int>) {
+      s = test(p.a, p.b, p.node);
+    } else {
+      s = test(p.a, p.b);
+    }
     if (s.empty) continue;
     if (!s.inside && p.level < 20 && (p.b - p.a) > width(p.b)) {
       const float mid = p.a + (p.b - p.a) * 0.5f;
       if (mid > p.a && mid < p.b) {
-        stack->push_back({mid, p.b, p.level + 1});
-        stack->push_back({p.a, mid, p.level + 1});
+        stack->push_back({mid, p.b, p.level + 1, s.node});
+        stack->push_back({p.a, mid, p.level + 1, s.node});
         continue;
       }
     }

@@ -47,6 +47,13 @@ class TapeEvaluator {
   /// false, with `child` unchanged, when the interval decided nothing (then `tape` itself
   /// is the box's tape).
   virtual bool prune_last(const FieldTape& tape, FieldTape* child) = 0;
+  /// As Field::eval_intervals, on `tape`, for n boxes each inside the box `tape` was pruned
+  /// for (the root tape: anywhere). Records no decisions: prune_last() refers to the last
+  /// eval_interval() still.
+  virtual void eval_intervals(const FieldTape& tape, size_t n, const Box* boxes, Interval* out,
+                              bool* maybe_nan) {
+    for (size_t i = 0; i < n; ++i) out[i] = eval_interval(tape, boxes[i], &maybe_nan[i]);
+  }
   /// As Field::eval, on `tape` at points of the box it was pruned for.
   virtual void eval(const FieldTape& tape, size_t n, const float* x, const float* y, const float* z,
                     float* out_f) = 0;

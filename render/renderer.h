@@ -54,6 +54,9 @@ struct RenderOptions {
   int tile_size = 16;
   /// Empty: a default key light and a fill light placed relative to the camera.
   std::vector<Light> lights;
+  /// With the interval search and tile culling: evaluate the tile's intervals on tapes
+  /// pruned for its culling slabs (render/tape_regions.h), where the field has tapes.
+  bool pruned_tapes = true;
   bool shadows = true;
   Vec3 background{0.18f, 0.2f, 0.24f};
   /// Surface colour when the model has no colour attributes.
@@ -93,6 +96,9 @@ struct RenderStats {
   /// Thread-seconds spent in tile culling, in per-ray root search and in shading (normals,
   /// colours, shadow rays); they add up to about seconds * threads.
   double cull_seconds = 0, search_seconds = 0, shade_seconds = 0;
+  /// Pruned tapes (RenderOptions::pruned_tapes): slab tapes registered and their total
+  /// length; interval boxes evaluated on them and on the whole program.
+  uint64_t pruned_regions = 0, pruned_region_length = 0, pruned_boxes = 0, full_boxes = 0;
   int threads = 0;
   /// The first point (in tile order) where F had no value, with the Field's explanation.
   bool has_nan_point = false;

@@ -305,6 +305,34 @@ TEST(RenderCli, AutoProbesIntervalsForManyPolynomialLeaves) {
       << err;
 }
 
+TEST(RenderCli, StatsReportPrunedTapesAndNoPruneTurnsThemOff) {
+  // The gear (231 tape instructions) at 256x256: the interval search's boxes go to tapes
+  // pruned per tile slab; --no-prune keeps the whole program, with the same image.
+  const std::string gear =
+      HFRT_CORPUS_DIR "/models/github/alexander-penev__FRep-Designer-Bench/c1_gear.hf";
+  fs::path a = temp_dir() / "gear_pruned.png", b = temp_dir() / "gear_full.png";
+  std::string err;
+  ASSERT_EQ(run_hfrt("render " + gear + " -o " + a.string() +
+                         " --size 256x256 --bbox 1.6 --root interval --stats",
+                     &err),
+            0)
+      << err;
+  EXPECT_NE(err.find("stats: pruned tapes: "), std::string::npos) << err;
+  ASSERT_EQ(run_hfrt("render " + gear + " -o " + b.string() +
+                         " --size 256x256 --bbox 1.6 --root interval --stats --no-prune",
+                     &err),
+            0)
+      << err;
+  EXPECT_EQ(err.find("pruned tapes"), std::string::npos) << err;
+  auto bytes = [](const fs::path& p) {
+    std::ifstream in(p, std::ios::binary);
+    return std::string(std::istreambuf_iterator<char>(in), {});
+  };
+  const std::string png = bytes(a);
+  EXPECT_GT(png.size(), 1000u);
+  EXPECT_EQ(png, bytes(b));
+}
+
 TEST(RenderCli, AutoPicksAnalyticForPolynomialModels) {
   fs::path model = write_model("sphere_auto.hf", kSphereModel);
   fs::path out = temp_dir() / "analytic.png";

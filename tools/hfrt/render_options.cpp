@@ -91,6 +91,9 @@ void add_render_options(CLI::App& app, RenderCli* cli) {
   app.add_option("--aov", cli->aov, "extra outputs: depth,normal");
   app.add_option("--background", cli->background, "background colour r,g,b (linear, 0..1)");
   app.add_flag("--no-shadows", cli->no_shadows, "no shadow rays");
+  app.add_flag("--no-prune", cli->no_prune,
+               "interval search: evaluate the whole program, not tapes pruned per tile slab "
+               "(docs/rendering.md)");
   app.add_option("--backend", cli->model.backend, "evaluator: jit (default) or interp")
       ->check(CLI::IsMember({"jit", "interp"}));
   app.add_flag("--stats", cli->stats, "print time, Mrays/s and evaluator calls on stderr");
@@ -211,6 +214,7 @@ bool translate_render_options(const RenderCli& cli, app::RenderSetup* out, std::
     opt.background = v;
   }
   opt.shadows = !cli.no_shadows;
+  opt.pruned_tapes = !cli.no_prune;
   if (cli.max_depth < -1 || cli.max_depth > 64) return fail("--max-depth expects 0..64");
   if (!parse_doubles(cli.model.params, &s.params)) {
     return fail("-a expects numbers separated by commas, e.g. -a 1,0.5 (got '" + cli.model.params +

@@ -53,6 +53,7 @@ struct RenderCli {
   std::string aov;
   std::string background;
   bool no_shadows = false;
+  bool no_prune = false;  ///< --no-prune: the whole program's intervals everywhere
   bool stats = false;
   int max_depth = -1;          ///< scene files only; -1: the scene's value
   std::string device = "cpu";  ///< --device (registered by `hfrt render` only)

@@ -453,6 +453,8 @@ bool reset_option(const std::string& name, RenderCli* cli) {
     cli->no_shadows = d.no_shadows;
   else if (name == "shadows")
     cli->no_shadows = d.no_shadows;
+  else if (name == "no-prune")
+    cli->no_prune = d.no_prune;
   else if (name == "backend")
     cli->model.backend = d.model.backend;
   else if (name == "stats")

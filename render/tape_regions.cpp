@@ -1,0 +1,114 @@
+#include "render/tape_regions.h"
+
+#include <algorithm>
+#include <cmath>
+
+namespace hfrt::render {
+
+TapeRegions::TapeRegions(const Field& base) : base_(base), root_(base.root_tape()) {
+  if (root_) ev_ = base.tape_evaluator();
+  if (!ev_) {
+    root_.reset();
+    return;
+  }
+  root_length_ = root_->length();
+}
+
+void TapeRegions::clear() {
+  regions_.clear();
+  pool_used_ = 0;
+  last_ = -1;
+}
+
+int TapeRegions::eval_prune(int parent, const Box& box, Interval* out, bool* maybe_nan) {
+  const FieldTape& tape = parent >= 0 ? *regions_[size_t(parent)].tape : *root_;
+  *out = ev_->eval_interval(tape, box, maybe_nan);
+  const bool decided = out->hi < 0 || (!std::isnan(out->lo) && out->lo >= 0 && !*maybe_nan);
+  if (decided) return parent;
+  if (pool_used_ == pool_.size()) pool_.push_back(ev_->new_tape());
+  FieldTape* child = pool_[pool_used_].get();
+  if (!ev_->prune_last(tape, child)) return parent;
+  ++pool_used_;
+  const size_t len = child->length();
+  // A tape too long to beat the JIT still serves as the parent of its children's prunes; it
+  // is kept out of find() by a length of "infinity".
+  const bool usable = double(len) <= kMaxLengthRatio * double(root_length_);
+  regions_.push_back({box, child, usable ? len : SIZE_MAX});
+  if (usable) {
+    ++regions_made_;
+    region_length_sum_ += len;
+  }
+  return int(regions_.size() - 1);
+}
+
+int TapeRegions::find(const Box& b) const {
+  if (last_ >= 0 && regions_[size_t(last_)].box.contains(b)) return last_;
+  int best = -1;
+  size_t best_len = SIZE_MAX;
+  for (size_t i = 0; i < regions_.size(); ++i) {
+    const Region& r = regions_[i];
+    if (r.length < best_len && r.box.contains(b)) {
+      best = int(i);
+      best_len = r.length;
+    }
+  }
+  if (best >= 0) last_ = best;
+  return best;
+}
+
+void TapeRegions::eval_intervals(size_t n, const Box* boxes, Interval* out, bool* maybe_nan) const {
+  if (n == 0) return;
+  if (regions_.empty()) {
+    full_boxes_ += n;
+    base_.eval_intervals(n, boxes, out, maybe_nan);
+    return;
+  }
+  // Bucket the boxes by region (bucket 0: none), counting sort.
+  const size_t nb = regions_.size() + 1;
+  which_.resize(n);
+  start_.assign(nb + 1, 0);
+  for (size_t i = 0; i < n; ++i) {
+    which_[i] = find(boxes[i]) + 1;
+    ++start_[size_t(which_[i]) + 1];
+  }
+  for (size_t k = 0; k < nb; ++k) start_[k + 1] += start_[k];
+  const size_t w0 = size_t(which_[0]);
+  if (start_[w0 + 1] - start_[w0] == n) {
+    // Every box in one bucket: no gathering.
+    if (w0 == 0) {
+      full_boxes_ += n;
+      base_.eval_intervals(n, boxes, out, maybe_nan);
+    } else {
+      pruned_boxes_ += n;
+      ev_->eval_intervals(*regions_[w0 - 1].tape, n, boxes, out, maybe_nan);
+    }
+    return;
+  }
+  order_.resize(n);
+  fill_.assign(start_.begin(), start_.end() - 1);
+  for (size_t i = 0; i < n; ++i) order_[fill_[size_t(which_[i])]++] = uint32_t(i);
+  boxes_.resize(n);
+  ivs_.resize(n);
+  if (nan_size_ < n) {
+    nan_size_ = std::max(n, 2 * nan_size_);
+    nan_.reset(new bool[nan_size_]);
+  }
+  for (size_t i = 0; i < n; ++i) boxes_[i] = boxes[order_[i]];
+  for (size_t k = 0; k < nb; ++k) {
+    const size_t a = start_[k], m = start_[k + 1] - a;
+    if (m == 0) continue;
+    if (k == 0) {
+      full_boxes_ += m;
+      base_.eval_intervals(m, &boxes_[a], &ivs_[a], &nan_[a]);
+    } else {
+      pruned_boxes_ += m;
+      ev_->eval_intervals(*regions_[k - 1].tape, m, &boxes_[a], &ivs_[a], &nan_[a]);
+    }
+  }
+  for (size_t i = 0; i < n; ++i) {
+    out[order_[i]] = ivs_[i];
+    maybe_nan[order_[i]] = nan_[i];
+  }
+}
+
+}  // namespace hfrt::render

@@ -1,0 +1,111 @@
+#pragma once
+// Tapes pruned per region of space for the 3-D renderer (issue 25: "the interval root search of
+// every model" on short tapes). A tile's culling bisects its frustum in depth with intervals;
+// each slab box that the interval does not decide is also where the interval's min/max choices
+// hold, so the tape pruned for it (Field::tape_evaluator, docs/tape_vm.md) is exact for every
+// point and box inside it. TapeRegions keeps those (box, tape) pairs for the tile being
+// rendered and is itself a Field: an interval over a box that lies inside a registered region
+// is evaluated on that region's tape by the tape VM (the gear's 16-pixel slabs keep ~20-40 of
+// its 231 instructions), any other box by the field underneath (the interval JIT).
+
+#include <cstdint>
+#include <memory>
+#include <vector>
+
+#include "render/field.h"
+
+namespace hfrt::render {
+
+/// The regions and tapes of one tile, for one worker thread (not thread-safe: a thread's
+/// RootSearcher evaluates through it). Without a root tape (Field::root_tape() null) it is a
+/// plain view of the field underneath.
+class TapeRegions final : public Field {
+ public:
+  /// A region is registered only when its tape is at most this fraction of the root tape's
+  /// length: the VM costs ~2.5x the interval JIT per instruction and box (bench/README.md,
+  /// hfrt_bench_interval c1_gear: 1.07 ns against ~0.42 ns), so a longer tape is slower than
+  /// the JIT's full program.
+  static constexpr double kMaxLengthRatio = 0.35;
+
+  explicit TapeRegions(const Field& base);
+
+  /// Whether the field has tapes (pruning is possible at all).
+  bool enabled() const { return root_ != nullptr; }
+  /// Forgets the regions (a new tile); the tapes' buffers are kept for reuse.
+  void clear();
+  /// F's interval over `box` on the tape of region `parent` (-1: the root tape; `box` must lie
+  /// inside the parent's box), by the tape VM. When the interval decides nothing about F's
+  /// sign (hi >= 0 > lo or NaN possible) the tape is pruned for `box` and, when it got short
+  /// enough, registered: the region's index is returned for the children of `box`; otherwise
+  /// `parent` (whose tape stays valid in `box`).
+  int eval_prune(int parent, const Box& box, Interval* out, bool* maybe_nan);
+
+  /// Statistics: regions registered, and their tapes' total length.
+  uint64_t regions_made() const { return regions_made_; }
+  uint64_t region_length_sum() const { return region_length_sum_; }
+  /// Boxes evaluated on a region's tape / by the field underneath, by eval_intervals.
+  uint64_t pruned_boxes() const { return pruned_boxes_; }
+  uint64_t full_boxes() const { return full_boxes_; }
+
+  // Field: every call goes to the field underneath but eval_intervals.
+  void eval(size_t n, const float* x, const float* y, const float* z, float* out_f) const override {
+    base_.eval(n, x, y, z, out_f);
+  }
+  bool has_interval() const override { return base_.has_interval(); }
+  Interval eval_interval(const Box& box, bool* maybe_nan) const override {
+    return base_.eval_interval(box, maybe_nan);
+  }
+  /// Each box inside a registered region is evaluated on the shortest such region's tape (in
+  /// one batch per region); the others by the field underneath.
+  void eval_intervals(size_t n, const Box* boxes, Interval* out, bool* maybe_nan) const override;
+  void eval_gradient(size_t n, const float* x, const float* y, const float* z, float* f, float* dx,
+                     float* dy, float* dz) const override {
+    base_.eval_gradient(n, x, y, z, f, dx, dy, dz);
+  }
+  int num_attributes() const override { return base_.num_attributes(); }
+  void eval_attributes(size_t n, const float* x, const float* y, const float* z,
+                       float* out_s) const override {
+    base_.eval_attributes(n, x, y, z, out_s);
+  }
+  std::string explain_nan(Vec3 p) const override { return base_.explain_nan(p); }
+  bool has_ray_candidates() const override { return base_.has_ray_candidates(); }
+  void ray_candidates(Vec3 o, Vec3 d, float t0, float t1, std::vector<double>* out) const override {
+    base_.ray_candidates(o, d, t0, t1, out);
+  }
+  void prefetch_ray_candidates(const Vec3* o, const Vec3* d, const float* t0, const float* t1,
+                               size_t n) const override {
+    base_.prefetch_ray_candidates(o, d, t0, t1, n);
+  }
+  void clear_prefetched_ray_candidates() const override { base_.clear_prefetched_ray_candidates(); }
+
+ private:
+  struct Region {
+    Box box;
+    const FieldTape* tape;
+    size_t length;
+  };
+  /// The region of the shortest tape whose box contains `b`, or -1.
+  int find(const Box& b) const;
+
+  const Field& base_;
+  std::shared_ptr<const FieldTape> root_;
+  std::unique_ptr<TapeEvaluator> ev_;
+  size_t root_length_ = 0;
+  std::vector<Region> regions_;
+  /// Tapes of this tile's regions, regions_[i].tape == pool_[i]; reused across tiles.
+  std::vector<std::unique_ptr<FieldTape>> pool_;
+  size_t pool_used_ = 0;
+  // eval_intervals scratch: per region the indices of its boxes, gathered boxes and results.
+  mutable std::vector<int> which_;
+  mutable std::vector<uint32_t> order_;
+  mutable std::vector<uint32_t> start_, fill_;
+  mutable std::vector<Box> boxes_;
+  mutable std::vector<Interval> ivs_;
+  mutable std::unique_ptr<bool[]> nan_;
+  mutable size_t nan_size_ = 0;
+  mutable int last_ = -1;
+  uint64_t regions_made_ = 0, region_length_sum_ = 0;
+  mutable uint64_t pruned_boxes_ = 0, full_boxes_ = 0;
+};
+
+}  // namespace hfrt::render

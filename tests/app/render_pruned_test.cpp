@@ -1,0 +1,160 @@
+// The renderer's pruned tapes (render/tape_regions.h, RenderOptions::pruned_tapes): the
+// interval search evaluates the boxes inside a tile's culling slabs on tapes pruned for them.
+// Pruning only drops min/max branches the f64 interval has decided, so the enclosures, and
+// with them every decision of the search, are the whole program's: the image must be the
+// same pixel for pixel on every corpus model with a tape, and the boxes must actually go to
+// shorter tapes.
+
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <filesystem>
+#include <random>
+#include <string>
+#include <vector>
+
+#include "app/model_field.h"
+#include "hfrt/model.h"
+#include "render/framing.h"
+#include "render/renderer.h"
+#include "render/tape_regions.h"
+
+namespace hfrt::app {
+namespace {
+
+namespace fs = std::filesystem;
+
+std::vector<std::string> corpus_models() {
+  std::vector<std::string> files;
+  for (const auto& e : fs::recursive_directory_iterator(HFRT_CORPUS_DIR "/models")) {
+    if (e.is_regular_file() && e.path().extension() == ".hf") files.push_back(e.path().string());
+  }
+  std::sort(files.begin(), files.end());
+  return files;
+}
+
+render::RenderOptions framed_options(const render::Field& field, int size) {
+  render::RenderOptions o;
+  o.width = o.height = size;
+  o.bbox = render::Box{{-4, -4, -4}, {4, 4, 4}};
+  o.root = render::RootMode::kInterval;
+  o.threads = 2;
+  const render::Box extent = render::find_extent(field, o.bbox, 5);
+  o.camera = render::resolve_camera({}, extent, 1.0f);
+  return o;
+}
+
+TEST(RenderPrunedTest, PrunedTapesGiveTheWholeProgramsImageOnCorpus) {
+  int with_tape = 0, pruned_models = 0;
+  for (const std::string& file : corpus_models()) {
+    auto compiled = Model::compile_file(file);
+    if (!compiled.ok()) continue;
+    ModelField field(*compiled.model, file);
+    // As the renderer does (app/render_job.cpp render_field): intervals only from the
+    // interval JIT; larger objects are rendered by sampling.
+    if (compiled.model->interval_engine() != DomainEngine::kJit) continue;
+    if (!field.has_interval() || !field.prepare_tapes()) continue;
+    with_tape++;
+    render::RenderOptions o = framed_options(field, 64);
+    o.tile_size = 4;  // small tiles: slabs narrow enough to prune at this size
+    const render::RenderResult pruned = render::render(field, o);
+    o.pruned_tapes = false;
+    const render::RenderResult full = render::render(field, o);
+    EXPECT_EQ(full.stats.pruned_boxes, 0u) << file;
+    if (pruned.stats.pruned_boxes > 0) pruned_models++;
+    EXPECT_EQ(pruned.stats.hits, full.stats.hits) << file;
+    size_t differ = 0;
+    for (size_t i = 0; i < full.image.alpha.size(); ++i) {
+      const bool same_depth =
+          full.image.alpha[i] == 0 || full.image.depth[i] == pruned.image.depth[i];
+      differ += full.image.alpha[i] != pruned.image.alpha[i] || !same_depth;
+    }
+    EXPECT_EQ(differ, 0u) << file;
+    EXPECT_EQ(full.image.rgb, pruned.image.rgb) << file;
+  }
+  std::printf("pruned tapes: %d corpus models with a tape, %d rendered with pruned boxes\n",
+              with_tape, pruned_models);
+  EXPECT_GE(with_tape, 10);
+  EXPECT_GE(pruned_models, 3);
+}
+
+/// The gear at 512x512 (16-pixel tiles see a tooth or two): most of its boxes go to slab tapes
+/// far shorter than its program.
+TEST(RenderPrunedTest, GearBoxesGoToShortTapes) {
+  const std::string file =
+      HFRT_CORPUS_DIR "/models/github/alexander-penev__FRep-Designer-Bench/c1_gear.hf";
+  auto compiled = Model::compile_file(file);
+  ASSERT_TRUE(compiled.ok());
+  ModelField field(*compiled.model, file);
+  ASSERT_TRUE(field.prepare_tapes());
+  render::RenderOptions o = framed_options(field, 512);
+  const render::RenderResult r = render::render(field, o);
+  ASSERT_GT(r.stats.pruned_regions, 0u);
+  const double average = double(r.stats.pruned_region_length) / double(r.stats.pruned_regions);
+  EXPECT_LT(average, 0.35 * double(field.root_tape()->length()));
+  EXPECT_GT(r.stats.pruned_boxes, 4 * r.stats.full_boxes);
+}
+
+/// TapeRegions on its own: a region's boxes are evaluated on its tape, enclosing F at points
+/// of the box (sound), equal to the whole program's enclosure; other boxes go to the field.
+TEST(RenderPrunedTest, RegionsEncloseTheFieldAndRouteByContainment) {
+  const std::string file =
+      HFRT_CORPUS_DIR "/models/github/alexander-penev__FRep-Designer-Bench/c1_gear.hf";
+  auto compiled = Model::compile_file(file);
+  ASSERT_TRUE(compiled.ok());
+  ModelField field(*compiled.model, file);
+  ASSERT_TRUE(field.prepare_tapes());
+  render::TapeRegions regions(field);
+  ASSERT_TRUE(regions.enabled());
+  // A box on a tooth's flank: its interval decides nothing, so it is pruned and registered.
+  const render::Box region{{0.80f, -0.10f, -0.05f}, {0.95f, 0.05f, 0.10f}};
+  render::Interval iv;
+  bool nan = false;
+  const int node = regions.eval_prune(-1, region, &iv, &nan);
+  ASSERT_GE(node, 0) << iv.lo << " " << iv.hi;
+  ASSERT_EQ(regions.regions_made(), 1u);
+  std::mt19937 rng(7);
+  std::uniform_real_distribution<float> u(0, 1);
+  std::vector<render::Box> boxes;
+  for (int i = 0; i < 200; ++i) {
+    render::Box b;
+    for (int k = 0; k < 3; ++k) {
+      float a = region.lo[k] + (region.hi[k] - region.lo[k]) * u(rng);
+      float c = region.lo[k] + (region.hi[k] - region.lo[k]) * u(rng);
+      b.lo[k] = std::min(a, c);
+      b.hi[k] = std::max(a, c);
+    }
+    boxes.push_back(b);
+  }
+  boxes.push_back(render::Box{{0.0f, 0.0f, 0.0f}, {0.1f, 0.1f, 0.1f}});  // outside the region
+  std::vector<render::Interval> got(boxes.size()), want(boxes.size());
+  std::unique_ptr<bool[]> got_nan(new bool[boxes.size()]), want_nan(new bool[boxes.size()]);
+  regions.eval_intervals(boxes.size(), boxes.data(), got.data(), got_nan.get());
+  field.eval_intervals(boxes.size(), boxes.data(), want.data(), want_nan.get());
+  EXPECT_EQ(regions.pruned_boxes(), 200u);
+  EXPECT_EQ(regions.full_boxes(), 1u);
+  for (size_t i = 0; i < boxes.size(); ++i) {
+    EXPECT_EQ(got[i].lo, want[i].lo) << i;
+    EXPECT_EQ(got[i].hi, want[i].hi) << i;
+    const render::Box& b = boxes[i];
+    float x[8], y[8], z[8], f[8];
+    for (int c = 0; c < 8; ++c) {
+      x[c] = c & 1 ? b.hi.x : b.lo.x;
+      y[c] = c & 2 ? b.hi.y : b.lo.y;
+      z[c] = c & 4 ? b.hi.z : b.lo.z;
+    }
+    field.eval(8, x, y, z, f);
+    // The enclosure is sound for F in f64; the f32 points may round past it by an ulp or so.
+    for (int c = 0; c < 8; ++c) {
+      EXPECT_LE(got[i].lo, f[c] + 1e-5f) << i;
+      EXPECT_GE(got[i].hi, f[c] - 1e-5f) << i;
+    }
+  }
+  regions.clear();
+  regions.eval_intervals(1, boxes.data(), got.data(), got_nan.get());
+  EXPECT_EQ(regions.full_boxes(), 2u);  // no region after clear()
+}
+
+}  // namespace
+}  // namespace hfrt::app
