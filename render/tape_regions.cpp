@@ -6,7 +6,7 @@
 namespace hfrt::render {
 
 TapeRegions::TapeRegions(const Field& base) : base_(base), root_(base.root_tape()) {
-  if (root_) ev_ = base.tape_evaluator();
+  if (root_ && root_->length() >= kMinRootLength) ev_ = base.tape_evaluator();
   if (!ev_) {
     root_.reset();
     return;
@@ -16,6 +16,7 @@ TapeRegions::TapeRegions(const Field& base) : base_(base), root_(base.root_tape(
 
 void TapeRegions::clear() {
   regions_.clear();
+  usable_.clear();
   pool_used_ = 0;
   last_ = -1;
 }
@@ -35,6 +36,7 @@ int TapeRegions::eval_prune(int parent, const Box& box, Interval* out, bool* may
   const bool usable = double(len) <= kMaxLengthRatio * double(root_length_);
   regions_.push_back({box, child, usable ? len : SIZE_MAX});
   if (usable) {
+    usable_.push_back(uint32_t(regions_.size() - 1));
     ++regions_made_;
     region_length_sum_ += len;
   }
@@ -45,7 +47,7 @@ int TapeRegions::find(const Box& b) const {
   if (last_ >= 0 && regions_[size_t(last_)].box.contains(b)) return last_;
   int best = -1;
   size_t best_len = SIZE_MAX;
-  for (size_t i = 0; i < regions_.size(); ++i) {
+  for (const uint32_t i : usable_) {
     const Region& r = regions_[i];
     if (r.length < best_len && r.box.contains(b)) {
       best = int(i);
@@ -58,7 +60,7 @@ int TapeRegions::find(const Box& b) const {
 
 void TapeRegions::eval_intervals(size_t n, const Box* boxes, Interval* out, bool* maybe_nan) const {
   if (n == 0) return;
-  if (regions_.empty()) {
+  if (usable_.empty()) {
     full_boxes_ += n;
     base_.eval_intervals(n, boxes, out, maybe_nan);
     return;

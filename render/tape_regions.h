@@ -17,8 +17,8 @@
 namespace hfrt::render {
 
 /// The regions and tapes of one tile, for one worker thread (not thread-safe: a thread's
-/// RootSearcher evaluates through it). Without a root tape (Field::root_tape() null) it is a
-/// plain view of the field underneath.
+/// RootSearcher evaluates through it). Without a root tape (Field::root_tape() null) or with
+/// a short one it is a plain view of the field underneath.
 class TapeRegions final : public Field {
  public:
   /// A region is registered only when its tape is at most this fraction of the root tape's
@@ -26,6 +26,13 @@ class TapeRegions final : public Field {
   /// hfrt_bench_interval c1_gear: 1.07 ns against ~0.42 ns), so a longer tape is slower than
   /// the JIT's full program.
   static constexpr double kMaxLengthRatio = 0.35;
+
+  /// Programs shorter than this are not pruned: what pruning can save is less than the VM's
+  /// costs (one-box passes in the culling, sorting boxes by region). 512x512 renders, 2
+  /// threads: s2_csg (20 instructions) 0.059-0.060 s whole program, 0.074-0.078 s pruned
+  /// (slab tapes of 4.9); c2_colonnade (206) 0.133-0.145 -> 0.114-0.115 s; c1_gear (231)
+  /// 0.098-0.137 -> 0.084-0.098 s without shadows.
+  static constexpr size_t kMinRootLength = 64;
 
   explicit TapeRegions(const Field& base);
 
@@ -92,6 +99,7 @@ class TapeRegions final : public Field {
   std::unique_ptr<TapeEvaluator> ev_;
   size_t root_length_ = 0;
   std::vector<Region> regions_;
+  std::vector<uint32_t> usable_;  ///< the regions find() considers (short enough tapes)
   /// Tapes of this tile's regions, regions_[i].tape == pool_[i]; reused across tiles.
   std::vector<std::unique_ptr<FieldTape>> pool_;
   size_t pool_used_ = 0;
