@@ -41,9 +41,13 @@ struct RenderSetup {
 /// The field a render uses: the model's own, or (when the model's interval evaluator is the
 /// interpreter, too slow for the renderer's many calls, and `root` is not kInterval) the view
 /// without intervals, which frames by sampling and renders by the sign-change march.
+/// With `pruned_tapes` (a `render::render` with RenderOptions::pruned_tapes and tile culling,
+/// which run_render_job asks for) and `root` kAuto, a model whose intervals come from the tape
+/// VM keeps its intervals: the renderer evaluates them on tapes pruned per tile slab.
 /// `model_field` and `sampled` must outlive the returned reference.
 const render::Field& render_field(const Model& model, const ModelField& model_field,
-                                  const WithoutIntervals& sampled, render::RootMode root);
+                                  const WithoutIntervals& sampled, render::RootMode root,
+                                  bool pruned_tapes = false);
 
 /// How the camera was found, for --stats.
 struct FramingInfo {

@@ -333,6 +333,39 @@ TEST(RenderCli, StatsReportPrunedTapesAndNoPruneTurnsThemOff) {
   EXPECT_EQ(png, bytes(b));
 }
 
+TEST(RenderCli, LargeStraightLineModelsKeepIntervalsOnPrunedTapes) {
+  // 400 spheres in a row (~4000 IR instructions: past the interval JIT's limit, so the tape VM
+  // evaluates the intervals). `auto` used to render such a model without intervals (framed by
+  // sampling); with tapes pruned per tile slab it keeps them, and --no-prune keeps the old way.
+  auto sphere = [](int i) {
+    char buf[200];
+    std::snprintf(buf, sizeof buf,
+                  "  dx%d = x[1] - (%.3f); dy%d = x[2] - (%.3f); t%d = 0.01 - dx%d*dx%d - "
+                  "dy%d*dy%d - x[3]*x[3];\n",
+                  i, -3 + 0.015 * i, i, 0.2 * std::sin(0.3 * i), i, i, i, i, i);
+    return std::string(buf);
+  };
+  fs::path model = write_model("spheres400.hf", union_model(400, sphere));
+  fs::path out = temp_dir() / "spheres400.png";
+  std::string err;
+  ASSERT_EQ(run_hfrt("render " + model.string() + " -o " + out.string() +
+                         " --size 96x96 --bbox 4 --stats --no-shadows",
+                     &err),
+            0)
+      << err;
+  EXPECT_NE(err.find("interval tape VM"), std::string::npos) << err;
+  EXPECT_NE(err.find("(intervals)"), std::string::npos) << err;  // framed by intervals
+  EXPECT_NE(err.find("root: interval"), std::string::npos) << err;
+  EXPECT_NE(err.find("stats: pruned tapes: "), std::string::npos) << err;
+  ASSERT_EQ(run_hfrt("render " + model.string() + " -o " + out.string() +
+                         " --size 96x96 --bbox 4 --stats --no-shadows --no-prune",
+                     &err),
+            0)
+      << err;
+  EXPECT_NE(err.find("(sampling)"), std::string::npos) << err;
+  EXPECT_EQ(err.find("pruned tapes"), std::string::npos) << err;
+}
+
 TEST(RenderCli, AutoPicksAnalyticForPolynomialModels) {
   fs::path model = write_model("sphere_auto.hf", kSphereModel);
   fs::path out = temp_dir() / "analytic.png";
