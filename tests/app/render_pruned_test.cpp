@@ -79,15 +79,24 @@ TEST(RenderPrunedTest, PrunedTapesGiveTheWholeProgramsImageOnCorpus) {
   EXPECT_GE(pruned_models, 3);
 }
 
+/// c1_gear (231 tape instructions) compiled, as a field with its tapes.
+struct GearField {
+  const std::string file =
+      HFRT_CORPUS_DIR "/models/github/alexander-penev__FRep-Designer-Bench/c1_gear.hf";
+  CompileResult compiled = Model::compile_file(file);
+  std::unique_ptr<ModelField> field;
+  GearField() {
+    if (compiled.ok()) field = std::make_unique<ModelField>(*compiled.model, file);
+  }
+  bool ok() { return field && field->prepare_tapes(); }
+};
+
 /// The gear at 512x512 (16-pixel tiles see a tooth or two): most of its boxes go to slab tapes
 /// far shorter than its program.
 TEST(RenderPrunedTest, GearBoxesGoToShortTapes) {
-  const std::string file =
-      HFRT_CORPUS_DIR "/models/github/alexander-penev__FRep-Designer-Bench/c1_gear.hf";
-  auto compiled = Model::compile_file(file);
-  ASSERT_TRUE(compiled.ok());
-  ModelField field(*compiled.model, file);
-  ASSERT_TRUE(field.prepare_tapes());
+  GearField gear;
+  ASSERT_TRUE(gear.ok());
+  ModelField& field = *gear.field;
   render::RenderOptions o = framed_options(field, 512);
   const render::RenderResult r = render::render(field, o);
   ASSERT_GT(r.stats.pruned_regions, 0u);
@@ -99,12 +108,9 @@ TEST(RenderPrunedTest, GearBoxesGoToShortTapes) {
 /// TapeRegions on its own: a region's boxes are evaluated on its tape, enclosing F at points
 /// of the box (sound), equal to the whole program's enclosure; other boxes go to the field.
 TEST(RenderPrunedTest, RegionsEncloseTheFieldAndRouteByContainment) {
-  const std::string file =
-      HFRT_CORPUS_DIR "/models/github/alexander-penev__FRep-Designer-Bench/c1_gear.hf";
-  auto compiled = Model::compile_file(file);
-  ASSERT_TRUE(compiled.ok());
-  ModelField field(*compiled.model, file);
-  ASSERT_TRUE(field.prepare_tapes());
+  GearField gear;
+  ASSERT_TRUE(gear.ok());
+  ModelField& field = *gear.field;
   render::TapeRegions regions(field);
   ASSERT_TRUE(regions.enabled());
   // A box on a tooth's flank: its interval decides nothing, so it is pruned and registered.
