@@ -318,6 +318,7 @@ TEST(ReplSet, EveryRenderOptionIsAccepted) {
                                                      {"aov", "depth,normal"},
                                                      {"background", "0,0,0"},
                                                      {"no-shadows", "on"},
+                                                     {"no-prune", "on"},
                                                      {"backend", "interp"},
                                                      {"stats", "on"},
                                                      {"max-depth", "3"},

@@ -105,12 +105,12 @@ const std::vector<std::string>& render_option_names() {
   static const std::vector<std::string> names = {
       "size",       "bbox",       "eye",     "look-at", "up",        "fov",  "ortho",   "root",
       "spp",        "threads",    "a",       "object",  "light",     "step", "epsilon", "aov",
-      "background", "no-shadows", "backend", "stats",   "max-depth", "time"};
+      "background", "no-shadows", "backend", "stats",   "max-depth", "time", "no-prune"};
   return names;
 }
 
 bool render_option_is_flag(const std::string& name) {
-  return name == "no-shadows" || name == "stats";
+  return name == "no-shadows" || name == "stats" || name == "no-prune";
 }
 
 bool parse_root_mode(const std::string& text, render::RootMode* mode) {

@@ -128,7 +128,8 @@ const char* kHelp =
     "  :set OPTION VALUE...       set any option of hfrt render (size, bbox, eye, look-at, up,\n"
     "                             fov, ortho, root, spp, threads, a, object, light, step, "
     "epsilon,\n"
-    "                             aov, background, no-shadows, backend, stats; flags take on|off;\n"
+    "                             aov, background, no-shadows, no-prune, backend, stats; flags\n"
+    "                             take on|off;\n"
     "                             VALUE 'default' restores the default; light takes several)\n"
     "  :scene FILE.toml [OUT]     load a scene file (docs/scenes.md); with OUT, render it\n"
     "  :scene -o OUT              render the loaded scene (with its edits) to OUT\n"
@@ -697,6 +698,7 @@ SessionResult Session::cmd_show() const {
   s << "root " << render::root_mode_name(o.root) << "\nspp " << o.spp << "\nthreads " << o.threads
     << "\n";
   s << "shadows " << (o.shadows ? "on" : "off") << "\n";
+  if (!o.pruned_tapes) s << "no-prune on\n";
   auto typed = [&s](const char* name, const std::string& v) {
     s << name << ' ' << (v.empty() ? "default" : v) << "\n";
   };
