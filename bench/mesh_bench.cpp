@@ -271,9 +271,10 @@ int main(int argc, char** argv) {
       phits, res * double(res) / hfrt8_cpu / 1e6, hfrt8_mrays / hfrt_mrays,
       count_differ(img, hfrt_img));
 
-  std::vector<Ray> shadow_rays;  // kept for Embree's shadow rays
-  size_t shadow_packets = 0, shadow_blocked = 0;
-  double hfrt_shadow1 = 0, hfrt_shadow8 = 0;
+  // Kept for Embree's shadow rays (read only where Embree is installed: HFRT_HAVE_EMBREE).
+  [[maybe_unused]] std::vector<Ray> shadow_rays;
+  [[maybe_unused]] size_t shadow_packets = 0, shadow_blocked = 0;
+  [[maybe_unused]] double hfrt_shadow1 = 0, hfrt_shadow8 = 0;
   // Shadow rays: from every primary hit (nudged off the surface along its normal) towards one
   // directional light; any hit (occluded, 4-wide BVH) against the nearest hit (intersect) and
   // the binary BVH's any hit (occluded_binary), on the same rays.
