@@ -86,6 +86,51 @@ void pack(int dims, double time, size_t n, const float* x, const float* y, const
   if (rows > set) std::fill(out + set * n, out + rows * n, 0.0f);
 }
 
+/// A batch of boxes in the layout of the batched interval evaluators (Model's and the tape
+/// VM's), and its enclosures converted back to the renderer's.
+struct BoxBatch {
+  std::vector<double> lo, hi, out_lo, out_hi;
+  std::vector<uint8_t> out_nan;
+
+  /// The boxes' bounds as `rows` structure-of-arrays rows of n: their first `coords`
+  /// coordinates (x, y, z), then x[4] = `time` (a point) in row 3, any further rows 0. Sizes
+  /// the enclosure arrays for n boxes.
+  void pack(size_t n, const render::Box* boxes, size_t rows, size_t coords, double time) {
+    double* const lo_all = at_least(lo, rows * n);
+    double* const hi_all = at_least(hi, rows * n);
+    for (size_t k = 0; k < coords; ++k) {
+      double* l = lo_all + k * n;
+      double* h = hi_all + k * n;
+      for (size_t i = 0; i < n; ++i) {
+        l[i] = boxes[i].lo[int(k)];
+        h[i] = boxes[i].hi[int(k)];
+      }
+    }
+    for (size_t k = coords; k < rows; ++k) {
+      const double v = k == 3 ? time : 0.0;
+      std::fill_n(lo_all + k * n, n, v);
+      std::fill_n(hi_all + k * n, n, v);
+    }
+    at_least(out_lo, n);
+    at_least(out_hi, n);
+    at_least(out_nan, n);
+  }
+
+  /// The n enclosures rounded outwards to the renderer's float bounds.
+  void unpack(size_t n, render::Interval* out, bool* maybe_nan) const {
+    for (size_t i = 0; i < n; ++i) {
+      // Field by field: a whole render::Interval built on the stack and copied out was read
+      // back as one 8-byte load after two 4-byte stores, a store-forwarding stall per box (40 %
+      // of this function's time in `perf annotate` of an s3_blend render).
+      const render::Interval r =
+          to_render_interval({out_lo[i], out_hi[i], out_nan[i] != 0}, &maybe_nan[i]);
+      out[i].lo = r.lo;
+      out[i].hi = r.hi;
+      out[i].maybe_nan = r.maybe_nan;
+    }
+  }
+};
+
 }  // namespace
 
 /// A jit::Tape as the renderer's opaque FieldTape.
@@ -116,35 +161,17 @@ class ModelTapeEvaluator final : public render::TapeEvaluator {
   void eval_intervals(const render::FieldTape& tape, size_t n, const render::Box* boxes,
                       render::Interval* out, bool* maybe_nan) override {
     if (n == 0) return;
-    // Structure of arrays of x, y, z (and the time, a point) for the batched pass.
+    // The tape's inputs: x, y, z (and the time, a point).
     const size_t k = dims_ > 3 ? 4 : 3;
-    lo_.resize(k * n);
-    hi_.resize(k * n);
-    for (size_t c = 0; c < 3; ++c) {
-      double* lo = lo_.data() + c * n;
-      double* hi = hi_.data() + c * n;
-      for (size_t i = 0; i < n; ++i) {
-        lo[i] = boxes[i].lo[int(c)];
-        hi[i] = boxes[i].hi[int(c)];
-      }
+    batch_.pack(n, boxes, k, 3, time_);
+    const double *lo[4], *hi[4];
+    for (size_t c = 0; c < k; ++c) {
+      lo[c] = batch_.lo.data() + c * n;
+      hi[c] = batch_.hi.data() + c * n;
     }
-    if (k == 4) {
-      std::fill_n(lo_.data() + 3 * n, n, time_);
-      std::fill_n(hi_.data() + 3 * n, n, time_);
-    }
-    const double* lo[4] = {lo_.data(), lo_.data() + n, lo_.data() + 2 * n, lo_.data() + 3 * n};
-    const double* hi[4] = {hi_.data(), hi_.data() + n, hi_.data() + 2 * n, hi_.data() + 3 * n};
-    out_lo_.resize(n);
-    out_hi_.resize(n);
-    out_nan_.resize(n);
     vm_.eval_intervals(static_cast<const ModelTape&>(tape).tape, n, {lo, k}, {hi, k},
-                       out_lo_.data(), out_hi_.data(), out_nan_.data());
-    for (size_t i = 0; i < n; ++i) {
-      const render::Interval r =
-          to_render_interval({out_lo_[i], out_hi_[i], out_nan_[i] != 0}, &maybe_nan[i]);
-      out[i].lo = r.lo;
-      out[i].hi = r.hi;
-    }
+                       batch_.out_lo.data(), batch_.out_hi.data(), batch_.out_nan.data());
+    batch_.unpack(n, out, maybe_nan);
   }
 
   bool prune_last(const render::FieldTape& tape, render::FieldTape* child) override {
@@ -170,8 +197,7 @@ class ModelTapeEvaluator final : public render::TapeEvaluator {
   double time_;
   jit::TapeVm vm_;
   std::vector<float> time_lanes_;
-  std::vector<double> lo_, hi_, out_lo_, out_hi_;
-  std::vector<uint8_t> out_nan_;
+  BoxBatch batch_;
 };
 
 bool ModelField::prepare_tapes(std::string* why) {
@@ -279,47 +305,13 @@ render::Interval ModelField::eval_interval(const render::Box& box, bool* maybe_n
 void ModelField::eval_intervals(size_t n, const render::Box* boxes, render::Interval* out,
                                 bool* maybe_nan) const {
   if (n == 0) return;
-  struct BoxScratch {
-    std::vector<double> lo, hi, out_lo, out_hi;
-    std::vector<uint8_t> out_nan;
-  };
-  thread_local BoxScratch sc;
+  thread_local BoxBatch sc;
   // Structure of arrays over the model's coordinates; x[4] is the time (a point), any
   // further ones are held at 0.
-  const size_t dims = size_t(std::max(dims_, 1));
-  double* const lo_all = at_least(sc.lo, dims * n);
-  double* const hi_all = at_least(sc.hi, dims * n);
-  if (dims_ != 3) {
-    std::fill(lo_all, lo_all + dims * n, 0.0);
-    std::fill(hi_all, hi_all + dims * n, 0.0);
-  }
-  if (dims_ > 3) {
-    std::fill_n(lo_all + 3 * n, n, model_.time());
-    std::fill_n(hi_all + 3 * n, n, model_.time());
-  }
-  for (size_t k = 0; k < std::min<size_t>(size_t(dims_), 3); ++k) {
-    double* lo = lo_all + k * n;
-    double* hi = hi_all + k * n;
-    for (size_t i = 0; i < n; ++i) {
-      lo[i] = boxes[i].lo[int(k)];
-      hi[i] = boxes[i].hi[int(k)];
-    }
-  }
-  const double* out_lo = at_least(sc.out_lo, n);
-  const double* out_hi = at_least(sc.out_hi, n);
-  const uint8_t* out_nan = at_least(sc.out_nan, n);
-  model_.eval_interval_batch(int64_t(n), lo_all, hi_all, sc.out_lo.data(), sc.out_hi.data(),
-                             sc.out_nan.data());
-  for (size_t i = 0; i < n; ++i) {
-    // Field by field: a whole render::Interval built on the stack and copied out was read back
-    // as one 8-byte load after two 4-byte stores, a store-forwarding stall per box (40 % of
-    // this function's time in `perf annotate` of an s3_blend render).
-    const render::Interval r =
-        to_render_interval({out_lo[i], out_hi[i], out_nan[i] != 0}, &maybe_nan[i]);
-    out[i].lo = r.lo;
-    out[i].hi = r.hi;
-    out[i].maybe_nan = r.maybe_nan;
-  }
+  sc.pack(n, boxes, size_t(std::max(dims_, 1)), size_t(std::clamp(dims_, 0, 3)), model_.time());
+  model_.eval_interval_batch(int64_t(n), sc.lo.data(), sc.hi.data(), sc.out_lo.data(),
+                             sc.out_hi.data(), sc.out_nan.data());
+  sc.unpack(n, out, maybe_nan);
 }
 
 void ModelField::eval_gradient(size_t n, const float* x, const float* y, const float* z, float* f,

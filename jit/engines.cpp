@@ -4,10 +4,26 @@
 #include <algorithm>
 #include <cmath>
 #include <cstring>
+#include <span>
+#include <vector>
 
 #include "base/check.h"
 
 namespace hfrt::jit {
+
+namespace {
+
+/// The rows of a structure-of-arrays block (eval_batch's layout: input k of the n points at
+/// xs + k n), as the tape VM takes its inputs; `rows` is the caller's scratch.
+template <typename T>
+std::span<const T* const> soa_rows(const T* xs, int num_inputs, int64_t n,
+                                   std::vector<const T*>* rows) {
+  rows->clear();
+  for (int k = 0; k < num_inputs; ++k) rows->push_back(xs + size_t(k) * size_t(n));
+  return *rows;
+}
+
+}  // namespace
 
 // --- Scalar domain ----------------------------------------------------------------------------
 
@@ -83,9 +99,7 @@ void ScalarEngine::eval_batch(int64_t n, const float* xs, const std::vector<floa
     if (std::shared_ptr<const Tape> t = tapes_->get(a64)) {
       thread_local TapeVm vm;
       thread_local std::vector<const float*> in;
-      in.clear();
-      for (int k = 0; k < fn_.num_inputs; ++k) in.push_back(xs + size_t(k) * size_t(n));
-      vm.eval<float>(*t, size_t(n), in, out_f);
+      vm.eval<float>(*t, size_t(n), soa_rows(xs, fn_.num_inputs, n, &in), out_f);
       return;
     }
   }
@@ -244,13 +258,8 @@ void IntervalEngine::eval_batch(int64_t n, const double* lo, const double* hi,
     if (std::shared_ptr<const Tape> t = tape(a)) {
       thread_local TapeVm vm;
       thread_local std::vector<const double*> in_lo, in_hi;
-      in_lo.clear();
-      in_hi.clear();
-      for (int k = 0; k < nx; ++k) {
-        in_lo.push_back(lo + size_t(k) * size_t(n));
-        in_hi.push_back(hi + size_t(k) * size_t(n));
-      }
-      vm.eval_intervals(*t, size_t(n), in_lo, in_hi, out_lo, out_hi, out_nan);
+      vm.eval_intervals(*t, size_t(n), soa_rows(lo, nx, n, &in_lo), soa_rows(hi, nx, n, &in_hi),
+                        out_lo, out_hi, out_nan);
       return;
     }
   }
@@ -313,9 +322,7 @@ template <typename T>
 void GradientEngine::vm_batch(const Tape& tape, int64_t n, const T* xs, T* out) const {
   thread_local TapeVm vm;
   thread_local std::vector<const T*> in;
-  in.clear();
-  for (int k = 0; k < fn_.num_inputs; ++k) in.push_back(xs + size_t(k) * size_t(n));
-  vm.eval_gradient<T>(tape, size_t(n), in, out);
+  vm.eval_gradient<T>(tape, size_t(n), soa_rows(xs, fn_.num_inputs, n, &in), out);
 }
 
 Dual GradientEngine::eval(std::span<const double> x, const std::vector<double>& a) const {

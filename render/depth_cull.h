@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "render/field.h"
+#include "render/tape_regions.h"
 
 namespace hfrt::render {
 
@@ -33,19 +34,38 @@ struct SlabTest {
   int node = -1;
 };
 
-/// A camera culling's verdict on `box` from F's interval over it (one more count in
-/// `*interval_calls`): empty where F < 0, inside where F >= 0 with no NaN possible, and hiding
-/// what lies behind when also `unclipped` (every ray of the bundle crosses the piece inside
-/// the box it was clipped to).
+/// A camera culling's verdict from an enclosure `iv` of F over a piece's box (`maybe_nan`:
+/// F may have no value there): empty where F < 0, inside where F >= 0 with no NaN possible,
+/// and hiding what lies behind when also `unclipped` (every ray of the bundle crosses the
+/// piece inside the box it was clipped to).
+inline SlabTest slab_verdict(const Interval& iv, bool maybe_nan, bool unclipped) {
+  SlabTest s;
+  s.empty = iv.hi < 0;
+  s.inside = !std::isnan(iv.lo) && iv.lo >= 0 && !maybe_nan;
+  s.hides = s.inside && unclipped;
+  return s;
+}
+
+/// slab_verdict() of F's interval over `box` (one more count in `*interval_calls`).
 inline SlabTest interval_slab_test(const Field& field, const Box& box, bool unclipped,
                                    uint64_t* interval_calls) {
   bool maybe_nan = false;
   const Interval iv = field.eval_interval(box, &maybe_nan);
   ++*interval_calls;
-  SlabTest s;
-  s.empty = iv.hi < 0;
-  s.inside = !std::isnan(iv.lo) && iv.lo >= 0 && !maybe_nan;
-  s.hides = s.inside && unclipped;
+  return slab_verdict(iv, maybe_nan, unclipped);
+}
+
+/// The same verdict from the tape of culling node `parent` (TapeRegions::eval_prune, -1: the
+/// root tape), with SlabTest::node set to the node whose tape the piece's children and the
+/// searches inside its box use.
+inline SlabTest pruned_slab_test(TapeRegions& regions, int parent, const Box& box, bool unclipped,
+                                 uint64_t* interval_calls) {
+  bool maybe_nan = false;
+  Interval iv;
+  const int node = regions.eval_prune(parent, box, &iv, &maybe_nan);
+  ++*interval_calls;
+  SlabTest s = slab_verdict(iv, maybe_nan, unclipped);
+  s.node = node;
   return s;
 }
 

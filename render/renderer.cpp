@@ -205,16 +205,7 @@ class TileRenderer {
           }
           // The same test on the tape pruned for the parent slab, which is pruned again for
           // this one: the tile's searches evaluate the boxes inside it on that tape.
-          bool maybe_nan = false;
-          Interval iv;
-          const int child = regions.eval_prune(node, box, &iv, &maybe_nan);
-          ++c.interval_calls;
-          SlabTest s;
-          s.empty = iv.hi < 0;
-          s.inside = !std::isnan(iv.lo) && iv.lo >= 0 && !maybe_nan;
-          s.hides = s.inside && unclipped;
-          s.node = child;
-          return s;
+          return pruned_slab_test(regions, node, box, unclipped, &c.interval_calls);
         },
         // Split along depth while the slab is deeper than it is wide: past that, halving the
         // depth no longer shrinks the box much.
@@ -568,11 +559,8 @@ class TileRenderer {
           }
           // As in cull_tile: the shadow rays' boxes inside this piece's box are evaluated on
           // the tape pruned for it.
-          bool maybe_nan = false;
-          Interval iv;
-          const int child = regions.eval_prune(node, box, &iv, &maybe_nan);
-          ++c.interval_calls;
-          return SlabTest{.empty = iv.hi < 0, .node = child};
+          const SlabTest s = pruned_slab_test(regions, node, box, false, &c.interval_calls);
+          return SlabTest{.empty = s.empty, .node = s.node};
         },
         [&](float) { return width; },
         [&](float a, float b, const SlabTest&) { append_span(spans, a, b); });

@@ -1,7 +1,8 @@
 #include "render/tape_regions.h"
 
 #include <algorithm>
-#include <cmath>
+
+#include "render/depth_cull.h"
 
 namespace hfrt::render {
 
@@ -24,8 +25,9 @@ void TapeRegions::clear() {
 int TapeRegions::eval_prune(int parent, const Box& box, Interval* out, bool* maybe_nan) {
   const FieldTape& tape = parent >= 0 ? *regions_[size_t(parent)].tape : *root_;
   *out = ev_->eval_interval(tape, box, maybe_nan);
-  const bool decided = out->hi < 0 || (!std::isnan(out->lo) && out->lo >= 0 && !*maybe_nan);
-  if (decided) return parent;
+  // A box the interval decides (empty or inside) is not searched: nothing to prune for.
+  const SlabTest verdict = slab_verdict(*out, *maybe_nan, false);
+  if (verdict.empty || verdict.inside) return parent;
   if (pool_used_ == pool_.size()) pool_.push_back(ev_->new_tape());
   FieldTape* child = pool_[pool_used_].get();
   if (!ev_->prune_last(tape, child)) return parent;
