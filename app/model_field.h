@@ -86,45 +86,10 @@ class ModelField final : public render::Field {
 /// A view of a Field without its interval evaluator (has_interval() false; everything else
 /// forwarded): the renderer then frames by sampling and neither culls nor bisects. For models
 /// whose interval evaluator is the interpreter, too slow for the renderer's many calls.
-class WithoutIntervals final : public render::Field {
+class WithoutIntervals final : public render::FieldView {
  public:
-  explicit WithoutIntervals(const render::Field& field) : field_(field) {}
-  void eval(size_t n, const float* x, const float* y, const float* z, float* out_f) const override {
-    field_.eval(n, x, y, z, out_f);
-  }
+  explicit WithoutIntervals(const render::Field& field) : render::FieldView(field) {}
   bool has_interval() const override { return false; }
-  render::Interval eval_interval(const render::Box& box, bool* maybe_nan) const override {
-    return field_.eval_interval(box, maybe_nan);
-  }
-  void eval_intervals(size_t n, const render::Box* boxes, render::Interval* out,
-                      bool* maybe_nan) const override {
-    field_.eval_intervals(n, boxes, out, maybe_nan);
-  }
-  void eval_gradient(size_t n, const float* x, const float* y, const float* z, float* f, float* dx,
-                     float* dy, float* dz) const override {
-    field_.eval_gradient(n, x, y, z, f, dx, dy, dz);
-  }
-  int num_attributes() const override { return field_.num_attributes(); }
-  void eval_attributes(size_t n, const float* x, const float* y, const float* z,
-                       float* out_s) const override {
-    field_.eval_attributes(n, x, y, z, out_s);
-  }
-  std::string explain_nan(render::Vec3 p) const override { return field_.explain_nan(p); }
-  bool has_ray_candidates() const override { return field_.has_ray_candidates(); }
-  void ray_candidates(render::Vec3 o, render::Vec3 d, float t0, float t1,
-                      std::vector<double>* out) const override {
-    field_.ray_candidates(o, d, t0, t1, out);
-  }
-  void prefetch_ray_candidates(const render::Vec3* o, const render::Vec3* d, const float* t0,
-                               const float* t1, size_t n) const override {
-    field_.prefetch_ray_candidates(o, d, t0, t1, n);
-  }
-  void clear_prefetched_ray_candidates() const override {
-    field_.clear_prefetched_ray_candidates();
-  }
-
- private:
-  const render::Field& field_;
 };
 
 /// Compiles now, on three threads at once (instead of on first use inside the render threads)

@@ -131,4 +131,47 @@ class Field {
   virtual void clear_prefetched_ray_candidates() const {}
 };
 
+/// A view of another field: every call goes to `base` (the tape interface, root_tape() and
+/// tape_evaluator(), excepted: a view that changes answers would no longer be what the tapes
+/// equal). Views derive from it and override what they change (app::WithoutIntervals,
+/// render::TapeRegions).
+class FieldView : public Field {
+ public:
+  explicit FieldView(const Field& base) : base_(base) {}
+  const Field& base() const { return base_; }
+
+  void eval(size_t n, const float* x, const float* y, const float* z, float* out_f) const override {
+    base_.eval(n, x, y, z, out_f);
+  }
+  bool has_interval() const override { return base_.has_interval(); }
+  Interval eval_interval(const Box& box, bool* maybe_nan) const override {
+    return base_.eval_interval(box, maybe_nan);
+  }
+  void eval_intervals(size_t n, const Box* boxes, Interval* out, bool* maybe_nan) const override {
+    base_.eval_intervals(n, boxes, out, maybe_nan);
+  }
+  void eval_gradient(size_t n, const float* x, const float* y, const float* z, float* f, float* dx,
+                     float* dy, float* dz) const override {
+    base_.eval_gradient(n, x, y, z, f, dx, dy, dz);
+  }
+  int num_attributes() const override { return base_.num_attributes(); }
+  void eval_attributes(size_t n, const float* x, const float* y, const float* z,
+                       float* out_s) const override {
+    base_.eval_attributes(n, x, y, z, out_s);
+  }
+  std::string explain_nan(Vec3 p) const override { return base_.explain_nan(p); }
+  bool has_ray_candidates() const override { return base_.has_ray_candidates(); }
+  void ray_candidates(Vec3 o, Vec3 d, float t0, float t1, std::vector<double>* out) const override {
+    base_.ray_candidates(o, d, t0, t1, out);
+  }
+  void prefetch_ray_candidates(const Vec3* o, const Vec3* d, const float* t0, const float* t1,
+                               size_t n) const override {
+    base_.prefetch_ray_candidates(o, d, t0, t1, n);
+  }
+  void clear_prefetched_ray_candidates() const override { base_.clear_prefetched_ray_candidates(); }
+
+ private:
+  const Field& base_;
+};
+
 }  // namespace hfrt::render

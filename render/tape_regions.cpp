@@ -6,7 +6,7 @@
 
 namespace hfrt::render {
 
-TapeRegions::TapeRegions(const Field& base) : base_(base), root_(base.root_tape()) {
+TapeRegions::TapeRegions(const Field& base) : FieldView(base), root_(base.root_tape()) {
   if (root_ && root_->length() >= kMinRootLength) ev_ = base.tape_evaluator();
   if (!ev_) {
     root_.reset();
@@ -64,7 +64,7 @@ void TapeRegions::eval_intervals(size_t n, const Box* boxes, Interval* out, bool
   if (n == 0) return;
   if (usable_.empty()) {
     full_boxes_ += n;
-    base_.eval_intervals(n, boxes, out, maybe_nan);
+    base().eval_intervals(n, boxes, out, maybe_nan);
     return;
   }
   // Bucket the boxes by region (bucket 0: none), counting sort.
@@ -81,7 +81,7 @@ void TapeRegions::eval_intervals(size_t n, const Box* boxes, Interval* out, bool
     // Every box in one bucket: no gathering.
     if (w0 == 0) {
       full_boxes_ += n;
-      base_.eval_intervals(n, boxes, out, maybe_nan);
+      base().eval_intervals(n, boxes, out, maybe_nan);
     } else {
       pruned_boxes_ += n;
       ev_->eval_intervals(*regions_[w0 - 1].tape, n, boxes, out, maybe_nan);
@@ -103,7 +103,7 @@ void TapeRegions::eval_intervals(size_t n, const Box* boxes, Interval* out, bool
     if (m == 0) continue;
     if (k == 0) {
       full_boxes_ += m;
-      base_.eval_intervals(m, &boxes_[a], &ivs_[a], &nan_[a]);
+      base().eval_intervals(m, &boxes_[a], &ivs_[a], &nan_[a]);
     } else {
       pruned_boxes_ += m;
       ev_->eval_intervals(*regions_[k - 1].tape, m, &boxes_[a], &ivs_[a], &nan_[a]);

@@ -19,7 +19,7 @@ namespace hfrt::render {
 /// The regions and tapes of one tile, for one worker thread (not thread-safe: a thread's
 /// RootSearcher evaluates through it). Without a root tape (Field::root_tape() null) or with
 /// a short one it is a plain view of the field underneath.
-class TapeRegions final : public Field {
+class TapeRegions final : public FieldView {
  public:
   /// A region is registered only when its tape is at most this fraction of the root tape's
   /// length: the VM costs ~2.5x the interval JIT per instruction and box (bench/README.md,
@@ -54,36 +54,10 @@ class TapeRegions final : public Field {
   uint64_t pruned_boxes() const { return pruned_boxes_; }
   uint64_t full_boxes() const { return full_boxes_; }
 
-  // Field: every call goes to the field underneath but eval_intervals.
-  void eval(size_t n, const float* x, const float* y, const float* z, float* out_f) const override {
-    base_.eval(n, x, y, z, out_f);
-  }
-  bool has_interval() const override { return base_.has_interval(); }
-  Interval eval_interval(const Box& box, bool* maybe_nan) const override {
-    return base_.eval_interval(box, maybe_nan);
-  }
   /// Each box inside a registered region is evaluated on the shortest such region's tape (in
-  /// one batch per region); the others by the field underneath.
+  /// one batch per region); the others by the field underneath. (Every other call goes to
+  /// the field underneath: FieldView.)
   void eval_intervals(size_t n, const Box* boxes, Interval* out, bool* maybe_nan) const override;
-  void eval_gradient(size_t n, const float* x, const float* y, const float* z, float* f, float* dx,
-                     float* dy, float* dz) const override {
-    base_.eval_gradient(n, x, y, z, f, dx, dy, dz);
-  }
-  int num_attributes() const override { return base_.num_attributes(); }
-  void eval_attributes(size_t n, const float* x, const float* y, const float* z,
-                       float* out_s) const override {
-    base_.eval_attributes(n, x, y, z, out_s);
-  }
-  std::string explain_nan(Vec3 p) const override { return base_.explain_nan(p); }
-  bool has_ray_candidates() const override { return base_.has_ray_candidates(); }
-  void ray_candidates(Vec3 o, Vec3 d, float t0, float t1, std::vector<double>* out) const override {
-    base_.ray_candidates(o, d, t0, t1, out);
-  }
-  void prefetch_ray_candidates(const Vec3* o, const Vec3* d, const float* t0, const float* t1,
-                               size_t n) const override {
-    base_.prefetch_ray_candidates(o, d, t0, t1, n);
-  }
-  void clear_prefetched_ray_candidates() const override { base_.clear_prefetched_ray_candidates(); }
 
  private:
   struct Region {
@@ -94,7 +68,6 @@ class TapeRegions final : public Field {
   /// The region of the shortest tape whose box contains `b`, or -1.
   int find(const Box& b) const;
 
-  const Field& base_;
   std::shared_ptr<const FieldTape> root_;
   std::unique_ptr<TapeEvaluator> ev_;
   size_t root_length_ = 0;
