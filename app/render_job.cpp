@@ -221,9 +221,10 @@ RenderJobResult run_render_job(const RenderJob& job, render::RenderResult* out) 
   // number instead of a distance query, closed meshes not even that.
   model_field.prepare_render(opt.root);
   // The interval search evaluates each tile's boxes on tapes pruned for its culling slabs
-  // (render/tape_regions.h), when the object is straight-line code.
-  if (opt.root == render::RootMode::kInterval && opt.tile_culling && opt.pruned_tapes &&
-      &field == &model_field) {
+  // (render/tape_regions.h), when the object is straight-line code. The tape is prepared with
+  // --no-prune too: whether a model can be pruned also decides how the tiles' depth pieces
+  // are searched (render/renderer.cpp, cull_tile), and --no-prune must give the same image.
+  if (opt.root == render::RootMode::kInterval && opt.tile_culling && &field == &model_field) {
     model_field.prepare_tapes();
   }
   if (opt.root == render::RootMode::kAnalytic) {

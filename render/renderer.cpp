@@ -187,6 +187,7 @@ class TileRenderer {
     TapeRegions& regions = *ts.regions;
     regions.clear();
     const bool prune = prune_ && regions.enabled();
+    const bool split = use_interval_ && regions.enabled();
     bisect_depths(
         t_min_, t_max_, &ts.stack,
         [&](float a, float b, int node) {
@@ -211,7 +212,18 @@ class TileRenderer {
         // depth no longer shrinks the box much.
         [&](float b) { return tile_px * (footprint_a_ + footprint_b_ * b); },
         [&](float a, float b, const SlabTest& s) {
-          append_span(&ts.spans, a, b);
+          // For the interval search of a model that can be pruned every piece stays a span of
+          // its own, so that a camera ray's pieces and proofs lie inside one culling piece's
+          // box and are evaluated on its tape. Merged, 157k of c1_gear's 1.41M interval boxes
+          // (512x512) crossed a piece boundary and went to the whole program; unmerged, 35k of
+          // 1.32M (and the frame ~10 % faster). Models too short to prune keep merged spans
+          // (unmerged, s2_csg and s3_blend were ~10 % slower); --no-prune does not change the
+          // choice, so it searches the same pieces and gives the same image.
+          if (split) {
+            ts.spans.push_back({a, b});
+          } else {
+            append_span(&ts.spans, a, b);
+          }
           // F >= 0 from `a` on when this piece, so far the last, was proven inside.
           ts.inside_from = s.inside ? a : std::numeric_limits<float>::infinity();
         });

@@ -17,7 +17,9 @@ TapeRegions::TapeRegions(const Field& base) : FieldView(base), root_(base.root_t
 
 void TapeRegions::clear() {
   regions_.clear();
-  usable_.clear();
+  last_child_.clear();
+  first_root_ = last_root_ = -1;
+  usable_count_ = 0;
   pool_used_ = 0;
   last_ = -1;
 }
@@ -33,36 +35,50 @@ int TapeRegions::eval_prune(int parent, const Box& box, Interval* out, bool* may
   if (!ev_->prune_last(tape, child)) return parent;
   ++pool_used_;
   const size_t len = child->length();
-  // A tape too long to beat the JIT still serves as the parent of its children's prunes; it
-  // is kept out of find() by a length of "infinity".
+  // A tape too long to beat the JIT still serves as the parent of its children's prunes;
+  // region_of() walks through it and answers its nearest usable ancestor.
   const bool usable = double(len) <= kMaxLengthRatio * double(root_length_);
-  regions_.push_back({box, child, usable ? len : SIZE_MAX});
+  const int self = int(regions_.size());
+  Region r{box, child, len};
+  r.usable_at = usable ? self : (parent >= 0 ? regions_[size_t(parent)].usable_at : -1);
+  regions_.push_back(r);
+  last_child_.push_back(-1);
+  // Append to the parent's children (or the roots), keeping them in the culling's order.
+  int& tail = parent >= 0 ? last_child_[size_t(parent)] : last_root_;
+  if (tail >= 0) {
+    regions_[size_t(tail)].next_sibling = self;
+  } else if (parent >= 0) {
+    regions_[size_t(parent)].first_child = self;
+  } else {
+    first_root_ = self;
+  }
+  tail = self;
   if (usable) {
-    usable_.push_back(uint32_t(regions_.size() - 1));
+    ++usable_count_;
     ++regions_made_;
     region_length_sum_ += len;
   }
-  return int(regions_.size() - 1);
+  return self;
 }
 
-int TapeRegions::find(const Box& b) const {
-  if (last_ >= 0 && regions_[size_t(last_)].box.contains(b)) return last_;
-  int best = -1;
-  size_t best_len = SIZE_MAX;
-  for (const uint32_t i : usable_) {
-    const Region& r = regions_[i];
-    if (r.length < best_len && r.box.contains(b)) {
-      best = int(i);
-      best_len = r.length;
-    }
+int TapeRegions::region_of(const Box& b) const {
+  // Start from the last answer's node when it holds the box (consecutive boxes are usually
+  // pieces of one ray or of neighbouring rays), else from the top.
+  int node = -1;
+  if (last_ >= 0 && regions_[size_t(last_)].box.contains(b)) node = last_;
+  for (;;) {
+    int c = node >= 0 ? regions_[size_t(node)].first_child : first_root_;
+    while (c >= 0 && !regions_[size_t(c)].box.contains(b)) c = regions_[size_t(c)].next_sibling;
+    if (c < 0) break;
+    node = c;
   }
-  if (best >= 0) last_ = best;
-  return best;
+  last_ = node;
+  return node >= 0 ? regions_[size_t(node)].usable_at : -1;
 }
 
 void TapeRegions::eval_intervals(size_t n, const Box* boxes, Interval* out, bool* maybe_nan) const {
   if (n == 0) return;
-  if (usable_.empty()) {
+  if (usable_count_ == 0) {
     full_boxes_ += n;
     base().eval_intervals(n, boxes, out, maybe_nan);
     return;
@@ -72,7 +88,7 @@ void TapeRegions::eval_intervals(size_t n, const Box* boxes, Interval* out, bool
   which_.resize(n);
   start_.assign(nb + 1, 0);
   for (size_t i = 0; i < n; ++i) {
-    which_[i] = find(boxes[i]) + 1;
+    which_[i] = region_of(boxes[i]) + 1;
     ++start_[size_t(which_[i]) + 1];
   }
   for (size_t k = 0; k < nb; ++k) start_[k + 1] += start_[k];

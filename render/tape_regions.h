@@ -54,25 +54,40 @@ class TapeRegions final : public FieldView {
   uint64_t pruned_boxes() const { return pruned_boxes_; }
   uint64_t full_boxes() const { return full_boxes_; }
 
-  /// Each box inside a registered region is evaluated on the shortest such region's tape (in
-  /// one batch per region); the others by the field underneath. (Every other call goes to
+  /// Each box inside a registered region is evaluated on the tape of region_of(box) (in one
+  /// batch per region); the others by the field underneath. (Every other call goes to
   /// the field underneath: FieldView.)
   void eval_intervals(size_t n, const Box* boxes, Interval* out, bool* maybe_nan) const override;
+
+  /// The region whose tape eval_intervals uses for `b` (an index as eval_prune returns), or
+  /// -1: of the usable regions whose box contains `b`, the deepest reached by walking down the
+  /// tree of prunes from the top (or from the last answer's node, which usually contains the
+  /// next box too) through children that contain `b`. A child's tape is its parent's pruned
+  /// further, so the deepest region of a path has the shortest tape of it; boxes of
+  /// neighbouring slabs overlap, so another branch might hold a shorter one, which is not
+  /// searched (a scan of every region cost 6 % of c1_gear's frame).
+  int region_of(const Box& b) const;
 
  private:
   struct Region {
     Box box;
     const FieldTape* tape;
     size_t length;
+    /// The tree of prunes: a region's box lies inside its parent's, and its tape is pruned
+    /// from the parent's. first_child / next_sibling link the children (-1: none).
+    int first_child = -1, next_sibling = -1;
+    /// This region when its tape is short enough to use, else the nearest such ancestor (-1:
+    /// none).
+    int usable_at = -1;
   };
-  /// The region of the shortest tape whose box contains `b`, or -1.
-  int find(const Box& b) const;
 
   std::shared_ptr<const FieldTape> root_;
   std::unique_ptr<TapeEvaluator> ev_;
   size_t root_length_ = 0;
   std::vector<Region> regions_;
-  std::vector<uint32_t> usable_;  ///< the regions find() considers (short enough tapes)
+  int first_root_ = -1, last_root_ = -1;  ///< the regions pruned from the root tape, a list
+  std::vector<int> last_child_;           ///< per region: its last child (appending), -1: none
+  size_t usable_count_ = 0;               ///< regions short enough to use
   /// Tapes of this tile's regions, regions_[i].tape == pool_[i]; reused across tiles.
   std::vector<std::unique_ptr<FieldTape>> pool_;
   size_t pool_used_ = 0;
@@ -84,7 +99,7 @@ class TapeRegions final : public FieldView {
   mutable std::vector<Interval> ivs_;
   mutable std::unique_ptr<bool[]> nan_;
   mutable size_t nan_size_ = 0;
-  mutable int last_ = -1;
+  mutable int last_ = -1;  ///< the deepest node region_of() last reached
   uint64_t regions_made_ = 0, region_length_sum_ = 0;
   mutable uint64_t pruned_boxes_ = 0, full_boxes_ = 0;
 };

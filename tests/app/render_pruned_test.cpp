@@ -162,5 +162,75 @@ TEST(RenderPrunedTest, RegionsEncloseTheFieldAndRouteByContainment) {
   EXPECT_EQ(regions.full_boxes(), 2u);  // no region after clear()
 }
 
+/// region_of walks the tree of prunes: a box inside a child region gets the child (whose tape
+/// is its parent's pruned further), a box inside a parent but across its children gets the
+/// parent, a box outside every region -1, whichever region the previous box was in.
+TEST(RenderPrunedTest, RegionOfFindsTheDeepestRegionHoldingTheBox) {
+  GearField gear;
+  ASSERT_TRUE(gear.ok());
+  render::TapeRegions regions(*gear.field);
+  ASSERT_TRUE(regions.enabled());
+  auto octant = [](const render::Box& b, int o) {
+    render::Box c = b;
+    for (int k = 0; k < 3; ++k) {
+      const float m = 0.5f * (b.lo[k] + b.hi[k]);
+      (o >> k & 1 ? c.lo[k] : c.hi[k]) = m;
+    }
+    return c;
+  };
+  auto shrunk = [](const render::Box& b, float f) {  // about b's centre, by the factor f
+    render::Box c = b;
+    for (int k = 0; k < 3; ++k) {
+      const float m = 0.5f * (b.lo[k] + b.hi[k]), h = 0.5f * f * (b.hi[k] - b.lo[k]);
+      c.lo[k] = m - h;
+      c.hi[k] = m + h;
+    }
+    return c;
+  };
+  // Cells around the gear's rim that the interval does not decide become root regions, and
+  // their octants that it does not decide either become their children.
+  struct Node {
+    render::Box box;
+    int index;
+    std::vector<std::pair<render::Box, int>> children;
+  };
+  std::vector<Node> roots;
+  render::Interval iv;
+  bool nan = false;
+  const float s = 0.2f;
+  for (float x = -1.2f; x < 1.2f; x += s) {
+    for (float y = -1.2f; y < 1.2f; y += s) {
+      const render::Box cell{{x, y, -0.1f}, {x + s, y + s, 0.1f}};
+      const int node = regions.eval_prune(-1, cell, &iv, &nan);
+      if (node < 0) continue;
+      Node n{cell, node, {}};
+      for (int o = 0; o < 8; ++o) {
+        const render::Box c = octant(cell, o);
+        const int child = regions.eval_prune(node, c, &iv, &nan);
+        if (child != node) n.children.push_back({c, child});
+      }
+      roots.push_back(n);
+    }
+  }
+  ASSERT_GE(roots.size(), 2u);
+  size_t with_children = 0;
+  for (const Node& n : roots) with_children += n.children.empty() ? 0 : 1;
+  ASSERT_GE(with_children, 2u);
+  // Visit the regions back and forth, so that the last answer is often not on the next box's
+  // path.
+  for (int pass = 0; pass < 2; ++pass) {
+    for (size_t i = 0; i < roots.size(); ++i) {
+      const Node& n = roots[pass == 0 ? i : roots.size() - 1 - i];
+      for (const auto& [box, child] : n.children) {
+        EXPECT_EQ(regions.region_of(shrunk(box, 0.5f)), child);
+      }
+      // Across the octants' common corner: inside the cell, in no child.
+      EXPECT_EQ(regions.region_of(shrunk(n.box, 0.5f)), n.index);
+    }
+  }
+  EXPECT_EQ(regions.region_of(render::Box{{0.0f, 0.0f, 0.5f}, {0.1f, 0.1f, 0.6f}}), -1);
+  EXPECT_EQ(regions.region_of(render::Box{{-1.3f, -1.3f, -0.1f}, {1.3f, 1.3f, 0.1f}}), -1);
+}
+
 }  // namespace
 }  // namespace hfrt::app
