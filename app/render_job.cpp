@@ -164,6 +164,12 @@ std::string format_render_stats(const RenderReport& r) {
                   (unsigned long long)st.pruned_boxes, (unsigned long long)st.full_boxes);
     out += buf;
   }
+  if (st.pruned_cells > 0) {
+    std::snprintf(buf, sizeof buf, "stats: cell tapes: %llu of %.1f instructions on average\n",
+                  (unsigned long long)st.pruned_cells,
+                  double(st.pruned_cell_length) / double(st.pruned_cells));
+    out += buf;
+  }
   if (st.root_used == render::RootMode::kAnalytic) {
     std::snprintf(buf, sizeof buf, "stats: analytic candidates: %llu calls, %.2f per call\n",
                   (unsigned long long)e.candidate_calls,

@@ -107,26 +107,30 @@ HFRT_TAPE_INLINE void run_points(std::span<const TapeInst> code, T* regs, uint8_
   }
 }
 
-// The AVX2 clones of the lane loops: GCC's target_clones, an ifunc whose resolver the dynamic
-// loader runs while it relocates the program. Not in sanitizer builds: GCC instruments the
+// The AVX-512 (x86-64-v4) and AVX2 clones of the lane loops: GCC's target_clones, an ifunc
+// whose resolver the dynamic loader runs while it relocates the program. The AVX-512 clone
+// halves the batched interval pass on a host that has it (hfrt_bench_interval c1_gear, Xeon:
+// 2.06-2.48 -> 1.08-1.12 ns per instruction and box): 8 doubles per vector and mask
+// registers for the selects. -ffp-contract=off (cmake/HfrtWarnings.cmake) keeps every clone
+// free of fused multiply-adds, so all give the same bits. Not in sanitizer builds: GCC instruments the
 // resolver, which then runs before the sanitizer's runtime is set up and crashes every program
 // that links the JIT at start-up (found by `make test-tsan`; the baseline loops are used).
 #if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__) && \
     !defined(__SANITIZE_THREAD__) && !defined(__SANITIZE_ADDRESS__)
-#define HFRT_AVX2_CLONES __attribute__((target_clones("avx2", "default")))
+#define HFRT_SIMD_CLONES __attribute__((target_clones("arch=x86-64-v4", "avx2", "default")))
 #else
-#define HFRT_AVX2_CLONES
+#define HFRT_SIMD_CLONES
 #endif
 
 /// The float pass, compiled for AVX2 too (chosen at load time): the lane loops are the whole
 /// cost, and the baseline x86-64 target has 4-wide vectors only.
-HFRT_AVX2_CLONES
+HFRT_SIMD_CLONES
 void run_points_f32(std::span<const TapeInst> code, float* regs, uint8_t* err,
                     std::span<const float* const> inputs, size_t begin, size_t m) {
   run_points<float, kLanes>(code, regs, err, inputs, begin, m);
 }
 
-HFRT_AVX2_CLONES
+HFRT_SIMD_CLONES
 void run_points_f64(std::span<const TapeInst> code, double* regs, uint8_t* err,
                     std::span<const double* const> inputs, size_t begin, size_t m) {
   run_points<double, kLanes>(code, regs, err, inputs, begin, m);
@@ -134,13 +138,13 @@ void run_points_f64(std::span<const TapeInst> code, double* regs, uint8_t* err,
 
 /// The narrow passes: kNarrowLanes points, for calls of a few points (a ray's candidates in
 /// the analytic search, a shading point), where a full pass would evaluate 64 lanes for one.
-HFRT_AVX2_CLONES
+HFRT_SIMD_CLONES
 void run_points_f32_narrow(std::span<const TapeInst> code, float* regs, uint8_t* err,
                            std::span<const float* const> inputs, size_t begin, size_t m) {
   run_points<float, TapeVm::kNarrowLanes>(code, regs, err, inputs, begin, m);
 }
 
-HFRT_AVX2_CLONES
+HFRT_SIMD_CLONES
 void run_points_f64_narrow(std::span<const TapeInst> code, double* regs, uint8_t* err,
                            std::span<const double* const> inputs, size_t begin, size_t m) {
   run_points<double, TapeVm::kNarrowLanes>(code, regs, err, inputs, begin, m);
@@ -616,7 +620,7 @@ HFRT_TAPE_INLINE void run_intervals(std::span<const TapeInst> code, const IvRegs
 }
 
 /// The interval pass, compiled for AVX2 too (chosen at load time), as the float point pass.
-HFRT_AVX2_CLONES
+HFRT_SIMD_CLONES
 void run_intervals_pass(std::span<const TapeInst> code, const IvRegs& regs, IvScratch& sc,
                         int64_t* fire, std::span<const double* const> in_lo,
                         std::span<const double* const> in_hi, size_t begin, size_t m) {
@@ -849,13 +853,13 @@ HFRT_TAPE_INLINE void run_gradient(std::span<const TapeInst> code, T* regs, uint
   }
 }
 
-HFRT_AVX2_CLONES
+HFRT_SIMD_CLONES
 void run_gradient_f32(std::span<const TapeInst> code, float* regs, uint32_t imm_reg, uint8_t* err,
                       std::span<const float* const> inputs, size_t begin, size_t m) {
   run_gradient<float>(code, regs, imm_reg, err, inputs, begin, m);
 }
 
-HFRT_AVX2_CLONES
+HFRT_SIMD_CLONES
 void run_gradient_f64(std::span<const TapeInst> code, double* regs, uint32_t imm_reg, uint8_t* err,
                       std::span<const double* const> inputs, size_t begin, size_t m) {
   run_gradient<double>(code, regs, imm_reg, err, inputs, begin, m);

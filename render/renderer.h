@@ -99,6 +99,9 @@ struct RenderStats {
   /// Pruned tapes (RenderOptions::pruned_tapes): slab tapes registered and their total
   /// length; interval boxes evaluated on them and on the whole program.
   uint64_t pruned_regions = 0, pruned_region_length = 0, pruned_boxes = 0, full_boxes = 0;
+  /// The render's cell tapes (render/tape_regions.h, TapeCells), where the slabs' pruning
+  /// starts: cells made and their tapes' total length.
+  uint64_t pruned_cells = 0, pruned_cell_length = 0;
   int threads = 0;
   /// The first point (in tile order) where F had no value, with the Field's explanation.
   bool has_nan_point = false;

@@ -1,17 +1,91 @@
 #include "render/tape_regions.h"
 
 #include <algorithm>
+#include <cmath>
 
 #include "render/depth_cull.h"
 
 namespace hfrt::render {
 
-TapeRegions::TapeRegions(const Field& base) : FieldView(base), root_(base.root_tape()) {
-  if (root_ && root_->length() >= kMinRootLength) ev_ = base.tape_evaluator();
-  if (!ev_) {
+TapeCells::TapeCells(const Field& field, const Box& bounds) : root_(field.root_tape()) {
+  if (!root_ || root_->length() < TapeRegions::kMinRootLength || bounds.empty()) {
     root_.reset();
     return;
   }
+  origin_ = bounds.lo;
+  // The finest cells' size is extent / 2^kLevels; the grid is half of it (a power of two
+  // times grid_ for every level, so that boundaries are exact integer multiples).
+  grid_ = bounds.size() * (1.0f / float(2 << kLevels));
+  for (int level = 1; level <= kLevels; ++level) {
+    const size_t n = size_t(1) << level;
+    cells_[level - 1] = std::make_unique<std::atomic<const FieldTape*>[]>(n * n * n);
+  }
+}
+
+Box TapeCells::cell_box(int level, const int idx[3]) const {
+  // Cell i of `level` spans [i s, (i + 1) s] with s = 2^(kLevels + 1 - level) grid_; grown by
+  // s / 2: [(2i - 1) u, (2i + 3) u] grid_ with u = s / (2 grid_).
+  const int u = 1 << (kLevels - level);
+  Box b;
+  for (int a = 0; a < 3; ++a) {
+    b.lo[a] = origin_[a] + float((2 * idx[a] - 1) * u) * grid_[a];
+    b.hi[a] = origin_[a] + float((2 * idx[a] + 3) * u) * grid_[a];
+  }
+  return b;
+}
+
+const FieldTape& TapeCells::tape_for(const Box& box, TapeEvaluator& ev) {
+  // The deepest level whose cell under the box's centre holds the box.
+  int level = kLevels, idx[3] = {0, 0, 0};
+  for (; level >= 1; --level) {
+    const int n = 1 << level;
+    for (int a = 0; a < 3; ++a) {
+      const float s = float(2 << (kLevels - level)) * grid_[a];
+      const float c = 0.5f * (box.lo[a] + box.hi[a]) - origin_[a];
+      const float f = std::floor(c / s);
+      idx[a] = f < 0 ? 0 : f >= float(n - 1) ? n - 1 : int(f);
+    }
+    if (cell_box(level, idx).contains(box)) break;
+  }
+  const FieldTape* tape = root_.get();
+  // Down from level 1 to it through the cell's ancestors (each holding it), making the missing.
+  for (int l = 1; l <= level; ++l) {
+    const int n = 1 << l, shift = level - l;
+    const int at[3] = {idx[0] >> shift, idx[1] >> shift, idx[2] >> shift};
+    std::atomic<const FieldTape*>& slot = cells_[l - 1][(size_t(at[2]) * n + at[1]) * n + at[0]];
+    const FieldTape* t = slot.load(std::memory_order_acquire);
+    if (!t) {
+      std::lock_guard<std::mutex> lock(mutex_);
+      t = slot.load(std::memory_order_relaxed);
+      if (!t) {
+        bool maybe_nan = false;
+        ev.eval_interval(*tape, cell_box(l, at), &maybe_nan);
+        std::unique_ptr<FieldTape> child = ev.new_tape();
+        if (ev.prune_last(*tape, child.get())) {
+          t = child.get();
+          ++cells_made_;
+          cell_length_sum_ += t->length();
+          owned_.push_back(std::move(child));
+        } else {
+          t = tape;
+        }
+        slot.store(t, std::memory_order_release);
+      }
+    }
+    tape = t;
+  }
+  return *tape;
+}
+
+TapeRegions::TapeRegions(const Field& base, TapeCells* cells)
+    : FieldView(base), root_(base.root_tape()), cells_(cells) {
+  if (root_ && root_->length() >= kMinRootLength) ev_ = base.tape_evaluator();
+  if (!ev_) {
+    root_.reset();
+    cells_ = nullptr;
+    return;
+  }
+  if (cells_ && !cells_->enabled()) cells_ = nullptr;
   root_length_ = root_->length();
 }
 
@@ -25,15 +99,23 @@ void TapeRegions::clear() {
 }
 
 int TapeRegions::eval_prune(int parent, const Box& box, Interval* out, bool* maybe_nan) {
-  const FieldTape& tape = parent >= 0 ? *regions_[size_t(parent)].tape : *root_;
+  const FieldTape& tape = parent >= 0 ? *regions_[size_t(parent)].tape
+                          : cells_    ? cells_->tape_for(box, *ev_)
+                                      : *root_;
   *out = ev_->eval_interval(tape, box, maybe_nan);
   // A box the interval decides (empty or inside) is not searched: nothing to prune for.
   const SlabTest verdict = slab_verdict(*out, *maybe_nan, false);
   if (verdict.empty || verdict.inside) return parent;
   if (pool_used_ == pool_.size()) pool_.push_back(ev_->new_tape());
-  FieldTape* child = pool_[pool_used_].get();
-  if (!ev_->prune_last(tape, child)) return parent;
-  ++pool_used_;
+  const FieldTape* child = pool_[pool_used_].get();
+  if (ev_->prune_last(tape, pool_[pool_used_].get())) {
+    ++pool_used_;
+  } else if (parent < 0 && &tape != root_.get()) {
+    // Nothing more decided than in the cell: the cell's tape is the box's.
+    child = &tape;
+  } else {
+    return parent;
+  }
   const size_t len = child->length();
   // A tape too long to beat the JIT still serves as the parent of its children's prunes;
   // region_of() walks through it and answers its nearest usable ancestor.

@@ -12,6 +12,7 @@
 #include <filesystem>
 #include <random>
 #include <string>
+#include <thread>
 #include <vector>
 
 #include "app/model_field.h"
@@ -230,6 +231,54 @@ TEST(RenderPrunedTest, RegionOfFindsTheDeepestRegionHoldingTheBox) {
   }
   EXPECT_EQ(regions.region_of(render::Box{{0.0f, 0.0f, 0.5f}, {0.1f, 0.1f, 0.6f}}), -1);
   EXPECT_EQ(regions.region_of(render::Box{{-1.3f, -1.3f, -0.1f}, {1.3f, 1.3f, 0.1f}}), -1);
+}
+
+/// The render's cell tapes: a box gets the tape of the deepest loose cell holding it, whose
+/// interval over the box is the root tape's to the bit, from two threads at once (each with
+/// its own evaluator, making cells concurrently); small boxes get cells, and so tapes shorter
+/// than the program, and a box outside the cells the root tape.
+TEST(RenderPrunedTest, CellTapesGiveTheRootTapesIntervals) {
+  GearField gear;
+  ASSERT_TRUE(gear.ok());
+  ModelField& field = *gear.field;
+  const render::Box bounds{{-1.6f, -1.6f, -1.6f}, {1.6f, 1.6f, 1.6f}};
+  render::TapeCells cells(field, bounds);
+  ASSERT_TRUE(cells.enabled());
+  const render::FieldTape& root = *field.root_tape();
+  auto run = [&](unsigned seed, size_t* shorter, size_t* mismatches) {
+    std::unique_ptr<render::TapeEvaluator> ev = field.tape_evaluator();
+    std::unique_ptr<render::TapeEvaluator> ref = field.tape_evaluator();
+    std::mt19937 rng(seed);
+    std::uniform_real_distribution<float> u(-1.8f, 1.8f), w(0.0f, 1.0f);
+    for (int i = 0; i < 3000; ++i) {
+      // Sizes from a hundredth of the box to more than half of it.
+      const float size = 3.2f * std::pow(w(rng), 3.0f);
+      render::Box b;
+      for (int k = 0; k < 3; ++k) {
+        const float c = u(rng), h = 0.5f * size * (0.2f + w(rng));
+        b.lo[k] = c - h;
+        b.hi[k] = c + h;
+      }
+      const render::FieldTape& tape = cells.tape_for(b, *ev);
+      bool nan = false, ref_nan = false;
+      const render::Interval got = ev->eval_interval(tape, b, &nan);
+      const render::Interval want = ref->eval_interval(root, b, &ref_nan);
+      if (!(got.lo == want.lo && got.hi == want.hi && nan == ref_nan)) ++*mismatches;
+      if (tape.length() < root.length()) ++*shorter;
+    }
+  };
+  size_t shorter[2] = {0, 0}, mismatches[2] = {0, 0};
+  std::thread other(run, 11u, &shorter[1], &mismatches[1]);
+  run(12u, &shorter[0], &mismatches[0]);
+  other.join();
+  EXPECT_EQ(mismatches[0] + mismatches[1], 0u);
+  EXPECT_GT(shorter[0] + shorter[1], 3000u);
+  EXPECT_GT(cells.cells_made(), 0u);
+  EXPECT_LT(double(cells.cell_length_sum()) / double(cells.cells_made()), double(root.length()));
+  // Outside every cell's loose box: the root tape.
+  std::unique_ptr<render::TapeEvaluator> ev = field.tape_evaluator();
+  const render::Box far{{5.0f, 5.0f, 5.0f}, {5.1f, 5.1f, 5.1f}};
+  EXPECT_EQ(&cells.tape_for(far, *ev), &root);
 }
 
 }  // namespace
