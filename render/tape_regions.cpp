@@ -143,14 +143,27 @@ int TapeRegions::eval_prune(int parent, const Box& box, Interval* out, bool* may
   return self;
 }
 
+namespace {
+
+/// r.contains(b) for a non-empty b (as every searched box is), with the six comparisons
+/// combined without branches: region_of makes about three such tests per box, and their
+/// outcomes are hard to predict (with Box::contains' short-circuit branches it was 5-6 % of
+/// c1_gear's frame).
+inline bool holds(const Box& r, const Box& b) {
+  return (r.lo.x <= b.lo.x) & (r.lo.y <= b.lo.y) & (r.lo.z <= b.lo.z) & (b.hi.x <= r.hi.x) &
+         (b.hi.y <= r.hi.y) & (b.hi.z <= r.hi.z);
+}
+
+}  // namespace
+
 int TapeRegions::region_of(const Box& b) const {
   // Start from the last answer's node when it holds the box (consecutive boxes are usually
   // pieces of one ray or of neighbouring rays), else from the top.
   int node = -1;
-  if (last_ >= 0 && regions_[size_t(last_)].box.contains(b)) node = last_;
+  if (last_ >= 0 && holds(regions_[size_t(last_)].box, b)) node = last_;
   for (;;) {
     int c = node >= 0 ? regions_[size_t(node)].first_child : first_root_;
-    while (c >= 0 && !regions_[size_t(c)].box.contains(b)) c = regions_[size_t(c)].next_sibling;
+    while (c >= 0 && !holds(regions_[size_t(c)].box, b)) c = regions_[size_t(c)].next_sibling;
     if (c < 0) break;
     node = c;
   }
