@@ -53,6 +53,7 @@ bool frame_camera(const render::Field& field, const render::CameraRequest& camer
   }
   opt->camera =
       render::resolve_camera(camera, info->extent, float(opt->width) / float(opt->height));
+  if (info->framed) opt->solid_extent = info->extent;
   info->ms = ms_since(t0);
   render::Vec3 view = opt->camera.look_at - opt->camera.eye;
   if (length(view) == 0) {

@@ -58,8 +58,9 @@ struct SamplePiece {
 
 /// Scratch memory and counters of one worker thread.
 struct ThreadState {
-  explicit ThreadState(const Field& field)
-      : regions(std::make_unique<TapeRegions>(field)), searcher(*regions) {}
+  /// `cells`: the render's shared cell tapes, where the tile's first prunes start.
+  ThreadState(const Field& field, TapeCells* cells)
+      : regions(std::make_unique<TapeRegions>(field, cells)), searcher(*regions) {}
   /// The tapes pruned for the current tile's culling slabs and shadow bundles; the searcher
   /// evaluates through it (on the heap: the searcher refers to it, and ThreadStates move).
   std::unique_ptr<TapeRegions> regions;
@@ -127,6 +128,9 @@ class TileRenderer {
     attrs_ = field.num_attributes() >= 3;
     shadow_bias_ = shadow_bias(options);
   }
+
+  /// Whether culling registers pruned tapes (RenderOptions::pruned_tapes, the interval search).
+  bool prunes() const { return prune_; }
 
   RootMode root_used() const {
     return use_analytic_ ? RootMode::kAnalytic
@@ -909,7 +913,11 @@ void render_into(const Field& field, const RenderOptions& options, RenderResult*
   size_t nan_tile = std::numeric_limits<size_t>::max();
   Vec3 nan_point;
 
-  par::ThreadLocal<ThreadState> states([&] { return ThreadState(field); });
+  // The cells' tapes are made on first use, shared by the threads: a tile's first slabs prune
+  // from the tape of the smallest cell holding them instead of from the whole program.
+  const Box cell_bounds = intersect(options.solid_extent, options.bbox);
+  TapeCells cells(field, cell_bounds.empty() ? options.bbox : cell_bounds);
+  par::ThreadLocal<ThreadState> states([&] { return ThreadState(field, &cells); });
   TileLoop loop = for_each_tile(options.width, options.height, options.tile_size, options.threads,
                                 options.progress, options.cancel, [&](const Tile& t) {
                                   ThreadState& st = states.local();
@@ -945,6 +953,8 @@ void render_into(const Field& field, const RenderOptions& options, RenderResult*
     s.pruned_boxes += st.regions->pruned_boxes();
     s.full_boxes += st.regions->full_boxes();
   });
+  s.pruned_cells = cells.cells_made();
+  s.pruned_cell_length = cells.cell_length_sum();
   if (nan_tile != std::numeric_limits<size_t>::max()) {
     s.has_nan_point = true;
     s.nan_point = nan_point;

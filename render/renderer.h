@@ -57,6 +57,10 @@ struct RenderOptions {
   /// With the interval search and tile culling: evaluate the tile's intervals on tapes
   /// pruned for its culling slabs (render/tape_regions.h), where the field has tapes.
   bool pruned_tapes = true;
+  /// Where the solid lies (framing's extent), when known; empty: unknown. The cell tapes of
+  /// pruning (render/tape_regions.h, TapeCells) are laid over it instead of over `bbox`,
+  /// which is often far larger than the solid (the default -10..10).
+  Box solid_extent{{0, 0, 0}, {-1, -1, -1}};
   bool shadows = true;
   Vec3 background{0.18f, 0.2f, 0.24f};
   /// Surface colour when the model has no colour attributes.

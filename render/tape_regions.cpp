@@ -12,10 +12,16 @@ TapeCells::TapeCells(const Field& field, const Box& bounds) : root_(field.root_t
     root_.reset();
     return;
   }
-  origin_ = bounds.lo;
-  // The finest cells' size is extent / 2^kLevels; the grid is half of it (a power of two
+  // The finest cells' size is side / 2^kLevels; the grid is half of it (a power of two
   // times grid_ for every level, so that boundaries are exact integer multiples).
-  grid_ = bounds.size() * (1.0f / float(2 << kLevels));
+  const float side = bounds.max_extent();
+  if (!(side > 0) || !std::isfinite(side)) {
+    root_.reset();
+    return;
+  }
+  const float g = side * (1.0f / float(2 << kLevels));
+  grid_ = {g, g, g};
+  origin_ = bounds.center() - Vec3{0.5f * side, 0.5f * side, 0.5f * side};
   for (int level = 1; level <= kLevels; ++level) {
     const size_t n = size_t(1) << level;
     cells_[level - 1] = std::make_unique<std::atomic<const FieldTape*>[]>(n * n * n);
@@ -55,21 +61,25 @@ const FieldTape& TapeCells::tape_for(const Box& box, TapeEvaluator& ev) {
     std::atomic<const FieldTape*>& slot = cells_[l - 1][(size_t(at[2]) * n + at[1]) * n + at[0]];
     const FieldTape* t = slot.load(std::memory_order_acquire);
     if (!t) {
-      std::lock_guard<std::mutex> lock(mutex_);
-      t = slot.load(std::memory_order_relaxed);
-      if (!t) {
-        bool maybe_nan = false;
-        ev.eval_interval(*tape, cell_box(l, at), &maybe_nan);
-        std::unique_ptr<FieldTape> child = ev.new_tape();
-        if (ev.prune_last(*tape, child.get())) {
-          t = child.get();
+      // Made without a lock (a thread waiting for another's cell idled: c1_gear's frame took
+      // longer with the cells than without under one mutex); when two threads make the same
+      // cell at once, the first to publish wins and the other's copy is dropped.
+      bool maybe_nan = false;
+      ev.eval_interval(*tape, cell_box(l, at), &maybe_nan);
+      std::unique_ptr<FieldTape> child = ev.new_tape();
+      const FieldTape* made = ev.prune_last(*tape, child.get()) ? child.get() : tape;
+      const FieldTape* expected = nullptr;
+      if (slot.compare_exchange_strong(expected, made, std::memory_order_acq_rel,
+                                       std::memory_order_acquire)) {
+        t = made;
+        if (made == child.get()) {
           ++cells_made_;
-          cell_length_sum_ += t->length();
+          cell_length_sum_ += made->length();
+          std::lock_guard<std::mutex> lock(mutex_);
           owned_.push_back(std::move(child));
-        } else {
-          t = tape;
         }
-        slot.store(t, std::memory_order_release);
+      } else {
+        t = expected;
       }
     }
     tape = t;

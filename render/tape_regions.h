@@ -18,7 +18,7 @@
 
 namespace hfrt::render {
 
-/// Tapes pruned for the cells of a loose octree over the render box, made on first use and
+/// Tapes pruned for the cells of a loose octree over the solid's extent, made on first use and
 /// shared by the worker threads of one render: where a tile's culling (or a shadow bundle's)
 /// starts pruning, its first slab is evaluated on the tape of the smallest cell holding it
 /// instead of the whole program. That one-box pass of the VM costs in proportion to the tape,
@@ -27,7 +27,11 @@ namespace hfrt::render {
 /// exact for every box inside the cell, so the slab's interval, and with it the image, is
 /// the same.
 ///
-/// Level L (1..kLevels) has 2^L cells per axis of size s = extent / 2^L; a cell's loose box
+/// The cells are cubes over the cube around `bounds` (the render box cut down to where the
+/// surface may be: render::sound_extent). The render box is often far larger than the solid
+/// (the default -10..10 around a gear 3 wide), and a thin solid's box is flat: cells over
+/// either held few slabs (c1_gear at its default box: 23 cells of 222 instructions).
+/// Level L (1..kLevels) has 2^L cells per axis of size s = side / 2^L; a cell's loose box
 /// is its cell grown by s/2 on each side, so that every box at most s/2 wide whose centre is
 /// inside the cell lies in it. Cell boundaries are multiples of a grid of s_kLevels / 2, so a
 /// loose box lies inside its parent's in float arithmetic too, and its tape is pruned from the
@@ -36,8 +40,8 @@ class TapeCells {
  public:
   static constexpr int kLevels = 4;
 
-  /// Cells over `bounds` for the root tape of `field` (none when the field has no tape or one
-  /// too short to prune: TapeRegions::kMinRootLength).
+  /// Cells over the cube around `bounds` for the root tape of `field` (none when the field has
+  /// no tape or one too short to prune: TapeRegions::kMinRootLength).
   TapeCells(const Field& field, const Box& bounds);
 
   bool enabled() const { return root_ != nullptr; }
@@ -59,7 +63,7 @@ class TapeCells {
   /// Per level 1..kLevels (index level - 1): the cells' tapes, null until made (a cell whose
   /// box decided nothing holds its parent's tape).
   std::unique_ptr<std::atomic<const FieldTape*>[]> cells_[kLevels];
-  std::mutex mutex_;  ///< serialises the making of cells
+  std::mutex mutex_;  ///< guards owned_
   std::vector<std::unique_ptr<FieldTape>> owned_;
   std::atomic<uint64_t> cells_made_{0}, cell_length_sum_{0};
 };

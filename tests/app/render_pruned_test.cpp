@@ -106,6 +106,43 @@ TEST(RenderPrunedTest, GearBoxesGoToShortTapes) {
   EXPECT_GT(r.stats.pruned_boxes, 4 * r.stats.full_boxes);
 }
 
+/// The render's cell tapes are laid over the solid's extent (RenderOptions::solid_extent, what
+/// framing found), not over the render box: in the default -10..10 box the gear (about 3
+/// wide and flat) fits a cell or two of the box's octree, and the first slabs pruned from the
+/// near-whole program (23 cells of 222 instructions at 512x512). The image is the same either
+/// way (and without pruning).
+TEST(RenderPrunedTest, CellTapesCoverTheSolidNotTheWholeBox) {
+  GearField gear;
+  ASSERT_TRUE(gear.ok());
+  ModelField& field = *gear.field;
+  render::RenderOptions o;
+  o.width = o.height = 256;
+  o.root = render::RootMode::kInterval;
+  o.threads = 2;
+  const render::Box extent = render::find_extent(field, o.bbox, 6);
+  o.camera = render::resolve_camera({}, extent, 1.0f);
+  const render::RenderResult over_box = render::render(field, o);
+  o.solid_extent = extent;
+  const render::RenderResult over_solid = render::render(field, o);
+  o.pruned_tapes = false;
+  const render::RenderResult full = render::render(field, o);
+  const double root = double(field.root_tape()->length());
+  ASSERT_GT(over_solid.stats.pruned_cells, 0u);
+  ASSERT_GT(over_box.stats.pruned_cells, 0u);
+  const double solid_average =
+      double(over_solid.stats.pruned_cell_length) / double(over_solid.stats.pruned_cells);
+  const double box_average =
+      double(over_box.stats.pruned_cell_length) / double(over_box.stats.pruned_cells);
+  std::printf("cells over the solid: %llu of %.1f; over the box: %llu of %.1f (root %.0f)\n",
+              (unsigned long long)over_solid.stats.pruned_cells, solid_average,
+              (unsigned long long)over_box.stats.pruned_cells, box_average, root);
+  EXPECT_GT(over_solid.stats.pruned_cells, 2 * over_box.stats.pruned_cells);
+  EXPECT_LT(solid_average, 0.6 * root);
+  EXPECT_LT(solid_average, 0.75 * box_average);
+  EXPECT_EQ(over_solid.image.rgb, full.image.rgb);
+  EXPECT_EQ(over_box.image.rgb, full.image.rgb);
+}
+
 /// TapeRegions on its own: a region's boxes are evaluated on its tape, enclosing F at points
 /// of the box (sound), equal to the whole program's enclosure; other boxes go to the field.
 TEST(RenderPrunedTest, RegionsEncloseTheFieldAndRouteByContainment) {
