@@ -150,9 +150,7 @@ Interval tan_i(Interval a) {
 }
 
 Interval abs_i(Interval a) {
-  if (a.lo >= 0) return a;
-  if (a.hi <= 0) return neg(a);
-  return {0, std::max(-a.lo, a.hi), a.maybe_nan};
+  return interval_detail::abs(a);
 }
 
 Interval cosh_i(Interval a) {
