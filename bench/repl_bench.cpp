@@ -13,6 +13,9 @@
 //   build/bench/hfrt_bench_repl [--rounds N] [--edits N] [--size N] [--only NAME]
 //                               [--extra "OPTIONS"]   (appended to every edit's :render, e.g.
 //                                                      " --no-prune" for an A/B in one run)
+//                               [--modes 1234]   (which of the four sets of edits: default
+//                                                 options numbers only / compiled anew, the
+//                                                 quick look numbers only / compiled anew)
 #include <algorithm>
 #include <chrono>
 #include <cstdio>
@@ -170,8 +173,11 @@ bool bench_edits(const EditCase& c, int edits, int size, const std::string& extr
 
 int main(int argc, char** argv) {
   int rounds = 5, edits = 10, size = 512;
-  std::string only, extra_all;
+  std::string only, extra_all, modes = "1234";
   for (int i = 1; i + 1 < argc; ++i) {
+    // --modes 13: only the first and third sections below (default options numbers only, the
+    // quick look numbers only), for profiles and A/B runs of one kind of edit.
+    if (std::strcmp(argv[i], "--modes") == 0) modes = argv[i + 1];
     if (std::strcmp(argv[i], "--extra") == 0) extra_all = std::string(" ") + argv[i + 1];
     if (std::strcmp(argv[i], "--rounds") == 0) rounds = std::atoi(argv[i + 1]);
     if (std::strcmp(argv[i], "--edits") == 0) edits = std::max(1, std::atoi(argv[i + 1]));
@@ -216,8 +222,12 @@ int main(int argc, char** argv) {
     const char* extra;
     bool share;
   };
-  for (Mode m : {Mode{"", true}, Mode{"", false}, Mode{" --root sign --no-shadows", true},
-                 Mode{" --root sign --no-shadows", false}}) {
+  const Mode all_modes[] = {Mode{"", true}, Mode{"", false},
+                            Mode{" --root sign --no-shadows", true},
+                            Mode{" --root sign --no-shadows", false}};
+  for (int mi = 0; mi < 4; ++mi) {
+    if (modes.find(char('1' + mi)) == std::string::npos) continue;
+    const Mode m = all_modes[mi];
     std::printf("%d edits of one constant each, compile + :render%s on all cores, %s:\n", edits,
                 *m.extra ? m.extra : " (default options)",
                 m.share ? "numbers only: the compiled code is reused"
