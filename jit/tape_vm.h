@@ -85,11 +85,7 @@ class TapeVm {
   // eval_gradient: per register kLanes values then kLanes of each derivative.
   std::vector<float> grad_f32_;
   std::vector<double> grad_f64_;
-  // eval_interval: per register its lower bound, upper bound and NaN flag, as three arrays:
-  // an Interval array written field by field and read back whole (one 16-byte load of the
-  // two bounds) missed store-to-load forwarding on every dependent instruction.
-  std::vector<double> iv_lo_, iv_hi_;
-  std::vector<uint8_t> iv_nan_;
+  std::vector<Interval> regs_iv_;
   // eval_intervals: per register kLanes lower bounds, upper bounds and NaN flags, the checks
   // that may fire per box, and scratch lanes (constants, R-function results).
   std::vector<double> batch_lo_, batch_hi_;
