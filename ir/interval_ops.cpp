@@ -150,7 +150,9 @@ Interval tan_i(Interval a) {
 }
 
 Interval abs_i(Interval a) {
-  return interval_detail::abs(a);
+  if (a.lo >= 0) return a;
+  if (a.hi <= 0) return neg(a);
+  return {0, std::max(-a.lo, a.hi), a.maybe_nan};
 }
 
 Interval cosh_i(Interval a) {

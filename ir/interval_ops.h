@@ -89,12 +89,6 @@ inline Interval square(Interval a) {
   return {lo == 0 ? 0.0 : down(lo), up(m_hi * m_hi), a.maybe_nan};
 }
 
-inline Interval abs(Interval a) {
-  if (a.lo >= 0) return a;
-  if (a.hi <= 0) return neg(a);
-  return {0, std::max(-a.lo, a.hi), a.maybe_nan};
-}
-
 inline Interval min_max(Interval a, Interval b, bool is_min, uint8_t* choice) {
   // kMin: a < b ? a : b; kMax: a > b ? a : b. A NaN a gives b; a NaN b gives b (NaN).
   bool left_only, right_only;

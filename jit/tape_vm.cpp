@@ -4,12 +4,7 @@
 
 #include <algorithm>
 #include <cmath>
-#include <cstddef>
 #include <limits>
-
-#if defined(__SSE2__)
-#include <emmintrin.h>
-#endif
 
 #include "base/check.h"
 #include "ir/interval_ops.h"
@@ -117,8 +112,8 @@ HFRT_TAPE_INLINE void run_points(std::span<const TapeInst> code, T* regs, uint8_
 // halves the batched interval pass on a host that has it (hfrt_bench_interval c1_gear, Xeon:
 // 2.06-2.48 -> 1.08-1.12 ns per instruction and box): 8 doubles per vector and mask
 // registers for the selects. -ffp-contract=off (cmake/HfrtWarnings.cmake) keeps every clone
-// free of fused multiply-adds, so all give the same bits. Not in sanitizer builds: GCC instruments
-// the resolver, which then runs before the sanitizer's runtime is set up and crashes every program
+// free of fused multiply-adds, so all give the same bits. Not in sanitizer builds: GCC instruments the
+// resolver, which then runs before the sanitizer's runtime is set up and crashes every program
 // that links the JIT at start-up (found by `make test-tsan`; the baseline loops are used).
 #if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__) && \
     !defined(__SANITIZE_THREAD__) && !defined(__SANITIZE_ADDRESS__)
@@ -211,32 +206,18 @@ Interval TapeVm::eval_interval(const Tape& tape, std::span<const Interval> input
   choices_.assign(code.size(), kChoiceNone);
   fire_.assign(code.size(), 0);
   Interval* regs = regs_iv_.data();
-  auto reg = [&](uint32_t r) { return regs[r]; };
-  // The two bounds are stored with one 16-byte store, as the next instruction loads them:
-  // stored one by one, that load missed store-to-load forwarding on every dependent
-  // instruction (perf: 16 % of the pass on it). Split lo/hi/NaN arrays fixed that too but
-  // cost prospero (6903 instructions, many live registers) ~10 % in cache lines.
-  auto set = [&](uint32_t r, const Interval& v) {
-#if defined(__SSE2__)
-    static_assert(offsetof(Interval, hi) == offsetof(Interval, lo) + sizeof(double));
-    _mm_storeu_pd(&regs[r].lo, _mm_set_pd(v.hi, v.lo));
-    regs[r].maybe_nan = v.maybe_nan;
-#else
-    regs[r] = v;
-#endif
-  };
   bool error_possible = false;
   for (size_t k = 0; k < code.size(); ++k) {
     const TapeInst& t = code[k];
     switch (t.op) {
       case Op::kConst:
-        set(t.out, Interval::point(t.imm));
+        regs[t.out] = Interval::point(t.imm);
         break;
       case Op::kInput:
-        set(t.out, t.a < inputs.size() ? inputs[t.a] : Interval::point(0));
+        regs[t.out] = t.a < inputs.size() ? inputs[t.a] : Interval::point(0);
         break;
       case Op::kCheck:
-        if (nonzero(reg(t.a)).can_true) {
+        if (nonzero(regs[t.a]).can_true) {
           fire_[k] = 1;
           error_possible = true;
         }
@@ -246,51 +227,37 @@ Interval TapeVm::eval_interval(const Tape& tape, std::span<const Interval> input
         break;
         HFRT_OP_CASES_ARITH {
           const int nargs = op_num_args(t.op);
-          const Interval a = (t.flags & TapeInst::kImmA) ? Interval::point(t.imm) : reg(t.a);
+          const Interval a = (t.flags & TapeInst::kImmA) ? Interval::point(t.imm) : regs[t.a];
           Interval b, c;
-          if (nargs >= 2) b = (t.flags & TapeInst::kImmB) ? Interval::point(t.imm) : reg(t.b);
-          if (nargs >= 3) c = reg(t.c);
+          if (nargs >= 2) b = (t.flags & TapeInst::kImmB) ? Interval::point(t.imm) : regs[t.b];
+          if (nargs >= 3) c = regs[t.c];
           // The frequent ops in place (the same functions apply_interval calls for them).
           const bool same = (t.flags & TapeInst::kSame) != 0;
           uint8_t* choice = &choices_[k];
           Interval r;
-          // One jump on the op (a chain of compares mispredicted along mixed tapes).
-          switch (t.op) {
-            case Op::kAdd:
-              r = interval_detail::add(a, b);
-              break;
-            case Op::kSub:
-              r = interval_detail::add(a, interval_detail::neg(b));
-              break;
-            case Op::kMul:
-              r = same ? interval_detail::square(a) : interval_detail::mul(a, b);
-              break;
-            case Op::kMin:
-              r = same ? a : interval_detail::min_max(a, b, true, choice);
-              break;
-            case Op::kMax:
-              r = same ? a : interval_detail::min_max(a, b, false, choice);
-              break;
-            case Op::kNeg:
-              r = interval_detail::neg(a);
-              break;
-            case Op::kAbs:
-              r = interval_detail::abs(a);
-              break;
-            default:
-              r = apply_interval(t.op, a, b, c, same, choice);
-              break;
+          if (t.op == Op::kAdd) {
+            r = interval_detail::add(a, b);
+          } else if (t.op == Op::kSub) {
+            r = interval_detail::add(a, interval_detail::neg(b));
+          } else if (t.op == Op::kMul) {
+            r = same ? interval_detail::square(a) : interval_detail::mul(a, b);
+          } else if (t.op == Op::kMin || t.op == Op::kMax) {
+            r = same ? a : interval_detail::min_max(a, b, t.op == Op::kMin, choice);
+          } else if (t.op == Op::kNeg) {
+            r = interval_detail::neg(a);
+          } else {
+            r = apply_interval(t.op, a, b, c, same, choice);
           }
           if (t.flags & (TapeInst::kRPlus | TapeInst::kRMinus)) {
             // Read before the write: the result may reuse f1's or f2's register.
-            r = r_function_interval(r, reg(t.r1), reg(t.r2), (t.flags & TapeInst::kRPlus) != 0);
+            r = r_function_interval(r, regs[t.r1], regs[t.r2], (t.flags & TapeInst::kRPlus) != 0);
           }
-          set(t.out, r);
+          regs[t.out] = r;
           break;
         }
     }
   }
-  Interval r = reg(tape.result_reg());
+  Interval r = regs[tape.result_reg()];
   r.maybe_nan = r.maybe_nan || error_possible;
   return r;
 }
