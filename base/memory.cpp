@@ -7,6 +7,7 @@
 #include <iterator>
 
 #if defined(__linux__)
+#include <malloc.h>
 #include <sys/mman.h>
 #include <unistd.h>
 #endif
@@ -89,6 +90,18 @@ void reexec_with_huge_page_malloc(char** argv, bool one_arena) {
 #else
   (void)argv;
   (void)one_arena;
+#endif
+}
+
+void keep_large_blocks_on_heap() {
+#if defined(__linux__) && defined(__GLIBC__)
+  // A tunable the user (or reexec_with_huge_page_malloc) set is kept.
+  const char* tunables = std::getenv("GLIBC_TUNABLES");
+  const std::string_view now = tunables ? tunables : "";
+  if (now.find(kMmapThresholdTunable) == std::string_view::npos) {
+    mallopt(M_MMAP_THRESHOLD, 32 << 20);
+  }
+  if (now.find(kTopPadTunable) == std::string_view::npos) mallopt(M_TOP_PAD, 16 << 20);
 #endif
 }
 

@@ -51,6 +51,15 @@ std::optional<std::string> huge_page_malloc_tunables(const char* current, std::s
 /// Call first thing in main(), before any thread starts.
 void reexec_with_huge_page_malloc(char** argv, bool one_arena = false);
 
+/// Keeps malloc's large blocks (up to 32 MiB) on its heap, and the heap's freed top (16 MiB of
+/// padding) mapped, for the rest of the process (glibc's mallopt M_MMAP_THRESHOLD and
+/// M_TOP_PAD; nothing elsewhere, or where GLIBC_TUNABLES already set them). For long-running
+/// processes that allocate and free the same large buffers again and again (the REPL's
+/// renders and PNG writes): by default each such block is a fresh mmap whose pages are faulted
+/// in and zeroed anew, several microseconds a page on the 2-core VM (a 512x512 PNG write took
+/// 7-8 ms of a c1_gear edit, ~4 ms with this).
+void keep_large_blocks_on_heap();
+
 /// Whether this process's malloc was started on huge pages (GLIBC_TUNABLES has
 /// glibc.malloc.hugetlb=1), for --stats.
 bool malloc_on_huge_pages();

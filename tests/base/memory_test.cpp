@@ -4,8 +4,13 @@
 #include <gtest/gtest.h>
 
 #include <cstdint>
+#include <cstdlib>
 #include <numeric>
 #include <vector>
+
+#if defined(__linux__) && defined(__GLIBC__)
+#include <malloc.h>
+#endif
 
 namespace hfrt {
 namespace {
@@ -68,6 +73,38 @@ TEST(Memory, OneArenaUnlessTheUserSetAMaximum) {
   // Nothing changes where huge pages are already asked for: no exec only for the arena.
   EXPECT_EQ(huge_page_malloc_tunables(kBoth.c_str(), kMadvise, true), std::nullopt);
 }
+
+#if defined(__has_feature)
+#if __has_feature(address_sanitizer) || __has_feature(thread_sanitizer)
+#define HFRT_TEST_OWN_MALLOC 1  // the sanitizer's allocator, which mallinfo2 does not describe
+#endif
+#endif
+#if defined(__SANITIZE_ADDRESS__) || defined(__SANITIZE_THREAD__)
+#define HFRT_TEST_OWN_MALLOC 1
+#endif
+#if defined(__linux__) && defined(__GLIBC__) && !defined(HFRT_TEST_OWN_MALLOC)
+/// keep_large_blocks_on_heap: a block of a few MiB then comes from malloc's heap, not from a
+/// mmap of its own (mallinfo2's hblks counts those). Without the call glibc maps it (above its
+/// threshold: 128 KiB at first, raised to a freed mapped block's size).
+TEST(Memory, LargeBlocksStayOnTheHeap) {
+  if (const char* t = std::getenv("GLIBC_TUNABLES");
+      t && std::string(t).find("mmap_threshold") != std::string::npos) {
+    GTEST_SKIP() << "GLIBC_TUNABLES sets the threshold: " << t;
+  }
+  const size_t before = mallinfo2().hblks;
+  void* mapped = std::malloc(size_t(4) << 20);
+  ASSERT_NE(mapped, nullptr);
+  EXPECT_EQ(mallinfo2().hblks, before + 1);  // the default: a mmap of its own
+  std::free(mapped);
+  keep_large_blocks_on_heap();
+  // 16 MiB: above the 4 MiB to which freeing the mapped block raised glibc's own threshold.
+  const size_t after = mallinfo2().hblks;
+  void* kept = std::malloc(size_t(16) << 20);
+  ASSERT_NE(kept, nullptr);
+  EXPECT_EQ(mallinfo2().hblks, after);
+  std::free(kept);
+}
+#endif
 
 }  // namespace
 }  // namespace hfrt

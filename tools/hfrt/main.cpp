@@ -56,7 +56,8 @@ int main(int argc, char** argv) {
     // leaf's BVH (the teapot 0.26-0.32 -> 0.22-0.24 s, the armadillo 0.23-0.37 -> 0.17-0.27 s)
     // and no more on small models (csg 0.36-0.38 -> 0.34 s). The other commands allocate
     // little: there the 2 MiB pages' zeroing and the exec cost ~5 ms of CPU (`hfrt eval` 127 ->
-    // 133 ms) for nothing.
+    // 133 ms) for nothing. `hfrt repl` frees and allocates the same large buffers at every
+    // render: its Session keeps them on malloc's heap instead (keep_large_blocks_on_heap).
     // A render also runs on one malloc arena: its threads allocate little while they trace, and
     // the teapot's process took 0.138-0.155 s with an arena per thread against 0.119-0.134 s
     // (perf stat -r 10, three rounds alternating; the surface's build frees its temporaries on a

@@ -14,6 +14,7 @@
 #include "app/mesh_job.h"
 #include "app/model_field.h"
 #include "base/check.h"
+#include "base/memory.h"
 #include "base/timer.h"
 #include "lang/diagnostics.h"
 #include "lang/objects.h"
@@ -145,6 +146,9 @@ const char* kHelp =
 }  // namespace
 
 Session::Session() {
+  // Every render and image write allocates and frees the same large buffers: keep them on
+  // malloc's heap rather than fault in fresh pages each time (base/memory.h).
+  keep_large_blocks_on_heap();
   std::string err;
   HFRT_CHECK(translate_render_options(cli_, &setup_, &err));
   settings_.options = setup_.options;
