@@ -34,6 +34,10 @@ constexpr std::string_view kHugetlbTunable = "glibc.malloc.hugetlb";
 constexpr std::string_view kMmapThresholdTunable = "glibc.malloc.mmap_threshold";
 constexpr std::string_view kArenaMaxTunable = "glibc.malloc.arena_max";
 constexpr std::string_view kTopPadTunable = "glibc.malloc.top_pad";
+/// The largest block served from malloc's heaps (32 MiB is glibc's own ceiling for its moving
+/// threshold), and the heap's growth step and kept top: for GLIBC_TUNABLES and for mallopt.
+constexpr int kHeapBlockMax = 32 << 20;
+constexpr int kHeapTopPad = 16 << 20;
 }  // namespace
 
 std::optional<std::string> huge_page_malloc_tunables(const char* current, std::string_view thp_mode,
@@ -53,14 +57,16 @@ std::optional<std::string> huge_page_malloc_tunables(const char* current, std::s
   // an mmap of their own each (the default above 128 KiB), whose 4 KiB pages a block of 1 MiB
   // must fault in one by one (32 MiB is glibc's own ceiling for its moving threshold).
   if (now.find(kMmapThresholdTunable) == std::string_view::npos)
-    add(kMmapThresholdTunable, "33554432");
+    add(kMmapThresholdTunable, std::to_string(kHeapBlockMax));
   // The main heap grown 16 MiB at a time instead of by what each request needs plus 128 KiB:
   // the kernel backs a madvised range with a huge page only where a whole aligned 2 MiB lies
   // inside the mapping, so a heap that creeps up by small steps gets 4 KiB pages at its top.
   // The 512^3 blend's mesher took ~550 faults of 4 KiB in its octree (its level arrays of
   // ~1 MiB), ~11 ms of its 0.075 s, and 336 more in its blocks; with this, ~200 and ~10
   // (getrusage). Only address space: pages are still faulted in when first touched.
-  if (now.find(kTopPadTunable) == std::string_view::npos) add(kTopPadTunable, "16777216");
+  if (now.find(kTopPadTunable) == std::string_view::npos) {
+    add(kTopPadTunable, std::to_string(kHeapTopPad));
+  }
   if (one_arena && now.find(kArenaMaxTunable) == std::string_view::npos) add(kArenaMaxTunable, "1");
   return value;
 }
@@ -99,9 +105,9 @@ void keep_large_blocks_on_heap() {
   const char* tunables = std::getenv("GLIBC_TUNABLES");
   const std::string_view now = tunables ? tunables : "";
   if (now.find(kMmapThresholdTunable) == std::string_view::npos) {
-    mallopt(M_MMAP_THRESHOLD, 32 << 20);
+    mallopt(M_MMAP_THRESHOLD, kHeapBlockMax);
   }
-  if (now.find(kTopPadTunable) == std::string_view::npos) mallopt(M_TOP_PAD, 16 << 20);
+  if (now.find(kTopPadTunable) == std::string_view::npos) mallopt(M_TOP_PAD, kHeapTopPad);
 #endif
 }
 

@@ -129,9 +129,6 @@ class TileRenderer {
     shadow_bias_ = shadow_bias(options);
   }
 
-  /// Whether culling registers pruned tapes (RenderOptions::pruned_tapes, the interval search).
-  bool prunes() const { return prune_; }
-
   RootMode root_used() const {
     return use_analytic_ ? RootMode::kAnalytic
                          : (use_interval_ ? RootMode::kInterval : RootMode::kSign);

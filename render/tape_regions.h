@@ -27,13 +27,13 @@ namespace hfrt::render {
 /// exact for every box inside the cell, so the slab's interval, and with it the image, is
 /// the same.
 ///
-/// The cells are cubes over the cube around `bounds` (the render box cut down to where the
-/// surface may be: render::sound_extent). The render box is often far larger than the solid
-/// (the default -10..10 around a gear 3 wide), and a thin solid's box is flat: cells over
-/// either held few slabs (c1_gear at its default box: 23 cells of 222 instructions).
-/// Level L (1..kLevels) has 2^L cells per axis of size s = side / 2^L; a cell's loose box
-/// is its cell grown by s/2 on each side, so that every box at most s/2 wide whose centre is
-/// inside the cell lies in it. Cell boundaries are multiples of a grid of s_kLevels / 2, so a
+/// The cells are cubes over the cube around `bounds` (the solid's framed extent,
+/// RenderOptions::solid_extent, or the render box when it is unknown). The render box is often far
+/// larger than the solid (the default -10..10 around a gear 3 wide), and a thin solid's box is
+/// flat: cells over either held few slabs (c1_gear at its default box: 23 cells of 222
+/// instructions). Level L (1..kLevels) has 2^L cells per axis of size s = side / 2^L; a cell's
+/// loose box is its cell grown by s/2 on each side, so that every box at most s/2 wide whose centre
+/// is inside the cell lies in it. Cell boundaries are multiples of a grid of s_kLevels / 2, so a
 /// loose box lies inside its parent's in float arithmetic too, and its tape is pruned from the
 /// parent's.
 class TapeCells {
