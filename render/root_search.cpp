@@ -65,8 +65,25 @@ float RootSearcher::refine(const Ray& ray, float ta, float fa, float tb, float f
   ts_.resize(std::max<size_t>(ts_.size(), kRefineBatch));
   while (tb - ta > eps) {
     float width = tb - ta;
-    for (int i = 0; i < kRefineBatch; ++i)
-      ts_[i] = ta + width * float(i + 1) / float(kRefineBatch + 1);
+    const bool secant = std::isfinite(fa) && std::isfinite(fb) && fa < 0 && fb >= 0 &&
+                        fb - fa > 0 && width > kRefineWindow * eps;
+    if (!secant) {
+      for (int i = 0; i < kRefineBatch; ++i)
+        ts_[i] = ta + width * float(i + 1) / float(kRefineBatch + 1);
+    } else {
+      // Where the chord between the ends crosses 0, a window of kRefineWindow points eps
+      // apart (a smooth F is nearly linear across a bracket this short, so the root is
+      // usually in it and this call ends the refinement), among points that split the
+      // bracket evenly (which narrow it kRefineBatch - kRefineWindow + 1-fold if it is not).
+      constexpr int kEven = kRefineBatch - kRefineWindow;
+      float est = ta + width * (-fa / (fb - fa));
+      float lo = std::clamp(est - 0.5f * float(kRefineWindow - 1) * eps, ta,
+                            tb - float(kRefineWindow) * eps);
+      float window[kRefineWindow], even[kEven];
+      for (int i = 0; i < kRefineWindow; ++i) window[i] = lo + float(i) * eps;
+      for (int i = 0; i < kEven; ++i) even[i] = ta + width * float(i + 1) / float(kEven + 1);
+      std::merge(window, window + kRefineWindow, even, even + kEven, ts_.begin());
+    }
     eval_params(ray, kRefineBatch);
     int first_in = -1;
     for (int i = 0; i < kRefineBatch; ++i) {

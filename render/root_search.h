@@ -3,9 +3,9 @@
 //
 // Two strategies, both over the same Field:
 //  - sign change: march with a fixed step, evaluating kMarchBatch samples per call of the
-//    vectorised evaluator, stop at the first sample inside, and refine the bracketing step by
-//    repeated sectioning (kRefineBatch points per call) down to the tolerance. Fast, but a
-//    feature thinner than the step can fall between two samples.
+//    vectorised evaluator, stop at the first sample inside, and refine the bracketing step
+//    (kRefineBatch points per call, most of them around the chord's root) down to the
+//    tolerance. Fast, but a feature thinner than the step can fall between two samples.
 //  - interval: recursive bisection of [t0, t1]; a piece whose interval excludes 0 is skipped,
 //    one that straddles 0 is split, down to the tolerance. A piece that still straddles at the
 //    tolerance counts as a hit even when no sample inside it is >= 0: that is what keeps thin
@@ -57,9 +57,16 @@ struct RootHit {
 class RootSearcher {
  public:
   static constexpr int kMarchBatch = 32;
-  /// 15 points: one 16-lane block of the f32 evaluator per call, each call narrowing the
-  /// bracket 16-fold (three calls from a march step down to the tolerance, where 7 took four).
+  /// 15 points: one 16-lane block of the f32 evaluator per call (7 took a call more).
   static constexpr int kRefineBatch = 15;
+  /// Of them, this many lie eps apart around where the chord between the bracket's ends
+  /// crosses 0, the others split the bracket evenly. F is nearly linear across a march step
+  /// almost everywhere, so the root is in the window and one call ends the refinement: on
+  /// c1_gear at 512x512 (no shadows) 4.68M -> 3.03M point evaluations and 523k -> 413k calls,
+  /// where evenly spaced points (16-fold narrower per call) took three calls from a step down
+  /// to the tolerance. Where it is not, the bracket still narrows 8-fold. Window sizes of 4 to
+  /// 14 all gave the same counts within 1 %.
+  static constexpr int kRefineWindow = 8;
 
   explicit RootSearcher(const Field& field) : field_(field) {}
 

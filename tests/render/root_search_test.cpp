@@ -25,6 +25,43 @@ TEST(RootSearch, SignChangeFindsSphereToTolerance) {
   EXPECT_GT(s.counters().eval_points, 4 * s.counters().eval_calls);
 }
 
+TEST(RootSearch, RefinementFollowsTheChordToTheRoot) {
+  // F = 3 - |p| is nearly linear across one march step: the point evaluations around where
+  // the chord crosses 0 hold the root, so one call past the march reaches the tolerance
+  // (evenly spaced points, 16-fold narrower per call, took four from 0.05 down to 1e-5).
+  SphereField sphere({0, 0, 0}, 3);
+  RootSearcher s(sphere);
+  Ray ray{{0.5f, 1.0f, 20}, {0, 0, -1}};
+  RootHit h = s.sign_search(ray, 16, 40, 0.05f, 1e-5f, false);  // one march call: 24 steps
+  ASSERT_TRUE(h.hit);
+  EXPECT_NEAR(h.t, 20 - std::sqrt(9.0 - 0.25 - 1.0), 2e-5);
+  EXPECT_LE(s.counters().eval_calls, 3u);
+}
+
+/// F = 1000 in front of the plane z = 1 and -1 behind it (the ray comes from z > 1): a jump,
+/// where the chord between two samples points far from the crossing.
+class StepField : public testing::AnalyticField {
+ public:
+  double value(double, double, double z) const override { return z > 1 ? -1 : 1000; }
+  Vec3 gradient(double, double, double) const override { return {0, 0, 0}; }
+  Interval interval(const Box& b) const override {
+    return {b.hi.z > 1 ? -1.0f : 1000.0f, b.lo.z > 1 ? -1.0f : 1000.0f};
+  }
+};
+
+TEST(RootSearch, RefinementNarrowsEvenWhereTheChordIsFarFromTheRoot) {
+  StepField step;
+  RootSearcher s(step);
+  Ray ray{{0, 0, 10}, {0, 0, -1}};
+  RootHit h = s.sign_search(ray, 0, 20, 0.1f, 1e-5f, false);  // the jump at t = 9
+  ASSERT_TRUE(h.hit);
+  EXPECT_GE(h.t, 9 - 1e-5);
+  EXPECT_LE(h.t, 9 + 1e-5);
+  // The bracket still narrows 8-fold per call: four calls from 0.1 down to 1e-5 (8^4 >
+  // 10^4), after the three of the march.
+  EXPECT_LE(s.counters().eval_calls, 3u + 5u);
+}
+
 TEST(RootSearch, IntervalFindsSphereToTolerance) {
   SphereField sphere({0, 0, 0}, 3);
   RootSearcher s(sphere);
