@@ -674,6 +674,35 @@ TEST(ReplView, CoarsePictureComesFirstWhenAsked) {
   fs::remove_all(dir);
 }
 
+TEST(ReplView, NoCoarsePictureWhereTheFullOneComesQuickly) {
+  Session s;
+  fs::path dir = temp_dir();
+  std::string out = (dir / "q.png").string();
+  auto def = [](const char* k) {
+    return std::string("ball(x[3], a[1]) {\n  k = ") + k +
+           ";\n  ball = k - x[1]*x[1] - x[2]*x[2] - x[3]*x[3];\n}";
+  };
+  int coarse = 0;
+  s.on_coarse = [&](const render::Image&) { ++coarse; };
+  ASSERT_TRUE(s.run(def("1.5")).ok);
+  ASSERT_TRUE(s.run(":render " + out + " --size 64x64 --bbox 2").ok);
+  EXPECT_EQ(coarse, 1);  // nothing known of this view yet
+  ASSERT_LT(s.timings().render, Session::kQuickRenderMs);
+  // A numbers-only edit runs the compiled code, and the last render of the view was quick.
+  ASSERT_TRUE(s.run(def("1.25")).ok);
+  EXPECT_EQ(s.code_shares(), 1);
+  ASSERT_TRUE(s.run(":render " + out).ok);
+  EXPECT_EQ(coarse, 1);
+  // Another view (a new size) is not known to be quick.
+  ASSERT_TRUE(s.run(":render " + out + " --size 72x64").ok);
+  EXPECT_EQ(coarse, 2);
+  // Another structure has code still to compile.
+  ASSERT_TRUE(s.run("ball(x[3], a[1]) { ball = 1 - abs(x[1]) - x[2]*x[2] - x[3]*x[3]; }").ok);
+  ASSERT_TRUE(s.run(":render " + out).ok);
+  EXPECT_EQ(coarse, 3);
+  fs::remove_all(dir);
+}
+
 TEST(ReplWatch, WatchStepReloadsTheChangedFileAndRendersAgain) {
   Session s;
   fs::path dir = temp_dir();

@@ -28,6 +28,15 @@ namespace {
 constexpr int kBackgroundIntervalInsts = 200;
 constexpr int kBackgroundGradientInsts = 200;
 
+/// Whether a compile of `model`'s code still runs on a thread of its own.
+bool compile_running(const Model& model) {
+  const ModelStats st = model.stats();
+  auto running = [](bool background, bool compiled) { return background && !compiled; };
+  return running(st.jit_f32.background, st.jit_f32.compiled) ||
+         running(st.interval.background, st.interval.compiled) ||
+         running(st.gradient_f32.background, st.gradient_f32.compiled);
+}
+
 /// Gives a cached model the parameters and time of one render or mesh (-a, --time) and its own
 /// back when the scope ends.
 class ScopedModelSettings {
@@ -608,7 +617,6 @@ SessionResult Session::render_to(const std::string& out) {
   job.file = "<session>";
   job.setup = setup_;
   job.setup.options.cancel = &cancel_;
-  job.on_coarse = on_coarse;
   // The view of the last render of this object with these options (see ViewCache).
   std::string key = object + '\x1f' + cli_.size + '\x1f' + cli_.bbox + '\x1f' + cli_.eye + '\x1f' +
                     cli_.look_at + '\x1f' + cli_.up + '\x1f' + std::to_string(cli_.fov) + '\x1f' +
@@ -616,6 +624,12 @@ SessionResult Session::render_to(const std::string& out) {
                     '\x1f' + cli_.model.time + '\x1f' + cli_.model.backend + '\x1f' +
                     std::to_string(cli_.threads);
   if (view_key_ == key) job.view = &view_;
+  job.on_coarse = on_coarse;
+  // The full picture comes quickly (see on_coarse) when the last render of this view was quick
+  // and ran the same code: this model's, or the code it shares (a numbers-only edit).
+  const bool same_code = model.code_key() == view_code_key_ &&
+                         (&model == view_model_ || model.shares_code()) && !compile_running(model);
+  if (view_key_ == key && view_render_ms_ < kQuickRenderMs && same_code) job.on_coarse = nullptr;
   // Into the image buffer of the render before last (the last one is still shown): its pages
   // are already mapped.
   render::RenderResult result;
@@ -628,6 +642,11 @@ SessionResult Session::render_to(const std::string& out) {
   if (done.status == app::RenderJobStatus::kUsageError) return failure("hfrt: " + done.error);
   view_key_ = key;
   view_ = done.view;
+  view_render_ms_ = done.status == app::RenderJobStatus::kCancelled
+                        ? std::numeric_limits<double>::infinity()
+                        : done.render_ms;
+  view_model_ = &model;
+  view_code_key_ = model.code_key();
   timings_.prepare = done.report.prepare_ms;
   timings_.frame = done.report.framing.ms;
   timings_.probe = done.report.root.probe_ms;
