@@ -180,9 +180,9 @@ RootHit RootSearcher::interval_search(const Ray& ray, float t0, float t1, float 
   }
   if (m.at_start) return m;
   // Then prove with intervals that nothing lies before it: [t0, m.t - kVerifyGap eps] is
-  // covered by pieces that grow by kVerifyGrowth away from the root, each at least as far from
-  // the root as it is long, so that one interval evaluation usually excludes it; a piece that is
-  // not excluded is bisected as usual and its first leaf that may hold the surface is the hit.
+  // covered by pieces that grow by kVerifyGrowth away from the root, so that one interval
+  // evaluation usually excludes each; a piece that is not excluded is bisected as usual and its
+  // first leaf that may hold the surface is the hit.
   // The last few eps before the root are left out: there the bisection itself cannot tell a
   // feature from the root (the enclosures of pieces that close to a root reach 0 too) and
   // reports a leaf within about that distance. So the answer is the bisection's to within a few
