@@ -13,7 +13,10 @@
 // tapes pruned per block and the tape VMs (render_slice with a ModelField that has tapes), on
 // the same grid and threads, printed beside the JIT's brute force with the ratio, the average
 // tape length per recursion level, and the pixels where its image differs from the unpruned
-// render_slice (compiled interval + f32 code) and from the brute-force f32 signs.
+// render_slice (compiled interval + f32 code) and from the brute-force f32 signs. Beside them,
+// the hand AVX2 brute force: the challenge's own VM file (prospero.vm, next to prospero.hf)
+// as straight-line AVX2 intrinsics, generated at build time by bench/prospero_avx2_gen.py,
+// the peer that issue 25 measures the pruned slice against.
 // A pixel is inside the solid where F >= 0 (HyperFun's convention; prospero.hf negates the
 // challenge expression, whose inside is < 0).
 
@@ -21,10 +24,12 @@
 #include <atomic>
 #include <chrono>
 #include <cmath>
+#include <cstddef>
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
 #include <ctime>
+#include <filesystem>
 #include <string>
 #include <thread>
 #include <vector>
@@ -38,6 +43,12 @@
 #include "jit/lower.h"
 #include "lang/frontend.h"
 #include "render/slice.h"
+
+#if HFRT_PROSPERO_AVX2
+/// The straight-line AVX2 brute force generated from prospero.vm (bench/prospero_avx2_gen.py):
+/// the challenge expression (inside < 0) at (x[i], y), i < n, n a multiple of 8.
+void prospero_avx2(const float* x, float y, float* out, std::size_t n);
+#endif
 
 namespace {
 
@@ -278,6 +289,27 @@ int main(int argc, char** argv) {
   });
 
   const double jit64_cpu = cpu_ms, jit64_best = best_ms;
+  // The hand AVX2 brute force of the challenge's own VM file beside prospero.hf (same grid,
+  // pixel centres and threads as the JIT's; its inside is < 0 where prospero.hf's F >= 0).
+  double hand = 0, hand_cpu = 0;
+  size_t hand_mismatch = 0;
+#if HFRT_PROSPERO_AVX2
+  const bool is_prospero = std::filesystem::path(o.model).filename() == "prospero.hf";
+  if (is_prospero && __builtin_cpu_supports("avx2") && o.size % 8 == 0) {
+    std::vector<float> hand_img(pixels);
+    hand = frame_ms([&] {
+      parallel_rows(all_rows, o.threads, [&](int y) {
+        thread_local std::vector<float> xs;
+        xs.resize(size_t(o.size));
+        for (int i = 0; i < o.size; ++i) xs[size_t(i)] = float(-1.0 + (i + 0.5) * 2.0 / o.size);
+        const float py = float(1.0 - (y + 0.5) * 2.0 / o.size);
+        prospero_avx2(xs.data(), py, &hand_img[size_t(y) * size_t(o.size)], size_t(o.size));
+      });
+    });
+    hand_cpu = cpu_ms;
+    for (size_t p = 0; p < pixels; ++p) hand_mismatch += (hand_img[p] <= 0) != (img32[p] >= 0);
+  }
+#endif
   // Interpreter on evenly spaced rows; compared with the JIT there.
   std::vector<int> rows;
   for (int k = 0; k < o.interp_rows; ++k)
@@ -318,6 +350,15 @@ int main(int argc, char** argv) {
       interp_ms, interp_cpu, rows.size());
   std::printf("ratio interpreter / jit f32: %.1fx; interpreter / jit f64: %.1fx\n",
               interp_ms / jit32, interp_ms / jit64);
+  if (hand > 0) {
+    std::printf(
+        "hand AVX2 brute force: %8.2f ms/frame  (CPU time %.2f ms/frame; straight-line "
+        "intrinsics generated from prospero.vm, no hfrt code); pixels whose sign differs from "
+        "jit f32: %zu\n",
+        hand, hand_cpu, hand_mismatch);
+  } else {
+    std::printf("hand AVX2 brute force: not run (needs prospero.hf and an AVX2 x86-64 CPU)\n");
+  }
   // The pruned slice against the brute force above, same grid (render_slice's pixel centres
   // over [-1, 1]^2), same threads.
   {
@@ -339,6 +380,10 @@ int main(int argc, char** argv) {
           pruned, pruned_best, pruned_cpu);
       std::printf("ratio pruned slice / jit f32 brute force: %.3fx (CPU time %.3fx)\n",
                   pruned / jit32, pruned_cpu / jit32_cpu);
+      if (hand > 0) {
+        std::printf("ratio pruned slice / hand AVX2 brute force: %.3fx (CPU time %.3fx)\n",
+                    pruned / hand, pruned_cpu / hand_cpu);
+      }
       const hfrt::render::SliceStats& ps = pr.stats;
       std::printf("pruned tape length per level (average over the blocks pruned): root %zu",
                   ps.root_tape_length);
