@@ -77,8 +77,9 @@ float RootSearcher::refine(const Ray& ray, float ta, float fa, float tb, float f
       // bracket evenly (which narrow it kRefineBatch - kRefineWindow + 1-fold if it is not).
       constexpr int kEven = kRefineBatch - kRefineWindow;
       float est = ta + width * (-fa / (fb - fa));
+      // (max: in float, tb - kRefineWindow eps may round below ta; clamp needs lo <= hi.)
       float lo = std::clamp(est - 0.5f * float(kRefineWindow - 1) * eps, ta,
-                            tb - float(kRefineWindow) * eps);
+                            std::max(ta, tb - float(kRefineWindow) * eps));
       float window[kRefineWindow], even[kEven];
       for (int i = 0; i < kRefineWindow; ++i) window[i] = lo + float(i) * eps;
       for (int i = 0; i < kEven; ++i) even[i] = ta + width * float(i + 1) / float(kEven + 1);
