@@ -176,15 +176,23 @@ int compute_ops(const std::string& path) {
   return n;
 }
 
+/// The grid's pixel centres over [-1, 1]^2: x of column i, y of row j (pointing up).
+double pixel_x(int i, int size) {
+  return -1.0 + (i + 0.5) * 2.0 / size;
+}
+double pixel_y(int j, int size) {
+  return 1.0 - (j + 0.5) * 2.0 / size;
+}
+
 template <typename T>
 void eval_row(const hfrt::Model& model, int size, int y, T* out) {
-  // SoA: x row, y constant, z = 0. Pixel centres, y pointing up.
+  // SoA: x row, y constant, z = 0.
   thread_local std::vector<T> xs;
   const int nx = model.num_inputs();
   xs.assign(static_cast<size_t>(nx) * size, T(0));
-  const double py = 1.0 - (y + 0.5) * 2.0 / size;
+  const double py = pixel_y(y, size);
   for (int i = 0; i < size; ++i) {
-    xs[i] = static_cast<T>(-1.0 + (i + 0.5) * 2.0 / size);
+    xs[i] = static_cast<T>(pixel_x(i, size));
     if (nx > 1) xs[size + i] = static_cast<T>(py);
   }
   model.eval_batch(size, xs.data(), out, nullptr);
@@ -299,11 +307,13 @@ int main(int argc, char** argv) {
     std::vector<float> hand_img(pixels);
     hand = frame_ms([&] {
       parallel_rows(all_rows, o.threads, [&](int y) {
+        // A row of x per thread: one array shared by both threads ran this loop ~1.3x slower
+        // (52 -> 70 ms/frame on the AMD VM, for a reason not established; filling it is cheap).
         thread_local std::vector<float> xs;
         xs.resize(size_t(o.size));
-        for (int i = 0; i < o.size; ++i) xs[size_t(i)] = float(-1.0 + (i + 0.5) * 2.0 / o.size);
-        const float py = float(1.0 - (y + 0.5) * 2.0 / o.size);
-        prospero_avx2(xs.data(), py, &hand_img[size_t(y) * size_t(o.size)], size_t(o.size));
+        for (int i = 0; i < o.size; ++i) xs[size_t(i)] = float(pixel_x(i, o.size));
+        prospero_avx2(xs.data(), float(pixel_y(y, o.size)), &hand_img[size_t(y) * size_t(o.size)],
+                      size_t(o.size));
       });
     });
     hand_cpu = cpu_ms;
