@@ -3,11 +3,15 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <memory>
 #include <vector>
 
 namespace hfrt::render {
 
 namespace {
+
+/// Cells find_extent's octree may evaluate.
+constexpr size_t kFramingBudget = 200000;
 
 Box empty_box() {
   float inf = std::numeric_limits<float>::infinity();
@@ -19,39 +23,50 @@ void grow(Box& b, const Box& c) {
   b.hi = vmax(b.hi, c.hi);
 }
 
-Box extent_by_intervals(const Field& field, const Box& bbox, int depth) {
+Box extent_by_intervals(const Field& field, const Box& bbox, int depth, size_t budget) {
+  // Level by level, each level's cells in one batch of the interval evaluator (one box at a
+  // time cost ~1.1 us per box on c1_gear, the batch a fraction of it).
   Box found = empty_box();
-  struct Node {
-    Box box;
-    int level;
-  };
-  std::vector<Node> stack{{bbox, 0}};
-  // A budget keeps pathological enclosures (every box straddles) from exploding: the boxes
-  // left when it runs out are kept whole, which only makes the extent larger.
-  size_t budget = 200000;
-  while (!stack.empty()) {
-    Node node = stack.back();
-    stack.pop_back();
-    bool maybe_nan = false;
-    Interval iv = field.eval_interval(node.box, &maybe_nan);
-    if (iv.hi < 0) continue;
-    bool inside = !std::isnan(iv.lo) && iv.lo >= 0 && !maybe_nan;
-    if (inside || node.level >= depth || budget < 8) {
-      grow(found, node.box);
-      continue;
+  std::vector<Box> cells{bbox}, next;
+  std::vector<Interval> ivs;
+  std::unique_ptr<bool[]> nan;
+  size_t nan_size = 0;
+  // The budget keeps pathological enclosures (every box straddles) from exploding: the cells of
+  // the level where it runs out are kept whole, which only makes the extent larger.
+  for (int level = 0; !cells.empty(); ++level) {
+    const size_t n = cells.size();
+    ivs.resize(n);
+    if (nan_size < n) {
+      nan_size = std::max(n, 2 * nan_size);
+      nan.reset(new bool[nan_size]);
     }
-    budget -= 8;
-    Vec3 c = node.box.center();
-    for (int k = 0; k < 8; ++k) {
-      Box child;
-      child.lo = {(k & 1) ? c.x : node.box.lo.x, (k & 2) ? c.y : node.box.lo.y,
-                  (k & 4) ? c.z : node.box.lo.z};
-      child.hi = {(k & 1) ? node.box.hi.x : c.x, (k & 2) ? node.box.hi.y : c.y,
-                  (k & 4) ? node.box.hi.z : c.z};
-      // Skip children already inside the extent found so far: they cannot grow it.
-      if (!found.empty() && found.contains(child.lo) && found.contains(child.hi)) continue;
-      stack.push_back({child, node.level + 1});
+    field.eval_intervals(n, cells.data(), ivs.data(), nan.get());
+    next.clear();
+    for (size_t i = 0; i < n; ++i) {
+      const Box& cell = cells[i];
+      const Interval iv = ivs[i];
+      if (iv.hi < 0) continue;
+      const bool inside = !std::isnan(iv.lo) && iv.lo >= 0 && !nan[i];
+      if (inside || level >= depth) {
+        grow(found, cell);
+        continue;
+      }
+      const Vec3 c = cell.center();
+      for (int k = 0; k < 8; ++k) {
+        Box child;
+        child.lo = {(k & 1) ? c.x : cell.lo.x, (k & 2) ? c.y : cell.lo.y,
+                    (k & 4) ? c.z : cell.lo.z};
+        child.hi = {(k & 1) ? cell.hi.x : c.x, (k & 2) ? cell.hi.y : c.y,
+                    (k & 4) ? cell.hi.z : c.z};
+        next.push_back(child);
+      }
     }
+    if (next.size() > budget) {
+      for (const Box& child : next) grow(found, child);
+      break;
+    }
+    budget -= next.size();
+    cells.swap(next);
   }
   return found;
 }
@@ -111,7 +126,7 @@ Box extent_by_sampling(const Field& field, const Box& bbox, int depth) {
 Box find_extent(const Field& field, const Box& bbox, int depth, bool* used_interval) {
   bool by_interval = field.has_interval();
   if (used_interval) *used_interval = by_interval;
-  Box found = by_interval ? extent_by_intervals(field, bbox, depth)
+  Box found = by_interval ? extent_by_intervals(field, bbox, depth, kFramingBudget)
                           : extent_by_sampling(field, bbox, depth);
   found = intersect(found, bbox);
   if (found.empty()) return bbox;
@@ -124,6 +139,10 @@ Box find_extent(const Field& field, const Box& bbox, int depth, bool* used_inter
     if (!fine.empty()) found = fine;
   }
   return found;
+}
+
+Box proven_extent(const Field& field, const Box& bbox, int depth, size_t max_cells) {
+  return intersect(extent_by_intervals(field, bbox, depth, max_cells), bbox);
 }
 
 Vec3 default_view_direction() {

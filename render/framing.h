@@ -17,6 +17,13 @@ namespace hfrt::render {
 /// tells which method ran.
 Box find_extent(const Field& field, const Box& bbox, int depth = 6, bool* used_interval = nullptr);
 
+/// A box outside of which (within `bbox`) intervals prove F < 0: the octree subdivision of
+/// find_extent to `depth` levels without its tightening by samples, so it is sound wherever
+/// the interval evaluator is (render/field.h). It stops a level early where that level would
+/// take the cells evaluated past `max_cells` (a looser box, at a bounded cost). Empty when no
+/// cell of the octree may hold F >= 0. Needs field.has_interval().
+Box proven_extent(const Field& field, const Box& bbox, int depth, size_t max_cells);
+
 /// What the user said about the camera; missing parts are filled in by resolve_camera.
 struct CameraRequest {
   std::optional<Vec3> eye, look_at, up;

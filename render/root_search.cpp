@@ -61,75 +61,114 @@ void RootSearcher::eval_params(const Ray& ray, size_t n, size_t first) {
   }
 }
 
+namespace {
+
+/// The refinement's next kRefineBatch parameters for bracket `b` into ts (RootSearcher::refine
+/// and sign_search_batch share it, so that both sample the same points).
+void refine_points(const RootSearcher::Bracket& b, float* ts) {
+  constexpr int kBatch = RootSearcher::kRefineBatch, kWindow = RootSearcher::kRefineWindow;
+  const float ta = b.ta, fa = b.fa, tb = b.tb, fb = b.fb, eps = b.eps;
+  const float width = tb - ta;
+  const bool secant = std::isfinite(fa) && std::isfinite(fb) && fa < 0 && fb >= 0 && fb - fa > 0 &&
+                      width > kWindow * eps;
+  if (!secant) {
+    for (int i = 0; i < kBatch; ++i) ts[i] = ta + width * float(i + 1) / float(kBatch + 1);
+    return;
+  }
+  // Where the chord between the ends crosses 0, a window of kRefineWindow points eps apart (a
+  // smooth F is nearly linear across a bracket this short, so the root is usually in it and
+  // this call ends the refinement), among points that split the bracket evenly (which narrow
+  // it kRefineBatch - kRefineWindow + 1-fold if it is not).
+  constexpr int kEven = kBatch - kWindow;
+  const float est = ta + width * (-fa / (fb - fa));
+  // (max: in float, tb - kRefineWindow eps may round below ta; clamp needs lo <= hi.)
+  const float lo = std::clamp(est - 0.5f * float(kWindow - 1) * eps, ta,
+                              std::max(ta, tb - float(kWindow) * eps));
+  float window[kWindow], even[kEven];
+  for (int i = 0; i < kWindow; ++i) window[i] = lo + float(i) * eps;
+  for (int i = 0; i < kEven; ++i) even[i] = ta + width * float(i + 1) / float(kEven + 1);
+  std::merge(window, window + kWindow, even, even + kEven, ts);
+}
+
+/// Narrows bracket `b` by the values fs at the parameters ts that refine_points gave; marks
+/// it stuck when it stops narrowing (float resolution reached).
+void refine_update(RootSearcher::Bracket& b, const float* ts, const float* fs) {
+  constexpr int kBatch = RootSearcher::kRefineBatch;
+  int first_in = -1;
+  for (int i = 0; i < kBatch; ++i) {
+    if (fs[i] >= 0) {
+      first_in = i;
+      break;
+    }
+  }
+  float na = b.ta, nfa = b.fa, nb = b.tb, nfb = b.fb;
+  if (first_in >= 0) {
+    nb = ts[first_in];
+    nfb = fs[first_in];
+    if (first_in > 0) {
+      na = ts[first_in - 1];
+      nfa = fs[first_in - 1];
+    }
+  } else {
+    na = ts[kBatch - 1];
+    nfa = fs[kBatch - 1];
+  }
+  if (!(nb - na < b.tb - b.ta)) {
+    b.stuck = true;
+    return;
+  }
+  b.ta = na, b.fa = nfa, b.tb = nb, b.fb = nfb;
+}
+
+/// Whether bracket `b` needs another round of refine_points / refine_update.
+bool refine_open(const RootSearcher::Bracket& b) {
+  return !b.stuck && b.tb - b.ta > b.eps;
+}
+
+/// The root of a refined bracket: one regula falsi step inside it when both ends have values.
+float refine_result(const RootSearcher::Bracket& b) {
+  if (std::isfinite(b.fa) && std::isfinite(b.fb) && b.fa < 0 && b.fb >= 0 && b.fb - b.fa > 0) {
+    float t = b.ta + (b.tb - b.ta) * (-b.fa / (b.fb - b.fa));
+    return std::clamp(t, b.ta, b.tb);
+  }
+  return b.tb;
+}
+
+/// The number of the last sample of a march of [t0, t1] by `step` (sample k at t0 + k step,
+/// the last exactly at t1).
+int64_t march_last(float t0, float t1, float step) {
+  const double count = std::ceil(double(t1 - t0) / double(step));
+  return int64_t(std::min(count, double(1 << 26)));
+}
+
+/// Sample k of a march of [t0, t1] by `step` whose last sample is `last` (computed from k, so
+/// no drift).
+float march_param(float t0, float t1, float step, int64_t k, int64_t last) {
+  return k == last ? t1 : std::min(t1, float(double(t0) + double(k) * double(step)));
+}
+
+}  // namespace
+
 float RootSearcher::refine(const Ray& ray, float ta, float fa, float tb, float fb, float eps) {
   ts_.resize(std::max<size_t>(ts_.size(), kRefineBatch));
-  while (tb - ta > eps) {
-    float width = tb - ta;
-    const bool secant = std::isfinite(fa) && std::isfinite(fb) && fa < 0 && fb >= 0 &&
-                        fb - fa > 0 && width > kRefineWindow * eps;
-    if (!secant) {
-      for (int i = 0; i < kRefineBatch; ++i)
-        ts_[i] = ta + width * float(i + 1) / float(kRefineBatch + 1);
-    } else {
-      // Where the chord between the ends crosses 0, a window of kRefineWindow points eps
-      // apart (a smooth F is nearly linear across a bracket this short, so the root is
-      // usually in it and this call ends the refinement), among points that split the
-      // bracket evenly (which narrow it kRefineBatch - kRefineWindow + 1-fold if it is not).
-      constexpr int kEven = kRefineBatch - kRefineWindow;
-      float est = ta + width * (-fa / (fb - fa));
-      // (max: in float, tb - kRefineWindow eps may round below ta; clamp needs lo <= hi.)
-      float lo = std::clamp(est - 0.5f * float(kRefineWindow - 1) * eps, ta,
-                            std::max(ta, tb - float(kRefineWindow) * eps));
-      float window[kRefineWindow], even[kEven];
-      for (int i = 0; i < kRefineWindow; ++i) window[i] = lo + float(i) * eps;
-      for (int i = 0; i < kEven; ++i) even[i] = ta + width * float(i + 1) / float(kEven + 1);
-      std::merge(window, window + kRefineWindow, even, even + kEven, ts_.begin());
-    }
+  Bracket b{ta, fa, tb, fb, eps};
+  while (refine_open(b)) {
+    refine_points(b, ts_.data());
     eval_params(ray, kRefineBatch);
-    int first_in = -1;
-    for (int i = 0; i < kRefineBatch; ++i) {
-      if (fs_[i] >= 0) {
-        first_in = i;
-        break;
-      }
-    }
-    float na = ta, nfa = fa, nb = tb, nfb = fb;
-    if (first_in >= 0) {
-      nb = ts_[first_in];
-      nfb = fs_[first_in];
-      if (first_in > 0) {
-        na = ts_[first_in - 1];
-        nfa = fs_[first_in - 1];
-      }
-    } else {
-      na = ts_[kRefineBatch - 1];
-      nfa = fs_[kRefineBatch - 1];
-    }
-    if (!(nb - na < width)) break;  // float resolution reached
-    ta = na, fa = nfa, tb = nb, fb = nfb;
+    refine_update(b, ts_.data(), fs_.data());
   }
-  // One regula falsi step inside the final bracket when both ends have values.
-  if (std::isfinite(fa) && std::isfinite(fb) && fa < 0 && fb >= 0 && fb - fa > 0) {
-    float t = ta + (tb - ta) * (-fa / (fb - fa));
-    return std::clamp(t, ta, tb);
-  }
-  return tb;
+  return refine_result(b);
 }
 
 RootHit RootSearcher::sign_search(const Ray& ray, float t0, float t1, float step, float eps,
                                   bool any_hit) {
   if (!(t0 <= t1) || !(step > 0)) return {};
-  // Sample i is at t0 + i*step (computed from i, so no drift), the last one exactly at t1.
-  double count = std::ceil(double(t1 - t0) / double(step));
-  int64_t last = int64_t(std::min(count, double(1 << 26)));
+  const int64_t last = march_last(t0, t1, step);
   float prev_t = t0, prev_f = 0;
   ts_.resize(std::max<size_t>(ts_.size(), kMarchBatch));
   for (int64_t base = 0; base <= last; base += kMarchBatch) {
     int n = int(std::min<int64_t>(kMarchBatch, last + 1 - base));
-    for (int i = 0; i < n; ++i) {
-      int64_t k = base + i;
-      ts_[i] = k == last ? t1 : std::min(t1, float(double(t0) + double(k) * double(step)));
-    }
+    for (int i = 0; i < n; ++i) ts_[i] = march_param(t0, t1, step, base + i, last);
     eval_params(ray, n);
     for (int i = 0; i < n; ++i) {
       float f = fs_[i];
@@ -144,6 +183,111 @@ RootHit RootSearcher::sign_search(const Ray& ray, float t0, float t1, float step
     }
   }
   return {};
+}
+
+void RootSearcher::eval_batch_points() {
+  const size_t n = bts_.size();
+  if (bxs_.size() < n) {
+    bxs_.resize(n), bys_.resize(n), bzs_.resize(n), bfs_.resize(n);
+  }
+  for (size_t i = 0; i < n; ++i) {
+    const Ray& ray = *bray_[i];
+    const float t = bts_[i];
+    bxs_[i] = ray.o.x + t * ray.d.x;
+    bys_[i] = ray.o.y + t * ray.d.y;
+    bzs_[i] = ray.o.z + t * ray.d.z;
+  }
+  if (n == 0) return;
+  field_.eval(n, bxs_.data(), bys_.data(), bzs_.data(), bfs_.data());
+  counters_.eval_calls++;
+  counters_.eval_points += n;
+  for (size_t i = 0; i < n; ++i) {
+    if (std::isnan(bfs_[i])) {
+      counters_.nan_samples++;
+      if (!has_nan_point_) {
+        has_nan_point_ = true;
+        nan_point_ = {bxs_[i], bys_[i], bzs_[i]};
+      }
+    }
+  }
+}
+
+void RootSearcher::sign_search_batch(size_t n, const MarchRequest* req, RootHit* out) {
+  march_.clear();
+  for (size_t i = 0; i < n; ++i) {
+    const MarchRequest& q = req[i];
+    out[i] = {};
+    if (!(q.t0 <= q.t1) || !(q.step > 0)) continue;
+    march_.push_back({uint32_t(i), 0, march_last(q.t0, q.t1, q.step), q.t0, 0.0f});
+  }
+  brackets_.clear();
+  bracket_of_.clear();
+  // Rounds of the marches: the next kMarchBatch samples of each march still going.
+  while (!march_.empty()) {
+    bts_.clear();
+    bray_.clear();
+    for (const MarchState& m : march_) {
+      const MarchRequest& q = req[m.request];
+      const int64_t end = std::min<int64_t>(m.next + kMarchBatch, m.last + 1);
+      for (int64_t k = m.next; k < end; ++k) {
+        bts_.push_back(march_param(q.t0, q.t1, q.step, k, m.last));
+        bray_.push_back(&q.ray);
+      }
+    }
+    eval_batch_points();
+    size_t at = 0, kept = 0;
+    for (MarchState m : march_) {
+      const MarchRequest& q = req[m.request];
+      const int64_t end = std::min<int64_t>(m.next + kMarchBatch, m.last + 1);
+      const size_t count = size_t(end - m.next);
+      bool settled = false;
+      for (size_t i = 0; i < count; ++i) {
+        const float t = bts_[at + i], f = bfs_[at + i];
+        if (f >= 0) {
+          settled = true;
+          if (m.next + int64_t(i) == 0) {
+            out[m.request] = {true, q.t0, true};
+          } else if (q.any_hit) {
+            out[m.request] = {true, t, false};
+          } else {
+            brackets_.push_back({m.prev_t, m.prev_f, t, f, q.eps});
+            bracket_of_.push_back(m.request);
+          }
+          break;
+        }
+        m.prev_t = t;
+        m.prev_f = f;
+      }
+      at += count;
+      m.next = end;
+      if (!settled && m.next <= m.last) march_[kept++] = m;
+    }
+    march_.resize(kept);
+  }
+  // Rounds of the refinement: kRefineBatch points of each bracket still open.
+  open_.clear();
+  for (size_t j = 0; j < brackets_.size(); ++j) {
+    if (refine_open(brackets_[j])) open_.push_back(uint32_t(j));
+  }
+  while (!open_.empty()) {
+    bts_.resize(open_.size() * kRefineBatch);
+    bray_.resize(bts_.size());
+    for (size_t k = 0; k < open_.size(); ++k) {
+      refine_points(brackets_[open_[k]], &bts_[k * kRefineBatch]);
+      std::fill_n(&bray_[k * kRefineBatch], kRefineBatch, &req[bracket_of_[open_[k]]].ray);
+    }
+    eval_batch_points();
+    size_t kept = 0;
+    for (size_t k = 0; k < open_.size(); ++k) {
+      Bracket& b = brackets_[open_[k]];
+      refine_update(b, &bts_[k * kRefineBatch], &bfs_[k * kRefineBatch]);
+      if (refine_open(b)) open_[kept++] = open_[k];
+    }
+    open_.resize(kept);
+  }
+  for (size_t j = 0; j < brackets_.size(); ++j) {
+    out[bracket_of_[j]] = {true, refine_result(brackets_[j]), false};
+  }
 }
 
 RootHit RootSearcher::interval_search(const Ray& ray, float t0, float t1, float eps,
@@ -424,6 +568,26 @@ void RootSearcher::batch_run() {
     }
     if (n > 0) field_.eval_intervals(n, batch_boxes_.data(), batch_ivs_.data(), batch_nan_.get());
     counters_.interval_calls += n;
+    // The marches of this round's shadow pieces (those that the loop below marches), together:
+    // the first of each ray (a march that finds an occluder settles the ray, and the ray's
+    // other pieces of the round are not marched then, so the later ones are marched by the
+    // loop as it reaches them, if the ray is still searching).
+    batch_march_of_.assign(n, -1);
+    batch_march_req_.clear();
+    ++batch_round_;
+    for (size_t i = 0; i < n; ++i) {
+      const BatchPiece& p = batch_live_[i];
+      BatchState& r = batch_rays_[size_t(p.ray)];
+      const Interval iv = batch_ivs_[i];
+      if (iv.hi < 0 || !r.any_hit || p.marched || !(p.b - p.a <= kPrunedSpan * r.step)) continue;
+      if (!std::isnan(iv.lo) && !std::isnan(iv.hi) && iv.lo >= 0 && !batch_nan_[i]) continue;
+      if (r.march_round == batch_round_) continue;
+      r.march_round = batch_round_;
+      batch_march_of_[i] = int(batch_march_req_.size());
+      batch_march_req_.push_back({r.ray, p.a, p.b, r.step, r.eps, true});
+    }
+    batch_march_hit_.resize(batch_march_req_.size());
+    sign_search_batch(batch_march_req_.size(), batch_march_req_.data(), batch_march_hit_.data());
     batch_next_.clear();
     for (size_t i = 0; i < n; ++i) {
       BatchPiece p = batch_live_[i];
@@ -439,7 +603,9 @@ void RootSearcher::batch_run() {
         continue;
       }
       if (r.any_hit && !p.marched && p.b - p.a <= kPrunedSpan * r.step) {
-        RootHit h = sign_search(r.ray, p.a, p.b, r.step, r.eps, true);
+        const RootHit h = batch_march_of_[i] >= 0
+                              ? batch_march_hit_[size_t(batch_march_of_[i])]
+                              : sign_search(r.ray, p.a, p.b, r.step, r.eps, true);
         if (h.hit) {
           batch_hit(r, h.t, h.at_start && p.a == r.t_start);
           continue;

@@ -57,22 +57,48 @@ struct RootHit {
 class RootSearcher {
  public:
   static constexpr int kMarchBatch = 32;
-  /// 15 points: one 16-lane block of the f32 evaluator per call (7 took a call more).
-  static constexpr int kRefineBatch = 15;
+  /// Points per refinement call or round. A tile's marches are refined together
+  /// (sign_search_batch), their points packed into the evaluator's 16-lane blocks, so what a
+  /// bracket costs is its points, not its calls: 15 per round (one block per bracket, when
+  /// each was refined alone) took c1_gear at 512x512 (--bbox 1.6) 5.07M point evaluations,
+  /// 7 3.73M, 5 3.56M and 3 3.41M, the last three about 3-5 % faster than 15 in the REPL's
+  /// edit -> image. A bracket refined alone (sign_search) takes a call or two more where the
+  /// window misses.
+  static constexpr int kRefineBatch = 5;
   /// Of them, this many lie eps apart around where the chord between the bracket's ends
   /// crosses 0, the others split the bracket evenly. F is nearly linear across a march step
-  /// almost everywhere, so the root is in the window and one call ends the refinement: on
-  /// c1_gear at 512x512 (no shadows) 4.68M -> 3.03M point evaluations and 523k -> 413k calls,
-  /// where evenly spaced points (16-fold narrower per call) took three calls from a step down
-  /// to the tolerance. Where it is not, the bracket still narrows 8-fold. Window sizes of 4 to
-  /// 14 all gave the same counts within 1 %.
-  static constexpr int kRefineWindow = 8;
+  /// almost everywhere, so the root is in the window and one round ends the refinement (on
+  /// c1_gear at 512x512, no shadows, a window of 8 among 15 points took 4.68M -> 3.03M point
+  /// evaluations against evenly spaced points). Where it is not, the bracket still narrows
+  /// (kRefineBatch - kRefineWindow + 1)-fold, and the next chord is closer.
+  static constexpr int kRefineWindow = 3;
 
   explicit RootSearcher(const Field& field) : field_(field) {}
 
   /// Sign-change search. `step` and `eps` are in units of t. With `any_hit` (shadow rays) the
   /// crossing is not refined.
   RootHit sign_search(const Ray& ray, float t0, float t1, float step, float eps, bool any_hit);
+
+  /// One sign_search's request.
+  struct MarchRequest {
+    Ray ray;
+    float t0, t1, step, eps;
+    bool any_hit;
+  };
+  /// out[i] = sign_search(req[i]) for i < n, bit for bit (the same samples, brackets and
+  /// refinement points), but the marches share the evaluator's calls: each round evaluates
+  /// the next kMarchBatch samples of every march still going in one call, and the
+  /// refinement's rounds every open bracket's kRefineBatch points in one. A tile's camera
+  /// rays march pieces of a few samples each (c1_gear at 512x512: 303k calls of 4.3 points on
+  /// average, one per march), on the 16-lane evaluator mostly empty lanes.
+  void sign_search_batch(size_t n, const MarchRequest* req, RootHit* out);
+
+  /// A refinement's bracket: F(ta) = fa < 0 (or NaN), F(tb) = fb >= 0, to narrow to width
+  /// <= eps (stuck: float resolution reached first).
+  struct Bracket {
+    float ta, fa, tb, fb, eps;
+    bool stuck = false;
+  };
 
   /// Interval search (needs field.has_interval()): the first t where the interval enclosure of
   /// F over a piece of length <= `eps` (units of t) still reaches 0, so that no feature thinner
@@ -192,6 +218,7 @@ class RootSearcher {
     float best = 0;  ///< the earliest hit found so far (+inf: none)
     int evals = 0;
     bool done = false;
+    uint32_t march_round = 0;  ///< the last round in which batch_run queued a march of it
   };
   struct BatchPiece {
     int ray;
@@ -203,10 +230,29 @@ class RootSearcher {
   std::vector<BatchState> batch_rays_;
   std::vector<BatchPiece> batch_pieces_, batch_next_, batch_live_, batch_over_;
   std::vector<Box> batch_boxes_;
+  /// batch_run: per live piece of a round its march in batch_march_req_ (-1: none).
+  std::vector<int> batch_march_of_;
+  uint32_t batch_round_ = 0;
+  std::vector<MarchRequest> batch_march_req_;
+  std::vector<RootHit> batch_march_hit_;
   std::vector<Interval> batch_ivs_;
   std::unique_ptr<bool[]> batch_nan_;
   size_t batch_nan_size_ = 0;
   std::vector<double> candidates_;
+  /// sign_search_batch's state: the marches still going, the brackets found (and the
+  /// request of each), the open ones, and the points of a round (parameter, ray, position, F).
+  struct MarchState {
+    uint32_t request;
+    int64_t next, last;  ///< the next sample to evaluate, the last one
+    float prev_t, prev_f;
+  };
+  /// Evaluates F at the points bray_[i]->o + bts_[i] bray_[i]->d (fills bxs_.., bfs_).
+  void eval_batch_points();
+  std::vector<MarchState> march_;
+  std::vector<Bracket> brackets_;
+  std::vector<uint32_t> bracket_of_, open_;
+  std::vector<float> bts_, bxs_, bys_, bzs_, bfs_;
+  std::vector<const Ray*> bray_;
   bool has_nan_point_ = false;
   Vec3 nan_point_;
   bool plain_bisection_ = false;

@@ -19,9 +19,9 @@
 namespace hfrt::render {
 
 /// Tapes pruned for the cells of a loose octree over the solid's extent, made on first use and
-/// shared by the worker threads of one render: where a tile's culling (or a shadow bundle's)
-/// starts pruning, its first slab is evaluated on the tape of the smallest cell holding it
-/// instead of the whole program. That one-box pass of the VM costs in proportion to the tape,
+/// shared by the worker threads of one render: where a tile's culling starts pruning, its
+/// first slab is evaluated on the tape of the smallest cell holding it instead of the whole
+/// program. That one-box pass of the VM costs in proportion to the tape,
 /// and each tile paid it on the whole program for every first slab (c1_gear: ~4900 one-box
 /// passes of 231 instructions per 512x512 frame, 71 % of the culling's VM work). Pruning is
 /// exact for every box inside the cell, so the slab's interval, and with it the image, is

@@ -77,7 +77,10 @@ TEST(RenderPrunedTest, PrunedTapesGiveTheWholeProgramsImageOnCorpus) {
   std::printf("pruned tapes: %d corpus models with a tape, %d rendered with pruned boxes\n",
               with_tape, pruned_models);
   EXPECT_GE(with_tape, 10);
-  EXPECT_GE(pruned_models, 3);
+  // c1_gear and c2_colonnade (10-13k boxes each at this size). A third model, hello_world,
+  // had one box on a shadow bundle's tape until the interval search's shadow rays stopped
+  // being culled in bundles (2026-12-07).
+  EXPECT_GE(pruned_models, 2);
 }
 
 /// c1_gear (231 tape instructions) compiled, as a field with its tapes.
@@ -109,8 +112,10 @@ TEST(RenderPrunedTest, GearBoxesGoToShortTapes) {
 /// The render's cell tapes are laid over the solid's extent (RenderOptions::solid_extent, what
 /// framing found), not over the render box: in the default -10..10 box the gear (about 3
 /// wide and flat) fits a cell or two of the box's octree, and the first slabs pruned from the
-/// near-whole program (23 cells of 222 instructions at 512x512). The image is the same either
-/// way (and without pruning).
+/// near-whole program (23 cells of 222 instructions at 512x512). At 256x256: 39 cells of 167
+/// instructions over the solid, 15 of 224 over the box (with the shadow bundles, whose slabs
+/// reached deeper cells, until 2026-12-07: 58 of 139 and 21 of 223). The image is the same
+/// either way (and without pruning).
 TEST(RenderPrunedTest, CellTapesCoverTheSolidNotTheWholeBox) {
   GearField gear;
   ASSERT_TRUE(gear.ok());
@@ -137,8 +142,8 @@ TEST(RenderPrunedTest, CellTapesCoverTheSolidNotTheWholeBox) {
               (unsigned long long)over_solid.stats.pruned_cells, solid_average,
               (unsigned long long)over_box.stats.pruned_cells, box_average, root);
   EXPECT_GT(over_solid.stats.pruned_cells, 2 * over_box.stats.pruned_cells);
-  EXPECT_LT(solid_average, 0.6 * root);
-  EXPECT_LT(solid_average, 0.75 * box_average);
+  EXPECT_LT(solid_average, 0.8 * root);
+  EXPECT_LT(solid_average, 0.8 * box_average);
   EXPECT_EQ(over_solid.image.rgb, full.image.rgb);
   EXPECT_EQ(over_box.image.rgb, full.image.rgb);
 }

@@ -9,6 +9,7 @@ namespace hfrt::render {
 namespace {
 
 using testing::SphereField;
+using testing::TorusField;
 
 const Box kDefaultBox{{-10, -10, -10}, {10, 10, 10}};
 
@@ -106,6 +107,49 @@ TEST(Framing, EmptyModelFallsBackToTheBox) {
   Box e = find_extent(nothing, kDefaultBox);
   EXPECT_EQ(e.lo.x, -10);
   EXPECT_EQ(e.hi.z, 10);
+}
+
+TEST(Framing, ProvenExtentHoldsEveryInsidePointAndCostsBatches) {
+  // A torus lying in the xz plane: a flat solid, whose faces in y an octree reaches last.
+  TorusField torus(2.5, 0.4);
+  const Box box{{-4, -4, -4}, {4, 4, 4}};
+  const Box e = proven_extent(torus, box, 6, 200000);
+  // Every point where F >= 0 lies inside (a grid through the torus).
+  int inside = 0;
+  for (int i = 0; i <= 64; ++i) {
+    for (int j = 0; j <= 16; ++j) {
+      for (int k = 0; k <= 64; ++k) {
+        const Vec3 p{-3.0f + 6.0f * float(i) / 64, -0.5f + 1.0f * float(j) / 16,
+                     -3.0f + 6.0f * float(k) / 64};
+        if (torus.value(p.x, p.y, p.z) < 0) continue;
+        ++inside;
+        EXPECT_TRUE(e.contains(p)) << p.x << " " << p.y << " " << p.z;
+      }
+    }
+  }
+  EXPECT_GT(inside, 1000);
+  // Within two cells (8 / 64) of the torus' box [-2.9, 2.9] x [-0.4, 0.4] x [-2.9, 2.9].
+  EXPECT_LT(e.hi.x, 2.9f + 0.25f);
+  EXPECT_GT(e.lo.z, -2.9f - 0.25f);
+  EXPECT_LT(e.hi.y, 0.4f + 0.25f);
+  // One batch of the interval evaluator per level (7 levels).
+  EXPECT_LE(torus.interval_batches.load(), 7);
+}
+
+TEST(Framing, ProvenExtentStopsALevelEarlyAtItsBudget) {
+  TorusField torus(2.5, 0.4);
+  const Box box{{-4, -4, -4}, {4, 4, 4}};
+  const Box full = proven_extent(torus, box, 6, 200000);
+  const Box capped = proven_extent(torus, box, 6, 600);
+  // Looser, but still holding the full depth's box (and so the solid).
+  EXPECT_TRUE(capped.contains(full.lo) && capped.contains(full.hi));
+  EXPECT_GT(capped.hi.y, full.hi.y);
+  EXPECT_LE(torus.interval_batches.load(), 7 + 6);
+}
+
+TEST(Framing, ProvenExtentOfNothingIsEmpty) {
+  SphereField nothing({50, 50, 50}, 1);
+  EXPECT_TRUE(proven_extent(nothing, kDefaultBox, 6, 4096).empty());
 }
 
 TEST(Framing, DefaultCameraFitsTheSolidInTheFrame) {

@@ -306,32 +306,40 @@ TEST(Renderer, BackgroundAndShadows) {
   EXPECT_EQ(unshadowed.stats.shadow_rays, 0u);
 }
 
-TEST(Renderer, ShadowBundleCullingKeepsTheShadows) {
-  // The scene above lit from behind, so that the shadow faces the camera, searched by
-  // intervals: with tile culling the shadow rays of a tile are
-  // culled as a bundle first. The shadow must be the same as without any culling (pixels in
-  // shadow: darker than half the unshadowed shade).
+TEST(Renderer, ShadowCullingKeepsTheShadows) {
+  // The scene above lit from behind, so that the shadow faces the camera. With tile culling,
+  // the interval search's shadow rays are searched only inside the box where intervals have
+  // not proven the solid absent (a box of 20 around balls 8 wide), and the sign-change
+  // search's are culled as a bundle per tile first. The shadow must be the same as without
+  // any culling (pixels in shadow: darker than half the unshadowed shade).
   testing::BallsField balls({{{0, -4, 0}, 4.0}, {{0, 2.5f, 0}, 1.0}});
-  RenderOptions o = ortho_options(128, 10);
-  o.lights = {{Light::Kind::kDirectional, {0, 1, -0.3f}, {1, 1, 1}}};
-  o.root = RootMode::kInterval;
-  o.shadows = false;
-  RenderResult unshadowed = render(balls, o);
-  o.shadows = true;
-  RenderResult culled = render(balls, o);
-  o.tile_culling = false;
-  RenderResult full = render(balls, o);
-  auto in_shadow = [&](const RenderResult& r) {
-    size_t n = 0;
-    for (size_t i = 0; i < r.image.alpha.size(); ++i) {
-      n += r.image.alpha[i] > 0 && r.image.rgb[3 * i] < 0.5f * unshadowed.image.rgb[3 * i];
+  for (RootMode root : {RootMode::kInterval, RootMode::kSign}) {
+    SCOPED_TRACE(root_mode_name(root));
+    RenderOptions o = ortho_options(128, 10);
+    o.lights = {{Light::Kind::kDirectional, {0, 1, -0.3f}, {1, 1, 1}}};
+    o.root = root;
+    o.shadows = false;
+    RenderResult unshadowed = render(balls, o);
+    o.shadows = true;
+    RenderResult culled = render(balls, o);
+    o.tile_culling = false;
+    RenderResult full = render(balls, o);
+    auto in_shadow = [&](const RenderResult& r) {
+      size_t n = 0;
+      for (size_t i = 0; i < r.image.alpha.size(); ++i) {
+        n += r.image.alpha[i] > 0 && r.image.rgb[3 * i] < 0.5f * unshadowed.image.rgb[3 * i];
+      }
+      return n;
+    };
+    size_t a = in_shadow(culled), b = in_shadow(full);
+    EXPECT_GT(b, 50u);
+    EXPECT_NEAR(double(a), double(b), 0.02 * double(b));
+    if (root == RootMode::kInterval) {
+      EXPECT_LT(culled.stats.evals.interval_calls, full.stats.evals.interval_calls);
+    } else {
+      EXPECT_LT(culled.stats.evals.eval_points, full.stats.evals.eval_points);
     }
-    return n;
-  };
-  size_t a = in_shadow(culled), b = in_shadow(full);
-  EXPECT_GT(b, 50u);
-  EXPECT_NEAR(double(a), double(b), 0.02 * double(b));
-  EXPECT_LT(culled.stats.evals.interval_calls, full.stats.evals.interval_calls);
+  }
 }
 
 TEST(Renderer, NanSamplesAreCountedAndExplained) {

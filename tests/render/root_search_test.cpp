@@ -26,16 +26,17 @@ TEST(RootSearch, SignChangeFindsSphereToTolerance) {
 }
 
 TEST(RootSearch, RefinementFollowsTheChordToTheRoot) {
-  // F = 3 - |p| is nearly linear across one march step: the point evaluations around where
-  // the chord crosses 0 hold the root, so one call past the march reaches the tolerance
-  // (evenly spaced points, 16-fold narrower per call, took four from 0.05 down to 1e-5).
+  // F = 3 - |p| is nearly linear across one march step: the chord's root is close to F's, and
+  // closer with each narrower bracket, so a few calls of kRefineBatch (5) points past the
+  // march reach the tolerance. Five evenly spaced points per call (6-fold narrower) would take
+  // five from 0.05 down to 1e-5.
   SphereField sphere({0, 0, 0}, 3);
   RootSearcher s(sphere);
   Ray ray{{0.5f, 1.0f, 20}, {0, 0, -1}};
   RootHit h = s.sign_search(ray, 16, 40, 0.05f, 1e-5f, false);  // one march call: 24 steps
   ASSERT_TRUE(h.hit);
   EXPECT_NEAR(h.t, 20 - std::sqrt(9.0 - 0.25 - 1.0), 2e-5);
-  EXPECT_LE(s.counters().eval_calls, 3u);
+  EXPECT_LE(s.counters().eval_calls, 1u + 3u);
 }
 
 /// F = 1000 in front of the plane z = 1 and -1 behind it (the ray comes from z > 1): a jump,
@@ -57,9 +58,9 @@ TEST(RootSearch, RefinementNarrowsEvenWhereTheChordIsFarFromTheRoot) {
   ASSERT_TRUE(h.hit);
   EXPECT_GE(h.t, 9 - 1e-5);
   EXPECT_LE(h.t, 9 + 1e-5);
-  // The bracket still narrows 8-fold per call: four calls from 0.1 down to 1e-5 (8^4 >
-  // 10^4), after the three of the march.
-  EXPECT_LE(s.counters().eval_calls, 3u + 5u);
+  // The bracket still narrows 3-fold per call (the two evenly spaced points of five): nine
+  // calls from 0.1 down to 1e-5 (3^9 > 10^4), after the three of the march.
+  EXPECT_LE(s.counters().eval_calls, 3u + 9u);
 }
 
 TEST(RootSearch, IntervalFindsSphereToTolerance) {
@@ -132,6 +133,41 @@ class ShellAroundBall final : public testing::AnalyticField {
   ShellField shell_{5, 0.01};
   SphereField ball_{{0, 0, 0}, 2};
 };
+
+TEST(RootSearch, BatchedMarchesGiveSignSearchesAnswersBitForBit) {
+  // Rays missing everything, crossing the thin shell (which steps of 0.3 may step over) and
+  // the ball, starting inside, ranges of one sample, of none (t0 > t1) and without a step;
+  // camera-like and any-hit, with several calls' worth of samples (kMarchBatch each).
+  ShellAroundBall f;
+  RootSearcher batched(f), one(f);
+  std::vector<RootSearcher::MarchRequest> req;
+  for (int i = 0; i < 60; ++i) {
+    const float x = 0.1f * float(i), step = i % 3 == 0 ? 0.3f : 0.05f;
+    req.push_back({{{x, 0.3f, 20}, {0, 0, -1}}, 0, 40, step, 1e-5f, i % 4 == 1});
+    req.push_back({{{x, -0.2f, 20}, {0, 0, -1}}, 12.5f + 0.01f * float(i), 40, step, 1e-5f, false});
+  }
+  req.push_back({{{0, 0, 1}, {0, 0, -1}}, 0, 4, 0.1f, 1e-5f, false});     // starts inside the ball
+  req.push_back({{{0, 0, 20}, {0, 0, -1}}, 18, 18, 0.1f, 1e-5f, false});  // one sample
+  req.push_back({{{0, 0, 20}, {0, 0, -1}}, 19, 18, 0.1f, 1e-5f, false});  // empty range
+  req.push_back({{{0, 0, 20}, {0, 0, -1}}, 0, 40, 0, 1e-5f, false});      // no step
+  std::vector<RootHit> got(req.size());
+  batched.sign_search_batch(req.size(), req.data(), got.data());
+  int hits = 0;
+  for (size_t i = 0; i < req.size(); ++i) {
+    const RootSearcher::MarchRequest& q = req[i];
+    const RootHit want = one.sign_search(q.ray, q.t0, q.t1, q.step, q.eps, q.any_hit);
+    ASSERT_EQ(got[i].hit, want.hit) << i;
+    EXPECT_EQ(got[i].t, want.t) << i;
+    EXPECT_EQ(got[i].at_start, want.at_start) << i;
+    hits += want.hit;
+  }
+  EXPECT_GT(hits, 60);
+  EXPECT_TRUE(got[req.size() - 4].at_start);
+  // The same samples in far fewer calls: a round per kMarchBatch samples, then a few rounds of
+  // refinement, instead of one call per march and per refinement step.
+  EXPECT_EQ(batched.counters().eval_points, one.counters().eval_points);
+  EXPECT_LT(batched.counters().eval_calls * 10, one.counters().eval_calls);
+}
 
 TEST(RootSearch, IntervalMarchFirstStillFindsAThinShellInFrontOfASolid) {
   // The march (step 0.3) steps over the shell and finds the ball; the intervals over what lies
