@@ -7,6 +7,7 @@
 
 #include "base/check.h"
 #include "base/module.h"
+#include "base/parallel.h"
 #include "render/image_io_module.h"
 #include "render/png_writer.h"
 
@@ -77,10 +78,15 @@ uint8_t linear_to_unorm8(float v) {
 std::vector<uint8_t> encode8(const std::vector<float>& data, int channels, bool encode_srgb) {
   static const Srgb8Encoder srgb8;
   std::vector<uint8_t> bytes(data.size());
-  for (size_t i = 0; i < data.size(); ++i) {
-    bool colour = encode_srgb && (channels < 4 || int(i % channels) < 3);
-    bytes[i] = colour ? srgb8.encode(data[i]) : linear_to_unorm8(data[i]);
-  }
+  // In chunks on all cores (a 512x512 RGB picture, the REPL's after each edit, took ~1.1 ms
+  // on one); a chunk is a whole number of pixels.
+  const size_t grain = size_t(channels) * 16384;
+  par::parallel_for(data.size(), grain, [&](size_t begin, size_t end) {
+    for (size_t i = begin; i < end; ++i) {
+      bool colour = encode_srgb && (channels < 4 || int(i % channels) < 3);
+      bytes[i] = colour ? srgb8.encode(data[i]) : linear_to_unorm8(data[i]);
+    }
+  });
   return bytes;
 }
 
