@@ -112,8 +112,8 @@ HFRT_TAPE_INLINE void run_points(std::span<const TapeInst> code, T* regs, uint8_
 // halves the batched interval pass on a host that has it (hfrt_bench_interval c1_gear, Xeon:
 // 2.06-2.48 -> 1.08-1.12 ns per instruction and box): 8 doubles per vector and mask
 // registers for the selects. -ffp-contract=off (cmake/HfrtWarnings.cmake) keeps every clone
-// free of fused multiply-adds, so all give the same bits. Not in sanitizer builds: GCC instruments the
-// resolver, which then runs before the sanitizer's runtime is set up and crashes every program
+// free of fused multiply-adds, so all give the same bits. Not in sanitizer builds: GCC instruments
+// the resolver, which then runs before the sanitizer's runtime is set up and crashes every program
 // that links the JIT at start-up (found by `make test-tsan`; the baseline loops are used).
 #if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__) && \
     !defined(__SANITIZE_THREAD__) && !defined(__SANITIZE_ADDRESS__)
@@ -309,11 +309,58 @@ HFRT_TAPE_INLINE IvArg iv_arg(const IvRegs& regs, IvScratch& sc, const TapeInst&
   return {sc.imm_lo, sc.imm_hi, sc.imm_nan};
 }
 
+/// A constant operand (kImmA / kImmB) of the ops whose lane loops take one as it is: the same
+/// lanes as iv_arg's spread copy, without writing kLanes of each and reading them back (on
+/// c1_gear about half the instructions have a constant operand).
+struct IvConst {
+  double lo, hi;
+  int64_t nan;
+};
+
+HFRT_TAPE_INLINE IvConst iv_const(const TapeInst& t) {
+  const Interval c = Interval::point(t.imm);
+  return {c.lo, c.hi, int64_t(c.maybe_nan)};
+}
+
 /// Lane i of an operand, and the store of lane i of a result: the ops of ir/interval_ops.h's
 /// interval_detail (inline, free of branches the vectoriser cannot turn into selects under
 /// -fno-trapping-math) run on them directly.
-HFRT_TAPE_INLINE Interval lane(const IvArg& a, size_t i) {
-  return {a.lo[i], a.hi[i], a.nan[i] != 0};
+HFRT_TAPE_INLINE double lo_at(const IvArg& a, size_t i) {
+  return a.lo[i];
+}
+HFRT_TAPE_INLINE double hi_at(const IvArg& a, size_t i) {
+  return a.hi[i];
+}
+HFRT_TAPE_INLINE int64_t nan_at(const IvArg& a, size_t i) {
+  return a.nan[i];
+}
+HFRT_TAPE_INLINE double lo_at(const IvConst& a, size_t) {
+  return a.lo;
+}
+HFRT_TAPE_INLINE double hi_at(const IvConst& a, size_t) {
+  return a.hi;
+}
+HFRT_TAPE_INLINE int64_t nan_at(const IvConst& a, size_t) {
+  return a.nan;
+}
+template <typename A>
+HFRT_TAPE_INLINE Interval lane(const A& a, size_t i) {
+  return {lo_at(a, i), hi_at(a, i), nan_at(a, i) != 0};
+}
+
+/// f(a, b) with the two operands of binary instruction t: registers, or one of them a
+/// constant (IvConst); both constants (folded away before a tape is built) through the spread
+/// copies.
+template <typename F>
+HFRT_TAPE_INLINE void with_operands(const TapeInst& t, const IvRegs& regs, IvScratch& sc, F&& f) {
+  const bool ia = (t.flags & TapeInst::kImmA) != 0, ib = (t.flags & TapeInst::kImmB) != 0;
+  if (ia == ib) {
+    f(iv_arg(regs, sc, t, ia, t.a), iv_arg(regs, sc, t, ib, t.b));
+  } else if (ib) {
+    f(iv_arg(regs, sc, t, false, t.a), iv_const(t));
+  } else {
+    f(iv_const(t), iv_arg(regs, sc, t, false, t.b));
+  }
 }
 HFRT_TAPE_INLINE void store(const Interval& r, size_t i, double* olo, double* ohi, int64_t* onan) {
   olo[i] = r.lo;
@@ -326,9 +373,8 @@ HFRT_TAPE_INLINE void store(const Interval& r, size_t i, double* olo, double* oh
 // another, which is what `ivdep` promises.
 
 /// interval_detail::add (and sub = add(a, neg(b)) with `kNegateB`).
-template <bool kNegateB>
-HFRT_TAPE_INLINE void lanes_add(size_t m, IvArg a, IvArg b, double* olo, double* ohi,
-                                int64_t* onan) {
+template <bool kNegateB, typename A, typename B>
+HFRT_TAPE_INLINE void lanes_add(size_t m, A a, B b, double* olo, double* ohi, int64_t* onan) {
 #pragma GCC ivdep
   for (size_t i = 0; i < m; ++i) {
     const Interval y = lane(b, i);
@@ -355,13 +401,13 @@ HFRT_TAPE_INLINE void lanes_square(size_t m, IvArg a, double* olo, double* ohi, 
 
 /// interval_detail::mul, written out as selects: called as it is (its || and isinf), it is not
 /// vectorised and prospero's batched pass loses a third of its speed.
-HFRT_TAPE_INLINE void lanes_mul(size_t m, IvArg a, IvArg b, double* olo, double* ohi,
-                                int64_t* onan) {
+template <typename A, typename B>
+HFRT_TAPE_INLINE void lanes_mul(size_t m, A a, B b, double* olo, double* ohi, int64_t* onan) {
 #pragma GCC ivdep
   for (size_t i = 0; i < m; ++i) {
-    const double alo = a.lo[i], ahi = a.hi[i], blo = b.lo[i], bhi = b.hi[i];
+    const double alo = lo_at(a, i), ahi = hi_at(a, i), blo = lo_at(b, i), bhi = hi_at(b, i);
     const bool az = (alo <= 0) & (ahi >= 0), bz = (blo <= 0) & (bhi >= 0);
-    const int64_t nan = a.nan[i] | b.nan[i] |
+    const int64_t nan = nan_at(a, i) | nan_at(b, i) |
                         int64_t(az & ((std::fabs(blo) == kIvInf) | (std::fabs(bhi) == kIvInf))) |
                         int64_t(bz & ((std::fabs(alo) == kIvInf) | (std::fabs(ahi) == kIvInf)));
     double c0 = alo * blo, c1 = alo * bhi, c2 = ahi * blo, c3 = ahi * bhi;
@@ -378,9 +424,8 @@ HFRT_TAPE_INLINE void lanes_mul(size_t m, IvArg a, IvArg b, double* olo, double*
 }
 
 /// interval_detail::min_max without the choice record.
-template <bool kMin>
-HFRT_TAPE_INLINE void lanes_min_max(size_t m, IvArg a, IvArg b, double* olo, double* ohi,
-                                    int64_t* onan) {
+template <bool kMin, typename A, typename B>
+HFRT_TAPE_INLINE void lanes_min_max(size_t m, A a, B b, double* olo, double* ohi, int64_t* onan) {
 #pragma GCC ivdep
   for (size_t i = 0; i < m; ++i) {
     store(interval_detail::min_max(lane(a, i), lane(b, i), kMin, nullptr), i, olo, ohi, onan);
@@ -463,37 +508,34 @@ HFRT_TAPE_INLINE void lanes_div(size_t m, IvArg a, IvArg b, double* olo, double*
 /// comparisons) for one instruction of eval_intervals; false for every other op.
 HFRT_TAPE_INLINE bool fast_interval_lanes(const TapeInst& t, const IvRegs& regs, IvScratch& sc,
                                           size_t m, double* olo, double* ohi, int64_t* onan) {
-  if (t.op == Op::kAdd || t.op == Op::kSub) {
-    const IvArg a = iv_arg(regs, sc, t, t.flags & TapeInst::kImmA, t.a);
-    const IvArg b = iv_arg(regs, sc, t, t.flags & TapeInst::kImmB, t.b);
-    if (t.op == Op::kAdd) {
-      lanes_add<false>(m, a, b, olo, ohi, onan);
-    } else {
-      lanes_add<true>(m, a, b, olo, ohi, onan);
-    }
+  if (t.op == Op::kAdd) {
+    with_operands(t, regs, sc, [&](auto a, auto b) { lanes_add<false>(m, a, b, olo, ohi, onan); });
+    return true;
+  }
+  if (t.op == Op::kSub) {
+    with_operands(t, regs, sc, [&](auto a, auto b) { lanes_add<true>(m, a, b, olo, ohi, onan); });
     return true;
   }
   if (t.op == Op::kMul) {
-    const IvArg a = iv_arg(regs, sc, t, t.flags & TapeInst::kImmA, t.a);
     if (t.flags & TapeInst::kSame) {
-      lanes_square(m, a, olo, ohi, onan);
+      lanes_square(m, iv_arg(regs, sc, t, t.flags & TapeInst::kImmA, t.a), olo, ohi, onan);
     } else {
-      lanes_mul(m, a, iv_arg(regs, sc, t, t.flags & TapeInst::kImmB, t.b), olo, ohi, onan);
+      with_operands(t, regs, sc, [&](auto a, auto b) { lanes_mul(m, a, b, olo, ohi, onan); });
     }
     return true;
   }
   if (t.op == Op::kMin || t.op == Op::kMax) {
-    const IvArg a = iv_arg(regs, sc, t, t.flags & TapeInst::kImmA, t.a);
     if (t.flags & TapeInst::kSame) {
+      const IvArg a = iv_arg(regs, sc, t, t.flags & TapeInst::kImmA, t.a);
       std::copy_n(a.lo, m, olo);
       std::copy_n(a.hi, m, ohi);
       std::copy_n(a.nan, m, onan);
     } else if (t.op == Op::kMin) {
-      lanes_min_max<true>(m, a, iv_arg(regs, sc, t, t.flags & TapeInst::kImmB, t.b), olo, ohi,
-                          onan);
+      with_operands(t, regs, sc,
+                    [&](auto a, auto b) { lanes_min_max<true>(m, a, b, olo, ohi, onan); });
     } else {
-      lanes_min_max<false>(m, a, iv_arg(regs, sc, t, t.flags & TapeInst::kImmB, t.b), olo, ohi,
-                           onan);
+      with_operands(t, regs, sc,
+                    [&](auto a, auto b) { lanes_min_max<false>(m, a, b, olo, ohi, onan); });
     }
     return true;
   }
