@@ -185,18 +185,22 @@ RootHit RootSearcher::sign_search(const Ray& ray, float t0, float t1, float step
   return {};
 }
 
-void RootSearcher::eval_batch_points() {
-  const size_t n = bts_.size();
-  if (bxs_.size() < n) {
-    bxs_.resize(n), bys_.resize(n), bzs_.resize(n), bfs_.resize(n);
+void RootSearcher::batch_points_place(size_t n) {
+  if (bts_.size() < n) {
+    bts_.resize(n), bxs_.resize(n), bys_.resize(n), bzs_.resize(n), bfs_.resize(n);
   }
-  for (size_t i = 0; i < n; ++i) {
-    const Ray& ray = *bray_[i];
+}
+
+void RootSearcher::batch_points_at(size_t first, size_t count, const Ray& ray) {
+  for (size_t i = first; i < first + count; ++i) {
     const float t = bts_[i];
     bxs_[i] = ray.o.x + t * ray.d.x;
     bys_[i] = ray.o.y + t * ray.d.y;
     bzs_[i] = ray.o.z + t * ray.d.z;
   }
+}
+
+void RootSearcher::eval_batch_points(size_t n) {
   if (n == 0) return;
   field_.eval(n, bxs_.data(), bys_.data(), bzs_.data(), bfs_.data());
   counters_.eval_calls++;
@@ -224,18 +228,24 @@ void RootSearcher::sign_search_batch(size_t n, const MarchRequest* req, RootHit*
   bracket_of_.clear();
   // Rounds of the marches: the next kMarchBatch samples of each march still going.
   while (!march_.empty()) {
-    bts_.clear();
-    bray_.clear();
+    size_t total = 0;
+    for (const MarchState& m : march_) {
+      total += size_t(std::min<int64_t>(m.next + kMarchBatch, m.last + 1) - m.next);
+    }
+    batch_points_place(total);
+    size_t at = 0;
     for (const MarchState& m : march_) {
       const MarchRequest& q = req[m.request];
       const int64_t end = std::min<int64_t>(m.next + kMarchBatch, m.last + 1);
       for (int64_t k = m.next; k < end; ++k) {
-        bts_.push_back(march_param(q.t0, q.t1, q.step, k, m.last));
-        bray_.push_back(&q.ray);
+        bts_[at + size_t(k - m.next)] = march_param(q.t0, q.t1, q.step, k, m.last);
       }
+      batch_points_at(at, size_t(end - m.next), q.ray);
+      at += size_t(end - m.next);
     }
-    eval_batch_points();
-    size_t at = 0, kept = 0;
+    eval_batch_points(total);
+    size_t kept = 0;
+    at = 0;
     for (MarchState m : march_) {
       const MarchRequest& q = req[m.request];
       const int64_t end = std::min<int64_t>(m.next + kMarchBatch, m.last + 1);
@@ -270,13 +280,12 @@ void RootSearcher::sign_search_batch(size_t n, const MarchRequest* req, RootHit*
     if (refine_open(brackets_[j])) open_.push_back(uint32_t(j));
   }
   while (!open_.empty()) {
-    bts_.resize(open_.size() * kRefineBatch);
-    bray_.resize(bts_.size());
+    batch_points_place(open_.size() * kRefineBatch);
     for (size_t k = 0; k < open_.size(); ++k) {
       refine_points(brackets_[open_[k]], &bts_[k * kRefineBatch]);
-      std::fill_n(&bray_[k * kRefineBatch], kRefineBatch, &req[bracket_of_[open_[k]]].ray);
+      batch_points_at(k * kRefineBatch, kRefineBatch, req[bracket_of_[open_[k]]].ray);
     }
-    eval_batch_points();
+    eval_batch_points(open_.size() * kRefineBatch);
     size_t kept = 0;
     for (size_t k = 0; k < open_.size(); ++k) {
       Bracket& b = brackets_[open_[k]];

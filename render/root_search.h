@@ -246,13 +246,16 @@ class RootSearcher {
     int64_t next, last;  ///< the next sample to evaluate, the last one
     float prev_t, prev_f;
   };
-  /// Evaluates F at the points bray_[i]->o + bts_[i] bray_[i]->d (fills bxs_.., bfs_).
-  void eval_batch_points();
+  /// The points of a round: room for n (bts_, bxs_, bys_, bzs_, bfs_), the positions of
+  /// points [first, first + count) on `ray` at their parameters in bts_, and F at the first n
+  /// (into bfs_).
+  void batch_points_place(size_t n);
+  void batch_points_at(size_t first, size_t count, const Ray& ray);
+  void eval_batch_points(size_t n);
   std::vector<MarchState> march_;
   std::vector<Bracket> brackets_;
   std::vector<uint32_t> bracket_of_, open_;
   std::vector<float> bts_, bxs_, bys_, bzs_, bfs_;
-  std::vector<const Ray*> bray_;
   bool has_nan_point_ = false;
   Vec3 nan_point_;
   bool plain_bisection_ = false;

@@ -74,9 +74,10 @@ class TapeCells {
 class TapeRegions final : public FieldView {
  public:
   /// A region is registered only when its tape is at most this fraction of the root tape's
-  /// length: the VM costs ~2.5x the interval JIT per instruction and box (bench/README.md,
-  /// hfrt_bench_interval c1_gear: 1.07 ns against ~0.42 ns), so a longer tape is slower than
-  /// the JIT's full program.
+  /// length: the VM costs more than the interval JIT per instruction and box (bench/README.md,
+  /// hfrt_bench_interval c1_gear: 1.07 ns against ~0.42 ns when this was chosen), so a longer
+  /// tape is slower than the JIT's full program. With the VM at 0.57 ns (2026-12-07), 0.5
+  /// and 0.65 were no faster on c1_gear and c2_colonnade (512x512, --bbox 1.6, medians of 6).
   static constexpr double kMaxLengthRatio = 0.35;
 
   /// Programs shorter than this are not pruned: what pruning can save is less than the VM's
