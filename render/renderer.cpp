@@ -62,8 +62,8 @@ struct ThreadState {
   /// `cells`: the render's shared cell tapes, where the tile's first prunes start.
   ThreadState(const Field& field, TapeCells* cells)
       : regions(std::make_unique<TapeRegions>(field, cells)), searcher(*regions) {}
-  /// The tapes pruned for the current tile's culling slabs; the searcher
-  /// evaluates through it (on the heap: the searcher refers to it, and ThreadStates move).
+  /// The tapes pruned for the current tile's culling slabs; the searcher evaluates through it
+  /// (on the heap: the searcher refers to it, and ThreadStates move).
   std::unique_ptr<TapeRegions> regions;
   RootSearcher searcher;
   std::vector<Sample> samples;

@@ -47,15 +47,19 @@ void RootSearcher::eval_params(const Ray& ray, size_t n, size_t first) {
     ys_[i] = ray.o.y + t * ray.d.y;
     zs_[i] = ray.o.z + t * ray.d.z;
   }
-  field_.eval(n, xs_.data() + first, ys_.data() + first, zs_.data() + first, fs_.data() + first);
+  eval_points(n, xs_.data() + first, ys_.data() + first, zs_.data() + first, fs_.data() + first);
+}
+
+void RootSearcher::eval_points(size_t n, const float* x, const float* y, const float* z, float* f) {
+  field_.eval(n, x, y, z, f);
   counters_.eval_calls++;
   counters_.eval_points += n;
-  for (size_t i = first; i < first + n; ++i) {
-    if (std::isnan(fs_[i])) {
+  for (size_t i = 0; i < n; ++i) {
+    if (std::isnan(f[i])) {
       counters_.nan_samples++;
       if (!has_nan_point_) {
         has_nan_point_ = true;
-        nan_point_ = {xs_[i], ys_[i], zs_[i]};
+        nan_point_ = {x[i], y[i], z[i]};
       }
     }
   }
@@ -201,19 +205,7 @@ void RootSearcher::batch_points_at(size_t first, size_t count, const Ray& ray) {
 }
 
 void RootSearcher::eval_batch_points(size_t n) {
-  if (n == 0) return;
-  field_.eval(n, bxs_.data(), bys_.data(), bzs_.data(), bfs_.data());
-  counters_.eval_calls++;
-  counters_.eval_points += n;
-  for (size_t i = 0; i < n; ++i) {
-    if (std::isnan(bfs_[i])) {
-      counters_.nan_samples++;
-      if (!has_nan_point_) {
-        has_nan_point_ = true;
-        nan_point_ = {bxs_[i], bys_[i], bzs_[i]};
-      }
-    }
-  }
+  if (n > 0) eval_points(n, bxs_.data(), bys_.data(), bzs_.data(), bfs_.data());
 }
 
 void RootSearcher::sign_search_batch(size_t n, const MarchRequest* req, RootHit* out) {

@@ -196,6 +196,8 @@ class RootSearcher {
  private:
   /// Evaluates F at o + t_i d for the n parameters in ts_ (fills xs_, ys_, zs_, fs_).
   void eval_params(const Ray& ray, size_t n, size_t first = 0);
+  /// F at n points, counted, the first point without a value kept (nan_point()).
+  void eval_points(size_t n, const float* x, const float* y, const float* z, float* f);
   /// Refines a bracket (F(ta) < 0 or NaN, F(tb) >= 0) to width <= eps.
   float refine(const Ray& ray, float ta, float fa, float tb, float fb, float eps);
 
