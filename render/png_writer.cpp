@@ -97,7 +97,8 @@ uint64_t filter_row(int type, const uint8_t* row, const uint8_t* prev, size_t n,
 
 /// The filtered rows [y0, y1) of `image` (each the filter type byte and the row's bytes),
 /// deflated into `z` (set up by the caller), which is finished with `flush` after the last row.
-/// Returns the compressed bytes and sets `*adler` to the Adler-32 of the filtered bytes.
+/// Returns the compressed bytes and, when `adler` is given, sets it to the Adler-32 of the
+/// filtered bytes (a zlib-wrapped `z` computes its own).
 std::vector<uint8_t> deflate_rows(const PngImage& image, const PngOptions& options, int y0, int y1,
                                   z_stream& z, int flush, uLong* adler) {
   const size_t bpp = size_t(image.channels) * size_t(image.bit_depth / 8);
@@ -107,7 +108,7 @@ std::vector<uint8_t> deflate_rows(const PngImage& image, const PngOptions& optio
   std::vector<uint8_t> out(deflateBound(&z, uLong(raw_size)) + 64);
   z.next_out = out.data();
   z.avail_out = uInt(out.size());
-  *adler = adler32(0, nullptr, 0);
+  if (adler) *adler = adler32(0, nullptr, 0);
 
   const std::vector<uint8_t> zeros(row_bytes, 0);  // the row above the first
   std::vector<uint8_t> wide[2];                    // 16 bits: big-endian copies of two rows
@@ -147,7 +148,7 @@ std::vector<uint8_t> deflate_rows(const PngImage& image, const PngOptions& optio
     staged.insert(staged.end(), best.begin(), best.end());
     const bool last = y + 1 == y1;
     if (staged.size() < kBatch && !last) continue;
-    *adler = adler32(*adler, staged.data(), uInt(staged.size()));
+    if (adler) *adler = adler32(*adler, staged.data(), uInt(staged.size()));
     z.next_in = staged.data();
     z.avail_in = uInt(staged.size());
     for (;;) {  // deflateBound is enough in practice; grow the buffer if it is not
@@ -189,8 +190,7 @@ std::vector<uint8_t> zlib_stream(const PngImage& image, const PngOptions& option
     // One zlib stream with libpng's window and memory settings.
     z_stream z{};
     HFRT_CHECK(deflateInit2(&z, options.zlib_level, Z_DEFLATED, 15, 8, strategy) == Z_OK);
-    uLong adler;
-    std::vector<uint8_t> out = deflate_rows(image, options, 0, image.height, z, Z_FINISH, &adler);
+    std::vector<uint8_t> out = deflate_rows(image, options, 0, image.height, z, Z_FINISH, nullptr);
     deflateEnd(&z);
     return out;
   }
