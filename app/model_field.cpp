@@ -283,13 +283,19 @@ void ModelField::clear_prefetched_ray_candidates() const {
 void ModelField::eval(size_t n, const float* x, const float* y, const float* z,
                       float* out_f) const {
   if (n == 0) return;
+  if (sign_only_) return eval_sides(n, x, y, z, out_f);
   Scratch& sc = t_scratch;
   pack(dims_, model_.time(), n, x, y, z, &sc.xs);
-  if (sign_only_) {
-    model_.eval_batch_sign(int64_t(n), sc.xs.data(), out_f);
-    return;
-  }
   model_.eval_batch(int64_t(n), sc.xs.data(), out_f, nullptr);
+}
+
+void ModelField::eval_sides(size_t n, const float* x, const float* y, const float* z,
+                            float* out_f) const {
+  if (n == 0) return;
+  if (!(analytic_.qualifies && analytic_.num_surface_leaves > 0)) return eval(n, x, y, z, out_f);
+  Scratch& sc = t_scratch;
+  pack(dims_, model_.time(), n, x, y, z, &sc.xs);
+  model_.eval_batch_sign(int64_t(n), sc.xs.data(), out_f);
 }
 
 render::Interval ModelField::eval_interval(const render::Box& box, bool* maybe_nan) const {

@@ -31,6 +31,12 @@ class ModelField final : public render::Field {
 
   void eval(size_t n, const float* x, const float* y, const float* z, float* out_f) const override;
   bool has_interval() const override { return true; }
+  /// With mesh or patch leaves on a set-operation skeleton (analytic_info().qualifies), the
+  /// sign-only code (Model::eval_batch_sign: +1/-1 per such leaf, a winding number instead of
+  /// a distance query); otherwise eval(). Framing samples through it: examples/teapot.hf's
+  /// framing took 0.56-0.68 s of closest-point searches, now 28 ms (the same frame).
+  void eval_sides(size_t n, const float* x, const float* y, const float* z,
+                  float* out_f) const override;
   render::Interval eval_interval(const render::Box& box, bool* maybe_nan) const override;
   void eval_intervals(size_t n, const render::Box* boxes, render::Interval* out,
                       bool* maybe_nan) const override;

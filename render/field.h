@@ -71,6 +71,16 @@ class Field {
   virtual void eval(size_t n, const float* x, const float* y, const float* z,
                     float* out_f) const = 0;
 
+  /// Values with F's sign at n points (out_f[i] >= 0 exactly where eval() gives F >= 0; NaN
+  /// where eval() gives NaN), for callers that only look at the side of a point: framing's
+  /// samples. A field whose side is cheaper than its value overrides it (a mesh or patch leaf
+  /// on a set-operation skeleton: a winding number instead of a distance query, see
+  /// app::ModelField). The default is eval().
+  virtual void eval_sides(size_t n, const float* x, const float* y, const float* z,
+                          float* out_f) const {
+    eval(n, x, y, z, out_f);
+  }
+
   /// True when eval_interval() is available and sound (encloses F over the whole box) for
   /// this model. When false, eval_interval() is never called.
   virtual bool has_interval() const = 0;
@@ -142,6 +152,10 @@ class FieldView : public Field {
 
   void eval(size_t n, const float* x, const float* y, const float* z, float* out_f) const override {
     base_.eval(n, x, y, z, out_f);
+  }
+  void eval_sides(size_t n, const float* x, const float* y, const float* z,
+                  float* out_f) const override {
+    base_.eval_sides(n, x, y, z, out_f);
   }
   bool has_interval() const override { return base_.has_interval(); }
   Interval eval_interval(const Box& box, bool* maybe_nan) const override {

@@ -98,7 +98,7 @@ Box extent_by_sampling(const Field& field, const Box& bbox, int depth) {
         p[v][m] = coord(v, b);
       }
     }
-    field.eval(m, xs.data(), ys.data(), zs.data(), fs.data());
+    field.eval_sides(m, xs.data(), ys.data(), zs.data(), fs.data());
     for (size_t k = 0; k < m; ++k) {
       if (fs[k] >= 0) return true;
     }

@@ -65,6 +65,48 @@ class CountingField final : public Field {
   const Field& f_;
 };
 
+/// Counts the points asked for their values and for their sides apart.
+class SidesField final : public Field {
+ public:
+  explicit SidesField(const Field& f) : f_(f) {}
+  void eval(size_t n, const float* x, const float* y, const float* z, float* out) const override {
+    values += n;
+    f_.eval(n, x, y, z, out);
+  }
+  void eval_sides(size_t n, const float* x, const float* y, const float* z,
+                  float* out) const override {
+    sides += n;
+    f_.eval(n, x, y, z, out);
+  }
+  bool has_interval() const override { return f_.has_interval(); }
+  Interval eval_interval(const Box& box, bool* maybe_nan) const override {
+    return f_.eval_interval(box, maybe_nan);
+  }
+  void eval_gradient(size_t n, const float* x, const float* y, const float* z, float* f, float* dx,
+                     float* dy, float* dz) const override {
+    f_.eval_gradient(n, x, y, z, f, dx, dy, dz);
+  }
+  mutable size_t values = 0, sides = 0;
+
+ private:
+  const Field& f_;
+};
+
+TEST(Framing, SamplesAskForSidesNotValues) {
+  // Framing only compares F with 0, so its samples go through eval_sides (which a mesh or
+  // patch leaf answers by a winding number, not a distance query), with and without intervals.
+  for (bool intervals : {false, true}) {
+    testing::BallsField balls({testing::BallsField::Ball{{3, -2, 1}, 2}});
+    balls.set_has_interval(intervals);
+    SidesField f(balls);
+    const Box e = find_extent(f, kDefaultBox, 6);
+    EXPECT_GT(f.sides, 0u);
+    EXPECT_EQ(f.values, 0u);
+    EXPECT_NEAR(e.lo.x, 1.0f, 0.7f);
+    EXPECT_NEAR(e.hi.x, 5.0f, 0.7f);
+  }
+}
+
 TEST(Framing, SamplingSweepFindsTheSameBoxAsEveryGridPoint) {
   // Regression for the slice sweep of the sampled extent: it must give the box of the inside
   // points of the whole grid (plus one cell); after the interval octree has found a tight box
