@@ -193,6 +193,10 @@ bool PatchSurface::unit_normal(uint32_t prim, const DVec3& pu, const DVec3& pv, 
 
 ClosestPoint PatchSurface::closest_point(Vec3 p, float max_distance) const {
   if (!field_) return {};
+  if (std::isfinite(max_distance)) {
+    ClosestPoint c = closest_point_on_patches(p, max_distance);
+    if (c.prim != ~0u) return c;
+  }
   ClosestPoint c = field_->closest_point(p, max_distance);
   if (c.prim == ~0u) return c;
   const TriangleUV& t = field_uv_[c.prim];
@@ -203,6 +207,158 @@ ClosestPoint PatchSurface::closest_point(Vec3 p, float max_distance) const {
   const Vec3 n = normal(t.patch, at(t.u), at(t.v));
   if (length2(n) > 0) c.normal = dot(n, c.normal) >= 0 ? n : -n;
   return c;
+}
+
+ClosestPoint PatchSurface::closest_point_on_patches(Vec3 p, float max_distance) const {
+  ClosestPoint best;
+  if (nodes_.empty()) return best;
+  const DVec3 q = to_d(p);
+  double best2 = double(max_distance) * max_distance;
+  auto box_distance2 = [&](const BvhNode& n) {
+    double d2 = 0;
+    const double c[3] = {q.x, q.y, q.z};
+    for (int a = 0; a < 3; ++a) {
+      const double e = std::max({double(n.lo[a]) - c[a], c[a] - double(n.hi[a]), 0.0});
+      d2 += e * e;
+    }
+    return d2;
+  };
+  uint32_t best_piece = ~0u;
+  double best_u = 0, best_v = 0;
+  DVec3 best_point;
+  Vec3 best_normal;
+  auto try_piece = [&](uint32_t k, bool anywhere) {
+    const Piece& pc = pieces_[k];
+    double u, v;
+    DVec3 x;
+    Vec3 nrm;
+    if (!project_onto_piece(pc, q, anywhere, &u, &v, &x, &nrm)) return false;
+    const double dx = x.x - q.x, dy = x.y - q.y, dz = x.z - q.z;
+    const double d2 = dx * dx + dy * dy + dz * dz;
+    if (d2 <= best2 && (!pc.trimmed || set_.trim(pc.patch)->contains(u, v)))
+      best2 = d2, best_piece = k, best_u = u, best_v = v, best_point = x, best_normal = nrm;
+    return true;
+  };
+  // Nearest first (the nearer child is visited first), pruned by the best distance so far. A
+  // piece onto whose corner quad q projects well outside is put off: a point on the surface
+  // settles on its own piece and needs none of them; any other point tries them afterwards.
+  constexpr int kDeferMax = 32;
+  uint32_t deferred[kDeferMax];
+  double deferred_d2[kDeferMax];
+  int ndeferred = 0;
+  uint32_t stack[64];
+  int top = 0;
+  stack[top++] = 0;
+  while (top > 0) {
+    const BvhNode& n = nodes_[stack[--top]];
+    const double nd2 = box_distance2(n);
+    if (nd2 > best2) continue;
+    if (!n.is_leaf()) {
+      const double d0 = box_distance2(nodes_[n.index]), d1 = box_distance2(nodes_[n.index + 1]);
+      HFRT_CHECK_LE(top + 2, 64);
+      if (d0 <= d1) {
+        if (d1 <= best2) stack[top++] = n.index + 1;
+        if (d0 <= best2) stack[top++] = n.index;
+      } else {
+        if (d0 <= best2) stack[top++] = n.index;
+        if (d1 <= best2) stack[top++] = n.index + 1;
+      }
+      continue;
+    }
+    for (uint32_t k = n.index; k < n.index + n.count; ++k) {
+      if (try_piece(k, ndeferred == kDeferMax)) continue;
+      deferred[ndeferred] = k, deferred_d2[ndeferred] = nd2, ++ndeferred;
+    }
+  }
+  // On the surface (to rounding of its size): the deferred pieces cannot be nearer.
+  const double on_surface = 1e-6 * double(patch_size_.empty() ? 0 : bounds_.max_extent());
+  if (!(best2 <= on_surface * on_surface)) {
+    for (int i = 0; i < ndeferred; ++i)
+      if (deferred_d2[i] <= best2) try_piece(deferred[i], true);
+  }
+  if (best_piece == ~0u) return best;
+  const uint32_t patch = pieces_[best_piece].patch;
+  // Where Pu x Pv vanishes (a collapsed edge), the limit from inside the patch (normal()).
+  const Vec3 nrm = length2(best_normal) > 0 ? best_normal : normal(patch, best_u, best_v);
+  if (!(length2(nrm) > 0)) return best;  // no normal: the tessellation's answer instead
+  best.distance = float(std::sqrt(best2));
+  best.point = to_f(best_point);
+  best.normal = nrm;
+  best.prim = patch;
+  return best;
+}
+
+bool PatchSurface::project_onto_piece(const Piece& pc, const DVec3& q, bool anywhere, double* u_out,
+                                      double* v_out, DVec3* x_out, Vec3* n_out) const {
+  constexpr double kOutside = 0.125;
+  // Gauss-Newton on |P(u, v) - q|^2, each step clamped to the piece's rectangle (a piece is
+  // flat to 2e-3 of its patch, so the function is nearly a convex quadratic on it): two or
+  // three evaluations for a point on the piece.
+  // The start: q projected onto the parallelogram of the corner quad's mean edges (the
+  // piece's parameters are nearly linear on it).
+  double u = 0.5 * (double(pc.u0) + pc.u1), v = 0.5 * (double(pc.v0) + pc.v1);
+  {
+    const BezierPatch& cp = piece_cp_[size_t(&pc - pieces_.data())];
+    const Vec3 p00 = cp.control(0, 0), p10 = cp.control(cp.du, 0), p01 = cp.control(0, cp.dv),
+               p11 = cp.control(cp.du, cp.dv);
+    const Vec3 eu = 0.5f * ((p10 - p00) + (p11 - p01)), ev = 0.5f * ((p01 - p00) + (p11 - p10));
+    const Vec3 r = to_f(q) - 0.25f * (p00 + p10 + p01 + p11);
+    const float a = dot(eu, eu), b = dot(eu, ev), c = dot(ev, ev), ru = dot(eu, r), rv = dot(ev, r),
+                det = a * c - b * b;
+    if (det > 0) {
+      const double s0 = 0.5 + double((c * ru - b * rv) / det);
+      const double t0 = 0.5 + double((a * rv - b * ru) / det);
+      // Well outside the piece: its nearest point is on its border, which a neighbour's
+      // interior holds (or, at the patches' outer border, the tessellation's answer).
+      if (!anywhere &&
+          !(s0 > -kOutside && s0 < 1 + kOutside && t0 > -kOutside && t0 < 1 + kOutside))
+        return false;
+      const double s = std::clamp(s0, 0.0, 1.0), t = std::clamp(t0, 0.0, 1.0);
+      u = pc.u0 + s * (double(pc.u1) - pc.u0), v = pc.v0 + t * (double(pc.v1) - pc.v0);
+    }
+  }
+  const double tol_u = 1e-7 * (double(pc.u1) - pc.u0), tol_v = 1e-7 * (double(pc.v1) - pc.v0);
+  DVec3 x;
+  // A step that brings P less than a quarter as much nearer q as its first-order model
+  // predicts is halved: off the surface, where |P - q| times the curvature exceeds the
+  // parameters' speed (across the rim's tightly curved lip), Gauss-Newton alone overshoots
+  // and oscillates.
+  double prev_u = u, prev_v = v, prev_r2 = std::numeric_limits<double>::infinity(), want = 0;
+  for (int it = 0; it < 24; ++it) {
+    DVec3 pu, pv;
+    x = eval_patch(pc.patch, u, v, &pu, &pv);
+    const double rx = x.x - q.x, ry = x.y - q.y, rz = x.z - q.z;
+    const double r2 = rx * rx + ry * ry + rz * rz;
+    if (prev_r2 - r2 < 0.25 * want) {
+      u = 0.5 * (u + prev_u), v = 0.5 * (v + prev_v);
+      want *= 0.5;
+      continue;
+    }
+    const double a = pu.x * pu.x + pu.y * pu.y + pu.z * pu.z;
+    const double b = pu.x * pv.x + pu.y * pv.y + pu.z * pv.z;
+    const double c = pv.x * pv.x + pv.y * pv.y + pv.z * pv.z;
+    const double gu = pu.x * rx + pu.y * ry + pu.z * rz, gv = pv.x * rx + pv.y * ry + pv.z * rz;
+    const double det = a * c - b * b;
+    if (!(det > 0)) break;  // a collapsed edge: keep the point reached
+    const double nu = std::clamp(u - (c * gu - b * gv) / det, double(pc.u0), double(pc.u1));
+    const double nv = std::clamp(v - (a * gv - b * gu) / det, double(pc.v0), double(pc.v1));
+    if (std::abs(nu - u) <= tol_u && std::abs(nv - v) <= tol_v) {
+      // Converged: x is P(u, v), and its derivatives give the normal.
+      *u_out = u, *v_out = v, *x_out = x;
+      if (!unit_normal(pc.patch, pu, pv, n_out)) *n_out = {0, 0, 0};
+      return true;
+    }
+    prev_u = u, prev_v = v, prev_r2 = r2;
+    want = -2 * (gu * (nu - u) + gv * (nv - v));  // the first-order decrease of r2
+    u = nu, v = nv;
+  }
+  u = prev_r2 < std::numeric_limits<double>::infinity() ? prev_u : u;
+  v = prev_r2 < std::numeric_limits<double>::infinity() ? prev_v : v;
+  *u_out = u, *v_out = v;
+  DVec3 pu, pv;
+  *x_out = eval_patch(pc.patch, u, v, &pu, &pv);
+  if (!unit_normal(pc.patch, pu, pv, n_out)) *n_out = {0, 0, 0};
+  return true;
 }
 
 Vec3 PatchSurface::normal(uint32_t prim, double u, double v) const {

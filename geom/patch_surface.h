@@ -55,10 +55,13 @@ class PatchSurface final : public Surface {
   bool inside(Vec3 p) const override { return field_ && field_->inside(p); }
   float signed_distance(Vec3 p, Vec3* gradient = nullptr) const override;
   DistanceBounds signed_distance_bounds(const Box& box) const override;
-  /// The field tessellation's closest point (within field_error() of the patches'), with the
-  /// normal of the patch itself there (Pu x Pv at the (u, v) of that point, oriented as the
-  /// triangle's): the gradient at a ray hit, the renderer's shading normal, is the patch's,
-  /// smooth across the tessellation's edges. None (prim ~0u) without a field.
+  /// Within a finite max_distance (the gradient's query at a ray hit: jit/surface_ops.cpp),
+  /// the closest point of the patches themselves (closest_point_on_patches: Newton in the
+  /// pieces near p, no tessellation), with the patch's normal Pu x Pv there and prim = the
+  /// patch. Otherwise, or when that finds nothing, the field tessellation's closest point
+  /// (within field_error() of the patches'; what signed_distance measures), with the normal of
+  /// the patch at the (u, v) of that point, oriented as the triangle's. None (prim ~0u)
+  /// without a field.
   ClosestPoint closest_point(
       Vec3 p, float max_distance = std::numeric_limits<float>::infinity()) const override;
   /// Never closed: Newton's roots on two patches that share a seam are not watertight (a ray
@@ -104,6 +107,15 @@ class PatchSurface final : public Surface {
   /// Pu x Pv of patch `prim` normalised into *n; false where it is too short to trust (a
   /// collapsed edge): normal()'s test, and the one of a hit's Newton derivatives.
   bool unit_normal(uint32_t prim, const DVec3& pu, const DVec3& pv, Vec3* n) const;
+  /// The closest point of the patches to p within max_distance: the pieces whose boxes lie
+  /// that close, nearest first, each by project_onto_piece; a trimmed piece's point counts
+  /// only where the trim keeps it. prim ~0u when none (or no normal there).
+  ClosestPoint closest_point_on_patches(Vec3 p, float max_distance) const;
+  /// The point *x of piece pc nearest q (Gauss-Newton clamped to its rectangle) and its
+  /// (u, v), with the unit normal there (0 where Pu x Pv is too short); unless `anywhere`,
+  /// false, without them, when q projects well outside the piece's corner quad.
+  bool project_onto_piece(const Piece& pc, const DVec3& q, bool anywhere, double* u, double* v,
+                          DVec3* x, Vec3* n) const;
   /// normal(h.patch, h.u, h.v), from the hit when it carries it.
   Vec3 hit_normal(const RawHit& h) const { return h.has_normal ? h.n : normal(h.patch, h.u, h.v); }
   template <typename Visit>

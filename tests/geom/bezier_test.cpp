@@ -286,6 +286,44 @@ TEST(PatchSurface, ClosestPointCarriesThePatchNormal) {
   EXPECT_GT(sum_triangle, 5 * sum) << "worst " << worst << ", the triangles' " << worst_triangle;
 }
 
+TEST(PatchSurface, ClosestPointsNearThePatchesAreThePatchesOwn) {
+  // Within a finite limit (the gradient's query at a ray hit) the closest point is found on
+  // the patches themselves (Newton in the pieces), not on the field tessellation: a point of a
+  // patch is its own closest point, with the patch's normal there exactly (the tessellation's
+  // were off by up to 0.05 on the rim's lip); a point moved off the surface by h is at most h
+  // away, and no nearer than the tessellation's distance allows.
+  const PatchSurface& s = teapot_surface();
+  const float size = length(s.bounds().diagonal());
+  std::mt19937 rng(23);
+  std::uniform_real_distribution<double> t(0.02, 0.98);
+  double worst_normal = 0, worst_distance = 0;
+  for (int k = 0; k < 1000; ++k) {
+    const uint32_t patch = uint32_t(rng() % teapot().patches.size());
+    const double u = t(rng), v = t(rng);
+    const Vec3 p = to_f(teapot().patches[patch].eval(u, v));
+    const Vec3 want = s.normal(patch, u, v);
+    if (!(length2(want) > 0)) continue;
+    const ClosestPoint c = s.closest_point(p, 1e-3f * size);
+    ASSERT_NE(c.prim, ~0u) << k;
+    worst_distance = std::max(worst_distance, double(c.distance));
+    if (c.prim == patch) worst_normal = std::max(worst_normal, double(length(c.normal - want)));
+    EXPECT_LT(length(c.point - p), 1e-5f * size) << k;
+    // Moved off along the normal: within h (another part of the teapot may be nearer).
+    const float h = 2e-3f * size;
+    const Vec3 q = p + want * h;
+    const ClosestPoint cq = s.closest_point(q, 2 * h);
+    ASSERT_NE(cq.prim, ~0u) << k;
+    EXPECT_LE(cq.distance, h * (1 + 1e-4f)) << k;
+    EXPECT_GE(cq.distance, s.field_mesh().closest_point(q).distance - s.field_error() - 1e-6f) << k;
+    EXPECT_NEAR(length(cq.point - q), cq.distance, 1e-5f * size) << k;
+  }
+  EXPECT_LT(worst_distance, 1e-6 * size);
+  EXPECT_LT(worst_normal, 1e-4);
+  // Beyond the limit: nothing (prim ~0u), as the tessellation's search answers.
+  const ClosestPoint far = s.closest_point(s.bounds().hi + Vec3{1, 1, 1} * size, 1e-3f * size);
+  EXPECT_EQ(far.prim, ~0u);
+}
+
 // tessellate evaluates each patch on its half-step grid (rows contracted once per u): its
 // vertices are BezierPatch::eval's bit for bit, for bicubic and mixed-degree patches.
 TEST(PatchSurface, TessellationVerticesAreTheEvaluatedPatchBitForBit) {
