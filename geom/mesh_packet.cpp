@@ -19,49 +19,18 @@
 // (chosen at start-up where the CPU has it, as eval_bicubic is: geom/bezier.cpp), one for the
 // x86-64 baseline, where each operation is two SSE2 instructions.
 
-#include <immintrin.h>
-
 #include <algorithm>
-#include <cstring>
-#include <limits>
 
 #include "base/check.h"
 #include "geom/mesh_surface.h"
+#include "geom/packet_lanes.h"
 #include "geom/triangle.h"
 
 namespace hfrt::geom {
 namespace {
 
-constexpr int kLanes = MeshSurface::kPacketRays;
-static_assert(kLanes == 8, "the lanes are 8-float vectors");
-// Every helper taking or returning lanes is always_inline, so no vector crosses a call: GCC's
-// note that a 32-byte vector argument's ABI differs without AVX does not apply.
-#pragma GCC diagnostic ignored "-Wpsabi"
-using F8 = float __attribute__((vector_size(32)));
-using I8 = int32_t __attribute__((vector_size(32)));
-constexpr float kInf = std::numeric_limits<float>::infinity();
-
-/// The lanes' sign bits. Two SSE movemasks, in the AVX2 copy too: an AVX intrinsic cannot be
-/// inlined through the lambdas of the walk, which do not inherit its target; GCC makes this
-/// one extract and two vmovmskps there.
-[[gnu::always_inline]] inline int movemask(const I8& m) {
-  __m128 lo, hi;
-  std::memcpy(&lo, &m, 16);
-  std::memcpy(&hi, reinterpret_cast<const char*>(&m) + 16, 16);
-  return _mm_movemask_ps(lo) | _mm_movemask_ps(hi) << 4;
-}
-
-/// Lanes where bit i of `mask` is set: all ones.
-[[gnu::always_inline]] inline I8 lanes_of(int mask) {
-  I8 m;
-  for (int i = 0; i < kLanes; ++i) m[i] = (mask >> i & 1) ? -1 : 0;
-  return m;
-}
-
-/// x in every lane.
-[[gnu::always_inline]] inline F8 splat(float x) {
-  return F8{x, x, x, x, x, x, x, x};
-}
+using namespace packet;
+static_assert(kLanes == MeshSurface::kPacketRays);
 
 /// The coordinate `k` (0, 1, 2 per lane, as is0/is1 say) of (x, y, z).
 [[gnu::always_inline]] inline F8 pick(const I8& is0, const I8& is1, const F8& x, const F8& y,
@@ -69,16 +38,11 @@ constexpr float kInf = std::numeric_limits<float>::infinity();
   return is0 ? x : (is1 ? y : z);
 }
 
-/// What the walk keeps per lane.
-struct Lanes {
-  F8 ox, oy, oz;                    // origin
-  F8 ix, iy, iz;                    // 1 / direction
-  I8 nx, ny, nz;                    // the slab's near plane is hi (direction negative)
+/// What the walk keeps per lane: the rays (packet::RayLanes) and their triangle tests' setup.
+struct Lanes : RayLanes {
   I8 kx0, kx1, ky0, ky1, kz0, kz1;  // the watertight permutation: kx == 0, kx == 1, ...
   F8 sx, sy, sz;                    // the shear
-  F8 tmin, tfar;  // tfar: the query's tmax, lowered by nearest hits; -inf for a finished lane
-  int live;       // lanes still searching
-  WatertightRay wr[kLanes];  // the scalar form, for lanes with a zero edge function
+  WatertightRay wr[kLanes];         // the scalar form, for lanes with a zero edge function
 };
 
 template <PacketMode kMode>
@@ -89,36 +53,23 @@ template <PacketMode kMode>
                                             std::vector<Crossing>* out) {
   using Mode = PacketMode;
   Lanes L;
-  alignas(32) float tmin_a[kLanes], tmax_a[kLanes];
   for (int i = 0; i < kLanes; ++i) {
     // Lanes past n repeat ray 0 and never go live.
-    const int j = i < n ? i : 0;
-    L.wr[i] = WatertightRay(rays[j]);
+    L.wr[i] = WatertightRay(rays[i < n ? i : 0]);
     const WatertightRay& r = L.wr[i];
-    L.ox[i] = r.org.x, L.oy[i] = r.org.y, L.oz[i] = r.org.z;
-    L.ix[i] = r.inv_dir.x, L.iy[i] = r.inv_dir.y, L.iz[i] = r.inv_dir.z;
-    L.nx[i] = r.near_is_hi[0] ? -1 : 0, L.ny[i] = r.near_is_hi[1] ? -1 : 0;
-    L.nz[i] = r.near_is_hi[2] ? -1 : 0;
+    set_lane(L, i, r);
     L.kx0[i] = r.kx == 0 ? -1 : 0, L.kx1[i] = r.kx == 1 ? -1 : 0;
     L.ky0[i] = r.ky == 0 ? -1 : 0, L.ky1[i] = r.ky == 1 ? -1 : 0;
     L.kz0[i] = r.kz == 0 ? -1 : 0, L.kz1[i] = r.kz == 1 ? -1 : 0;
     L.sx[i] = r.sx, L.sy[i] = r.sy, L.sz[i] = r.sz;
-    tmin_a[i] = i < n ? tmin[i] : kInf;
-    // An empty segment is finished before it starts (the single-ray queries find nothing).
-    tmax_a[i] = i < n && tmin[i] < tmax[i] ? tmax[i] : -kInf;
   }
-  std::memcpy(&L.tmin, tmin_a, sizeof tmin_a);
-  std::memcpy(&L.tfar, tmax_a, sizeof tmax_a);
-  L.live = 0;
-  for (int i = 0; i < n; ++i)
-    if (tmin[i] < tmax[i]) L.live |= 1 << i;
+  set_segments(L, n, tmin, tmax);
   if constexpr (kMode == Mode::kAll)
     for (int i = 0; i < n; ++i) out[i].clear();
   // Nearest hits per lane: slot, t (= tfar) and barycentrics.
   I8 best_slot = ~I8{};
   F8 best_b1{}, best_b2{};
   uint32_t found = 0;
-  const F8 widen = splat(kSlabWiden);
 
   // One triangle against every live lane.
   auto triangle = [&](uint32_t q) __attribute__((always_inline)) {
@@ -184,66 +135,13 @@ template <PacketMode kMode>
     }
   };
 
-  if (L.live) {
-    struct Entry {
-      uint32_t ref;  // wide node, or kLeafBit | binary leaf
-      float tnear;   // the smallest entry distance of the lanes that meet it
-    };
-    Entry stack[WideBvh::kWideStackSize];
-    int sp = 0;
-    stack[sp++] = {0, -kInf};
-    const WideNode* const nodes = wide.nodes.data();
-    while (sp > 0 && L.live) {
-      const Entry e = stack[--sp];
-      // The farthest limit of the live lanes: an entry beyond it holds nothing for any of them.
-      float reach = -kInf;
-      for (int m = L.live; m; m &= m - 1) reach = std::max(reach, L.tfar[__builtin_ctz(m)]);
-      if (e.tnear > reach) continue;
-      if (e.ref & WideBvh::kLeafBit) {
-        const BvhNode& leaf = binary[e.ref & ~WideBvh::kLeafBit];
+  // Every triangle of a leaf against all live lanes (not only those that met the leaf's box:
+  // one 8-lane test costs about what one lane's would).
+  packet::walk<false>(
+      wide, binary, L, [&](const BvhNode& leaf, int) __attribute__((always_inline)) {
         for (uint32_t q = leaf.index, end = leaf.index + leaf.count; q < end && L.live; ++q)
           triangle(q);
-        continue;
-      }
-      const WideNode& w = nodes[e.ref];
-      Entry hit[4];
-      int nh = 0;
-      for (int k = 0; k < 4; ++k) {
-        if (w.child[k] == WideBvh::kEmpty) continue;
-        // slab_hit() per lane: near and far planes by the direction's sign, the far distance
-        // widened; a NaN slab (zero direction, face through the origin) never narrows.
-        const F8 lox = splat(w.lo_x[k]), hix = splat(w.hi_x[k]);
-        const F8 nxp = L.nx ? hix : lox, fxp = L.nx ? lox : hix;
-        const F8 loy = splat(w.lo_y[k]), hiy = splat(w.hi_y[k]);
-        const F8 nyp = L.ny ? hiy : loy, fyp = L.ny ? loy : hiy;
-        const F8 loz = splat(w.lo_z[k]), hiz = splat(w.hi_z[k]);
-        const F8 nzp = L.nz ? hiz : loz, fzp = L.nz ? loz : hiz;
-        F8 tn = L.tmin, tf = L.tfar;
-        const F8 t0x = (nxp - L.ox) * L.ix, t1x = (fxp - L.ox) * L.ix * widen;
-        const F8 t0y = (nyp - L.oy) * L.iy, t1y = (fyp - L.oy) * L.iy * widen;
-        const F8 t0z = (nzp - L.oz) * L.iz, t1z = (fzp - L.oz) * L.iz * widen;
-        tn = t0x > tn ? t0x : tn;
-        tn = t0y > tn ? t0y : tn;
-        tn = t0z > tn ? t0z : tn;
-        tf = t1x < tf ? t1x : tf;
-        tf = t1y < tf ? t1y : tf;
-        tf = t1z < tf ? t1z : tf;
-        const int m = movemask(tn <= tf) & L.live;
-        if (!m) continue;
-        float near = kInf;
-        for (int b = m; b; b &= b - 1) near = std::min(near, tn[__builtin_ctz(b)]);
-        // Sorted by entry distance, farthest first.
-        int j = nh++;
-        while (j > 0 && hit[j - 1].tnear < near) {
-          hit[j] = hit[j - 1];
-          --j;
-        }
-        hit[j] = {w.child[k], near};
-      }
-      HFRT_CHECK_LE(sp + nh, WideBvh::kWideStackSize);
-      for (int k = 0; k < nh; ++k) stack[sp++] = hit[k];
-    }
-  }
+      });
 
   if constexpr (kMode == Mode::kNearest) {
     for (uint32_t m = found; m; m &= m - 1) {

@@ -6,6 +6,7 @@
 
 #include "base/check.h"
 #include "base/parallel.h"
+#include "geom/packet_lanes.h"
 #include "geom/triangle.h"
 
 namespace hfrt::geom {
@@ -500,46 +501,51 @@ void PatchSurface::solve_piece(const Ray& ray, const double plane[2][4], uint32_
     }
 }
 
+void PatchSurface::ray_planes(const Ray& ray, double plane[2][4]) {
+  const DVec3 d = to_d(normalize(ray.dir));
+  DVec3 n1 = std::abs(d.x) > std::abs(d.y) && std::abs(d.x) > std::abs(d.z) ? DVec3{d.y, -d.x, 0}
+                                                                            : DVec3{0, d.z, -d.y};
+  const double l1 = std::sqrt(n1.x * n1.x + n1.y * n1.y + n1.z * n1.z);
+  n1 = {n1.x / l1, n1.y / l1, n1.z / l1};
+  const DVec3 n2{d.y * n1.z - d.z * n1.y, d.z * n1.x - d.x * n1.z, d.x * n1.y - d.y * n1.x};
+  const DVec3 o = to_d(ray.org);
+  const double p[2][4] = {{n1.x, n1.y, n1.z, -(n1.x * o.x + n1.y * o.y + n1.z * o.z)},
+                          {n2.x, n2.y, n2.z, -(n2.x * o.x + n2.y * o.y + n2.z * o.z)}};
+  std::copy(&p[0][0], &p[0][0] + 8, &plane[0][0]);
+}
+
+template <typename Visit>
+void PatchSurface::solve_leaf(const BvhNode& n, const Ray& ray, const double plane[2][4],
+                              float tmin, const float* closest, Visit&& visit) const {
+  for (uint32_t k = n.index; k < n.index + n.count; ++k) {
+    const Piece& pc = pieces_[k];
+    if (!pc.trimmed) {
+      solve_piece(ray, plane, pc.patch, pc.u0, pc.u1, pc.v0, pc.v1, piece_cp_[k], pc.delta, 0, tmin,
+                  *closest, visit);
+      continue;
+    }
+    // A trim loop crosses the piece: a root counts only where the trim keeps it. RawHit's
+    // (u, v) are the patch's own parameters (the piece's are never used), and a piece owns
+    // at most one root, so a root trimmed away is not replaced by another. A separate
+    // instantiation, so that the untrimmed path stays as fast as before.
+    const Trim& trim = *set_.trim(pc.patch);
+    solve_piece(ray, plane, pc.patch, pc.u0, pc.u1, pc.v0, pc.v1, piece_cp_[k], pc.delta, 0, tmin,
+                *closest, [&](const RawHit& h) {
+                  if (trim.contains(h.u, h.v)) visit(h);
+                });
+  }
+}
+
 template <typename Visit>
 void PatchSurface::trace(const Ray& ray, float tmin, float* tmax, Visit&& visit) const {
   // Two planes whose intersection is the ray: set up at the first leaf only, as most rays of
   // a frame never reach one.
   double plane[2][4];
   bool have_planes = false;
-  auto make_planes = [&] {
-    const DVec3 d = to_d(normalize(ray.dir));
-    DVec3 n1 = std::abs(d.x) > std::abs(d.y) && std::abs(d.x) > std::abs(d.z) ? DVec3{d.y, -d.x, 0}
-                                                                              : DVec3{0, d.z, -d.y};
-    const double l1 = std::sqrt(n1.x * n1.x + n1.y * n1.y + n1.z * n1.z);
-    n1 = {n1.x / l1, n1.y / l1, n1.z / l1};
-    const DVec3 n2{d.y * n1.z - d.z * n1.y, d.z * n1.x - d.x * n1.z, d.x * n1.y - d.y * n1.x};
-    const DVec3 o = to_d(ray.org);
-    const double p[2][4] = {{n1.x, n1.y, n1.z, -(n1.x * o.x + n1.y * o.y + n1.z * o.z)},
-                            {n2.x, n2.y, n2.z, -(n2.x * o.x + n2.y * o.y + n2.z * o.z)}};
-    std::copy(&p[0][0], &p[0][0] + 8, &plane[0][0]);
-    have_planes = true;
-  };
-
   const WatertightRay r(ray);
   auto leaf = [&](const BvhNode& n, float* closest) {
-    if (!have_planes) make_planes();
-    for (uint32_t k = n.index; k < n.index + n.count; ++k) {
-      const Piece& pc = pieces_[k];
-      if (!pc.trimmed) {
-        solve_piece(ray, plane, pc.patch, pc.u0, pc.u1, pc.v0, pc.v1, piece_cp_[k], pc.delta, 0,
-                    tmin, *closest, visit);
-        continue;
-      }
-      // A trim loop crosses the piece: a root counts only where the trim keeps it. RawHit's
-      // (u, v) are the patch's own parameters (the piece's are never used), and a piece owns
-      // at most one root, so a root trimmed away is not replaced by another. A separate
-      // instantiation, so that the untrimmed path stays as fast as before.
-      const Trim& trim = *set_.trim(pc.patch);
-      solve_piece(ray, plane, pc.patch, pc.u0, pc.u1, pc.v0, pc.v1, piece_cp_[k], pc.delta, 0, tmin,
-                  *closest, [&](const RawHit& h) {
-                    if (trim.contains(h.u, h.v)) visit(h);
-                  });
-    }
+    if (!have_planes) ray_planes(ray, plane), have_planes = true;
+    solve_leaf(n, ray, plane, tmin, closest, visit);
   };
   if (nodes_.empty()) return;  // every patch trimmed away
   if (!wide_.empty()) {
@@ -573,31 +579,32 @@ bool PatchSurface::intersect(const Ray& ray, float tmin, float tmax, SurfaceHit*
   return true;
 }
 
-void PatchSurface::crossings(const Ray& ray, float tmin, float tmax,
-                             std::vector<Crossing>* out) const {
+void PatchSurface::RootBuffer::push(const RawHit& h) {
+  if (count < kInline) {
+    inline_hits[count++] = h;
+    return;
+  }
+  if (spill.empty()) spill.assign(inline_hits, inline_hits + kInline);
+  spill.push_back(h);
+  ++count;
+}
+
+void PatchSurface::finish_crossings(const Ray& ray, RootBuffer* roots,
+                                    std::vector<Crossing>* out) const {
   out->clear();
-  // The roots in a buffer on the stack (a ray meets a few; more spill to the heap), sorted,
-  // then compacted in place: no allocation per ray.
-  constexpr size_t kInline = 32;
-  RawHit inline_hits[kInline];
-  std::vector<RawHit> spill;
-  size_t count = 0;
-  float limit = tmax;
-  trace(ray, tmin, &limit, [&](const RawHit& h) {
-    if (count < kInline) {
-      inline_hits[count++] = h;
-      return;
-    }
-    if (spill.empty()) spill.assign(inline_hits, inline_hits + kInline);
-    spill.push_back(h);
-    ++count;
+  const size_t count = roots->count;
+  RawHit* raw = roots->spill.empty() ? roots->inline_hits : roots->spill.data();
+  // A total order, so that the roots' order does not depend on the order the pieces were
+  // visited in (the packets' walk and the single ray's differ): the same crossings either way.
+  std::sort(raw, raw + count, [](const RawHit& a, const RawHit& b) {
+    if (a.t != b.t) return a.t < b.t;
+    if (a.patch != b.patch) return a.patch < b.patch;
+    return a.u != b.u ? a.u < b.u : a.v < b.v;
   });
-  RawHit* raw = spill.empty() ? inline_hits : spill.data();
-  std::sort(raw, raw + count, [](const RawHit& a, const RawHit& b) { return a.t < b.t; });
   const double dl = length(ray.dir);
-  int facings[kInline];
-  std::vector<int> spill_facings(count > kInline ? count : 0);
-  int* facing_of = count > kInline ? spill_facings.data() : facings;
+  int facings[RootBuffer::kInline];
+  std::vector<int> spill_facings(count > RootBuffer::kInline ? count : 0);
+  int* facing_of = count > RootBuffer::kInline ? spill_facings.data() : facings;
   size_t kept = 0;  // raw[0, kept): the roots kept, with facing_of[] their facings
   for (size_t i = 0; i < count; ++i) {
     const RawHit h = raw[i];
@@ -615,6 +622,91 @@ void PatchSurface::crossings(const Ray& ray, float tmin, float tmax,
     facing_of[kept++] = facing;
     out->push_back({static_cast<float>(h.t), facing, h.patch});
   }
+}
+
+void PatchSurface::crossings(const Ray& ray, float tmin, float tmax,
+                             std::vector<Crossing>* out) const {
+  // The roots in a buffer on the stack (a ray meets a few; more spill to the heap), sorted,
+  // then compacted in place: no allocation per ray.
+  RootBuffer roots;
+  float limit = tmax;
+  trace(ray, tmin, &limit, [&](const RawHit& h) { roots.push(h); });
+  finish_crossings(ray, &roots, out);
+}
+
+void PatchSurface::crossings_many(const Ray* rays, size_t n, const float* tmin, const float* tmax,
+                                  std::vector<Crossing>* out) const {
+  if (wide_.empty()) {  // a root leaf, or no pieces at all: one ray at a time
+    for (size_t i = 0; i < n; ++i) crossings(rays[i], tmin[i], tmax[i], &out[i]);
+    return;
+  }
+  for (size_t i = 0; i < n; i += packet::kLanes) {
+    const int m = int(std::min<size_t>(packet::kLanes, n - i));
+    crossings_packet(rays + i, m, tmin + i, tmax + i, out + i);
+  }
+}
+
+namespace {
+
+// The packet walk, for AVX2 and for the x86-64 baseline (chosen at start-up, as the meshes'
+// is: geom/mesh_packet.cpp). The leaves' Newton solves are the same scalar code in both,
+// reached through `leaf` (one indirect call per leaf the packet reaches).
+using PacketLeaf = void (*)(void* ctx, const BvhNode& leaf, int lanes);
+using PacketWalk = void (*)(const WideBvh&, const std::vector<BvhNode>&, const Ray*, int,
+                            const float*, const float*, PacketLeaf, void*);
+
+[[gnu::always_inline]] inline void packet_walk_body(const WideBvh& wide,
+                                                    const std::vector<BvhNode>& nodes,
+                                                    const Ray* rays, int n, const float* tmin,
+                                                    const float* tmax, PacketLeaf leaf, void* ctx) {
+  packet::RayLanes L;
+  for (int i = 0; i < packet::kLanes; ++i)
+    packet::set_lane(L, i, WatertightRay(rays[i < n ? i : 0]));
+  packet::set_segments(L, n, tmin, tmax);
+  packet::walk<true>(wide, nodes, L, [&](const BvhNode& l, int lanes) { leaf(ctx, l, lanes); });
+}
+
+void packet_walk_generic(const WideBvh& wide, const std::vector<BvhNode>& nodes, const Ray* rays,
+                         int n, const float* tmin, const float* tmax, PacketLeaf leaf, void* ctx) {
+  packet_walk_body(wide, nodes, rays, n, tmin, tmax, leaf, ctx);
+}
+
+__attribute__((target("avx2"))) void packet_walk_avx2(const WideBvh& wide,
+                                                      const std::vector<BvhNode>& nodes,
+                                                      const Ray* rays, int n, const float* tmin,
+                                                      const float* tmax, PacketLeaf leaf,
+                                                      void* ctx) {
+  packet_walk_body(wide, nodes, rays, n, tmin, tmax, leaf, ctx);
+}
+
+bool cpu_has_avx2() {
+  __builtin_cpu_init();
+  return __builtin_cpu_supports("avx2");
+}
+const PacketWalk g_packet_walk = cpu_has_avx2() ? packet_walk_avx2 : packet_walk_generic;
+
+}  // namespace
+
+void PatchSurface::crossings_packet(const Ray* rays, int n, const float* tmin, const float* tmax,
+                                    std::vector<Crossing>* out) const {
+  // The rays walk the 4-wide BVH together (their node boxes tested in 8 lanes at once); at a
+  // leaf, each lane whose ray met its box solves its pieces as its single-ray walk would.
+  RootBuffer roots[packet::kLanes];
+  double planes[packet::kLanes][2][4];
+  int have_planes = 0;
+  auto leaf = [&](const BvhNode& leaf, int lanes) {
+    for (int m = lanes; m; m &= m - 1) {
+      const int i = __builtin_ctz(m);
+      if (!(have_planes >> i & 1)) ray_planes(rays[i], planes[i]), have_planes |= 1 << i;
+      RootBuffer& r = roots[i];
+      solve_leaf(leaf, rays[i], planes[i], tmin[i], &tmax[i], [&](const RawHit& h) { r.push(h); });
+    }
+  };
+  const PacketLeaf call = [](void* ctx, const BvhNode& l, int lanes) {
+    (*static_cast<decltype(leaf)*>(ctx))(l, lanes);
+  };
+  g_packet_walk(wide_, nodes_, rays, n, tmin, tmax, call, &leaf);
+  for (int i = 0; i < n; ++i) finish_crossings(rays[i], &roots[i], &out[i]);
 }
 
 float PatchSurface::signed_distance(Vec3 p, Vec3* gradient) const {

@@ -50,6 +50,15 @@ class PatchSurface final : public Surface {
   Box bounds() const override { return bounds_; }
   bool intersect(const Ray& ray, float tmin, float tmax, SurfaceHit* hit) const override;
   void crossings(const Ray& ray, float tmin, float tmax, std::vector<Crossing>* out) const override;
+  /// Packets of eight consecutive rays (crossings_packet): out[i] is crossings(rays[i], ...)
+  /// exactly.
+  void crossings_many(const Ray* rays, size_t n, const float* tmin, const float* tmax,
+                      std::vector<Crossing>* out) const override;
+  /// crossings() for n <= 8 rays walked through the 4-wide BVH together (geom/packet_lanes.h):
+  /// each node's boxes are tested against the rays in one 8-lane test, and each lane that meets
+  /// a leaf's box runs its Newton solves there as its own walk would.
+  void crossings_packet(const Ray* rays, int n, const float* tmin, const float* tmax,
+                        std::vector<Crossing>* out) const;
   double winding_number(Vec3 p) const override { return field_ ? field_->winding_number(p) : 0.0; }
   /// The field tessellation's side (MeshSurface::inside: a grid of cells, filled on first use).
   bool inside(Vec3 p) const override { return field_ && field_->inside(p); }
@@ -118,6 +127,30 @@ class PatchSurface final : public Surface {
                           DVec3* x, Vec3* n) const;
   /// normal(h.patch, h.u, h.v), from the hit when it carries it.
   Vec3 hit_normal(const RawHit& h) const { return h.has_normal ? h.n : normal(h.patch, h.u, h.v); }
+  /// A ray's roots: a few on the stack, more spilled to the heap. The inline slots are left
+  /// uninitialised until used (a packet's eight buffers would otherwise cost more to set up
+  /// than most of its rays' roots).
+  struct RootBuffer {
+    static constexpr size_t kInline = 32;
+    RootBuffer() {}
+    union {
+      RawHit inline_hits[kInline];
+    };
+    std::vector<RawHit> spill;
+    size_t count = 0;
+    void push(const RawHit& h);
+  };
+  /// The crossings of `ray` from its roots: sorted (a total order), each facing from the
+  /// patch normal, duplicates (one point found by two pieces or patches) dropped.
+  void finish_crossings(const Ray& ray, RootBuffer* roots, std::vector<Crossing>* out) const;
+  /// Two orthonormal planes whose intersection is the ray (Newton's two equations).
+  static void ray_planes(const Ray& ray, double plane[2][4]);
+  /// The roots on `ray` (planes from ray_planes) in the pieces of BVH leaf n, t in
+  /// [tmin, *closest] (read at each piece: a nearest-hit visitor lowers it); a trimmed
+  /// piece's only where its trim keeps them.
+  template <typename Visit>
+  void solve_leaf(const BvhNode& n, const Ray& ray, const double plane[2][4], float tmin,
+                  const float* closest, Visit&& visit) const;
   template <typename Visit>
   // Visits every root in the pieces whose boxes the ray meets up to *tmax; a visitor that
   // lowers *tmax (nearest hit) prunes the rest of the traversal.

@@ -222,6 +222,71 @@ TEST(PatchSurface, CrossingsAreSortedAndDeduplicated) {
   EXPECT_EQ(cr.size(), 2u);  // a single wall each side (the wall has no thickness)
 }
 
+/// crossings_many (packets of eight) against crossings, ray by ray, bit for bit.
+void expect_many_matches_single(const PatchSurface& s, const std::vector<Ray>& rays,
+                                const std::vector<float>& tmin, const std::vector<float>& tmax,
+                                size_t* crossings_seen) {
+  std::vector<std::vector<Crossing>> many(rays.size());
+  s.crossings_many(rays.data(), rays.size(), tmin.data(), tmax.data(), many.data());
+  std::vector<Crossing> single;
+  for (size_t i = 0; i < rays.size(); ++i) {
+    s.crossings(rays[i], tmin[i], tmax[i], &single);
+    ASSERT_EQ(many[i].size(), single.size()) << "ray " << i;
+    for (size_t k = 0; k < single.size(); ++k) {
+      EXPECT_EQ(std::memcmp(&many[i][k].t, &single[k].t, sizeof(float)), 0) << i << " " << k;
+      EXPECT_EQ(many[i][k].facing, single[k].facing) << i << " " << k;
+      EXPECT_EQ(many[i][k].prim, single[k].prim) << i << " " << k;
+    }
+    *crossings_seen += single.size();
+  }
+}
+
+TEST(PatchPackets, CameraRaysIncoherentRaysAndSegmentsEqualSingleRays) {
+  // PatchSurface::crossings_many walks eight rays at once through the 4-wide BVH (the
+  // renderer's prefetch of a tile's camera rays); each ray's crossings must be exactly its
+  // single-ray walk's: a camera's rows (coherent), random rays (incoherent), partial packets
+  // (a count not a multiple of 8), segments that start or end inside the teapot, empty ones;
+  // on the teapot and on a trimmed cup.
+  Result<PatchSet> cup = load_bpt(std::string(HFRT_SOURCE_DIR) + "/examples/data/trimmed_cup.bpt");
+  ASSERT_TRUE(cup.ok());
+  const std::unique_ptr<PatchSurface> cup_surface = PatchSurface::build(*cup);
+  for (const PatchSurface* s :
+       {&teapot_surface(), static_cast<const PatchSurface*>(cup_surface.get())}) {
+    const Box box = s->bounds();
+    const Vec3 eye = box.center() + Vec3{1.2f, -1.7f, 1.1f} * length(box.diagonal());
+    std::vector<Ray> rays;
+    std::vector<float> tmin, tmax;
+    const int n = 61;  // not a multiple of the packet
+    for (int j = 0; j < n; ++j)
+      for (int i = 0; i < n; ++i) {
+        const Vec3 f{(i + 0.5f) / n, 0.5f, (j + 0.5f) / n}, size = box.size();
+        const Vec3 target = box.lo + Vec3{f.x * size.x, f.y * size.y, f.z * size.z};
+        rays.push_back({eye, target - eye});
+        tmin.push_back(0);
+        tmax.push_back(kInf);
+      }
+    std::mt19937 rng(31);
+    std::uniform_real_distribution<float> t01(0, 1);
+    for (int i = 0; i < 2003; ++i) {
+      rays.push_back(random_ray(rng, box));
+      // Whole, starting or ending inside the box, or empty.
+      const int kind = i % 4;
+      tmin.push_back(kind == 1 ? t01(rng) : 0);
+      tmax.push_back(kind == 2 ? t01(rng) : kind == 3 ? 0.0f : kInf);
+    }
+    size_t seen = 0;
+    expect_many_matches_single(*s, rays, tmin, tmax, &seen);
+    EXPECT_GT(seen, rays.size() / 2);
+    // Partial packets: 1 to 7 rays.
+    for (size_t m = 1; m < 8; ++m) {
+      std::vector<Ray> r(rays.begin() + 1000, rays.begin() + 1000 + m);
+      std::vector<float> a(tmin.begin() + 1000, tmin.begin() + 1000 + m),
+          b(tmax.begin() + 1000, tmax.begin() + 1000 + m);
+      expect_many_matches_single(*s, r, a, b, &seen);
+    }
+  }
+}
+
 TEST(PatchSurface, FieldIsTheTessellationsWithinItsError) {
   const PatchSurface& s = teapot_surface();
   EXPECT_LT(s.field_error(), 0.01f);
