@@ -228,6 +228,7 @@ ClosestPoint PatchSurface::closest_point_on_patches(Vec3 p, float max_distance) 
   double best_u = 0, best_v = 0;
   DVec3 best_point;
   Vec3 best_normal;
+  double trimmed_away2 = std::numeric_limits<double>::infinity();
   auto try_piece = [&](uint32_t k, bool anywhere) {
     const Piece& pc = pieces_[k];
     double u, v;
@@ -236,8 +237,14 @@ ClosestPoint PatchSurface::closest_point_on_patches(Vec3 p, float max_distance) 
     if (!project_onto_piece(pc, q, anywhere, &u, &v, &x, &nrm)) return false;
     const double dx = x.x - q.x, dy = x.y - q.y, dz = x.z - q.z;
     const double d2 = dx * dx + dy * dy + dz * dz;
-    if (d2 <= best2 && (!pc.trimmed || set_.trim(pc.patch)->contains(u, v)))
-      best2 = d2, best_piece = k, best_u = u, best_v = v, best_point = x, best_normal = nrm;
+    if (!(d2 <= best2)) return true;
+    if (pc.trimmed && !set_.trim(pc.patch)->contains(u, v)) {
+      // Trimmed away: the piece's nearest kept point lies on its trim loop, which this search
+      // does not find (see below).
+      trimmed_away2 = std::min(trimmed_away2, d2);
+      return true;
+    }
+    best2 = d2, best_piece = k, best_u = u, best_v = v, best_point = x, best_normal = nrm;
     return true;
   };
   // Nearest first (the nearer child is visited first), pruned by the best distance so far. A
@@ -277,7 +284,9 @@ ClosestPoint PatchSurface::closest_point_on_patches(Vec3 p, float max_distance) 
     for (int i = 0; i < ndeferred; ++i)
       if (deferred_d2[i] <= best2) try_piece(deferred[i], true);
   }
-  if (best_piece == ~0u) return best;
+  // A trimmed piece's point nearer than the best was trimmed away: the closest kept point may
+  // be on that piece's trim loop. The tessellation (clipped to the kept region) answers.
+  if (best_piece == ~0u || trimmed_away2 < best2) return {};
   const uint32_t patch = pieces_[best_piece].patch;
   // Where Pu x Pv vanishes (a collapsed edge), the limit from inside the patch (normal()).
   const Vec3 nrm = length2(best_normal) > 0 ? best_normal : normal(patch, best_u, best_v);

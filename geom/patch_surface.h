@@ -118,7 +118,9 @@ class PatchSurface final : public Surface {
   bool unit_normal(uint32_t prim, const DVec3& pu, const DVec3& pv, Vec3* n) const;
   /// The closest point of the patches to p within max_distance: the pieces whose boxes lie
   /// that close, nearest first, each by project_onto_piece; a trimmed piece's point counts
-  /// only where the trim keeps it. prim ~0u when none (or no normal there).
+  /// only where the trim keeps it. prim ~0u when none, when a point trimmed away was nearer
+  /// than the one found (the closest kept point may then lie on a trim loop), or when there is
+  /// no normal there: closest_point then asks the tessellation.
   ClosestPoint closest_point_on_patches(Vec3 p, float max_distance) const;
   /// The point *x of piece pc nearest q (Gauss-Newton clamped to its rectangle) and its
   /// (u, v), with the unit normal there (0 where Pu x Pv is too short); unless `anywhere`,

@@ -527,6 +527,37 @@ TEST(TrimField, PatchesTrimmedAway) {
   EXPECT_NEAR(t->signed_distance({0.5f, 0.5f, 0}), -1.0f, 1e-5f);
 }
 
+TEST(TrimField, ClosestPointsNearTrimLoopsAreKeptPoints) {
+  // A closest-point query within a finite distance is answered on the patches themselves
+  // (PatchSurface::closest_point_on_patches), where a trimmed piece's projection counts only
+  // if the trim keeps it. Near a trim loop the kept closest point may lie on the loop, which
+  // that search does not find: it must then leave the answer to the tessellation (clipped to
+  // the kept region) rather than return a farther point. Points around the rim's hole and the
+  // flat disks' edges of the cup: the distance found is the tessellation's within its error.
+  Result<PatchSet> set = load_bpt(std::string(HFRT_SOURCE_DIR) + "/examples/data/trimmed_cup.bpt");
+  ASSERT_TRUE(set.ok()) << set.error().message;
+  const auto s = PatchSurface::build(*set);
+  std::mt19937 rng(41);
+  std::uniform_real_distribution<float> angle(0, 6.2831853f), off(-0.08f, 0.08f);
+  int checked = 0;
+  for (int k = 0; k < 2000; ++k) {
+    // Near the rim's inner loop (radius 0.8 at z = 1), the floor's edge (radius 0.8 at
+    // z = -0.6) and the base's edge (radius 1 at z = -1).
+    const float a = angle(rng);
+    const float r[3] = {0.8f, 0.8f, 1.0f}, z[3] = {1.0f, -0.6f, -1.0f};
+    const int which = k % 3;
+    const Vec3 q{(r[which] + off(rng)) * std::cos(a), (r[which] + off(rng)) * std::sin(a),
+                 z[which] + off(rng)};
+    const ClosestPoint c = s->closest_point(q, 0.3f);
+    const ClosestPoint f = s->field_mesh().closest_point(q);
+    ASSERT_NE(c.prim, ~0u) << k;
+    EXPECT_NEAR(c.distance, f.distance, s->field_error() + 1e-5f)
+        << k << " at " << q.x << " " << q.y << " " << q.z;
+    ++checked;
+  }
+  EXPECT_EQ(checked, 2000);
+}
+
 // ---- The example ------------------------------------------------------------------------
 
 TEST(TrimExample, TheCupIsASolid) {
