@@ -71,11 +71,11 @@ class Field {
   virtual void eval(size_t n, const float* x, const float* y, const float* z,
                     float* out_f) const = 0;
 
-  /// Values with F's sign at n points (out_f[i] >= 0 exactly where eval() gives F >= 0; NaN
-  /// where eval() gives NaN), for callers that only look at the side of a point: framing's
-  /// samples. A field whose side is cheaper than its value overrides it (a mesh or patch leaf
-  /// on a set-operation skeleton: a winding number instead of a distance query, see
-  /// app::ModelField). The default is eval().
+  /// Values with F's sign at n points (out_f[i] >= 0 where eval() gives F >= 0, NaN where it
+  /// gives NaN; on a mesh or patch leaf's own surface, where F is 0, either side), for callers
+  /// that only look at the side of a point: framing's samples. A field whose side is cheaper than
+  /// its value overrides it (a mesh or patch leaf on a set-operation skeleton: a winding number
+  /// instead of a distance query, see app::ModelField). The default is eval().
   virtual void eval_sides(size_t n, const float* x, const float* y, const float* z,
                           float* out_f) const {
     eval(n, x, y, z, out_f);
