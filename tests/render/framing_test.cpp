@@ -43,34 +43,12 @@ TEST(Framing, ExtentBySamplingWithoutIntervals) {
   EXPECT_LT(e.hi.x, 5.0f + 0.7f);
 }
 
-/// Counts the points evaluated through a wrapped field.
+/// Counts the points asked for their values (eval) and for their sides (eval_sides) apart.
 class CountingField final : public Field {
  public:
   explicit CountingField(const Field& f) : f_(f) {}
   void eval(size_t n, const float* x, const float* y, const float* z, float* out) const override {
     points += n;
-    f_.eval(n, x, y, z, out);
-  }
-  bool has_interval() const override { return f_.has_interval(); }
-  Interval eval_interval(const Box& box, bool* maybe_nan) const override {
-    return f_.eval_interval(box, maybe_nan);
-  }
-  void eval_gradient(size_t n, const float* x, const float* y, const float* z, float* f, float* dx,
-                     float* dy, float* dz) const override {
-    f_.eval_gradient(n, x, y, z, f, dx, dy, dz);
-  }
-  mutable size_t points = 0;
-
- private:
-  const Field& f_;
-};
-
-/// Counts the points asked for their values and for their sides apart.
-class SidesField final : public Field {
- public:
-  explicit SidesField(const Field& f) : f_(f) {}
-  void eval(size_t n, const float* x, const float* y, const float* z, float* out) const override {
-    values += n;
     f_.eval(n, x, y, z, out);
   }
   void eval_sides(size_t n, const float* x, const float* y, const float* z,
@@ -86,7 +64,7 @@ class SidesField final : public Field {
                      float* dy, float* dz) const override {
     f_.eval_gradient(n, x, y, z, f, dx, dy, dz);
   }
-  mutable size_t values = 0, sides = 0;
+  mutable size_t points = 0, sides = 0;
 
  private:
   const Field& f_;
@@ -98,10 +76,10 @@ TEST(Framing, SamplesAskForSidesNotValues) {
   for (bool intervals : {false, true}) {
     testing::BallsField balls({testing::BallsField::Ball{{3, -2, 1}, 2}});
     balls.set_has_interval(intervals);
-    SidesField f(balls);
+    CountingField f(balls);
     const Box e = find_extent(f, kDefaultBox, 6);
     EXPECT_GT(f.sides, 0u);
-    EXPECT_EQ(f.values, 0u);
+    EXPECT_EQ(f.points, 0u);
     EXPECT_NEAR(e.lo.x, 1.0f, 0.7f);
     EXPECT_NEAR(e.hi.x, 5.0f, 0.7f);
   }
@@ -141,7 +119,8 @@ TEST(Framing, SamplingSweepFindsTheSameBoxAsEveryGridPoint) {
   Box e = find_extent(counted_ball, kDefaultBox, depth);
   EXPECT_LE(e.lo.x, 1.0f);
   EXPECT_GE(e.hi.x, 5.0f);
-  EXPECT_LT(counted_ball.points, size_t(n) * n * n / 2);  // measured: a third
+  EXPECT_LT(counted_ball.sides, size_t(n) * n * n / 2);  // measured: a third
+  EXPECT_EQ(counted_ball.points, 0u);                    // the sweep asks for sides only
 }
 
 TEST(Framing, EmptyModelFallsBackToTheBox) {
