@@ -279,7 +279,7 @@ ClosestPoint PatchSurface::closest_point_on_patches(Vec3 p, float max_distance) 
     }
   }
   // On the surface (to rounding of its size): the deferred pieces cannot be nearer.
-  const double on_surface = 1e-6 * double(patch_size_.empty() ? 0 : bounds_.max_extent());
+  const double on_surface = 1e-6 * double(bounds_.max_extent());
   if (!(best2 <= on_surface * on_surface)) {
     for (int i = 0; i < ndeferred; ++i)
       if (deferred_d2[i] <= best2) try_piece(deferred[i], true);
@@ -333,6 +333,7 @@ bool PatchSurface::project_onto_piece(const Piece& pc, const DVec3& q, bool anyw
   // predicts is halved: off the surface, where |P - q| times the curvature exceeds the
   // parameters' speed (across the rim's tightly curved lip), Gauss-Newton alone overshoots
   // and oscillates.
+  // (prev_u, prev_v): the last point accepted, where the last step started.
   double prev_u = u, prev_v = v, prev_r2 = std::numeric_limits<double>::infinity(), want = 0;
   for (int it = 0; it < 24; ++it) {
     DVec3 pu, pv;
@@ -344,6 +345,7 @@ bool PatchSurface::project_onto_piece(const Piece& pc, const DVec3& q, bool anyw
       want *= 0.5;
       continue;
     }
+    prev_u = u, prev_v = v, prev_r2 = r2;
     const double a = pu.x * pu.x + pu.y * pu.y + pu.z * pu.z;
     const double b = pu.x * pv.x + pu.y * pv.y + pu.z * pv.z;
     const double c = pv.x * pv.x + pv.y * pv.y + pv.z * pv.z;
@@ -358,12 +360,11 @@ bool PatchSurface::project_onto_piece(const Piece& pc, const DVec3& q, bool anyw
       if (!unit_normal(pc.patch, pu, pv, n_out)) *n_out = {0, 0, 0};
       return true;
     }
-    prev_u = u, prev_v = v, prev_r2 = r2;
     want = -2 * (gu * (nu - u) + gv * (nv - v));  // the first-order decrease of r2
     u = nu, v = nv;
   }
-  u = prev_r2 < std::numeric_limits<double>::infinity() ? prev_u : u;
-  v = prev_r2 < std::numeric_limits<double>::infinity() ? prev_v : v;
+  // Out of steps, or no step from a collapsed edge: the last point accepted.
+  u = prev_u, v = prev_v;
   *u_out = u, *v_out = v;
   DVec3 pu, pv;
   *x_out = eval_patch(pc.patch, u, v, &pu, &pv);
