@@ -190,11 +190,7 @@ HFRT_PACKET_WALKS(__attribute__((target("avx2"))), walk_avx2)
 
 // Chosen once at start-up, not by a target_clones ifunc (whose resolver runs before
 // sanitizer runtimes are up: geom/bezier.cpp).
-bool cpu_has_avx2() {
-  __builtin_cpu_init();
-  return __builtin_cpu_supports("avx2");
-}
-const bool kCpuHasAvx2 = cpu_has_avx2();
+const bool kCpuHasAvx2 = packet::cpu_has_avx2();
 WalkFn g_walk = kCpuHasAvx2 ? walk_avx2 : walk_generic;
 
 }  // namespace

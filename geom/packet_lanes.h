@@ -30,6 +30,13 @@
 namespace hfrt::geom::packet {
 
 constexpr int kLanes = 8;
+
+/// Whether the CPU runs AVX2: the walks' AVX2 copies are chosen once at start-up by it (not by
+/// a target_clones ifunc, whose resolver runs before sanitizer runtimes are up).
+inline bool cpu_has_avx2() {
+  __builtin_cpu_init();
+  return __builtin_cpu_supports("avx2");
+}
 using F8 = float __attribute__((vector_size(32)));
 using I8 = int32_t __attribute__((vector_size(32)));
 constexpr float kInf = std::numeric_limits<float>::infinity();

@@ -689,11 +689,7 @@ __attribute__((target("avx2"))) void packet_walk_avx2(const WideBvh& wide,
   packet_walk_body(wide, nodes, rays, n, tmin, tmax, leaf, ctx);
 }
 
-bool cpu_has_avx2() {
-  __builtin_cpu_init();
-  return __builtin_cpu_supports("avx2");
-}
-const PacketWalk g_packet_walk = cpu_has_avx2() ? packet_walk_avx2 : packet_walk_generic;
+const PacketWalk g_packet_walk = packet::cpu_has_avx2() ? packet_walk_avx2 : packet_walk_generic;
 
 }  // namespace
 
@@ -704,12 +700,12 @@ void PatchSurface::crossings_packet(const Ray* rays, int n, const float* tmin, c
   RootBuffer roots[packet::kLanes];
   double planes[packet::kLanes][2][4];
   int have_planes = 0;
-  auto leaf = [&](const BvhNode& leaf, int lanes) {
+  auto leaf = [&](const BvhNode& node, int lanes) {
     for (int m = lanes; m; m &= m - 1) {
       const int i = __builtin_ctz(m);
       if (!(have_planes >> i & 1)) ray_planes(rays[i], planes[i]), have_planes |= 1 << i;
       RootBuffer& r = roots[i];
-      solve_leaf(leaf, rays[i], planes[i], tmin[i], &tmax[i], [&](const RawHit& h) { r.push(h); });
+      solve_leaf(node, rays[i], planes[i], tmin[i], &tmax[i], [&](const RawHit& h) { r.push(h); });
     }
   };
   const PacketLeaf call = [](void* ctx, const BvhNode& l, int lanes) {
