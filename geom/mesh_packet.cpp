@@ -6,7 +6,8 @@
 // and a leaf's triangles each against the eight rays in one 8-lane watertight test (Wald et
 // al. 2001's packets on Woop et al. 2013's test; Embree's rtcIntersect8 does the same). The
 // stack holds a node with the smallest entry distance of the rays that meet it; a node is
-// skipped when that exceeds every live ray's current limit.
+// skipped when that exceeds every live ray's current limit. (That walk is geom/packet_lanes.h,
+// shared with PatchSurface's packets; this file has the triangles' part.)
 //
 // Results equal the single-ray queries': each lane runs the scalar watertight test's IEEE
 // operations in the same order (geom/ builds with -ffp-contract=off; a true division), with the
