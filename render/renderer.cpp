@@ -316,6 +316,8 @@ class TileRenderer {
                                    ts.pf_o.size());
   }
 
+  /// The analytic search, or the interval search without the march first, of one camera
+  /// sample (the sign-change search of a tile's samples is search_primary_sign).
   void search_primary(Sample& s, ThreadState& ts) {
     float te, tx;
     if (!box_range(s.ray, &te, &tx, &s.cap_axis)) return;
@@ -335,13 +337,12 @@ class TileRenderer {
       if (h.hit) set_hit(s, h);
       return;
     }
+    HFRT_CHECK(use_interval_);
     float dlen = length(s.ray.d);
     for (const Span& span : ts.spans) {
       float a = std::max(span.a, te), b = std::min(span.b, tx);
       if (!(a <= b)) continue;
-      RootHit h = use_interval_
-                      ? ts.searcher.interval_search(s.ray, a, b, eps_ / dlen, step_ / dlen, false)
-                      : ts.searcher.sign_search(s.ray, a, b, step_ / dlen, eps_ / dlen, false);
+      RootHit h = ts.searcher.interval_search(s.ray, a, b, eps_ / dlen, step_ / dlen, false);
       if (!h.hit) continue;
       h.at_start = h.at_start && a == te;
       set_hit(s, h);
@@ -349,8 +350,8 @@ class TileRenderer {
     }
   }
 
-  /// The sign-change search of the tile's camera samples: search_primary's marches span by
-  /// span, the tile's samples together (RootSearcher::sign_search_batch), in rounds of the
+  /// The sign-change search of the tile's camera samples: each sample's spans marched in
+  /// order, the tile's samples together (RootSearcher::sign_search_batch), in rounds of the
   /// next span of every sample still without a hit.
   void search_primary_sign(ThreadState& ts) {
     const size_t n = ts.samples.size();
