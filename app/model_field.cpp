@@ -467,12 +467,28 @@ std::string describe_surfaces(const Model& model) {
   int leaves = 0, shared = 0;
   for (const SurfaceStats& s : surfaces) {
     char buf[512];
+    // What the field is made of: a mesh's triangles, a patch set's tessellation, or (the
+    // exact field) the patches' pieces and open borders.
+    char what[160];
+    if (s.patches > 0 && s.exact_field) {
+      std::snprintf(what, sizeof what,
+                    "%zu patches, %zu pieces, exact field (%zu open border curves, no "
+                    "tessellation)",
+                    s.patches, s.pieces, s.boundary_curves);
+    } else if (s.patches > 0) {
+      std::snprintf(what, sizeof what,
+                    "%zu triangles (field tessellation), %zu patches, %zu pieces, %zu degenerate "
+                    "skipped",
+                    s.triangles, s.patches, s.pieces, s.degenerate_skipped);
+    } else {
+      std::snprintf(what, sizeof what, "%zu triangles, %zu degenerate skipped", s.triangles,
+                    s.degenerate_skipped);
+    }
     std::snprintf(
         buf, sizeof buf,
-        "  surface %s: %zu triangles%s, %zu patches, %zu degenerate skipped, %zu BVH "
-        "nodes (depth %d), built in %.1f ms, %.1f MiB, used by %d leaf%s%s\n",
-        s.source.c_str(), s.triangles, s.patches > 0 ? " (field tessellation)" : "", s.patches,
-        s.degenerate_skipped, s.bvh_nodes, s.bvh_depth, s.build_seconds * 1e3,
+        "  surface %s: %s, %zu BVH nodes (depth %d), built in %.1f ms, %.1f MiB, used by %d "
+        "leaf%s%s\n",
+        s.source.c_str(), what, s.bvh_nodes, s.bvh_depth, s.build_seconds * 1e3,
         double(s.memory_bytes) / (1 << 20), s.leaves, s.leaves == 1 ? "" : "s",
         s.patches > 0 ? ""
         : s.closed    ? ", closed"

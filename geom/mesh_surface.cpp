@@ -802,92 +802,16 @@ double MeshSurface::winding_number(Vec3 p) const {
   return omega / (4 * std::numbers::pi);
 }
 
-MeshSurface::~MeshSurface() {
-  delete side_grid_.load(std::memory_order_acquire);
-}
-
-const MeshSurface::SideGrid& MeshSurface::side_grid() const {
-  if (const SideGrid* g = side_grid_.load(std::memory_order_acquire)) return *g;
-  // Cells of 1/48 of the bounds' largest side, over the bounds grown by a cell (the teapot:
-  // ~45k cells of five bytes). On a teapot frame 48 asks the fewest winding numbers of 32,
-  // 48 and 96 with the images unchanged (96: 1 % fewer instructions, one pixel different,
-  // where the lid's gap makes w fractional).
-  auto grid = std::make_unique<SideGrid>();
-  const Box b = bounds();
-  const float extent = b.max_extent();
-  grid->h = extent > 0 && std::isfinite(extent) ? extent / 48 : 0;
-  if (grid->h > 0 && std::isfinite(1 / grid->h)) {
-    grid->inv_h = 1 / grid->h;
-    grid->lo = b.lo - Vec3{grid->h, grid->h, grid->h};
-    size_t total = 1;
-    for (int a = 0; a < 3; ++a) {
-      grid->n[a] = std::clamp(int(std::ceil((b.hi[a] - b.lo[a]) * grid->inv_h)) + 2, 1, 64);
-      total *= size_t(grid->n[a]);
-    }
-    grid->cells = std::make_unique<std::atomic<uint8_t>[]>(total);  // value-initialised: 0
-    grid->ball_r2 = std::make_unique<std::atomic<float>[]>(total);
-  }
-  SideGrid* expected = nullptr;
-  SideGrid* mine = grid.get();
-  if (side_grid_.compare_exchange_strong(expected, mine, std::memory_order_acq_rel)) {
-    grid.release();
-    return *mine;
-  }
-  return *expected;  // another thread's, made at the same time
-}
+MeshSurface::~MeshSurface() = default;
 
 bool MeshSurface::inside(Vec3 p) const {
-  const SideGrid& g = side_grid();
-  if (!g.cells) return winding_number(p) >= 0.5;
-  int c[3];
-  for (int a = 0; a < 3; ++a) {
-    const float f = (p[a] - g.lo[a]) * g.inv_h;
-    // Outside the grid (or NaN): the point's own winding number.
-    if (!(f >= 0 && f < float(g.n[a]))) return winding_number(p) >= 0.5;
-    c[a] = std::min(int(f), g.n[a] - 1);
-  }
-  const size_t index = (size_t(c[2]) * g.n[1] + c[1]) * g.n[0] + c[0];
-  std::atomic<uint8_t>& cell = g.cells[index];
-  const Vec3 centre{g.lo.x + (float(c[0]) + 0.5f) * g.h, g.lo.y + (float(c[1]) + 0.5f) * g.h,
-                    g.lo.z + (float(c[2]) + 0.5f) * g.h};
-  uint8_t state = cell.load(std::memory_order_acquire);
-  if (state == SideGrid::kUnknown) {
-    // Every point the index computation above puts in the cell is within half the diagonal
-    // of a cell grown by a hundredth of a cell of its centre. With no surface in that ball
-    // the whole cell has the centre's side (the segment to the centre meets no triangle);
-    // otherwise the ball of radius d, the centre's distance to the surface, still does
-    // (shrunk for the rounding of d) when it is not too small to be worth a winding number.
-    const float half_diag = 0.5f * std::sqrt(3.0f) * 1.02f * g.h;
-    const ClosestPoint near = closest_point(centre, half_diag);
-    const bool clear = near.prim == ~0u;
-    const float r = clear ? half_diag : near.distance * (1.0f - 1e-5f);
-    if (clear || r > 0.1f * g.h) {
-      const bool in = winding_number(centre) >= 0.5;
-      if (clear) {
-        state = in ? SideGrid::kInside : SideGrid::kOutside;
-      } else {
-        g.ball_r2[index].store(r * r, std::memory_order_relaxed);
-        state = in ? SideGrid::kBallInside : SideGrid::kBallOutside;
-      }
-    } else {
-      state = SideGrid::kNear;
-    }
-    cell.store(state, std::memory_order_release);
-  }
-  switch (state) {
-    case SideGrid::kInside:
-      return true;
-    case SideGrid::kOutside:
-      return false;
-    case SideGrid::kBallInside:
-    case SideGrid::kBallOutside:
-      if (length2(p - centre) < g.ball_r2[index].load(std::memory_order_relaxed))
-        return state == SideGrid::kBallInside;
-      break;
-    default:
-      break;
-  }
-  return winding_number(p) >= 0.5;
+  return side_grid_.get(bounds()).inside(
+      p,
+      [this](Vec3 c, float r) {
+        const ClosestPoint near = closest_point(c, r);
+        return near.prim == ~0u ? std::numeric_limits<float>::infinity() : near.distance;
+      },
+      [this](Vec3 q) { return winding_number(q); });
 }
 
 double MeshSurface::winding_number_exact(Vec3 p) const {
@@ -983,9 +907,7 @@ SurfaceStats MeshSurface::stats() const {
 }
 
 size_t MeshSurface::memory_bytes() const {
-  size_t grid = 0;  // inside()'s cells, once made
-  if (const SideGrid* g = side_grid_.load(std::memory_order_acquire); g && g->cells)
-    grid = sizeof(SideGrid) + size_t(g->n[0]) * g->n[1] * g->n[2] * (1 + sizeof(float));
+  const size_t grid = side_grid_.memory_bytes();  // inside()'s cells, once made
   return sizeof(*this) + nodes_.capacity() * sizeof(BvhNode) + corners_.capacity() * sizeof(Vec3) +
          prim_order_.capacity() * sizeof(uint32_t) + dipoles_.capacity() * sizeof(WideDipole) +
          wide_.memory_bytes() + grid;

@@ -21,6 +21,7 @@
 #include "base/once.h"
 #include "geom/bvh.h"
 #include "geom/mesh.h"
+#include "geom/side_grid.h"
 #include "geom/surface.h"
 #include "geom/wide_bvh.h"
 
@@ -65,12 +66,8 @@ class MeshSurface final : public Surface {
   void crossings_many(const Ray* rays, size_t n, const float* tmin, const float* tmax,
                       std::vector<Crossing>* out) const override;
   double winding_number(Vec3 p) const override;
-  /// winding_number(p) >= 1/2 through a grid of cells over the mesh's bounds, filled on first
-  /// use: a point within the distance from its cell's centre to the mesh (the whole cell when
-  /// that exceeds half the cell's diagonal) takes the side of the centre (one winding number
-  /// per cell instead of one per point: the renderer's sign samples of open meshes and
-  /// patches, which the crossings of a ray cannot decide), any other point its own winding
-  /// number. Thread-safe (cells are atomic; two threads may compute the same cell).
+  /// winding_number(p) >= 1/2 through a SideGrid over the mesh's bounds (geom/side_grid.h):
+  /// one winding number per cell near which the mesh does not pass, not one per point.
   bool inside(Vec3 p) const override;
   float signed_distance(Vec3 p, Vec3* gradient = nullptr) const override;
   DistanceBounds signed_distance_bounds(const Box& box) const override;
@@ -137,28 +134,6 @@ class MeshSurface final : public Surface {
  private:
   MeshSurface() = default;
 
-  /// inside()'s cells: kUnknown until asked, then the side of the cell's centre for the whole
-  /// cell (no surface within half its diagonal of the centre), or for the ball around the
-  /// centre that holds no surface (its squared radius in ball_r2; kBall* states), or kNear
-  /// (the surface passes next to the centre: nothing kept).
-  struct SideGrid {
-    enum : uint8_t {
-      kUnknown = 0,
-      kNear = 1,
-      kInside = 2,
-      kOutside = 3,
-      kBallInside = 4,
-      kBallOutside = 5
-    };
-    Vec3 lo;
-    float h = 0, inv_h = 0;
-    int n[3] = {0, 0, 0};
-    std::unique_ptr<std::atomic<uint8_t>[]> cells;
-    /// Written before its cell's state (release); atomic because two threads may compute the
-    /// same cell at once (the same value: relaxed).
-    std::unique_ptr<std::atomic<float>[]> ball_r2;
-  };
-  const SideGrid& side_grid() const;
   static std::unique_ptr<MeshSurface> build(const TriangleMesh& mesh, const Options& options,
                                             std::span<const uint64_t> keys);
 
@@ -202,7 +177,7 @@ class MeshSurface final : public Surface {
   SurfaceStats stats_;
   mutable SettledOnce topology_once_;  ///< sets topology_
   mutable SurfaceTopology topology_;
-  mutable std::atomic<SideGrid*> side_grid_{nullptr};  ///< made on first inside(); owned
+  LazySideGrid side_grid_;  ///< made on first inside()
 };
 
 }  // namespace hfrt::geom

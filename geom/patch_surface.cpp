@@ -13,6 +13,9 @@ namespace hfrt::geom {
 namespace {
 
 constexpr int kMaxRefine = 3;  // extra on-the-fly splits of a piece where Newton fails
+/// A ray steeper than kFold x delta / side against a piece's corner triangles meets it once
+/// (solve_piece).
+constexpr float kFold = 8;
 constexpr int kMaxNewton = 10;
 constexpr double kHitTolerance = 1e-7;  // residual, relative to the patch size
 
@@ -163,12 +166,24 @@ std::unique_ptr<PatchSurface> PatchSurface::build(const PatchSet& set, const Opt
     field_options.bvh.max_leaf_size = 2;
     if (clean.ok()) s->field_ = MeshSurface::build_grouped(*clean, keys, field_options);
   };
-  par::parallel_invoke(build_pieces, build_field);
+  bool trimmed = false;
+  for (uint32_t p = 0; p < set.patches.size(); ++p) trimmed = trimmed || set.trim(p) != nullptr;
+  if (options.exact_field && !trimmed) {
+    // The exact field needs no tessellation: the pieces, and the borders that do not cancel.
+    par::parallel_invoke(build_pieces, [&] { s->boundary_ = BoundaryCurves::build(set); });
+    s->exact_ = !s->pieces_.empty();
+    clean = TriangleMesh{};
+  } else {
+    par::parallel_invoke(build_pieces, build_field);
+  }
   s->field_error_ = err;
   const auto end = std::chrono::steady_clock::now();
 
   s->stats_.source = set.source;
   s->stats_.patches = set.patches.size();
+  s->stats_.pieces = s->pieces_.size();
+  s->stats_.exact_field = s->exact_;
+  s->stats_.boundary_curves = s->boundary_.curves().size();
   s->stats_.triangles = s->field_ ? s->field_->num_triangles() : 0;
   s->stats_.degenerate_skipped = clean.ok() ? clean->degenerate_skipped : all_triangles;
   s->stats_.bvh_nodes = s->nodes_.size() + (s->field_ ? s->field_->nodes().size() : 0);
@@ -179,6 +194,7 @@ std::unique_ptr<PatchSurface> PatchSurface::build(const PatchSet& set, const Opt
       s->pieces_.capacity() * sizeof(Piece) + s->piece_cp_.capacity() * sizeof(BezierPatch) +
       (s->field_ ? s->field_->memory_bytes() : 0) + s->field_uv_.capacity() * sizeof(TriangleUV);
   for (const Trim& t : s->set_.trims) s->stats_.memory_bytes += sizeof(Trim) + t.memory_bytes();
+  s->stats_.memory_bytes += s->boundary_.memory_bytes();
   return s;
 }
 
@@ -193,6 +209,7 @@ bool PatchSurface::unit_normal(uint32_t prim, const DVec3& pu, const DVec3& pv, 
 }
 
 ClosestPoint PatchSurface::closest_point(Vec3 p, float max_distance) const {
+  if (exact_) return closest_point_on_patches(p, max_distance);
   if (!field_) return {};
   if (std::isfinite(max_distance)) {
     ClosestPoint c = closest_point_on_patches(p, max_distance);
@@ -210,11 +227,24 @@ ClosestPoint PatchSurface::closest_point(Vec3 p, float max_distance) const {
   return c;
 }
 
-ClosestPoint PatchSurface::closest_point_on_patches(Vec3 p, float max_distance) const {
-  ClosestPoint best;
+PatchSurface::Nearest PatchSurface::nearest_on_patches(Vec3 p, float max_distance) const {
+  Nearest best;
   if (nodes_.empty()) return best;
   const DVec3 q = to_d(p);
   double best2 = double(max_distance) * max_distance;
+  if (!std::isfinite(best2)) {
+    // No limit (a value off the surface): the corners of the piece whose box is nearest lie
+    // on the patches, so the nearest of them bounds the search (which finds that piece's
+    // point anyway); without it, the first pieces tried far from p set no useful bound.
+    uint32_t k = 0;
+    piece_box_distance2(Box(p, p), &k);
+    const BezierPatch& cp = piece_cp_[k];
+    const int last = cp.num_control_points() - 1;
+    for (int c : {0, cp.du, last - cp.du, last}) {
+      const Vec3 e = cp.cp[size_t(c)] - p;
+      best2 = std::min(best2, double(length2(e)) * (1 + 1e-5) + 1e-12);
+    }
+  }
   auto box_distance2 = [&](const BvhNode& n) {
     double d2 = 0;
     const double c[3] = {q.x, q.y, q.z};
@@ -224,13 +254,22 @@ ClosestPoint PatchSurface::closest_point_on_patches(Vec3 p, float max_distance) 
     }
     return d2;
   };
-  uint32_t best_piece = ~0u;
-  double best_u = 0, best_v = 0;
-  DVec3 best_point;
-  Vec3 best_normal;
-  double trimmed_away2 = std::numeric_limits<double>::infinity();
+  uint32_t& best_piece = best.piece;
+  double &best_u = best.u, &best_v = best.v;
+  DVec3& best_point = best.point;
+  Vec3& best_normal = best.normal;
+  double& trimmed_away2 = best.trimmed_away2;
   auto try_piece = [&](uint32_t k, bool anywhere) {
     const Piece& pc = pieces_[k];
+    // The piece lies within delta of its corner triangles: no nearer to p than they are, less
+    // delta. That rejects most of the pieces a box test lets through, without Newton.
+    const BezierPatch& cp = piece_cp_[k];
+    const Vec3 c00 = cp.control(0, 0), c10 = cp.control(cp.du, 0), c01 = cp.control(0, cp.dv),
+               c11 = cp.control(cp.du, cp.dv);
+    const float tri = std::sqrt(std::min(length2(closest_point_on_triangle(p, c00, c10, c11) - p),
+                                         length2(closest_point_on_triangle(p, c00, c11, c01) - p)));
+    const double lower = double(tri) * (1 - 1e-6) - double(pc.delta) * (1 + 1e-6);
+    if (lower > 0 && lower * lower > best2) return true;
     double u, v;
     DVec3 x;
     Vec3 nrm;
@@ -284,9 +323,20 @@ ClosestPoint PatchSurface::closest_point_on_patches(Vec3 p, float max_distance) 
     for (int i = 0; i < ndeferred; ++i)
       if (deferred_d2[i] <= best2) try_piece(deferred[i], true);
   }
+  best.d2 = best_piece == ~0u ? std::numeric_limits<double>::infinity() : best2;
+  return best;
+}
+
+ClosestPoint PatchSurface::closest_point_on_patches(Vec3 p, float max_distance) const {
+  const Nearest n = nearest_on_patches(p, max_distance);
   // A trimmed piece's point nearer than the best was trimmed away: the closest kept point may
   // be on that piece's trim loop. The tessellation (clipped to the kept region) answers.
-  if (best_piece == ~0u || trimmed_away2 < best2) return {};
+  if (n.piece == ~0u || n.trimmed_away2 < n.d2) return {};
+  const uint32_t best_piece = n.piece;
+  const double best_u = n.u, best_v = n.v, best2 = n.d2;
+  const DVec3 best_point = n.point;
+  const Vec3 best_normal = n.normal;
+  ClosestPoint best;
   const uint32_t patch = pieces_[best_piece].patch;
   // Where Pu x Pv vanishes (a collapsed edge), the limit from inside the patch (normal()).
   const Vec3 nrm = length2(best_normal) > 0 ? best_normal : normal(patch, best_u, best_v);
@@ -385,11 +435,56 @@ Vec3 PatchSurface::normal(uint32_t prim, double u, double v) const {
   return {0, 0, 0};
 }
 
+namespace {
+
+/// Whether the ray (direction d, planes from ray_planes) may meet the piece `sub` (corners
+/// p00..p11, within delta of its corner triangles) more than once. First a cheap test: the
+/// piece is a height field within delta of each corner triangle, its slope against them about
+/// kFold x delta / its shortest side at most, so a ray steeper than that meets it once. Else
+/// the exact one: the normal Pu x Pv is a convex combination of the cross products of the
+/// derivative nets' vectors (the differences of neighbouring control points), so when every
+/// such product has the same sign along d (in the plane across the ray: 2-D cross products of
+/// the vectors projected onto the two planes), the piece projects one-to-one along the ray.
+bool may_meet_twice(const BezierPatch& sub, const double plane[2][4], float delta, Vec3 p00,
+                    Vec3 p10, Vec3 p01, Vec3 p11, Vec3 d) {
+  const Vec3 e1 = p10 - p00, e2 = p11 - p00, e3 = p01 - p00;
+  const Vec3 na = cross(e1, e2), nb = cross(e2, e3);
+  const float side2 = std::min({length2(e1), length2(p11 - p10), length2(p11 - p01), length2(e3)});
+  const float steep = kFold * delta / std::sqrt(side2);
+  const float dl = length(d), da = dot(na, d), db = dot(nb, d);
+  if (std::abs(da) > steep * length(na) * dl && std::abs(db) > steep * length(nb) * dl &&
+      (da > 0) == (db > 0))
+    return false;
+  const int du = sub.du, dv = sub.dv;
+  auto project = [&](Vec3 v, double* x, double* y) {
+    *x = plane[0][0] * v.x + plane[0][1] * v.y + plane[0][2] * v.z;
+    *y = plane[1][0] * v.x + plane[1][1] * v.y + plane[1][2] * v.z;
+  };
+  double ax[12], ay[12], cx[12], cy[12];
+  int na_ = 0, nc = 0;
+  for (int j = 0; j <= dv; ++j)
+    for (int i = 0; i < du; ++i, ++na_)
+      project(sub.control(i + 1, j) - sub.control(i, j), &ax[na_], &ay[na_]);
+  for (int j = 0; j < dv; ++j)
+    for (int i = 0; i <= du; ++i, ++nc)
+      project(sub.control(i, j + 1) - sub.control(i, j), &cx[nc], &cy[nc]);
+  bool pos = false, neg = false;
+  for (int i = 0; i < na_; ++i)
+    for (int j = 0; j < nc; ++j) {
+      const double c = ax[i] * cy[j] - ay[i] * cx[j];
+      pos = pos || c > 0;
+      neg = neg || c < 0;
+    }
+  return pos == neg;  // both signs (or none: degenerate)
+}
+
+}  // namespace
+
 template <typename Visit>
 void PatchSurface::solve_piece(const Ray& ray, const double plane[2][4], uint32_t patch_id,
                                double u0, double u1, double v0, double v1, const BezierPatch& sub,
-                               float delta, int depth, float tmin, float tmax,
-                               Visit&& visit) const {
+                               float delta, int depth, float tmin, float tmax, Visit&& visit,
+                               bool split_folds) const {
   const DVec3 o = to_d(ray.org), d = to_d(ray.dir);
   const Vec3 p00 = sub.control(0, 0), p10 = sub.control(sub.du, 0), p01 = sub.control(0, sub.dv),
              p11 = sub.control(sub.du, sub.dv);
@@ -409,6 +504,13 @@ void PatchSurface::solve_piece(const Ray& ray, const double plane[2][4], uint32_
     if (std::min({f[k][0], f[k][1], f[k][2], f[k][3]}) > delta ||
         std::max({f[k][0], f[k][1], f[k][2], f[k][3]}) < -delta)
       return;
+  }
+  // A ray nearly parallel to the piece may meet it twice (a curved piece, a grazing ray), and
+  // Newton finds one root: such a piece is split, as below, until each part is met once.
+  if (split_folds && depth < kMaxRefine &&
+      may_meet_twice(sub, plane, delta, p00, p10, p01, p11, ray.dir)) {
+    refine(ray, plane, patch_id, u0, u1, v0, v1, sub, depth, tmin, tmax, visit, true);
+    return;
   }
   // Newton starts where the ray meets the corner quad's two triangles: the barycentrics of
   // the origin in the projected triangle (corners a, b, c), as a 3-D ray-triangle test would
@@ -496,6 +598,13 @@ void PatchSurface::solve_piece(const Ray& ray, const double plane[2][4], uint32_
   // ray, a silhouette -- is worth refining.
   if (converged || depth >= kMaxRefine) return;
   // Newton failed (grazing ray, silhouette): split and retry in the sub-pieces the ray meets.
+  refine(ray, plane, patch_id, u0, u1, v0, v1, sub, depth, tmin, tmax, visit, split_folds);
+}
+
+template <typename Visit>
+void PatchSurface::refine(const Ray& ray, const double plane[2][4], uint32_t patch_id, double u0,
+                          double u1, double v0, double v1, const BezierPatch& sub, int depth,
+                          float tmin, float tmax, Visit&& visit, bool split_folds) const {
   const WatertightRay wr(ray);
   const double um = 0.5 * (u0 + u1), vm = 0.5 * (v0 + v1);
   const double cu[3] = {u0, um, u1}, cv[3] = {v0, vm, v1};
@@ -507,7 +616,7 @@ void PatchSurface::solve_piece(const Ray& ray, const double plane[2][4], uint32_
       float tn;
       if (!slab_hit(wr, lo, hi, tmin, tmax, &tn)) continue;
       solve_piece(ray, plane, patch_id, cu[i], cu[i + 1], cv[j], cv[j + 1], child,
-                  piece_delta(child), depth + 1, tmin, tmax, visit);
+                  piece_delta(child), depth + 1, tmin, tmax, visit, split_folds);
     }
 }
 
@@ -526,12 +635,13 @@ void PatchSurface::ray_planes(const Ray& ray, double plane[2][4]) {
 
 template <typename Visit>
 void PatchSurface::solve_leaf(const BvhNode& n, const Ray& ray, const double plane[2][4],
-                              float tmin, const float* closest, Visit&& visit) const {
+                              float tmin, const float* closest, Visit&& visit,
+                              bool split_folds) const {
   for (uint32_t k = n.index; k < n.index + n.count; ++k) {
     const Piece& pc = pieces_[k];
     if (!pc.trimmed) {
       solve_piece(ray, plane, pc.patch, pc.u0, pc.u1, pc.v0, pc.v1, piece_cp_[k], pc.delta, 0, tmin,
-                  *closest, visit);
+                  *closest, visit, split_folds);
       continue;
     }
     // A trim loop crosses the piece: a root counts only where the trim keeps it. RawHit's
@@ -539,15 +649,18 @@ void PatchSurface::solve_leaf(const BvhNode& n, const Ray& ray, const double pla
     // at most one root, so a root trimmed away is not replaced by another. A separate
     // instantiation, so that the untrimmed path stays as fast as before.
     const Trim& trim = *set_.trim(pc.patch);
-    solve_piece(ray, plane, pc.patch, pc.u0, pc.u1, pc.v0, pc.v1, piece_cp_[k], pc.delta, 0, tmin,
-                *closest, [&](const RawHit& h) {
-                  if (trim.contains(h.u, h.v)) visit(h);
-                });
+    solve_piece(
+        ray, plane, pc.patch, pc.u0, pc.u1, pc.v0, pc.v1, piece_cp_[k], pc.delta, 0, tmin, *closest,
+        [&](const RawHit& h) {
+          if (trim.contains(h.u, h.v)) visit(h);
+        },
+        split_folds);
   }
 }
 
 template <typename Visit>
-void PatchSurface::trace(const Ray& ray, float tmin, float* tmax, Visit&& visit) const {
+void PatchSurface::trace(const Ray& ray, float tmin, float* tmax, Visit&& visit,
+                         bool split_folds) const {
   // Two planes whose intersection is the ray: set up at the first leaf only, as most rays of
   // a frame never reach one.
   double plane[2][4];
@@ -555,7 +668,7 @@ void PatchSurface::trace(const Ray& ray, float tmin, float* tmax, Visit&& visit)
   const WatertightRay r(ray);
   auto leaf = [&](const BvhNode& n, float* closest) {
     if (!have_planes) ray_planes(ray, plane), have_planes = true;
-    solve_leaf(n, ray, plane, tmin, closest, visit);
+    solve_leaf(n, ray, plane, tmin, closest, visit, split_folds);
   };
   if (nodes_.empty()) return;  // every patch trimmed away
   if (!wide_.empty()) {
@@ -715,7 +828,109 @@ void PatchSurface::crossings_packet(const Ray* rays, int n, const float* tmin, c
   for (int i = 0; i < n; ++i) finish_crossings(rays[i], &roots[i], &out[i]);
 }
 
+bool PatchSurface::ray_facings(const Ray& ray, float tmax, int* facings) const {
+  RootBuffer roots;
+  float limit = tmax;
+  bool doubtful = false;
+  trace(
+      ray, 0.0f, &limit,
+      [&](const RawHit& h) {
+        // Within 1e-5 of a border: the same crossing may be found by both patches of a seam, or
+        // by neither; grazing: a pair of roots may be found as one.
+        constexpr double kBorder = 1e-5, kGrazing = 1e-3;
+        const double u = h.u, v = h.v;
+        if (u < kBorder || u > 1 - kBorder || v < kBorder || v > 1 - kBorder) doubtful = true;
+        if (std::abs(dot(hit_normal(h), ray.dir)) < kGrazing * length(ray.dir)) doubtful = true;
+        roots.push(h);
+      },
+      /*split_folds=*/true);
+  if (doubtful) return false;
+  thread_local std::vector<Crossing> crossings;
+  finish_crossings(ray, &roots, &crossings);
+  int sum = 0;
+  for (const Crossing& c : crossings) sum += c.facing;
+  *facings = sum;
+  return true;
+}
+
+double PatchSurface::exact_winding_number(Vec3 p) const {
+  // Directions away from the axes and from each other, so that a point on an axis-aligned
+  // grid (the renderer's and the mesher's samples) does not send its ray along a seam.
+  static const std::array<DVec3, 8> kDirections = [] {
+    const double raw[8][3] = {{0.5137, 0.2713, 0.8140},  {-0.6823, 0.5521, 0.4791},
+                              {0.3379, -0.8861, 0.3172}, {-0.2531, -0.3797, -0.8898},
+                              {0.8527, 0.4389, -0.2834}, {-0.5903, -0.7142, 0.3761},
+                              {0.1473, 0.9217, -0.3589}, {-0.9011, 0.1687, -0.3993}};
+    std::array<DVec3, 8> d;
+    for (int i = 0; i < 8; ++i) {
+      const double l =
+          std::sqrt(raw[i][0] * raw[i][0] + raw[i][1] * raw[i][1] + raw[i][2] * raw[i][2]);
+      d[i] = {raw[i][0] / l, raw[i][1] / l, raw[i][2] / l};
+    }
+    return d;
+  }();
+  const DVec3 q = to_d(p);
+  // The directions in the order their rays leave the bounds soonest: fewer pieces on the way.
+  std::array<std::pair<float, int>, 8> order;
+  for (int i = 0; i < 8; ++i) {
+    const DVec3& s = kDirections[size_t(i)];
+    const float d[3] = {float(s.x), float(s.y), float(s.z)};
+    float exit = std::numeric_limits<float>::infinity();
+    for (int a = 0; a < 3; ++a)  // no direction component is 0
+      exit = std::min(exit, ((d[a] > 0 ? bounds_.hi[a] : bounds_.lo[a]) - p[a]) / d[a]);
+    order[size_t(i)] = {std::max(exit, 0.0f), i};
+  }
+  std::sort(order.begin(), order.end());
+  double w = 0;
+  for (const auto& [exit, i] : order) {
+    const DVec3& s = kDirections[size_t(i)];
+    bool reliable = true;
+    const double term = boundary_.string_term(q, s, &reliable);
+    int facings = 0;
+    const bool clear = ray_facings({p, to_f(s)}, std::numeric_limits<float>::infinity(), &facings);
+    w = term - facings;
+    // Every direction in doubt (a point on a border curve, or on a seam with every ray along
+    // the surface): the last answer, as good as any.
+    if (reliable && clear) break;
+  }
+  return w;
+}
+
+double PatchSurface::winding_number(Vec3 p) const {
+  if (exact_) return exact_winding_number(p);
+  return field_ ? field_->winding_number(p) : 0.0;
+}
+
+bool PatchSurface::inside(Vec3 p) const {
+  if (!exact_) return field_ && field_->inside(p);
+  return side_grid_.get(bounds_).inside(
+      p, [this](Vec3 q) { return exact_winding_number(q); },
+      [this](Vec3 c, float r) {
+        return float(std::min(boundary_.smooth_change(to_d(c), r), 1e30));
+      },
+      [this](Vec3 c, float r) {
+        // Farther than r is as good as r: the search stops there.
+        return float(std::sqrt(piece_box_distance2(Box(c, c), nullptr, double(r) * r)));
+      },
+      [this](Vec3 c, Vec3 q, int* sum) {
+        return ray_facings({c, q - c}, 1.0f, sum);
+      });
+}
+
 float PatchSurface::signed_distance(Vec3 p, Vec3* gradient) const {
+  if (exact_) {
+    const ClosestPoint c = closest_point_on_patches(p, std::numeric_limits<float>::infinity());
+    const bool in = inside(p);
+    if (gradient) {
+      if (c.distance > 0) {
+        const Vec3 away = (p - c.point) / c.distance;  // grows the distance
+        *gradient = in ? away : -away;
+      } else {
+        *gradient = -c.normal;  // on the surface: inward
+      }
+    }
+    return in ? c.distance : -c.distance;
+  }
   if (!field_) {
     if (gradient) *gradient = {0, 0, 0};
     return -std::numeric_limits<float>::max();
@@ -724,10 +939,89 @@ float PatchSurface::signed_distance(Vec3 p, Vec3* gradient) const {
 }
 
 DistanceBounds PatchSurface::signed_distance_bounds(const Box& box) const {
+  if (exact_) return exact_distance_bounds(box);
   if (!field_) return {-std::numeric_limits<float>::max(), -std::numeric_limits<float>::max()};
   DistanceBounds b = field_->signed_distance_bounds(box);
   // The field is the tessellation's: widen by its distance to the true patches.
   return {b.lo - field_error_, b.hi + field_error_};
+}
+
+double PatchSurface::piece_box_distance2(const Box& box, uint32_t* piece, double cap2) const {
+  double apart2 = cap2;
+  uint32_t near_piece = 0;
+  uint32_t stack[64];
+  int top = 0;
+  stack[top++] = 0;
+  auto box_distance2 = [&](const BvhNode& n) { return double(n.bounds().distance2(box)); };
+  while (top > 0) {
+    const BvhNode& n = nodes_[stack[--top]];
+    if (box_distance2(n) > apart2) continue;
+    if (!n.is_leaf()) {
+      const double d0 = box_distance2(nodes_[n.index]), d1 = box_distance2(nodes_[n.index + 1]);
+      HFRT_CHECK_LE(top + 2, 64);
+      // Nearer child on top.
+      if (d0 <= d1) {
+        if (d1 <= apart2) stack[top++] = n.index + 1;
+        if (d0 <= apart2) stack[top++] = n.index;
+      } else {
+        if (d0 <= apart2) stack[top++] = n.index;
+        if (d1 <= apart2) stack[top++] = n.index + 1;
+      }
+      continue;
+    }
+    for (uint32_t k = n.index; k < n.index + n.count; ++k) {
+      const double d2 = piece_cp_[k].control_bounds().distance2(box);
+      if (d2 < apart2) apart2 = d2, near_piece = k;
+    }
+    if (apart2 == 0) break;  // a piece's box meets the box: the bound is 0
+  }
+  if (piece) *piece = near_piece;
+  return apart2;
+}
+
+DistanceBounds PatchSurface::exact_distance_bounds(const Box& box) const {
+  // The nearest piece box (the pieces lie in their control-point boxes) and a point of the
+  // patches near the box: one of that piece's corners (on the patch), inside the box if one
+  // is.
+  uint32_t near_piece = 0;
+  const double apart2 = piece_box_distance2(box, &near_piece);
+  const BezierPatch& cp = piece_cp_[near_piece];
+  const int last = cp.num_control_points() - 1;
+  Vec3 vertex = cp.cp[0];
+  bool vertex_in_box = false;
+  for (int k : {0, cp.du, last - cp.du, last}) {
+    if (box.contains(cp.cp[size_t(k)])) {
+      vertex = cp.cp[size_t(k)], vertex_in_box = true;
+      break;
+    }
+  }
+  const float size = bounds_.max_extent();
+  // No point of the box is farther from the patches than from that point of them (rounded
+  // onto the patch to ~1e-7 of its size: the margin).
+  const float reach = std::sqrt(box.max_distance2(vertex)) * (1.0f + 1e-6f) + 1e-6f * size;
+  if (apart2 > 0) {
+    // No piece's box meets the box: the sign at its centre (exact for closed patch sets,
+    // whose winding number is constant off the surface), as MeshSurface's bounds do.
+    const float apart = float(std::sqrt(apart2)) * (1.0f - 1e-6f);
+    if (inside(box.center())) return {apart, reach};
+    return {-reach, -apart};
+  }
+  // A point of the patches in the box: F takes 0 there.
+  if (vertex_in_box) return {-reach, reach};
+  const Vec3 c = box.center();
+  const float half_diag = 0.5f * length(box.diagonal()) * (1.0f + 1e-6f);
+  // A search within half the diagonal finds the closest point when the box may hold the
+  // surface; only when it finds none are all the pieces searched.
+  Nearest near = nearest_on_patches(c, half_diag);
+  if (near.piece == ~0u) near = nearest_on_patches(c, std::numeric_limits<float>::infinity());
+  // Newton's closest point is exact to ~1e-7 of the size: a margin on both sides.
+  const float margin = 1e-5f * size;
+  const float dc = near.piece == ~0u ? 0.0f : float(std::sqrt(near.d2));
+  const float upper = std::min(dc + half_diag + margin, reach);
+  const float lower = dc - half_diag - margin;
+  if (lower <= 0) return {-upper, upper};
+  if (inside(c)) return {lower, upper};
+  return {-upper, -lower};
 }
 
 }  // namespace hfrt::geom

@@ -644,6 +644,9 @@ std::vector<SurfaceStats> Model::surface_stats() const {
     s.source = st.source;
     s.triangles = st.triangles;
     s.patches = st.patches;
+    s.pieces = st.pieces;
+    s.boundary_curves = st.boundary_curves;
+    s.exact_field = st.exact_field;
     s.degenerate_skipped = st.degenerate_skipped;
     s.bvh_nodes = st.bvh_nodes;
     s.bvh_depth = st.bvh_depth;

@@ -296,5 +296,25 @@ TEST(OpenSurfaceWarnings, NameTheOpenMeshAtItsCall) {
   fs::remove_all(dir);
 }
 
+TEST(DescribeSurfaces, SaysWhatEachFieldIsMadeOf) {
+  // The teapot's field is exact (its 16 open borders, no tessellation); the trimmed cup's
+  // goes through a tessellation; a mesh's is its triangles.
+  const struct {
+    const char* file;
+    const char* says;
+  } cases[] = {
+      {"/examples/teapot.hf",
+       "32 patches, 14216 pieces, exact field (16 open border curves, no tessellation)"},
+      {"/examples/trimmed.hf", "22208 triangles (field tessellation), 11 patches, 2051 pieces"},
+      {"/examples/armadillo.hf", "52000 triangles, 0 degenerate skipped"},
+  };
+  for (const auto& c : cases) {
+    CompileResult r = Model::compile_file(std::string(HFRT_SOURCE_DIR) + c.file);
+    ASSERT_TRUE(r.ok()) << r.rendered;
+    const std::string text = describe_surfaces(*r.model);
+    EXPECT_NE(text.find(c.says), std::string::npos) << text;
+  }
+}
+
 }  // namespace
 }  // namespace hfrt::app

@@ -35,6 +35,17 @@ const PatchSurface& teapot_surface() {
   return *s;
 }
 
+/// The teapot with its field through the tessellation (as a trimmed set's is), for the tests
+/// of that field and as a reference for the exact one.
+const PatchSurface& teapot_tessellated() {
+  static const std::unique_ptr<PatchSurface> s = [] {
+    PatchSurface::Options options;
+    options.exact_field = false;
+    return PatchSurface::build(teapot(), options);
+  }();
+  return *s;
+}
+
 TEST(Bpt, LoadsTheTeapot) {
   const PatchSet& t = teapot();
   ASSERT_EQ(t.patches.size(), 32u);
@@ -288,7 +299,8 @@ TEST(PatchPackets, CameraRaysIncoherentRaysAndSegmentsEqualSingleRays) {
 }
 
 TEST(PatchSurface, FieldIsTheTessellationsWithinItsError) {
-  const PatchSurface& s = teapot_surface();
+  const PatchSurface& s = teapot_tessellated();
+  ASSERT_TRUE(s.has_tessellation());
   EXPECT_LT(s.field_error(), 0.01f);
   // The teapot is not watertight (the lid sits on the rim with a gap), yet the body is
   // clearly inside and far points clearly outside.
@@ -300,6 +312,59 @@ TEST(PatchSurface, FieldIsTheTessellationsWithinItsError) {
   const SurfaceStats st = s.stats();
   EXPECT_EQ(st.patches, 32u);
   EXPECT_GT(st.triangles, 32u * 32 * 32);
+}
+
+// An untrimmed set's field needs no tessellation (geom/boundary_winding.h, closest points
+// on the pieces): its distances are the tessellation's within that one's error, its sides
+// the tessellation's away from the surface, and its bounds over a box hold every value in
+// the box (the magnitudes; for the open teapot the sign of a box clear of the patches is the
+// centre's, exact for closed sets only, as MeshSurface's).
+TEST(PatchSurface, ExactFieldIsTheTessellationsWithinItsErrorAndItsBoundsHoldIt) {
+  const PatchSurface& s = teapot_surface();
+  const PatchSurface& t = teapot_tessellated();
+  ASSERT_TRUE(s.has_field());
+  ASSERT_FALSE(s.has_tessellation());
+  EXPECT_EQ(s.field_error(), 0.0f);
+  EXPECT_EQ(s.stats().triangles, 0u);
+  EXPECT_GT(s.winding_number({0, 0, 1.2f}), 0.5);
+  EXPECT_LT(s.winding_number({0, 0, 8}), 0.1);
+  EXPECT_GT(s.signed_distance({0, 0, 1.2f}), 0.0f);
+  EXPECT_LT(s.signed_distance({5, 5, 5}), 0.0f);
+  const float size = length(s.bounds().diagonal());
+  const Box box = testing::grown(s.bounds(), 0.3f);
+  std::mt19937 rng(29);
+  std::uniform_real_distribution<float> u(0, 1);
+  auto point_in = [&](const Box& b) {
+    return Vec3{b.lo.x + u(rng) * (b.hi.x - b.lo.x), b.lo.y + u(rng) * (b.hi.y - b.lo.y),
+                b.lo.z + u(rng) * (b.hi.z - b.lo.z)};
+  };
+  int compared = 0;
+  for (int k = 0; k < 1500; ++k) {
+    const Vec3 p = point_in(box);
+    Vec3 g;
+    const float f = s.signed_distance(p, &g), ft = t.signed_distance(p);
+    EXPECT_NEAR(std::abs(f), std::abs(ft), t.field_error() + 1e-5f * size) << k;
+    EXPECT_NEAR(length(g), 1.0f, 1e-4f) << k;
+    EXPECT_EQ(f > 0, s.inside(p)) << k;
+    if (std::abs(ft) > 20 * t.field_error()) {
+      EXPECT_EQ(f > 0, ft > 0) << k << ": " << p.x << " " << p.y << " " << p.z;
+      ++compared;
+    }
+  }
+  EXPECT_GT(compared, 1000);
+  for (int k = 0; k < 300; ++k) {
+    const float side = size * std::pow(10.0f, -3.0f + 3.0f * u(rng));
+    const Vec3 lo = point_in(box);
+    const Box b(lo, lo + Vec3{side * (0.5f + u(rng)), side * (0.5f + u(rng)), side * u(rng)});
+    const DistanceBounds db = s.signed_distance_bounds(b);
+    ASSERT_LE(db.lo, db.hi) << k;
+    for (int i = 0; i < 12; ++i) {
+      const float f = std::abs(s.signed_distance(point_in(b)));
+      const float mag_lo = db.lo > 0 ? db.lo : (db.hi < 0 ? -db.hi : 0.0f);
+      EXPECT_LE(f, std::max(std::abs(db.lo), std::abs(db.hi)) + 1e-6f * size) << k;
+      EXPECT_GE(f, mag_lo - 1e-6f * size) << k;
+    }
+  }
 }
 
 // Newton's evaluator (eval_bicubic: double control points, x, y, z in vector lanes) gives
@@ -328,7 +393,7 @@ TEST(Bezier, VectorBicubicEvaluationIsTheScalarOneBitForBit) {
 // place (Pu x Pv where the closest tessellation point maps back to), not its tessellation
 // triangle's: several times closer to the true normal on average (faceted shading before).
 TEST(PatchSurface, ClosestPointCarriesThePatchNormal) {
-  const PatchSurface& s = teapot_surface();
+  const PatchSurface& s = teapot_tessellated();
   std::mt19937 rng(17);
   std::uniform_real_distribution<double> t(0.05, 0.95);
   double worst = 0, worst_triangle = 0, sum = 0, sum_triangle = 0;
@@ -379,7 +444,8 @@ TEST(PatchSurface, ClosestPointsNearThePatchesAreThePatchesOwn) {
     const ClosestPoint cq = s.closest_point(q, 2 * h);
     ASSERT_NE(cq.prim, ~0u) << k;
     EXPECT_LE(cq.distance, h * (1 + 1e-4f)) << k;
-    EXPECT_GE(cq.distance, s.field_mesh().closest_point(q).distance - s.field_error() - 1e-6f) << k;
+    const PatchSurface& t = teapot_tessellated();
+    EXPECT_GE(cq.distance, t.field_mesh().closest_point(q).distance - t.field_error() - 1e-6f) << k;
     EXPECT_NEAR(length(cq.point - q), cq.distance, 1e-5f * size) << k;
   }
   EXPECT_LT(worst_distance, 1e-6 * size);
@@ -458,7 +524,7 @@ TEST(PatchSurface, TessellationKeysNameEachTrianglesQuad) {
 // the hierarchy's error of the exact sum over the tessellation (no farther than those of the
 // SAH tree over the same triangles), and on the same side.
 TEST(PatchSurface, FieldWindingNumbersOfTheGroupedTreeMatchTheExactSum) {
-  const MeshSurface& field = teapot_surface().field_mesh();
+  const MeshSurface& field = teapot_tessellated().field_mesh();
   Result<TriangleMesh> mesh = finish_mesh(tessellate(teapot(), 32));
   ASSERT_TRUE(mesh.ok());
   const std::unique_ptr<MeshSurface> sah = MeshSurface::build(*mesh);

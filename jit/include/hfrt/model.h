@@ -179,8 +179,11 @@ enum class DomainEngine {
 /// hfBezierPatches), for `hfrt render --stats`.
 struct SurfaceStats {
   std::string source;    ///< the file, or the inline function's name
-  size_t triangles = 0;  ///< triangles (for patches: of the field's tessellation)
+  size_t triangles = 0;  ///< triangles (for patches: of the field's tessellation, if any)
   size_t patches = 0;
+  size_t pieces = 0;           ///< patches: the flat pieces rays are solved in
+  size_t boundary_curves = 0;  ///< patches' exact field: its open border curves
+  bool exact_field = false;    ///< patches: the field from the patches, no tessellation
   size_t degenerate_skipped = 0;
   size_t bvh_nodes = 0;
   int bvh_depth = 0;

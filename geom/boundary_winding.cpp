@@ -1,0 +1,343 @@
+#include "geom/boundary_winding.h"
+
+#include <immintrin.h>
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <map>
+#include <numbers>
+
+namespace hfrt::geom {
+namespace {
+
+DVec3 operator-(const DVec3& a, const DVec3& b) {
+  return {a.x - b.x, a.y - b.y, a.z - b.z};
+}
+double ddot(const DVec3& a, const DVec3& b) {
+  return a.x * b.x + a.y * b.y + a.z * b.z;
+}
+DVec3 lerp(const DVec3& a, const DVec3& b, double t) {
+  return {a.x + (b.x - a.x) * t, a.y + (b.y - a.y) * t, a.z + (b.z - a.z) * t};
+}
+
+/// Gauss-Legendre nodes and weights on [0, 1], six points: exact for degree 11; on a piece
+/// within a quarter of its distance (see kFar) the integrand's error is ~0.25^12 of it.
+constexpr int kGauss = BoundaryCurves::kGauss;
+constexpr double kNode[kGauss] = {0.033765242898423975, 0.16939530676686776, 0.3806904069584016,
+                                  0.6193095930415985,   0.8306046932331322,  0.966234757101576};
+constexpr double kWeight[kGauss] = {0.08566224618958517, 0.1803807865240693, 0.23395696728634552,
+                                    0.23395696728634552, 0.1803807865240693, 0.08566224618958517};
+
+/// A piece is summed directly when its control points' bounding sphere has a radius below
+/// kFar x its distance from p and its angle from the string is above kAngle x its angular
+/// radius; otherwise it is halved, at most kMaxDepth times.
+constexpr double kFar = 0.5, kAngle = 2.0;
+constexpr int kMaxDepth = 40;
+/// Levels of halves made once per curve (BoundaryCurves::tree_).
+constexpr int kTreeDepth = 4;
+
+/// The point and the derivative of curve c at t (de Casteljau down to two points).
+void point_and_derivative(const BezierCurve& c, double t, DVec3* x, DVec3* dx) {
+  const int n = c.degree;
+  std::array<DVec3, 7> q = c.cp;
+  for (int level = n; level > 1; --level)
+    for (int i = 0; i < level; ++i) q[i] = lerp(q[i], q[i + 1], t);
+  *x = lerp(q[0], q[1], t);
+  *dx = {n * (q[1].x - q[0].x), n * (q[1].y - q[0].y), n * (q[1].z - q[0].z)};
+}
+
+/// A(r) . w for r = (rx, ry, rz) from p to a point of the curve, w its weighted derivative.
+inline double potential_dot(double rx, double ry, double rz, const DVec3& s, double wx, double wy,
+                            double wz) {
+  const double len = std::sqrt(rx * rx + ry * ry + rz * rz);
+  const double along = rx * s.x + ry * s.y + rz * s.z;
+  const double cx = ry * s.z - rz * s.y, cy = rz * s.x - rx * s.z, cz = rx * s.y - ry * s.x;
+  // |r| - s.r without cancellation near the string: |r x s|^2 / (|r| + s.r) there.
+  const double gap = along > 0 ? (cx * cx + cy * cy + cz * cz) / (len + along) : len - along;
+  return (cx * wx + cy * wy + cz * wz) / (len * gap);
+}
+
+/// De Casteljau at 1/2: the left half's control points are the first of each level, the
+/// right half's the last.
+void halve(const BezierCurve& c, BezierCurve* left, BezierCurve* right) {
+  const int n = c.degree;
+  *left = c, *right = c;
+  std::array<DVec3, 7> q = c.cp;
+  left->cp[0] = q[0];
+  right->cp[n] = q[n];
+  for (int level = 1; level <= n; ++level) {
+    for (int i = 0; i + level <= n; ++i) q[i] = lerp(q[i], q[i + 1], 0.5);
+    left->cp[level] = q[0];
+    right->cp[n - level] = q[n - level];
+  }
+}
+
+/// The bounding sphere of a curve's control points (centre: their box's).
+void bounding_sphere(const BezierCurve& c, DVec3* centre, double* radius2) {
+  const int n = c.degree;
+  DVec3 lo = c.cp[0], hi = c.cp[0];
+  for (int i = 1; i <= n; ++i) {
+    lo = {std::min(lo.x, c.cp[i].x), std::min(lo.y, c.cp[i].y), std::min(lo.z, c.cp[i].z)};
+    hi = {std::max(hi.x, c.cp[i].x), std::max(hi.y, c.cp[i].y), std::max(hi.z, c.cp[i].z)};
+  }
+  const DVec3 m{0.5 * (lo.x + hi.x), 0.5 * (lo.y + hi.y), 0.5 * (lo.z + hi.z)};
+  double rho2 = 0;
+  for (int i = 0; i <= n; ++i) {
+    const DVec3 d = c.cp[i] - m;
+    rho2 = std::max(rho2, ddot(d, d));
+  }
+  *centre = m;
+  *radius2 = rho2;
+}
+
+/// Whether a piece with bounding sphere (m, rho2) is summed directly from p: within kFar of
+/// its distance, and its angle from s above kAngle = 4 times its angular radius a (cos 4a
+/// from sin a = rho / dist by the double-angle formula twice: no trigonometric call).
+bool direct(const DVec3& m, double rho2, const DVec3& p, const DVec3& s) {
+  const DVec3 r = m - p;
+  const double dist2 = ddot(r, r);
+  if (!(rho2 < kFar * kFar * dist2)) return false;
+  static_assert(kAngle == 2.0 && kFar * kFar <= 0.5);
+  // cos 2a = 1 - 2 sin^2 a > 0 here, so r.s < cos 2a |r| holds for r.s <= 0 and otherwise
+  // compares as squares (no square root).
+  const double cos2a = 1 - 2 * rho2 / dist2, along = ddot(r, s);
+  return along <= 0 || along * along < cos2a * cos2a * dist2;
+}
+
+/// The sum of A . w over a piece's eight samples (potential_dot in single precision, four
+/// lanes at a time: SSE, in the x86-64 baseline; std::sqrt would not vectorise, as it may set
+/// errno).
+double direct_sum(const BoundaryCurves::Samples& sm, float px, float py, float pz, float sx,
+                  float sy, float sz) {
+  __m128 acc = _mm_setzero_ps();
+  const __m128 vpx = _mm_set1_ps(px), vpy = _mm_set1_ps(py), vpz = _mm_set1_ps(pz);
+  const __m128 vsx = _mm_set1_ps(sx), vsy = _mm_set1_ps(sy), vsz = _mm_set1_ps(sz);
+  const __m128 zero = _mm_setzero_ps();
+  const __m128 abs_mask = _mm_castsi128_ps(_mm_set1_epi32(0x7fffffff));
+  for (int g = 0; g < 8; g += 4) {
+    const __m128 rx = _mm_sub_ps(_mm_loadu_ps(sm.x + g), vpx);
+    const __m128 ry = _mm_sub_ps(_mm_loadu_ps(sm.y + g), vpy);
+    const __m128 rz = _mm_sub_ps(_mm_loadu_ps(sm.z + g), vpz);
+    const __m128 len = _mm_sqrt_ps(
+        _mm_add_ps(_mm_add_ps(_mm_mul_ps(rx, rx), _mm_mul_ps(ry, ry)), _mm_mul_ps(rz, rz)));
+    const __m128 along =
+        _mm_add_ps(_mm_add_ps(_mm_mul_ps(rx, vsx), _mm_mul_ps(ry, vsy)), _mm_mul_ps(rz, vsz));
+    const __m128 cx = _mm_sub_ps(_mm_mul_ps(ry, vsz), _mm_mul_ps(rz, vsy));
+    const __m128 cy = _mm_sub_ps(_mm_mul_ps(rz, vsx), _mm_mul_ps(rx, vsz));
+    const __m128 cz = _mm_sub_ps(_mm_mul_ps(rx, vsy), _mm_mul_ps(ry, vsx));
+    const __m128 cc =
+        _mm_add_ps(_mm_add_ps(_mm_mul_ps(cx, cx), _mm_mul_ps(cy, cy)), _mm_mul_ps(cz, cz));
+    // |r| - s.r, as |r x s|^2 / (|r| + s.r) where s.r > 0 (no cancellation near the string).
+    const __m128 near_string = _mm_div_ps(cc, _mm_add_ps(len, _mm_and_ps(along, abs_mask)));
+    const __m128 away = _mm_sub_ps(len, along);
+    const __m128 pos = _mm_cmpgt_ps(along, zero);
+    const __m128 gap = _mm_or_ps(_mm_and_ps(pos, near_string), _mm_andnot_ps(pos, away));
+    const __m128 dot = _mm_add_ps(_mm_add_ps(_mm_mul_ps(cx, _mm_loadu_ps(sm.wx + g)),
+                                             _mm_mul_ps(cy, _mm_loadu_ps(sm.wy + g))),
+                                  _mm_mul_ps(cz, _mm_loadu_ps(sm.wz + g)));
+    acc = _mm_add_ps(acc, _mm_div_ps(dot, _mm_mul_ps(len, gap)));
+  }
+  float lanes[4];
+  _mm_storeu_ps(lanes, acc);
+  return double((lanes[0] + lanes[1]) + (lanes[2] + lanes[3]));
+}
+
+/// The integral of A . dc over curve c (string along s from p), by halves (see above).
+double integrate(const BezierCurve& c, const DVec3& p, const DVec3& s, int depth, bool* reliable) {
+  DVec3 m;
+  double rho2;
+  bounding_sphere(c, &m, &rho2);
+  if (rho2 == 0) return 0;  // a point: no length
+  if (!direct(m, rho2, p, s)) {
+    if (depth >= kMaxDepth) {
+      *reliable = false;
+      return 0;
+    }
+    BezierCurve left, right;
+    halve(c, &left, &right);
+    return integrate(left, p, s, depth + 1, reliable) + integrate(right, p, s, depth + 1, reliable);
+  }
+  double sum = 0;
+  for (int g = 0; g < kGauss; ++g) {
+    DVec3 x, dx;
+    point_and_derivative(c, kNode[g], &x, &dx);
+    sum += potential_dot(x.x - p.x, x.y - p.y, x.z - p.z, s, kWeight[g] * dx.x, kWeight[g] * dx.y,
+                         kWeight[g] * dx.z);
+  }
+  return sum;
+}
+
+}  // namespace
+
+BoundaryCurves BoundaryCurves::build(const PatchSet& set) {
+  std::vector<BezierCurve> borders;
+  for (const BezierPatch& b : set.patches) {
+    const int du = b.du, dv = b.dv;
+    auto at = [&](int i, int j) { return to_d(b.control(i, j)); };
+    BezierCurve c;
+    c.degree = du;  // v = 0, u from 0 to 1
+    for (int i = 0; i <= du; ++i) c.cp[i] = at(i, 0);
+    borders.push_back(c);
+    c.degree = dv;  // u = 1, v from 0 to 1
+    for (int j = 0; j <= dv; ++j) c.cp[j] = at(du, j);
+    borders.push_back(c);
+    c.degree = du;  // v = 1, u from 1 to 0
+    for (int i = 0; i <= du; ++i) c.cp[i] = at(du - i, dv);
+    borders.push_back(c);
+    c.degree = dv;  // u = 0, v from 1 to 0
+    for (int j = 0; j <= dv; ++j) c.cp[j] = at(0, dv - j);
+    borders.push_back(c);
+  }
+  // Borders by their control points in a canonical direction (the lexicographically smaller
+  // of the two): a border and its reverse land together and cancel in pairs.
+  using Key = std::vector<double>;
+  auto key_of = [](const BezierCurve& c, bool reversed) {
+    Key k;
+    for (int i = 0; i <= c.degree; ++i) {
+      const DVec3& q = c.cp[reversed ? c.degree - i : i];
+      k.insert(k.end(), {q.x, q.y, q.z});
+    }
+    return k;
+  };
+  std::map<Key, std::vector<std::pair<size_t, bool>>> groups;  // (border, reversed)
+  for (size_t i = 0; i < borders.size(); ++i) {
+    const BezierCurve& c = borders[i];
+    bool collapsed = true;
+    for (int k = 1; k <= c.degree; ++k)
+      collapsed =
+          collapsed && c.cp[k].x == c.cp[0].x && c.cp[k].y == c.cp[0].y && c.cp[k].z == c.cp[0].z;
+    if (collapsed) continue;
+    Key fwd = key_of(c, false), rev = key_of(c, true);
+    const bool reversed = rev < fwd;
+    groups[reversed ? std::move(rev) : std::move(fwd)].push_back({i, reversed});
+  }
+  BoundaryCurves out;
+  for (auto& [key, members] : groups) {
+    std::vector<size_t> fwd, rev;
+    for (const auto& [i, reversed] : members) (reversed ? rev : fwd).push_back(i);
+    const size_t cancelled = std::min(fwd.size(), rev.size());
+    for (size_t k = cancelled; k < fwd.size(); ++k) out.curves_.push_back(borders[fwd[k]]);
+    for (size_t k = cancelled; k < rev.size(); ++k) out.curves_.push_back(borders[rev[k]]);
+  }
+  // The pieces' trees, level by level (a curve's root first, so that tree_[i] is curve i).
+  auto add_node = [&](const BezierCurve& c) {
+    TreeNode t;
+    bounding_sphere(c, &t.centre, &t.radius2);
+    t.children = 0;
+    t.curve = ~0u;
+    out.tree_.push_back(t);
+    Samples sm;
+    for (int g = 0; g < 8; ++g) {
+      DVec3 x, dx;
+      point_and_derivative(c, kNode[std::min(g, kGauss - 1)], &x, &dx);
+      const double w = g < kGauss ? kWeight[g] : 0.0;  // padding: a copy of the last, weight 0
+      sm.x[g] = float(x.x), sm.y[g] = float(x.y), sm.z[g] = float(x.z);
+      sm.wx[g] = float(w * dx.x), sm.wy[g] = float(w * dx.y), sm.wz[g] = float(w * dx.z);
+    }
+    out.samples_.push_back(sm);
+  };
+  std::vector<std::pair<uint32_t, BezierCurve>> level;  // (node, its control points)
+  for (const BezierCurve& c : out.curves_) {
+    Sphere sp;
+    double rho2;
+    bounding_sphere(c, &sp.centre, &rho2);
+    sp.radius = std::sqrt(rho2);
+    sp.length = 0;
+    for (int i = 0; i < c.degree; ++i) {
+      const DVec3 d = c.cp[i + 1] - c.cp[i];
+      sp.length += std::sqrt(ddot(d, d));
+    }
+    out.spheres_.push_back(sp);
+    level.push_back({uint32_t(out.tree_.size()), c});
+    add_node(c);
+  }
+  for (int depth = 1; depth <= kTreeDepth; ++depth) {
+    std::vector<std::pair<uint32_t, BezierCurve>> next;
+    for (const auto& [node, c] : level) {
+      BezierCurve left, right;
+      halve(c, &left, &right);
+      out.tree_[node].children = uint32_t(out.tree_.size());
+      next.push_back({uint32_t(out.tree_.size()), left});
+      add_node(left);
+      next.push_back({uint32_t(out.tree_.size()), right});
+      add_node(right);
+    }
+    level.swap(next);
+  }
+  for (const auto& [node, c] : level) {
+    out.tree_[node].curve = uint32_t(out.pieces_.size());
+    out.pieces_.push_back(c);
+  }
+  return out;
+}
+
+namespace {
+
+/// The sum of length / distance^2 over curve c's pieces seen from the ball (c, r): a piece
+/// whose sphere is nearer than a quarter of its radius is halved (a tighter bound), at most
+/// kBoundDepth times (+inf when a piece's sphere then still meets the ball).
+constexpr int kBoundDepth = 8;
+double gradient_bound(const BezierCurve& curve, const DVec3& c, double r, int depth) {
+  DVec3 m;
+  double rho2;
+  bounding_sphere(curve, &m, &rho2);
+  const double rho = std::sqrt(rho2);
+  const DVec3 d = m - c;
+  const double gap = std::sqrt(ddot(d, d)) - rho - r;
+  if (gap > 0.25 * rho || (gap > 0 && depth >= kBoundDepth)) {
+    double length = 0;
+    for (int i = 0; i < curve.degree; ++i) {
+      const DVec3 e = curve.cp[i + 1] - curve.cp[i];
+      length += std::sqrt(ddot(e, e));
+    }
+    return length / (gap * gap);
+  }
+  if (depth >= kBoundDepth) return std::numeric_limits<double>::infinity();
+  BezierCurve left, right;
+  halve(curve, &left, &right);
+  const double a = gradient_bound(left, c, r, depth + 1);
+  return std::isfinite(a) ? a + gradient_bound(right, c, r, depth + 1) : a;
+}
+
+}  // namespace
+
+double BoundaryCurves::smooth_change(const DVec3& c, double r) const {
+  double sum = 0;
+  for (size_t i = 0; i < curves_.size() && std::isfinite(sum); ++i) {
+    const Sphere& sp = spheres_[i];
+    const DVec3 d = sp.centre - c;
+    const double gap = std::sqrt(ddot(d, d)) - sp.radius - r;
+    sum += gap > 0.25 * sp.radius ? sp.length / (gap * gap) : gradient_bound(curves_[i], c, r, 0);
+  }
+  // Rounding: a little more.
+  return sum * r / (4 * std::numbers::pi) * (1 + 1e-6);
+}
+
+double BoundaryCurves::string_term(const DVec3& p, const DVec3& s, bool* reliable) const {
+  *reliable = true;
+  const float px = float(p.x), py = float(p.y), pz = float(p.z);
+  const float sx = float(s.x), sy = float(s.y), sz = float(s.z);
+  double sum = 0;
+  uint32_t stack[2 * kTreeDepth + 2];
+  for (uint32_t i = 0; i < curves_.size(); ++i) {
+    int top = 0;
+    stack[top++] = i;
+    while (top > 0) {
+      const uint32_t k = stack[--top];
+      const TreeNode& t = tree_[k];
+      if (t.radius2 == 0) continue;  // a point: no length
+      if (direct(t.centre, t.radius2, p, s)) {
+        sum += direct_sum(samples_[k], px, py, pz, sx, sy, sz);
+      } else if (t.children != 0) {
+        stack[top++] = t.children + 1;
+        stack[top++] = t.children;
+      } else {
+        sum += integrate(pieces_[t.curve], p, s, kTreeDepth + 1, reliable);
+      }
+    }
+  }
+  return sum / (4 * std::numbers::pi);
+}
+
+}  // namespace hfrt::geom

@@ -1,0 +1,112 @@
+#pragma once
+// The generalised winding number of a surface from its boundary curves and the crossings of
+// one ray, with no discretisation of the surface (PatchSurface's exact field).
+//
+// Why it works (Stokes): the solid angle of a surface S seen from p is the flux through S of
+// the field r / |r|^3 (r = x - p). Away from a half-line ("Dirac string") from p in direction
+// s, that field is the curl of the monopole's vector potential
+//     A(r) = (r x s) / (|r| (|r| - s . r)),
+// so the flux through S is the line integral of A around the boundary of S, corrected by 4 pi
+// for every point where the string pierces S (the flux the string carries back). With
+// `facing` +1 where a ray enters S against its outward normal and -1 where it leaves:
+//     w(p) = (1 / 4 pi) * integral of A . dl over the boundary of S  -  sum of the facings of
+//            the crossings of the ray from p along s.
+// A closed surface has no boundary: w is minus the sum of the facings, an integer. An open
+// one (the Utah teapot) has a fractional w near its openings, which the boundary term gives
+// exactly, without the solid angle of any triangle.
+//
+// The curves: every patch's four borders, in the order (u, v) runs around [0,1]^2
+// counter-clockwise (right-handed about Pu x Pv, the outward normal), except a border whose
+// control points all coincide (a collapsed edge: no length) and the pairs of borders that
+// cancel (one the other's control points reversed: a seam of two patches, or of a patch with
+// itself). The teapot keeps 16 of its 128.
+//
+// The integral: each curve is split in de Casteljau halves until every piece is small and far
+// enough, seen from p, both from p and from the string (its control points' bounding sphere's
+// radius below half its distance, and its angle from s above twice its angular radius), then
+// summed by six-point Gauss-Legendre on each piece (error ~1e-4 of w at worst). The first four
+// levels of halves are made once, with their points (BoundaryCurves::tree_); deeper ones on
+// the fly. Near the string (a curve passing within ~1e-11 of the ray, 40 halvings) the split
+// would not end: the answer is then flagged unreliable and the caller picks another
+// direction.
+
+#include <array>
+#include <vector>
+
+#include "geom/bezier.h"
+
+namespace hfrt::geom {
+
+/// A Bézier curve in 3-D of degree 1..6 (a patch border: the patch's degree along it; up to 6
+/// leaves room for curves on a patch along a line in (u, v), as trim loops will need).
+struct BezierCurve {
+  int degree = 3;
+  std::array<DVec3, 7> cp{};
+};
+
+/// The boundary of a set of untrimmed Bézier patches, and the string term of its winding
+/// number (see the file comment).
+class BoundaryCurves {
+ public:
+  /// The oriented borders of `set`'s patches that do not cancel (see the file comment). The
+  /// patches' trims are not looked at: for untrimmed sets.
+  static BoundaryCurves build(const PatchSet& set);
+
+  /// (1 / 4 pi) x the line integral of A (string along the unit vector s from p) around the
+  /// curves: w(p) plus the sum of the facings of the ray from p along s. *reliable is set
+  /// false when a curve passes so close to the string (or to p) that the quadrature could not
+  /// resolve it; the value is then not to be trusted.
+  double string_term(const DVec3& p, const DVec3& s, bool* reliable) const;
+
+  /// A bound on how much the winding number's smooth part (w less its jumps across the
+  /// surface) changes within r of c: r x its gradient's bound, the Biot-Savart field of the
+  /// boundary, |grad w| <= (1 / 4 pi) x the sum over the curves of length / distance^2 (each
+  /// curve's control polygon's length, its distance from the ball bounded through its
+  /// control points' sphere, halved where that is loose). +inf when a piece's sphere still
+  /// meets the ball after 8 halvings (a ball on a curve); 0 without curves (a closed set: w
+  /// is constant off the surface).
+  double smooth_change(const DVec3& c, double r) const;
+
+  const std::vector<BezierCurve>& curves() const { return curves_; }
+  size_t memory_bytes() const {
+    return (curves_.capacity() + pieces_.capacity()) * sizeof(BezierCurve) +
+           spheres_.capacity() * sizeof(Sphere) + tree_.capacity() * sizeof(TreeNode) +
+           samples_.capacity() * sizeof(Samples);
+  }
+
+  /// Gauss-Legendre points per curve (see kFar in the .cpp).
+  static constexpr int kGauss = 6;
+  /// A piece's Gauss-Legendre points and their derivatives times the weights, in single
+  /// precision (w needs ~1e-5; the potential's float rounding is ~1e-6 of it), padded to
+  /// eight lanes with zero weights: the sum over a piece is two SSE steps.
+  struct Samples {
+    float x[8], y[8], z[8], wx[8], wy[8], wz[8];
+  };
+
+ private:
+  std::vector<BezierCurve> curves_;
+  /// Each curve's control points' bounding sphere: whether it is summed directly from p.
+  struct Sphere {
+    DVec3 centre;
+    double radius;
+    double length;  ///< of the control polygon (at least the curve's)
+  };
+  std::vector<Sphere> spheres_;
+  /// Each curve's halves, quarters, ... down to kTreeDepth levels, made once: a piece's
+  /// bounding sphere and its Gauss-Legendre points, which do not depend on p, so a piece
+  /// summed directly costs only the vector potential at its points. Curve i's whole is
+  /// tree_[i]; a piece's halves are tree_[children] and tree_[children + 1] (0: the deepest
+  /// level, whose pieces are halved on the fly when they need to be).
+  struct TreeNode {
+    DVec3 centre;
+    double radius2;
+    uint32_t children;
+    uint32_t curve;  ///< the piece's control points in pieces_ (the deepest level's only)
+  };
+  std::vector<TreeNode> tree_;
+  std::vector<BezierCurve> pieces_;
+  /// The samples of tree_[k].
+  std::vector<Samples> samples_;
+};
+
+}  // namespace hfrt::geom
