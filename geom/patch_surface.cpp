@@ -64,6 +64,34 @@ void halve_patch(int du, int dv, const std::array<DVec3, 16>& cp, std::array<DVe
       halve_curve(dv, half[a].data() + i, du + 1, out[0][a].data() + i, out[1][a].data() + i);
 }
 
+/// The leaves of a binary BVH nearest first by dist2(node), each visited as leaf(node, its
+/// dist2) unless farther than *bound (which the visits may lower); a visit returning false
+/// ends the walk. Nodes nearer than *bound are pushed nearer child last, so popped first.
+template <typename Dist, typename Leaf>
+void walk_nearest(const std::vector<BvhNode>& nodes, const Dist& dist2, const double* bound,
+                  Leaf&& leaf) {
+  uint32_t stack[64];
+  int top = 0;
+  stack[top++] = 0;
+  while (top > 0) {
+    const BvhNode& n = nodes[stack[--top]];
+    const double nd2 = dist2(n);
+    if (nd2 > *bound) continue;
+    if (!n.is_leaf()) {
+      const double d0 = dist2(nodes[n.index]), d1 = dist2(nodes[n.index + 1]);
+      HFRT_CHECK_LE(top + 2, 64);
+      if (d0 <= d1) {
+        if (d1 <= *bound) stack[top++] = n.index + 1;
+        if (d0 <= *bound) stack[top++] = n.index;
+      } else {
+        if (d0 <= *bound) stack[top++] = n.index;
+        if (d1 <= *bound) stack[top++] = n.index + 1;
+      }
+      continue;
+    }
+    if (!leaf(n, nd2)) return;
+  }
+}
 }  // namespace
 
 std::unique_ptr<PatchSurface> PatchSurface::build(const PatchSet& set, const Options& options) {
@@ -293,30 +321,13 @@ PatchSurface::Nearest PatchSurface::nearest_on_patches(Vec3 p, float max_distanc
   uint32_t deferred[kDeferMax];
   double deferred_d2[kDeferMax];
   int ndeferred = 0;
-  uint32_t stack[64];
-  int top = 0;
-  stack[top++] = 0;
-  while (top > 0) {
-    const BvhNode& n = nodes_[stack[--top]];
-    const double nd2 = box_distance2(n);
-    if (nd2 > best2) continue;
-    if (!n.is_leaf()) {
-      const double d0 = box_distance2(nodes_[n.index]), d1 = box_distance2(nodes_[n.index + 1]);
-      HFRT_CHECK_LE(top + 2, 64);
-      if (d0 <= d1) {
-        if (d1 <= best2) stack[top++] = n.index + 1;
-        if (d0 <= best2) stack[top++] = n.index;
-      } else {
-        if (d0 <= best2) stack[top++] = n.index;
-        if (d1 <= best2) stack[top++] = n.index + 1;
-      }
-      continue;
-    }
+  walk_nearest(nodes_, box_distance2, &best2, [&](const BvhNode& n, double nd2) {
     for (uint32_t k = n.index; k < n.index + n.count; ++k) {
       if (try_piece(k, ndeferred == kDeferMax)) continue;
       deferred[ndeferred] = k, deferred_d2[ndeferred] = nd2, ++ndeferred;
     }
-  }
+    return true;
+  });
   // On the surface (to rounding of its size): the deferred pieces cannot be nearer.
   const double on_surface = 1e-6 * double(bounds_.max_extent());
   if (!(best2 <= on_surface * on_surface)) {
@@ -949,32 +960,14 @@ DistanceBounds PatchSurface::signed_distance_bounds(const Box& box) const {
 double PatchSurface::piece_box_distance2(const Box& box, uint32_t* piece, double cap2) const {
   double apart2 = cap2;
   uint32_t near_piece = 0;
-  uint32_t stack[64];
-  int top = 0;
-  stack[top++] = 0;
   auto box_distance2 = [&](const BvhNode& n) { return double(n.bounds().distance2(box)); };
-  while (top > 0) {
-    const BvhNode& n = nodes_[stack[--top]];
-    if (box_distance2(n) > apart2) continue;
-    if (!n.is_leaf()) {
-      const double d0 = box_distance2(nodes_[n.index]), d1 = box_distance2(nodes_[n.index + 1]);
-      HFRT_CHECK_LE(top + 2, 64);
-      // Nearer child on top.
-      if (d0 <= d1) {
-        if (d1 <= apart2) stack[top++] = n.index + 1;
-        if (d0 <= apart2) stack[top++] = n.index;
-      } else {
-        if (d0 <= apart2) stack[top++] = n.index;
-        if (d1 <= apart2) stack[top++] = n.index + 1;
-      }
-      continue;
-    }
+  walk_nearest(nodes_, box_distance2, &apart2, [&](const BvhNode& n, double) {
     for (uint32_t k = n.index; k < n.index + n.count; ++k) {
       const double d2 = piece_cp_[k].control_bounds().distance2(box);
       if (d2 < apart2) apart2 = d2, near_piece = k;
     }
-    if (apart2 == 0) break;  // a piece's box meets the box: the bound is 0
-  }
+    return apart2 != 0;  // a piece's box meets the box: the bound is 0, stop
+  });
   if (piece) *piece = near_piece;
   return apart2;
 }
