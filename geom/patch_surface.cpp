@@ -768,6 +768,15 @@ void PatchSurface::crossings(const Ray& ray, float tmin, float tmax,
   finish_crossings(ray, &roots, out);
 }
 
+void PatchSurface::crossings_all(const Ray& ray, float tmin, float tmax,
+                                 std::vector<Crossing>* out) const {
+  RootBuffer roots;
+  float limit = tmax;
+  trace(
+      ray, tmin, &limit, [&](const RawHit& h) { roots.push(h); }, /*split_folds=*/true);
+  finish_crossings(ray, &roots, out);
+}
+
 void PatchSurface::crossings_many(const Ray* rays, size_t n, const float* tmin, const float* tmax,
                                   std::vector<Crossing>* out) const {
   if (wide_.empty()) {  // a root leaf, or no pieces at all: one ray at a time
