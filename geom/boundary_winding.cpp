@@ -37,27 +37,6 @@ constexpr int kMaxDepth = 40;
 /// Levels of halves made once per curve (BoundaryCurves::tree_).
 constexpr int kTreeDepth = 4;
 
-/// The point and the derivative of curve c at t (de Casteljau down to two points).
-void point_and_derivative(const BezierCurve& c, double t, DVec3* x, DVec3* dx) {
-  const int n = c.degree;
-  std::array<DVec3, 7> q = c.cp;
-  for (int level = n; level > 1; --level)
-    for (int i = 0; i < level; ++i) q[i] = lerp(q[i], q[i + 1], t);
-  *x = lerp(q[0], q[1], t);
-  *dx = {n * (q[1].x - q[0].x), n * (q[1].y - q[0].y), n * (q[1].z - q[0].z)};
-}
-
-/// A(r) . w for r = (rx, ry, rz) from p to a point of the curve, w its weighted derivative.
-inline double potential_dot(double rx, double ry, double rz, const DVec3& s, double wx, double wy,
-                            double wz) {
-  const double len = std::sqrt(rx * rx + ry * ry + rz * rz);
-  const double along = rx * s.x + ry * s.y + rz * s.z;
-  const double cx = ry * s.z - rz * s.y, cy = rz * s.x - rx * s.z, cz = rx * s.y - ry * s.x;
-  // |r| - s.r without cancellation near the string: |r x s|^2 / (|r| + s.r) there.
-  const double gap = along > 0 ? (cx * cx + cy * cy + cz * cz) / (len + along) : len - along;
-  return (cx * wx + cy * wy + cz * wz) / (len * gap);
-}
-
 /// De Casteljau at 1/2: the left half's control points are the first of each level, the
 /// right half's the last.
 void halve(const BezierCurve& c, BezierCurve* left, BezierCurve* right) {
@@ -105,9 +84,10 @@ bool direct(const DVec3& m, double rho2, const DVec3& p, const DVec3& s) {
   return along <= 0 || along * along < cos2a * cos2a * dist2;
 }
 
-/// The sum of A . w over a piece's eight samples (potential_dot in single precision, four
-/// lanes at a time: SSE, in the x86-64 baseline; std::sqrt would not vectorise, as it may set
-/// errno).
+/// The sum of A(r) . w over a piece's eight samples (r from p to the point, w the weighted
+/// derivative), in single precision, four lanes at a time: SSE, in the x86-64 baseline
+/// (std::sqrt would not vectorise, as it may set errno). Near the string |r| - s.r is
+/// computed as |r x s|^2 / (|r| + s.r), without cancellation.
 double direct_sum(const BoundaryCurves::Samples& sm, float px, float py, float pz, float sx,
                   float sy, float sz) {
   __m128 acc = _mm_setzero_ps();
@@ -143,6 +123,57 @@ double direct_sum(const BoundaryCurves::Samples& sm, float px, float py, float p
   return double((lanes[0] + lanes[1]) + (lanes[2] + lanes[3]));
 }
 
+/// Bernstein basis values and derivatives of degree n (1..6) at the Gauss-Legendre nodes.
+struct BernsteinTables {
+  double b[7][kGauss][7], db[7][kGauss][7];
+  BernsteinTables() {
+    for (int n = 1; n <= 6; ++n)
+      for (int g = 0; g < kGauss; ++g) {
+        const double t = kNode[g];
+        double binom = 1;
+        for (int i = 0; i <= n; ++i) {
+          b[n][g][i] = binom * std::pow(t, i) * std::pow(1 - t, n - i);
+          binom = binom * (n - i) / (i + 1);
+        }
+        // d/dt of the degree-n basis: n (B_{i-1,n-1} - B_{i,n-1}).
+        for (int i = 0; i <= n; ++i) {
+          double lo = 0, hi = 0, binom1 = 1;
+          for (int k = 0; k < n; ++k) {
+            const double v = binom1 * std::pow(t, k) * std::pow(1 - t, n - 1 - k);
+            if (k == i - 1) lo = v;
+            if (k == i) hi = v;
+            binom1 = binom1 * (n - 1 - k) / (k + 1);
+          }
+          db[n][g][i] = n * (lo - hi);
+        }
+      }
+  }
+};
+const BernsteinTables& bernstein() {
+  static const BernsteinTables tables;
+  return tables;
+}
+
+/// Curve c's Gauss-Legendre points less `origin` and its derivatives there times the weights
+/// (the lanes past kGauss: a copy of the last point, weight 0).
+void samples_of(const BezierCurve& c, const DVec3& origin, BoundaryCurves::Samples* sm) {
+  const BernsteinTables& t = bernstein();
+  const int n = c.degree;
+  for (int g = 0; g < 8; ++g) {
+    const int k = std::min(g, kGauss - 1);
+    DVec3 x{0, 0, 0}, dx{0, 0, 0};
+    for (int i = 0; i <= n; ++i) {
+      const double w = t.b[n][k][i], dw = t.db[n][k][i];
+      x = {x.x + w * c.cp[i].x, x.y + w * c.cp[i].y, x.z + w * c.cp[i].z};
+      dx = {dx.x + dw * c.cp[i].x, dx.y + dw * c.cp[i].y, dx.z + dw * c.cp[i].z};
+    }
+    const double wt = g < kGauss ? kWeight[g] : 0.0;
+    sm->x[g] = float(x.x - origin.x), sm->y[g] = float(x.y - origin.y);
+    sm->z[g] = float(x.z - origin.z);
+    sm->wx[g] = float(wt * dx.x), sm->wy[g] = float(wt * dx.y), sm->wz[g] = float(wt * dx.z);
+  }
+}
+
 /// The integral of A . dc over curve c (string along s from p), by halves (see above).
 double integrate(const BezierCurve& c, const DVec3& p, const DVec3& s, int depth, bool* reliable) {
   DVec3 m;
@@ -158,14 +189,11 @@ double integrate(const BezierCurve& c, const DVec3& p, const DVec3& s, int depth
     halve(c, &left, &right);
     return integrate(left, p, s, depth + 1, reliable) + integrate(right, p, s, depth + 1, reliable);
   }
-  double sum = 0;
-  for (int g = 0; g < kGauss; ++g) {
-    DVec3 x, dx;
-    point_and_derivative(c, kNode[g], &x, &dx);
-    sum += potential_dot(x.x - p.x, x.y - p.y, x.z - p.z, s, kWeight[g] * dx.x, kWeight[g] * dx.y,
-                         kWeight[g] * dx.z);
-  }
-  return sum;
+  // The points relative to p in double, then the float sum (p at the origin: no rounding of
+  // p's coordinates against the points' when the piece is small and near).
+  BoundaryCurves::Samples sm;
+  samples_of(c, p, &sm);
+  return direct_sum(sm, 0, 0, 0, float(s.x), float(s.y), float(s.z));
 }
 
 }  // namespace
@@ -228,13 +256,7 @@ BoundaryCurves BoundaryCurves::build(const PatchSet& set) {
     t.curve = ~0u;
     out.tree_.push_back(t);
     Samples sm;
-    for (int g = 0; g < 8; ++g) {
-      DVec3 x, dx;
-      point_and_derivative(c, kNode[std::min(g, kGauss - 1)], &x, &dx);
-      const double w = g < kGauss ? kWeight[g] : 0.0;  // padding: a copy of the last, weight 0
-      sm.x[g] = float(x.x), sm.y[g] = float(x.y), sm.z[g] = float(x.z);
-      sm.wx[g] = float(w * dx.x), sm.wy[g] = float(w * dx.y), sm.wz[g] = float(w * dx.z);
-    }
+    samples_of(c, DVec3{0, 0, 0}, &sm);
     out.samples_.push_back(sm);
   };
   std::vector<std::pair<uint32_t, BezierCurve>> level;  // (node, its control points)
