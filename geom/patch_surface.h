@@ -19,8 +19,9 @@
 // Field (distance, winding number, bounds) of an untrimmed set: from the patches themselves,
 // with no tessellation. The winding number is the boundary's string term plus the crossings of
 // one ray (geom/boundary_winding.h: exact, whether the patches close up or not), the side of a
-// point goes through a SideGrid of those, the distance is closest_point_on_patches' (Newton in
-// the pieces near p), and the bounds over a box come from the pieces' control-point boxes.
+// point goes through a WindingGrid of those (geom/side_grid.h), the distance is
+// closest_point_on_patches' (Newton in the pieces near p), and the bounds over a box come from
+// the pieces' control-point boxes.
 // A trimmed set (or Options::exact_field false) goes through a fine tessellation instead
 // (`field_tessellation` quads per patch side, MeshSurface, clipped to the trims), whose error
 // is stats'd as field_error(); the ray queries never use it.
@@ -75,8 +76,9 @@ class PatchSurface final : public Surface {
                         std::vector<Crossing>* out) const;
   /// Exact (exact_winding_number) for an untrimmed set, else the field tessellation's.
   double winding_number(Vec3 p) const override;
-  /// winding_number(p) >= 1/2 through a SideGrid (geom/side_grid.h): one winding number per
-  /// cell the surface does not pass near.
+  /// winding_number(p) >= 1/2 through a grid of cells (geom/side_grid.h): the exact field's
+  /// WindingGrid (a cell's centre and the crossings of a short segment decide most points),
+  /// the tessellation's SideGrid otherwise.
   bool inside(Vec3 p) const override;
   float signed_distance(Vec3 p, Vec3* gradient = nullptr) const override;
   DistanceBounds signed_distance_bounds(const Box& box) const override;
