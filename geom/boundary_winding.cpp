@@ -22,7 +22,7 @@ DVec3 lerp(const DVec3& a, const DVec3& b, double t) {
 }
 
 /// Gauss-Legendre nodes and weights on [0, 1], six points: exact for degree 11; on a piece
-/// within a quarter of its distance (see kFar) the integrand's error is ~0.25^12 of it.
+/// within half its distance (see kFar) the integrand's error is ~0.5^12 of it.
 constexpr int kGauss = BoundaryCurves::kGauss;
 constexpr double kNode[kGauss] = {0.033765242898423975, 0.16939530676686776, 0.3806904069584016,
                                   0.6193095930415985,   0.8306046932331322,  0.966234757101576};
@@ -70,9 +70,19 @@ void bounding_sphere(const BezierCurve& c, DVec3* centre, double* radius2) {
   *radius2 = rho2;
 }
 
+/// The length of a curve's control polygon (at least the curve's).
+double polygon_length(const BezierCurve& c) {
+  double length = 0;
+  for (int i = 0; i < c.degree; ++i) {
+    const DVec3 d = c.cp[i + 1] - c.cp[i];
+    length += std::sqrt(ddot(d, d));
+  }
+  return length;
+}
+
 /// Whether a piece with bounding sphere (m, rho2) is summed directly from p: within kFar of
-/// its distance, and its angle from s above kAngle = 4 times its angular radius a (cos 4a
-/// from sin a = rho / dist by the double-angle formula twice: no trigonometric call).
+/// its distance, and its angle from s above kAngle = 2 times its angular radius a (cos 2a
+/// from sin a = rho / dist by the double-angle formula: no trigonometric call).
 bool direct(const DVec3& m, double rho2, const DVec3& p, const DVec3& s) {
   const DVec3 r = m - p;
   const double dist2 = ddot(r, r);
@@ -123,11 +133,11 @@ double direct_sum(const BoundaryCurves::Samples& sm, float px, float py, float p
   return double((lanes[0] + lanes[1]) + (lanes[2] + lanes[3]));
 }
 
-/// Bernstein basis values and derivatives of degree n (1..6) at the Gauss-Legendre nodes.
+/// Bernstein basis values (degree 0..6) and derivatives (1..6) at the Gauss-Legendre nodes.
 struct BernsteinTables {
-  double b[7][kGauss][7], db[7][kGauss][7];
+  double b[7][kGauss][7] = {}, db[7][kGauss][7] = {};
   BernsteinTables() {
-    for (int n = 1; n <= 6; ++n)
+    for (int n = 0; n <= 6; ++n)
       for (int g = 0; g < kGauss; ++g) {
         const double t = kNode[g];
         double binom = 1;
@@ -136,16 +146,8 @@ struct BernsteinTables {
           binom = binom * (n - i) / (i + 1);
         }
         // d/dt of the degree-n basis: n (B_{i-1,n-1} - B_{i,n-1}).
-        for (int i = 0; i <= n; ++i) {
-          double lo = 0, hi = 0, binom1 = 1;
-          for (int k = 0; k < n; ++k) {
-            const double v = binom1 * std::pow(t, k) * std::pow(1 - t, n - 1 - k);
-            if (k == i - 1) lo = v;
-            if (k == i) hi = v;
-            binom1 = binom1 * (n - 1 - k) / (k + 1);
-          }
-          db[n][g][i] = n * (lo - hi);
-        }
+        for (int i = 0; n > 0 && i <= n; ++i)
+          db[n][g][i] = n * ((i > 0 ? b[n - 1][g][i - 1] : 0.0) - (i < n ? b[n - 1][g][i] : 0.0));
       }
   }
 };
@@ -261,16 +263,6 @@ BoundaryCurves BoundaryCurves::build(const PatchSet& set) {
   };
   std::vector<std::pair<uint32_t, BezierCurve>> level;  // (node, its control points)
   for (const BezierCurve& c : out.curves_) {
-    Sphere sp;
-    double rho2;
-    bounding_sphere(c, &sp.centre, &rho2);
-    sp.radius = std::sqrt(rho2);
-    sp.length = 0;
-    for (int i = 0; i < c.degree; ++i) {
-      const DVec3 d = c.cp[i + 1] - c.cp[i];
-      sp.length += std::sqrt(ddot(d, d));
-    }
-    out.spheres_.push_back(sp);
     level.push_back({uint32_t(out.tree_.size()), c});
     add_node(c);
   }
@@ -307,14 +299,8 @@ double gradient_bound(const BezierCurve& curve, const DVec3& c, double r, int de
   const double rho = std::sqrt(rho2);
   const DVec3 d = m - c;
   const double gap = std::sqrt(ddot(d, d)) - rho - r;
-  if (gap > 0.25 * rho || (gap > 0 && depth >= kBoundDepth)) {
-    double length = 0;
-    for (int i = 0; i < curve.degree; ++i) {
-      const DVec3 e = curve.cp[i + 1] - curve.cp[i];
-      length += std::sqrt(ddot(e, e));
-    }
-    return length / (gap * gap);
-  }
+  if (gap > 0.25 * rho || (gap > 0 && depth >= kBoundDepth))
+    return polygon_length(curve) / (gap * gap);
   if (depth >= kBoundDepth) return std::numeric_limits<double>::infinity();
   BezierCurve left, right;
   halve(curve, &left, &right);
@@ -326,12 +312,8 @@ double gradient_bound(const BezierCurve& curve, const DVec3& c, double r, int de
 
 double BoundaryCurves::smooth_change(const DVec3& c, double r) const {
   double sum = 0;
-  for (size_t i = 0; i < curves_.size() && std::isfinite(sum); ++i) {
-    const Sphere& sp = spheres_[i];
-    const DVec3 d = sp.centre - c;
-    const double gap = std::sqrt(ddot(d, d)) - sp.radius - r;
-    sum += gap > 0.25 * sp.radius ? sp.length / (gap * gap) : gradient_bound(curves_[i], c, r, 0);
-  }
+  for (size_t i = 0; i < curves_.size() && std::isfinite(sum); ++i)
+    sum += gradient_bound(curves_[i], c, r, 0);
   // Rounding: a little more.
   return sum * r / (4 * std::numbers::pi) * (1 + 1e-6);
 }

@@ -70,8 +70,7 @@ class BoundaryCurves {
   const std::vector<BezierCurve>& curves() const { return curves_; }
   size_t memory_bytes() const {
     return (curves_.capacity() + pieces_.capacity()) * sizeof(BezierCurve) +
-           spheres_.capacity() * sizeof(Sphere) + tree_.capacity() * sizeof(TreeNode) +
-           samples_.capacity() * sizeof(Samples);
+           tree_.capacity() * sizeof(TreeNode) + samples_.capacity() * sizeof(Samples);
   }
 
   /// Gauss-Legendre points per curve (see kFar in the .cpp).
@@ -85,13 +84,6 @@ class BoundaryCurves {
 
  private:
   std::vector<BezierCurve> curves_;
-  /// Each curve's control points' bounding sphere: whether it is summed directly from p.
-  struct Sphere {
-    DVec3 centre;
-    double radius;
-    double length;  ///< of the control polygon (at least the curve's)
-  };
-  std::vector<Sphere> spheres_;
   /// Each curve's halves, quarters, ... down to kTreeDepth levels, made once: a piece's
   /// bounding sphere and its Gauss-Legendre points, which do not depend on p, so a piece
   /// summed directly costs only the vector potential at its points. Curve i's whole is

@@ -823,17 +823,7 @@ double MeshSurface::winding_number_exact(Vec3 p) const {
 
 float MeshSurface::signed_distance(Vec3 p, Vec3* gradient) const {
   const ClosestPoint c = closest_point(p);
-  const bool inside = this->inside(p);
-  if (gradient) {
-    if (c.distance > 0) {
-      const Vec3 away = (p - c.point) / c.distance;  // grows the distance
-      *gradient = inside ? away : -away;
-    } else {
-      // On the surface: the inward normal of the closest triangle (outward orientation).
-      *gradient = -c.normal;
-    }
-  }
-  return inside ? c.distance : -c.distance;
+  return signed_distance_from(c, p, inside(p), gradient);
 }
 
 float MeshSurface::distance_lower_bound(const Box& box, Vec3* near_vertex) const {

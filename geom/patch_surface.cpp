@@ -762,18 +762,20 @@ void PatchSurface::crossings(const Ray& ray, float tmin, float tmax,
                              std::vector<Crossing>* out) const {
   // The roots in a buffer on the stack (a ray meets a few; more spill to the heap), sorted,
   // then compacted in place: no allocation per ray.
-  RootBuffer roots;
-  float limit = tmax;
-  trace(ray, tmin, &limit, [&](const RawHit& h) { roots.push(h); });
-  finish_crossings(ray, &roots, out);
+  collect_crossings(ray, tmin, tmax, /*split_folds=*/false, out);
 }
 
 void PatchSurface::crossings_all(const Ray& ray, float tmin, float tmax,
                                  std::vector<Crossing>* out) const {
+  collect_crossings(ray, tmin, tmax, /*split_folds=*/true, out);
+}
+
+void PatchSurface::collect_crossings(const Ray& ray, float tmin, float tmax, bool split_folds,
+                                     std::vector<Crossing>* out) const {
   RootBuffer roots;
   float limit = tmax;
   trace(
-      ray, tmin, &limit, [&](const RawHit& h) { roots.push(h); }, /*split_folds=*/true);
+      ray, tmin, &limit, [&](const RawHit& h) { roots.push(h); }, split_folds);
   finish_crossings(ray, &roots, out);
 }
 
@@ -940,16 +942,7 @@ bool PatchSurface::inside(Vec3 p) const {
 float PatchSurface::signed_distance(Vec3 p, Vec3* gradient) const {
   if (exact_) {
     const ClosestPoint c = closest_point_on_patches(p, std::numeric_limits<float>::infinity());
-    const bool in = inside(p);
-    if (gradient) {
-      if (c.distance > 0) {
-        const Vec3 away = (p - c.point) / c.distance;  // grows the distance
-        *gradient = in ? away : -away;
-      } else {
-        *gradient = -c.normal;  // on the surface: inward
-      }
-    }
-    return in ? c.distance : -c.distance;
+    return signed_distance_from(c, p, inside(p), gradient);
   }
   if (!field_) {
     if (gradient) *gradient = {0, 0, 0};

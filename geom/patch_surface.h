@@ -194,6 +194,10 @@ class PatchSurface final : public Surface {
     size_t count = 0;
     void push(const RawHit& h);
   };
+  /// crossings() (split_folds false) and crossings_all() (true): the roots in a buffer on the
+  /// stack, then finish_crossings.
+  void collect_crossings(const Ray& ray, float tmin, float tmax, bool split_folds,
+                         std::vector<Crossing>* out) const;
   /// The crossings of `ray` from its roots: sorted (a total order), each facing from the
   /// patch normal, duplicates (one point found by two pieces or patches) dropped.
   void finish_crossings(const Ray& ray, RootBuffer* roots, std::vector<Crossing>* out) const;

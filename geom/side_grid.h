@@ -39,6 +39,9 @@ class GridCells {
     cells_ = std::make_unique<Cell[]>(size_);  // value-initialised
   }
   float h() const { return h_; }
+  /// How far from its cell's centre a point that locate() puts in the cell may be: half the
+  /// diagonal of the cell grown by a hundredth of a cell (rounding of the index).
+  float reach() const { return 0.5f * std::sqrt(3.0f) * 1.02f * h_; }
   /// p's cell and its centre; false outside the grid (or NaN).
   bool locate(Vec3 p, size_t* index, Vec3* centre) const {
     if (!cells_) return false;
@@ -81,13 +84,13 @@ class SideGrid {
     Cell& cell = cells_.cell(index);
     uint8_t state = cell.state.load(std::memory_order_acquire);
     if (state == kUnknown) {
-      // Every point the lookup puts in the cell is within half the diagonal of a cell grown
-      // by a hundredth of a cell of its centre. With no surface in that ball the whole cell
-      // has the centre's side (the segment to the centre meets no surface); otherwise the
-      // ball of radius d, the centre's distance to the surface, still does (shrunk for the
-      // rounding of d) when it is not too small to be worth a winding number.
+      // Every point the lookup puts in the cell is within reach() of its centre. With no
+      // surface in that ball the whole cell has the centre's side (the segment to the centre
+      // meets no surface); otherwise the ball of radius d, the centre's distance to the
+      // surface, still does (shrunk for the rounding of d) when it is not too small to be
+      // worth a winding number.
       const float h = cells_.h();
-      const float half_diag = 0.5f * std::sqrt(3.0f) * 1.02f * h;
+      const float half_diag = cells_.reach();
       const float d = near(centre, half_diag);
       const bool clear = !(d < half_diag);
       const float r = clear ? half_diag : d * (1.0f - 1e-5f);
@@ -188,9 +191,8 @@ class WindingGrid {
       state = expected;
     }
     if (state == kSeen) {
-      // Every point the lookup puts in the cell is within half the diagonal of a cell grown
-      // by a hundredth of a cell of its centre.
-      const float half_diag = 0.5f * std::sqrt(3.0f) * 1.02f * cells->h();
+      // Every point the lookup puts in the cell is within reach() of its centre.
+      const float half_diag = cells->reach();
       const float change = smooth_change(centre, half_diag);
       if (change < kMaxChange) {
         cell.w.store(float(winding(centre)), std::memory_order_relaxed);

@@ -63,6 +63,22 @@ struct ClosestPoint {
   float b1 = 0, b2 = 0;
 };
 
+/// The signed distance (positive inside) from the closest point c of a surface to p and p's
+/// side, and its gradient when asked: away from c, signed by the side; on the surface, the
+/// inward normal (c.normal is outward). What MeshSurface and PatchSurface's signed_distance
+/// share.
+inline float signed_distance_from(const ClosestPoint& c, Vec3 p, bool inside, Vec3* gradient) {
+  if (gradient) {
+    if (c.distance > 0) {
+      const Vec3 away = (p - c.point) / c.distance;  // grows the distance
+      *gradient = inside ? away : -away;
+    } else {
+      *gradient = -c.normal;
+    }
+  }
+  return inside ? c.distance : -c.distance;
+}
+
 /// How the inside of a surface can be decided along a ray (Surface::topology()).
 struct SurfaceTopology {
   /// Every edge is shared by exactly two primitives that use it in opposite directions
