@@ -469,17 +469,23 @@ std::string describe_surfaces(const Model& model) {
     char buf[512];
     // What the field is made of: a mesh's triangles, a patch set's tessellation, or (the
     // exact field) the patches' pieces and open borders.
-    char what[160];
+    char what[256];
     if (s.patches > 0 && s.exact_field) {
       std::snprintf(what, sizeof what,
                     "%zu patches, %zu pieces, exact field (%zu open border curves, no "
                     "tessellation)",
                     s.patches, s.pieces, s.boundary_curves);
     } else if (s.patches > 0) {
+      // Tessellated because the boundary has too many curves for the exact field
+      // (PatchSurface::Options::max_exact_curves): say how many.
+      char curves[96] = "";
+      if (s.boundary_curves > 0)
+        std::snprintf(curves, sizeof curves,
+                      ", %zu open border curves (too many for the exact field)", s.boundary_curves);
       std::snprintf(what, sizeof what,
                     "%zu triangles (field tessellation), %zu patches, %zu pieces, %zu degenerate "
-                    "skipped",
-                    s.triangles, s.patches, s.pieces, s.degenerate_skipped);
+                    "skipped%s",
+                    s.triangles, s.patches, s.pieces, s.degenerate_skipped, curves);
     } else {
       std::snprintf(what, sizeof what, "%zu triangles, %zu degenerate skipped", s.triangles,
                     s.degenerate_skipped);

@@ -200,25 +200,116 @@ double integrate(const BezierCurve& c, const DVec3& p, const DVec3& s, int depth
 
 }  // namespace
 
+namespace {
+
+/// The point of the degree-n Bézier curve q at t (de Casteljau; the end control points
+/// themselves at t = 0 and 1).
+DVec3 point_at(int n, const DVec3* q, double t) {
+  if (t == 0) return q[0];
+  if (t == 1) return q[n];
+  std::array<DVec3, 7> r;
+  for (int i = 0; i <= n; ++i) r[i] = q[i];
+  for (int level = 1; level <= n; ++level)
+    for (int i = 0; i + level <= n; ++i) r[i] = lerp(r[i], r[i + 1], t);
+  return r[0];
+}
+
+/// Restricts the degree-n curve q (stride apart) from [0,1] to [t0, t1] (t0 < t1), reparametrised
+/// over [0,1]: de Casteljau at t1, the left part, then at t0 / t1, the right part. [0,1] is left
+/// as it is.
+void restrict_to(int n, DVec3* q, int stride, double t0, double t1) {
+  std::array<DVec3, 7> c;
+  for (int i = 0; i <= n; ++i) c[i] = q[i * stride];
+  auto split = [&](double t, bool keep_left) {
+    std::array<DVec3, 7> r = c, out = c;
+    out[keep_left ? 0 : n] = keep_left ? r[0] : r[n];
+    for (int level = 1; level <= n; ++level) {
+      for (int i = 0; i + level <= n; ++i) r[i] = lerp(r[i], r[i + 1], t);
+      if (keep_left)
+        out[level] = r[0];
+      else
+        out[n - level] = r[n - level];
+    }
+    c = out;
+  };
+  if (t1 < 1) split(t1, true);
+  if (t0 > 0) split(t0 / t1, false);
+  for (int i = 0; i <= n; ++i) q[i * stride] = c[i];
+}
+
+double binomial(int n, int k) {
+  double b = 1;
+  for (int i = 1; i <= k; ++i) b = b * (n - k + i) / i;
+  return b;
+}
+
+}  // namespace
+
+BezierCurve curve_on_patch(const BezierPatch& patch, UV a, UV b) {
+  const int du = patch.du, dv = patch.dv;
+  std::array<DVec3, 16> s;  // s[j * (du + 1) + i]
+  for (int j = 0; j <= dv; ++j)
+    for (int i = 0; i <= du; ++i) s[size_t(j * (du + 1) + i)] = to_d(patch.control(i, j));
+  BezierCurve c;
+  if (a.v == b.v || a.u == b.u) {
+    // Along u (v constant) or along v: the patch's curve at that v (u), cut to the segment.
+    const bool along_u = a.v == b.v;
+    const int n = along_u ? du : dv, m = along_u ? dv : du;
+    c.degree = n;
+    for (int i = 0; i <= n; ++i) {
+      std::array<DVec3, 4> q;
+      for (int j = 0; j <= m; ++j)
+        q[size_t(j)] = along_u ? s[size_t(j * (du + 1) + i)] : s[size_t(i * (du + 1) + j)];
+      c.cp[size_t(i)] = point_at(m, q.data(), along_u ? a.v : a.u);
+    }
+    const double t0 = along_u ? a.u : a.v, t1 = along_u ? b.u : b.v;
+    restrict_to(n, c.cp.data(), 1, std::min(t0, t1), std::max(t0, t1));
+    if (t0 > t1) std::reverse(c.cp.begin(), c.cp.begin() + n + 1);
+    return c;
+  }
+  // The sub-patch over the segment's rectangle, flipped so that the segment runs from its
+  // (0, 0) corner to its (1, 1) corner: the curve is the sub-patch's diagonal.
+  for (int j = 0; j <= dv; ++j)
+    restrict_to(du, &s[size_t(j * (du + 1))], 1, std::min(a.u, b.u), std::max(a.u, b.u));
+  for (int i = 0; i <= du; ++i)
+    restrict_to(dv, &s[size_t(i)], du + 1, std::min(a.v, b.v), std::max(a.v, b.v));
+  const bool flip_u = a.u > b.u, flip_v = a.v > b.v;
+  const int n = du + dv;
+  c.degree = n;
+  for (int k = 0; k <= n; ++k) c.cp[size_t(k)] = {0, 0, 0};
+  for (int i = 0; i <= du; ++i) {
+    for (int j = 0; j <= dv; ++j) {
+      const DVec3& q = s[size_t((flip_v ? dv - j : j) * (du + 1) + (flip_u ? du - i : i))];
+      const double w = binomial(du, i) * binomial(dv, j) / binomial(n, i + j);
+      DVec3& o = c.cp[size_t(i + j)];
+      o = {o.x + w * q.x, o.y + w * q.y, o.z + w * q.z};
+    }
+  }
+  return c;
+}
+
+std::vector<CurveOnPatch> kept_borders(const PatchSet& set, bool trimmed_only) {
+  std::vector<CurveOnPatch> out;
+  for (uint32_t p = 0; p < set.patches.size(); ++p) {
+    const Trim* trim = set.trim(p);
+    if (!trim && trimmed_only) continue;
+    // The untrimmed square's sides, counter-clockwise: v = 0 (u from 0 to 1), u = 1, v = 1 (u
+    // from 1 to 0), u = 0.
+    std::vector<std::array<UV, 2>> segments =
+        trim ? trim->border()
+             : std::vector<std::array<UV, 2>>{{UV{0, 0}, UV{1, 0}},
+                                              {UV{1, 0}, UV{1, 1}},
+                                              {UV{1, 1}, UV{0, 1}},
+                                              {UV{0, 1}, UV{0, 0}}};
+    for (const auto& [a, b] : segments)
+      out.push_back({curve_on_patch(set.patches[p], a, b), p, a, b});
+  }
+  return out;
+}
+
 BoundaryCurves BoundaryCurves::build(const PatchSet& set) {
   std::vector<BezierCurve> borders;
-  for (const BezierPatch& b : set.patches) {
-    const int du = b.du, dv = b.dv;
-    auto at = [&](int i, int j) { return to_d(b.control(i, j)); };
-    BezierCurve c;
-    c.degree = du;  // v = 0, u from 0 to 1
-    for (int i = 0; i <= du; ++i) c.cp[i] = at(i, 0);
-    borders.push_back(c);
-    c.degree = dv;  // u = 1, v from 0 to 1
-    for (int j = 0; j <= dv; ++j) c.cp[j] = at(du, j);
-    borders.push_back(c);
-    c.degree = du;  // v = 1, u from 1 to 0
-    for (int i = 0; i <= du; ++i) c.cp[i] = at(du - i, dv);
-    borders.push_back(c);
-    c.degree = dv;  // u = 0, v from 1 to 0
-    for (int j = 0; j <= dv; ++j) c.cp[j] = at(0, dv - j);
-    borders.push_back(c);
-  }
+  for (CurveOnPatch& c : kept_borders(set, false)) borders.push_back(c.curve);
   // Borders by their control points in a canonical direction (the lexicographically smaller
   // of the two): a border and its reverse land together and cancel in pairs.
   using Key = std::vector<double>;
@@ -342,6 +433,141 @@ double BoundaryCurves::string_term(const DVec3& p, const DVec3& s, bool* reliabl
     }
   }
   return sum / (4 * std::numbers::pi);
+}
+
+namespace {
+
+/// The point of curve c at t and its first two derivatives (de Casteljau: the second
+/// difference of the three points of level n - 2, the difference of the two of level n - 1).
+void eval_curve(const BezierCurve& c, double t, DVec3* x, DVec3* d1, DVec3* d2) {
+  const int n = c.degree;
+  std::array<DVec3, 7> q = c.cp;
+  for (int level = 1; level <= n - 2; ++level)
+    for (int i = 0; i + level <= n; ++i) q[i] = lerp(q[i], q[i + 1], t);
+  *d2 = {0, 0, 0};
+  if (n >= 2) {
+    const double k = double(n) * (n - 1);
+    *d2 = {k * (q[0].x - 2 * q[1].x + q[2].x), k * (q[0].y - 2 * q[1].y + q[2].y),
+           k * (q[0].z - 2 * q[1].z + q[2].z)};
+    q[0] = lerp(q[0], q[1], t), q[1] = lerp(q[1], q[2], t);
+  }
+  *d1 = {n * (q[1].x - q[0].x), n * (q[1].y - q[0].y), n * (q[1].z - q[0].z)};
+  *x = lerp(q[0], q[1], t);
+}
+
+/// The squared distance from p to the box of c's control points (which holds the curve).
+double control_box_distance2(const BezierCurve& c, const DVec3& p) {
+  DVec3 lo = c.cp[0], hi = c.cp[0];
+  for (int i = 1; i <= c.degree; ++i) {
+    lo = {std::min(lo.x, c.cp[i].x), std::min(lo.y, c.cp[i].y), std::min(lo.z, c.cp[i].z)};
+    hi = {std::max(hi.x, c.cp[i].x), std::max(hi.y, c.cp[i].y), std::max(hi.z, c.cp[i].z)};
+  }
+  const double dx = std::max({lo.x - p.x, 0.0, p.x - hi.x});
+  const double dy = std::max({lo.y - p.y, 0.0, p.y - hi.y});
+  const double dz = std::max({lo.z - p.z, 0.0, p.z - hi.z});
+  return dx * dx + dy * dy + dz * dz;
+}
+
+/// The nearest point to p of `piece`, the part [t0, t1] of `whole`, if nearer than
+/// sqrt(*best2) (then *best2, *best_t and *best_x are set and true is returned). A piece
+/// straight to 1e-3 of its chord (or 30 halvings deep) is solved by Newton on
+/// (x(t) - p) . x'(t) = 0 in the whole curve's parameter, from the chord's nearest point,
+/// clamped to [t0, t1]; its ends are candidates too. Otherwise its halves, nearer first.
+bool nearest_on_piece(const BezierCurve& whole, const BezierCurve& piece, double t0, double t1,
+                      const DVec3& p, int depth, double* best2, double* best_t, DVec3* best_x) {
+  const int n = piece.degree;
+  const DVec3 chord = piece.cp[n] - piece.cp[0];
+  const double len2 = ddot(chord, chord);
+  double dev2 = 0;
+  for (int i = 1; i < n; ++i) {
+    const DVec3 r = piece.cp[i] - piece.cp[0];
+    const double along = len2 > 0 ? ddot(r, chord) / len2 : 0;
+    const DVec3 off = {r.x - along * chord.x, r.y - along * chord.y, r.z - along * chord.z};
+    dev2 = std::max(dev2, ddot(off, off));
+  }
+  if (depth < 30 && dev2 > 1e-6 * len2) {
+    BezierCurve left, right;
+    halve(piece, &left, &right);
+    const double tm = 0.5 * (t0 + t1);
+    const double dl = control_box_distance2(left, p), dr = control_box_distance2(right, p);
+    bool found = false;
+    const bool left_first = dl <= dr;
+    for (int k = 0; k < 2; ++k) {
+      const bool is_left = (k == 0) == left_first;
+      if (!((is_left ? dl : dr) < *best2)) continue;
+      found |= is_left
+                   ? nearest_on_piece(whole, left, t0, tm, p, depth + 1, best2, best_t, best_x)
+                   : nearest_on_piece(whole, right, tm, t1, p, depth + 1, best2, best_t, best_x);
+    }
+    return found;
+  }
+  bool found = false;
+  auto consider = [&](double t, const DVec3& x) {
+    const DVec3 r = x - p;
+    const double d2 = ddot(r, r);
+    if (d2 < *best2) *best2 = d2, *best_t = t, *best_x = x, found = true;
+  };
+  consider(t0, piece.cp[0]);
+  consider(t1, piece.cp[n]);
+  double t = t0;
+  if (len2 > 0) t = t0 + std::clamp(ddot(p - piece.cp[0], chord) / len2, 0.0, 1.0) * (t1 - t0);
+  DVec3 x, d1, d2;
+  for (int it = 0; it < 12; ++it) {
+    eval_curve(whole, t, &x, &d1, &d2);
+    const DVec3 r = x - p;
+    const double g = ddot(r, d1), h = ddot(d1, d1) + ddot(r, d2);
+    if (!(h > 0)) break;
+    const double next = std::clamp(t - g / h, t0, t1);
+    if (std::abs(next - t) <= 1e-14 * std::max(1.0, std::abs(t))) break;
+    t = next;
+  }
+  eval_curve(whole, t, &x, &d1, &d2);
+  consider(t, x);
+  return found;
+}
+
+}  // namespace
+
+NearestOnCurves NearestOnCurves::build(std::vector<CurveOnPatch> curves) {
+  NearestOnCurves out;
+  if (curves.empty()) return out;
+  std::vector<Box> boxes(curves.size());
+  for (size_t i = 0; i < curves.size(); ++i) {
+    const BezierCurve& c = curves[i].curve;
+    Box b;
+    for (int k = 0; k <= c.degree; ++k) b.extend(to_f(c.cp[size_t(k)]));
+    // Rounded to float: grown by a little, so that the box still holds the curve.
+    const float far = std::max({std::abs(b.lo.x), std::abs(b.lo.y), std::abs(b.lo.z),
+                                std::abs(b.hi.x), std::abs(b.hi.y), std::abs(b.hi.z)});
+    const float m = 1e-6f * (b.max_extent() + far);
+    boxes[i] = Box(b.lo - Vec3{m, m, m}, b.hi + Vec3{m, m, m});
+  }
+  Bvh bvh = build_bvh(boxes, BvhBuildOptions{.max_leaf_size = 2});
+  out.nodes_ = std::move(bvh.nodes);
+  out.curves_.resize(curves.size());
+  for (size_t i = 0; i < curves.size(); ++i) out.curves_[i] = curves[bvh.prim_order[i]];
+  return out;
+}
+
+bool NearestOnCurves::nearest(const DVec3& p, double* best2, Hit* hit) const {
+  if (curves_.empty()) return false;
+  const Vec3 pf = to_f(p);
+  // The float box distance, shrunk by a little: a lower bound.
+  auto dist2 = [&](const BvhNode& n) { return double(n.bounds().distance2(pf)) * (1 - 1e-5); };
+  bool found = false;
+  walk_nearest(nodes_, dist2, best2, [&](const BvhNode& n, double) {
+    for (uint32_t k = n.index; k < n.index + n.count; ++k) {
+      const BezierCurve& c = curves_[k].curve;
+      double t;
+      DVec3 x;
+      if (nearest_on_piece(c, c, 0, 1, p, 0, best2, &t, &x)) {
+        *hit = {k, t, x};
+        found = true;
+      }
+    }
+    return true;
+  });
+  return found;
 }
 
 }  // namespace hfrt::geom

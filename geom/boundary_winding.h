@@ -19,7 +19,11 @@
 // counter-clockwise (right-handed about Pu x Pv, the outward normal), except a border whose
 // control points all coincide (a collapsed edge: no length) and the pairs of borders that
 // cancel (one the other's control points reversed: a seam of two patches, or of a patch with
-// itself). The teapot keeps 16 of its 128.
+// itself). The teapot keeps 16 of its 128. A trimmed patch's border is its kept region's
+// (Trim::border: loop edges and the kept parts of its sides, kept region on the left), each
+// segment mapped through the patch: a line in (u, v) is a Bézier curve of degree du + dv on
+// it. The crossings of the ray then count only where the trim keeps them, and the formula
+// holds as it is: a trimmed patch is a surface with that boundary.
 //
 // The integral: each curve is split in de Casteljau halves until every piece is small and far
 // enough, seen from p, both from p and from the string (its control points' bounding sphere's
@@ -34,22 +38,44 @@
 #include <vector>
 
 #include "geom/bezier.h"
+#include "geom/bvh.h"
+#include "geom/trim.h"
 
 namespace hfrt::geom {
 
-/// A Bézier curve in 3-D of degree 1..6 (a patch border: the patch's degree along it; up to 6
-/// leaves room for curves on a patch along a line in (u, v), as trim loops will need).
+/// A Bézier curve in 3-D of degree 1..6 (a patch border: the patch's degree along it; a trim
+/// loop's edge: up to du + dv, a line in (u, v) mapped through the patch).
 struct BezierCurve {
   int degree = 3;
   std::array<DVec3, 7> cp{};
 };
 
-/// The boundary of a set of untrimmed Bézier patches, and the string term of its winding
-/// number (see the file comment).
+/// The image on `patch` of the parameter segment from a to b, parametrised as
+/// t -> P(a + t (b - a)): of degree du where v is constant, dv where u is, else du + dv (the
+/// diagonal of the sub-patch over the segment's rectangle: B_i^du B_j^dv =
+/// C(du,i) C(dv,j) / C(du+dv,i+j) B_{i+j}^{du+dv}). A whole side of the square gives the
+/// patch's border control points themselves (bit for bit: seams still cancel).
+BezierCurve curve_on_patch(const BezierPatch& patch, UV a, UV b);
+
+/// A curve on patch `patch`: the image of the parameter segment (a, b) (curve_on_patch).
+struct CurveOnPatch {
+  BezierCurve curve;
+  uint32_t patch = 0;
+  UV a, b;
+};
+
+/// The border of each patch's kept region on the patch, oriented with it on the left
+/// (right-handed about Pu x Pv): an untrimmed patch's four sides, a trimmed one's
+/// Trim::border(). `trimmed_only`: the trimmed patches' only (where a closest point may lie on
+/// a trim loop or on a side that a piece's own search does not reach).
+std::vector<CurveOnPatch> kept_borders(const PatchSet& set, bool trimmed_only);
+
+/// The boundary of a set of Bézier patches (trimmed or not), and the string term of its
+/// winding number (see the file comment).
 class BoundaryCurves {
  public:
-  /// The oriented borders of `set`'s patches that do not cancel (see the file comment). The
-  /// patches' trims are not looked at: for untrimmed sets.
+  /// The oriented borders of `set`'s patches' kept regions (kept_borders) that do not cancel
+  /// (see the file comment).
   static BoundaryCurves build(const PatchSet& set);
 
   /// (1 / 4 pi) x the line integral of A (string along the unit vector s from p) around the
@@ -99,6 +125,33 @@ class BoundaryCurves {
   std::vector<BezierCurve> pieces_;
   /// The samples of tree_[k].
   std::vector<Samples> samples_;
+};
+
+/// The closest point of a set of curves on patches (a trimmed set's kept_borders): a BVH over
+/// the curves' control-point boxes, nearest first, each curve halved (de Casteljau) until its
+/// pieces are straight to 1e-3 of their chord, then Newton on the distance from the chord's
+/// nearest point, clamped to the piece (exact to rounding: a straight piece has one minimum).
+class NearestOnCurves {
+ public:
+  static NearestOnCurves build(std::vector<CurveOnPatch> curves);
+  bool empty() const { return curves_.empty(); }
+  const std::vector<CurveOnPatch>& curves() const { return curves_; }
+  size_t memory_bytes() const {
+    return curves_.capacity() * sizeof(CurveOnPatch) + nodes_.capacity() * sizeof(BvhNode);
+  }
+
+  struct Hit {
+    uint32_t curve = ~0u;
+    double t = 0;  ///< the curve's parameter: (u, v) = a + t (b - a) on its patch
+    DVec3 point;
+  };
+  /// The nearest point of the curves to p if nearer than sqrt(*best2): then *best2 and *hit
+  /// are set to it and true is returned.
+  bool nearest(const DVec3& p, double* best2, Hit* hit) const;
+
+ private:
+  std::vector<CurveOnPatch> curves_;  // in leaf order
+  std::vector<BvhNode> nodes_;
 };
 
 }  // namespace hfrt::geom

@@ -13,6 +13,7 @@
 #include <span>
 #include <vector>
 
+#include "base/check.h"
 #include "geom/vec.h"
 
 namespace hfrt::geom {
@@ -73,5 +74,34 @@ uint32_t morton2(uint32_t i, uint32_t j);
 
 /// The SAH cost of a built tree (relative units): for tests and statistics.
 double sah_cost(const Bvh& bvh, const BvhBuildOptions& options = {});
+
+/// The leaves of a binary BVH nearest first by dist2(node), each visited as leaf(node, its
+/// dist2) unless farther than *bound (which the visits may lower); a visit returning false
+/// ends the walk. Nodes nearer than *bound are pushed nearer child last, so popped first.
+template <typename Dist, typename Leaf>
+void walk_nearest(const std::vector<BvhNode>& nodes, const Dist& dist2, const double* bound,
+                  Leaf&& leaf) {
+  uint32_t stack[64];
+  int top = 0;
+  stack[top++] = 0;
+  while (top > 0) {
+    const BvhNode& n = nodes[stack[--top]];
+    const double nd2 = dist2(n);
+    if (nd2 > *bound) continue;
+    if (!n.is_leaf()) {
+      const double d0 = dist2(nodes[n.index]), d1 = dist2(nodes[n.index + 1]);
+      HFRT_CHECK_LE(top + 2, 64);
+      if (d0 <= d1) {
+        if (d1 <= *bound) stack[top++] = n.index + 1;
+        if (d0 <= *bound) stack[top++] = n.index;
+      } else {
+        if (d0 <= *bound) stack[top++] = n.index;
+        if (d1 <= *bound) stack[top++] = n.index + 1;
+      }
+      continue;
+    }
+    if (!leaf(n, nd2)) return;
+  }
+}
 
 }  // namespace hfrt::geom

@@ -64,34 +64,6 @@ void halve_patch(int du, int dv, const std::array<DVec3, 16>& cp, std::array<DVe
       halve_curve(dv, half[a].data() + i, du + 1, out[0][a].data() + i, out[1][a].data() + i);
 }
 
-/// The leaves of a binary BVH nearest first by dist2(node), each visited as leaf(node, its
-/// dist2) unless farther than *bound (which the visits may lower); a visit returning false
-/// ends the walk. Nodes nearer than *bound are pushed nearer child last, so popped first.
-template <typename Dist, typename Leaf>
-void walk_nearest(const std::vector<BvhNode>& nodes, const Dist& dist2, const double* bound,
-                  Leaf&& leaf) {
-  uint32_t stack[64];
-  int top = 0;
-  stack[top++] = 0;
-  while (top > 0) {
-    const BvhNode& n = nodes[stack[--top]];
-    const double nd2 = dist2(n);
-    if (nd2 > *bound) continue;
-    if (!n.is_leaf()) {
-      const double d0 = dist2(nodes[n.index]), d1 = dist2(nodes[n.index + 1]);
-      HFRT_CHECK_LE(top + 2, 64);
-      if (d0 <= d1) {
-        if (d1 <= *bound) stack[top++] = n.index + 1;
-        if (d0 <= *bound) stack[top++] = n.index;
-      } else {
-        if (d0 <= *bound) stack[top++] = n.index;
-        if (d1 <= *bound) stack[top++] = n.index + 1;
-      }
-      continue;
-    }
-    if (!leaf(n, nd2)) return;
-  }
-}
 }  // namespace
 
 std::unique_ptr<PatchSurface> PatchSurface::build(const PatchSet& set, const Options& options) {
@@ -115,6 +87,9 @@ std::unique_ptr<PatchSurface> PatchSurface::build(const PatchSet& set, const Opt
       const BezierPatch& patch = set.patches[p];
       const float size = std::max(length(patch.control_bounds().diagonal()), 1e-30f);
       s->patch_size_.push_back(size);
+      // A trim that keeps nothing of positive area (no border: the square's own sides would
+      // be one if it kept everything) leaves no piece, not even where its loops run.
+      if (const Trim* trim = set.trim(p); trim && trim->border().empty()) continue;
       // Split in parameter space until flat (quadtree, leaves in any order). Each node's
       // control points are its parent's halved (de Casteljau at 1/2, in double; rounded to
       // float for the piece), not the patch's cut to the node's range: a fifth of the cost.
@@ -194,13 +169,25 @@ std::unique_ptr<PatchSurface> PatchSurface::build(const PatchSet& set, const Opt
     field_options.bvh.max_leaf_size = 2;
     if (clean.ok()) s->field_ = MeshSurface::build_grouped(*clean, keys, field_options);
   };
-  bool trimmed = false;
-  for (uint32_t p = 0; p < set.patches.size(); ++p) trimmed = trimmed || set.trim(p) != nullptr;
-  if (options.exact_field && !trimmed) {
-    // The exact field needs no tessellation: the pieces, and the borders that do not cancel.
-    par::parallel_invoke(build_pieces, [&] { s->boundary_ = BoundaryCurves::build(set); });
-    s->exact_ = !s->pieces_.empty();
-    clean = TriangleMesh{};
+  bool exact = options.exact_field;
+  size_t curves = 0;  // the boundary's, when the exact field was asked for
+  if (exact) {
+    // The exact field needs no tessellation: the pieces, the borders that do not cancel, and
+    // for the closest points of trimmed patches their kept regions' borders.
+    par::parallel_invoke(build_pieces, [&] {
+      s->boundary_ = BoundaryCurves::build(set);
+      if (s->boundary_.curves().size() <= options.max_exact_curves)
+        s->trim_borders_ = NearestOnCurves::build(kept_borders(set, /*trimmed_only=*/true));
+    });
+    curves = s->boundary_.curves().size();
+    exact = curves <= options.max_exact_curves;
+    if (exact) {
+      s->exact_ = !s->pieces_.empty();
+      clean = TriangleMesh{};
+    } else {
+      s->boundary_ = BoundaryCurves{};
+      build_field();
+    }
   } else {
     par::parallel_invoke(build_pieces, build_field);
   }
@@ -211,7 +198,7 @@ std::unique_ptr<PatchSurface> PatchSurface::build(const PatchSet& set, const Opt
   s->stats_.patches = set.patches.size();
   s->stats_.pieces = s->pieces_.size();
   s->stats_.exact_field = s->exact_;
-  s->stats_.boundary_curves = s->boundary_.curves().size();
+  s->stats_.boundary_curves = curves;
   s->stats_.triangles = s->field_ ? s->field_->num_triangles() : 0;
   s->stats_.degenerate_skipped = clean.ok() ? clean->degenerate_skipped : all_triangles;
   s->stats_.bvh_nodes = s->nodes_.size() + (s->field_ ? s->field_->nodes().size() : 0);
@@ -222,7 +209,7 @@ std::unique_ptr<PatchSurface> PatchSurface::build(const PatchSet& set, const Opt
       s->pieces_.capacity() * sizeof(Piece) + s->piece_cp_.capacity() * sizeof(BezierPatch) +
       (s->field_ ? s->field_->memory_bytes() : 0) + s->field_uv_.capacity() * sizeof(TriangleUV);
   for (const Trim& t : s->set_.trims) s->stats_.memory_bytes += sizeof(Trim) + t.memory_bytes();
-  s->stats_.memory_bytes += s->boundary_.memory_bytes();
+  s->stats_.memory_bytes += s->boundary_.memory_bytes() + s->trim_borders_.memory_bytes();
   return s;
 }
 
@@ -264,13 +251,32 @@ PatchSurface::Nearest PatchSurface::nearest_on_patches(Vec3 p, float max_distanc
     // No limit (a value off the surface): the corners of the piece whose box is nearest lie
     // on the patches, so the nearest of them bounds the search (which finds that piece's
     // point anyway); without it, the first pieces tried far from p set no useful bound.
+    // (A trimmed piece's corners count only where the trim keeps them.)
     uint32_t k = 0;
     piece_box_distance2(Box(p, p), &k);
     const BezierPatch& cp = piece_cp_[k];
+    const Piece& pc = pieces_[k];
     const int last = cp.num_control_points() - 1;
-    for (int c : {0, cp.du, last - cp.du, last}) {
-      const Vec3 e = cp.cp[size_t(c)] - p;
+    const int corner[4] = {0, cp.du, last - cp.du, last};
+    const float cu[4] = {pc.u0, pc.u1, pc.u0, pc.u1}, cv[4] = {pc.v0, pc.v0, pc.v1, pc.v1};
+    for (int c = 0; c < 4; ++c) {
+      if (pc.trimmed && !set_.trim(pc.patch)->contains(cu[c], cv[c])) continue;
+      const Vec3 e = cp.cp[size_t(corner[c])] - p;
       best2 = std::min(best2, double(length2(e)) * (1 + 1e-5) + 1e-12);
+    }
+  }
+  // The exact field of a trimmed set: the nearest point may lie on a trim loop, or on a kept
+  // side of a trimmed patch that a partly trimmed piece's search does not reach (its own
+  // nearest point trimmed away). Those borders are searched first (their point bounds the
+  // pieces' search); a piece's point trimmed away is then simply not a candidate.
+  if (exact_) {
+    NearestOnCurves::Hit h;
+    if (trim_borders_.nearest(q, &best2, &h)) {
+      const CurveOnPatch& c = trim_borders_.curves()[h.curve];
+      best.patch = c.patch, best.on_border = true;
+      best.u = std::clamp(c.a.u + h.t * (c.b.u - c.a.u), 0.0, 1.0);
+      best.v = std::clamp(c.a.v + h.t * (c.b.v - c.a.v), 0.0, 1.0);
+      best.point = h.point;
     }
   }
   auto box_distance2 = [&](const BvhNode& n) {
@@ -312,6 +318,7 @@ PatchSurface::Nearest PatchSurface::nearest_on_patches(Vec3 p, float max_distanc
       return true;
     }
     best2 = d2, best_piece = k, best_u = u, best_v = v, best_point = x, best_normal = nrm;
+    best.patch = pc.patch, best.on_border = false;
     return true;
   };
   // Nearest first (the nearer child is visited first), pruned by the best distance so far. A
@@ -334,22 +341,23 @@ PatchSurface::Nearest PatchSurface::nearest_on_patches(Vec3 p, float max_distanc
     for (int i = 0; i < ndeferred; ++i)
       if (deferred_d2[i] <= best2) try_piece(deferred[i], true);
   }
-  best.d2 = best_piece == ~0u ? std::numeric_limits<double>::infinity() : best2;
+  best.d2 = best.patch == ~0u ? std::numeric_limits<double>::infinity() : best2;
   return best;
 }
 
 ClosestPoint PatchSurface::closest_point_on_patches(Vec3 p, float max_distance) const {
   const Nearest n = nearest_on_patches(p, max_distance);
   // A trimmed piece's point nearer than the best was trimmed away: the closest kept point may
-  // be on that piece's trim loop. The tessellation (clipped to the kept region) answers.
-  if (n.piece == ~0u || n.trimmed_away2 < n.d2) return {};
-  const uint32_t best_piece = n.piece;
+  // be on that piece's trim loop. Without the exact field's trim borders, the tessellation
+  // (clipped to the kept region) answers.
+  if (n.patch == ~0u || (!exact_ && n.trimmed_away2 < n.d2)) return {};
   const double best_u = n.u, best_v = n.v, best2 = n.d2;
   const DVec3 best_point = n.point;
-  const Vec3 best_normal = n.normal;
+  const Vec3 best_normal = n.on_border ? Vec3{0, 0, 0} : n.normal;
   ClosestPoint best;
-  const uint32_t patch = pieces_[best_piece].patch;
-  // Where Pu x Pv vanishes (a collapsed edge), the limit from inside the patch (normal()).
+  const uint32_t patch = n.patch;
+  // Where Pu x Pv vanishes (a collapsed edge), the limit from inside the patch (normal()); on a
+  // trimmed patch's border, its normal there.
   const Vec3 nrm = length2(best_normal) > 0 ? best_normal : normal(patch, best_u, best_v);
   if (!(length2(nrm) > 0)) return best;  // no normal: the tessellation's answer instead
   best.distance = float(std::sqrt(best2));
@@ -862,6 +870,10 @@ bool PatchSurface::ray_facings(const Ray& ray, float tmax, int* facings) const {
         constexpr double kBorder = 1e-5, kGrazing = 1e-3;
         const double u = h.u, v = h.v;
         if (u < kBorder || u > 1 - kBorder || v < kBorder || v > 1 - kBorder) doubtful = true;
+        // Near a trim loop: whether the root is kept is as uncertain as the boundary term
+        // (the string passes next to the loop's curve).
+        if (const Trim* trim = set_.trim(h.patch); trim && trim->near_edge(u, v, kBorder))
+          doubtful = true;
         if (std::abs(dot(hit_normal(h), ray.dir)) < kGrazing * length(ray.dir)) doubtful = true;
         roots.push(h);
       },
@@ -981,14 +993,24 @@ DistanceBounds PatchSurface::exact_distance_bounds(const Box& box) const {
   uint32_t near_piece = 0;
   const double apart2 = piece_box_distance2(box, &near_piece);
   const BezierPatch& cp = piece_cp_[near_piece];
+  const Piece& pc = pieces_[near_piece];
   const int last = cp.num_control_points() - 1;
-  Vec3 vertex = cp.cp[0];
-  bool vertex_in_box = false;
-  for (int k : {0, cp.du, last - cp.du, last}) {
-    if (box.contains(cp.cp[size_t(k)])) {
-      vertex = cp.cp[size_t(k)], vertex_in_box = true;
-      break;
-    }
+  const int corner[4] = {0, cp.du, last - cp.du, last};
+  const float cu[4] = {pc.u0, pc.u1, pc.u0, pc.u1}, cv[4] = {pc.v0, pc.v0, pc.v1, pc.v1};
+  // A corner of the piece on the surface (kept, when the piece is partly trimmed), inside
+  // the box if one is.
+  Vec3 vertex;
+  bool have_vertex = false, vertex_in_box = false;
+  for (int k = 0; k < 4 && !vertex_in_box; ++k) {
+    if (pc.trimmed && !set_.trim(pc.patch)->contains(cu[k], cv[k])) continue;
+    vertex = cp.cp[size_t(corner[k])], have_vertex = true;
+    vertex_in_box = box.contains(vertex);
+  }
+  if (!have_vertex) {
+    // Every corner trimmed away: a point of the patches from the closest point at the box's
+    // centre.
+    const Nearest at = nearest_on_patches(box.center(), std::numeric_limits<float>::infinity());
+    vertex = to_f(at.point);
   }
   const float size = bounds_.max_extent();
   // No point of the box is farther from the patches than from that point of them (rounded
@@ -1008,10 +1030,10 @@ DistanceBounds PatchSurface::exact_distance_bounds(const Box& box) const {
   // A search within half the diagonal finds the closest point when the box may hold the
   // surface; only when it finds none are all the pieces searched.
   Nearest near = nearest_on_patches(c, half_diag);
-  if (near.piece == ~0u) near = nearest_on_patches(c, std::numeric_limits<float>::infinity());
+  if (near.patch == ~0u) near = nearest_on_patches(c, std::numeric_limits<float>::infinity());
   // Newton's closest point is exact to ~1e-7 of the size: a margin on both sides.
   const float margin = 1e-5f * size;
-  const float dc = near.piece == ~0u ? 0.0f : float(std::sqrt(near.d2));
+  const float dc = near.patch == ~0u ? 0.0f : float(std::sqrt(near.d2));
   const float upper = std::min(dc + half_diag + margin, reach);
   const float lower = dc - half_diag - margin;
   if (lower <= 0) return {-upper, upper};

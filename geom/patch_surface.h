@@ -16,15 +16,18 @@
 // exact to 1e-7 of the patch size. A piece where Newton does not converge (grazing rays at
 // silhouettes, where the Jacobian is nearly singular) is split in four again, on the fly, down
 // to kMaxRefine more levels. Normals come from the patch derivatives Pu x Pv.
-// Field (distance, winding number, bounds) of an untrimmed set: from the patches themselves,
-// with no tessellation. The winding number is the boundary's string term plus the crossings of
-// one ray (geom/boundary_winding.h: exact, whether the patches close up or not), the side of a
-// point goes through a WindingGrid of those (geom/side_grid.h), the distance is
-// closest_point_on_patches' (Newton in the pieces near p), and the bounds over a box come from
+// Field (distance, winding number, bounds): from the patches themselves, with no
+// tessellation, trimmed or not. The winding number is the boundary's string term plus the
+// crossings of one ray (geom/boundary_winding.h: exact, whether the patches close up or not;
+// a trimmed patch's boundary is its kept region's, trim loops included), the side of a point
+// goes through a WindingGrid of those (geom/side_grid.h), the distance is
+// closest_point_on_patches' (Newton in the pieces near p, and for trimmed patches the nearest
+// point of their kept regions' borders: NearestOnCurves), and the bounds over a box come from
 // the pieces' control-point boxes.
-// A trimmed set (or Options::exact_field false) goes through a fine tessellation instead
-// (`field_tessellation` quads per patch side, MeshSurface, clipped to the trims), whose error
-// is stats'd as field_error(); the ray queries never use it.
+// A set whose boundary has more than Options::max_exact_curves curves (or Options::exact_field
+// false) goes through a fine tessellation instead (`field_tessellation` quads per patch side,
+// MeshSurface, clipped to the trims), whose error is stats'd as field_error(); the ray queries
+// never use it.
 // Trimmed patches (PatchSet::trims): each piece is classified against its patch's trim once,
 // at build time; pieces wholly outside the kept region are left out of the BVH, pieces wholly
 // inside it behave as untrimmed, and only the pieces that a trim loop crosses test a root's
@@ -50,9 +53,15 @@ class PatchSurface final : public Surface {
     float flatness = 2e-3f;       ///< relative to each patch's bounding-box diagonal
     int max_split_depth = 6;      ///< per patch side: at most 2^6 x 2^6 pieces
     int field_tessellation = 32;  ///< quads per patch side of a tessellated field
-    /// An untrimmed set's field from the patches (no tessellation); false: through the
-    /// tessellation, as a trimmed set's always is (for tests that compare the two).
+    /// The field from the patches (no tessellation), trimmed or not; false: through the
+    /// tessellation (for tests that compare the two).
     bool exact_field = true;
+    /// A set whose boundary (after the seams cancel) has more curves than this keeps the
+    /// tessellated field all the same: the exact winding number visits every curve
+    /// (BoundaryCurves::string_term, no hierarchy over curves yet), ~1 us a point for the
+    /// teapot's 16 and ~13 us for the trimmed cup's 528 (its trim polygons and the walls'
+    /// rims), where the tessellation's hierarchical one takes ~0.7 us.
+    size_t max_exact_curves = 64;
   };
 
   static std::unique_ptr<PatchSurface> build(const PatchSet& set, const Options& options);
@@ -74,7 +83,7 @@ class PatchSurface final : public Surface {
   /// a leaf's box runs its Newton solves there as its own walk would.
   void crossings_packet(const Ray* rays, int n, const float* tmin, const float* tmax,
                         std::vector<Crossing>* out) const;
-  /// Exact (exact_winding_number) for an untrimmed set, else the field tessellation's.
+  /// Exact (exact_winding_number) for the exact field, else the field tessellation's.
   double winding_number(Vec3 p) const override;
   /// winding_number(p) >= 1/2 through a grid of cells (geom/side_grid.h): the exact field's
   /// WindingGrid (a cell's centre and the crossings of a short segment decide most points),
@@ -84,7 +93,7 @@ class PatchSurface final : public Surface {
   DistanceBounds signed_distance_bounds(const Box& box) const override;
   /// The closest point of the patches themselves (closest_point_on_patches: Newton in the
   /// pieces near p, no tessellation), with the patch's normal Pu x Pv there and prim = the
-  /// patch: always for an untrimmed set; for a trimmed set within a finite max_distance (the
+  /// patch: always for the exact field; for a tessellated one within a finite max_distance (the
   /// gradient's query at a ray hit: jit/surface_ops.cpp) when it finds one. Otherwise the field
   /// tessellation's closest point (within field_error() of the patches'; what a tessellated
   /// signed_distance measures), with the normal of the patch at the (u, v) of that point,
@@ -105,7 +114,8 @@ class PatchSurface final : public Surface {
   float field_error() const { return field_error_; }
   /// False when nothing of the patches is left (all trimmed away or degenerate).
   bool has_field() const { return exact_ || field_ != nullptr; }
-  /// Whether the field goes through a tessellation (a trimmed set, or exact_field off).
+  /// Whether the field goes through a tessellation (too many boundary curves, or exact_field
+  /// off).
   bool has_tessellation() const { return field_ != nullptr; }
   /// The field tessellation (only when has_tessellation()).
   const MeshSurface& field_mesh() const { return *field_; }
@@ -115,7 +125,7 @@ class PatchSurface final : public Surface {
   /// string term minus the facings of the crossings of a ray from p (geom/boundary_winding.h),
   /// along the first of a fixed list of directions for which neither is in doubt (no root
   /// within 1e-5 of a patch's border in (u, v) or grazing the patch, the string not too close
-  /// to a border curve). Untrimmed sets only (trims are not in the boundary).
+  /// to a border curve, no root within 1e-5 of a trim loop in (u, v)).
   double exact_winding_number(Vec3 p) const;
 
   /// The unit normal of patch `prim` at (u, v) (from Pu x Pv; near a collapsed edge, from a
@@ -155,7 +165,9 @@ class PatchSurface final : public Surface {
   /// within the limit) and the nearest point trimmed away (squared distance; +inf when none).
   struct Nearest {
     double d2 = std::numeric_limits<double>::infinity();
-    uint32_t piece = ~0u;
+    uint32_t patch = ~0u;    ///< the nearest kept point's patch (~0u: none)
+    bool on_border = false;  ///< it lies on a trimmed patch's border (trim_borders_)
+    uint32_t piece = ~0u;    ///< else the piece whose search found it
     double u = 0, v = 0;
     DVec3 point;
     Vec3 normal;
@@ -245,8 +257,9 @@ class PatchSurface final : public Surface {
   WideBvh wide_;                       // 4-wide upper levels of nodes_, for rays
   std::vector<Piece> pieces_;          // in leaf order
   std::vector<BezierPatch> piece_cp_;  // control points of each piece (for on-the-fly refinement)
-  bool exact_ = false;                 // the exact field (an untrimmed set with pieces)
+  bool exact_ = false;                 // the exact field (a set with pieces)
   BoundaryCurves boundary_;            // its open borders
+  NearestOnCurves trim_borders_;       // its trimmed patches' kept borders, for closest points
   LazyWindingGrid side_grid_;          // its inside()'s cells
   std::unique_ptr<MeshSurface> field_;
   std::vector<TriangleUV> field_uv_;  // per field triangle: its patch and corners' (u, v)

@@ -150,4 +150,99 @@ void Trim::clip(double u0, double u1, double v0, double v1,
   }
 }
 
+std::vector<std::array<UV, 2>> Trim::border() const {
+  // The candidate segments: the loop edges and the square's sides (counter-clockwise).
+  std::vector<Edge> segs = edges_;
+  const UV corner[4] = {{0, 0}, {1, 0}, {1, 1}, {0, 1}};
+  for (int k = 0; k < 4; ++k) segs.push_back({corner[k], corner[(k + 1) % 4]});
+  // Each split where another segment crosses it, or ends on it (a T, or collinear overlap).
+  std::vector<std::array<UV, 2>> parts;
+  for (size_t i = 0; i < segs.size(); ++i) {
+    const Edge& e = segs[i];
+    const UV d1{e.b.u - e.a.u, e.b.v - e.a.v};
+    const double len2 = d1.u * d1.u + d1.v * d1.v;
+    if (!(len2 > 0)) continue;
+    std::vector<double> ts{0, 1};
+    auto on_e = [&](UV q) {  // q's parameter along e when q lies on e's line
+      const UV w{q.u - e.a.u, q.v - e.a.v};
+      if (std::abs(cross(d1, w)) > 1e-12 * std::sqrt(len2)) return;
+      const double t = (w.u * d1.u + w.v * d1.v) / len2;
+      if (t > 0 && t < 1) ts.push_back(t);
+    };
+    for (size_t j = 0; j < segs.size(); ++j) {
+      if (j == i) continue;
+      const Edge& f = segs[j];
+      if (std::max(f.a.u, f.b.u) < std::min(e.a.u, e.b.u) ||
+          std::min(f.a.u, f.b.u) > std::max(e.a.u, e.b.u) ||
+          std::max(f.a.v, f.b.v) < std::min(e.a.v, e.b.v) ||
+          std::min(f.a.v, f.b.v) > std::max(e.a.v, e.b.v))
+        continue;
+      on_e(f.a);
+      on_e(f.b);
+      const UV d2{f.b.u - f.a.u, f.b.v - f.a.v};
+      const double den = cross(d1, d2);
+      if (den == 0) continue;
+      const UV w{f.a.u - e.a.u, f.a.v - e.a.v};
+      const double t = cross(w, d2) / den, s = cross(w, d1) / den;
+      if (t > 0 && t < 1 && s >= 0 && s <= 1) ts.push_back(t);
+    }
+    std::sort(ts.begin(), ts.end());
+    for (size_t k = 0; k + 1 < ts.size(); ++k) {
+      if (!(ts[k + 1] - ts[k] > 1e-12)) continue;
+      auto at = [&](double t) {
+        return t == 0 ? e.a : t == 1 ? e.b : UV{e.a.u + t * d1.u, e.a.v + t * d1.v};
+      };
+      parts.push_back({at(ts[k]), at(ts[k + 1])});
+    }
+  }
+  // Repeats (the same piece from two segments, in either direction): one of each, by the
+  // endpoints rounded to 1e-10 in canonical order.
+  auto key = [](const std::array<UV, 2>& s) {
+    std::array<int64_t, 4> k;
+    auto r = [](double x) { return int64_t(std::llround(x * 1e10)); };
+    std::array<int64_t, 2> a{r(s[0].u), r(s[0].v)}, b{r(s[1].u), r(s[1].v)};
+    if (b < a) std::swap(a, b);
+    k = {a[0], a[1], b[0], b[1]};
+    return k;
+  };
+  std::vector<std::pair<std::array<int64_t, 4>, size_t>> keys(parts.size());
+  for (size_t i = 0; i < parts.size(); ++i) keys[i] = {key(parts[i]), i};
+  std::sort(keys.begin(), keys.end());
+  auto kept = [&](UV q) {
+    return q.u >= 0 && q.u <= 1 && q.v >= 0 && q.v <= 1 && contains(q.u, q.v);
+  };
+  std::vector<std::array<UV, 2>> out;
+  for (size_t k = 0; k < keys.size(); ++k) {
+    if (k > 0 && keys[k].first == keys[k - 1].first) continue;
+    const std::array<UV, 2>& s = parts[keys[k].second];
+    const UV d{s[1].u - s[0].u, s[1].v - s[0].v};
+    const double len = std::sqrt(d.u * d.u + d.v * d.v);
+    const double h = std::min(1e-7, 0.01 * len) / len;  // the probes' offset, per unit of d
+    const UV m{0.5 * (s[0].u + s[1].u), 0.5 * (s[0].v + s[1].v)};
+    const bool left = kept({m.u - h * d.v, m.v + h * d.u});
+    const bool right = kept({m.u + h * d.v, m.v - h * d.u});
+    if (left == right) continue;
+    out.push_back(left ? s : std::array<UV, 2>{s[1], s[0]});
+  }
+  return out;
+}
+
+bool Trim::near_edge(double u, double v, double eps) const {
+  if (edges_.empty()) return false;
+  auto band = [&](double y) {
+    return std::clamp(static_cast<int>(std::floor(y * bands_)), 0, bands_ - 1);
+  };
+  for (int b = band(v - eps); b <= band(v + eps); ++b) {
+    for (uint32_t k = band_start_[b]; k < band_start_[b + 1]; ++k) {
+      const Edge& e = edges_[band_edges_[k]];
+      const UV d{e.b.u - e.a.u, e.b.v - e.a.v}, w{u - e.a.u, v - e.a.v};
+      const double len2 = d.u * d.u + d.v * d.v;
+      const double t = len2 > 0 ? std::clamp((w.u * d.u + w.v * d.v) / len2, 0.0, 1.0) : 0.0;
+      const double du = w.u - t * d.u, dv = w.v - t * d.v;
+      if (du * du + dv * dv <= eps * eps) return true;
+    }
+  }
+  return false;
+}
+
 }  // namespace hfrt::geom

@@ -54,6 +54,20 @@ class Trim {
   /// trapezoid kept or not by contains() at its centre.
   void clip(double u0, double u1, double v0, double v1, std::vector<std::array<UV, 3>>* out) const;
 
+  /// The border of the kept region within [0,1]^2 as segments (a, b) with the kept region on
+  /// their left (counter-clockwise around it, as the untrimmed square's border runs): the
+  /// loop edges and the square's sides, split where they cross or touch each other, less the
+  /// pieces with the same side left and right (a loop edge inside a region kept on both
+  /// sides, a side of the square that is trimmed away) and less repeats (a loop edge along a
+  /// side). Each piece's side is decided by contains() at points just left and right of its
+  /// middle. What the exact field's boundary curves and closest points of a trimmed patch are
+  /// made from (geom/boundary_winding.h). Quadratic in the edges (their crossings).
+  std::vector<std::array<UV, 2>> border() const;
+
+  /// Whether a loop edge passes within `eps` of (u, v) (the edges of v's bands): a root of a
+  /// winding number's ray there is in doubt, as one near a patch's border is.
+  bool near_edge(double u, double v, double eps) const;
+
  private:
   struct Edge {
     UV a, b;

@@ -298,14 +298,17 @@ TEST(OpenSurfaceWarnings, NameTheOpenMeshAtItsCall) {
 
 TEST(DescribeSurfaces, SaysWhatEachFieldIsMadeOf) {
   // The teapot's field is exact (its 16 open borders, no tessellation); the trimmed cup's
-  // goes through a tessellation; a mesh's is its triangles.
+  // goes through a tessellation (528 border curves: its trim polygons' edges and the walls'
+  // rims, more than the exact field takes); a mesh's is its triangles.
   const struct {
     const char* file;
     const char* says;
   } cases[] = {
       {"/examples/teapot.hf",
        "32 patches, 14216 pieces, exact field (16 open border curves, no tessellation)"},
-      {"/examples/trimmed.hf", "22208 triangles (field tessellation), 11 patches, 2051 pieces"},
+      {"/examples/trimmed.hf",
+       "22208 triangles (field tessellation), 11 patches, 2051 pieces, 66 degenerate skipped, "
+       "528 open border curves (too many for the exact field)"},
       {"/examples/armadillo.hf", "52000 triangles, 0 degenerate skipped"},
   };
   for (const auto& c : cases) {

@@ -234,5 +234,208 @@ TEST(BoundaryWinding, TheGridsSidesAreTheWindingNumbers) {
   EXPECT_GT(inside, asked / 50);
 }
 
+// ---- Trimmed patches -----------------------------------------------------------------------
+
+/// The solid angle of triangle (a, b, c) seen from p, signed by its orientation (Van Oosterom
+/// and Strackee), over 4 pi: its winding number.
+double triangle_winding(DVec3 p, DVec3 a, DVec3 b, DVec3 c) {
+  const DVec3 x{a.x - p.x, a.y - p.y, a.z - p.z}, y{b.x - p.x, b.y - p.y, b.z - p.z},
+      z{c.x - p.x, c.y - p.y, c.z - p.z};
+  auto dot = [](DVec3 u, DVec3 v) { return u.x * v.x + u.y * v.y + u.z * v.z; };
+  const double lx = std::sqrt(dot(x, x)), ly = std::sqrt(dot(y, y)), lz = std::sqrt(dot(z, z));
+  const double det =
+      x.x * (y.y * z.z - y.z * z.y) - x.y * (y.x * z.z - y.z * z.x) + x.z * (y.x * z.y - y.y * z.x);
+  const double den = lx * ly * lz + dot(x, y) * lz + dot(y, z) * lx + dot(z, x) * ly;
+  return 2 * std::atan2(det, den) / (4 * std::numbers::pi);
+}
+
+/// The distance from p to the segment [a, b].
+double segment_distance(DVec3 p, DVec3 a, DVec3 b) {
+  const DVec3 d{b.x - a.x, b.y - a.y, b.z - a.z}, w{p.x - a.x, p.y - a.y, p.z - a.z};
+  const double len2 = d.x * d.x + d.y * d.y + d.z * d.z;
+  const double t = std::clamp((w.x * d.x + w.y * d.y + w.z * d.z) / len2, 0.0, 1.0);
+  const DVec3 r{w.x - t * d.x, w.y - t * d.y, w.z - t * d.z};
+  return std::sqrt(r.x * r.x + r.y * r.y + r.z * r.z);
+}
+
+/// A regular n-gon in (u, v) about (cu, cv) of radius r, counter-clockwise.
+std::vector<UV> ngon(int n, double cu, double cv, double r, double phase = 0.3) {
+  std::vector<UV> loop;
+  for (int k = 0; k < n; ++k) {
+    const double a = phase + 2 * std::numbers::pi * k / n;
+    loop.push_back({cu + r * std::cos(a), cv + r * std::sin(a)});
+  }
+  return loop;
+}
+
+// A flat patch (an affine map of the parameter square onto a tilted plane, so the kept region
+// is a polygon in space) trimmed four ways. Its winding number is the solid angle of the kept
+// polygons (fans of triangles, the hole's subtracted), and its distance the plane's where p
+// projects into the kept region, else the nearest polygon edge's: closed forms.
+TEST(BoundaryWinding, TrimmedFlatPatchesGiveTheSolidAngleAndDistanceOfTheirRegion) {
+  auto plane = [](double u, double v) {
+    const double x = -1 + 2 * u + 0.25 * v, y = -1 + 2 * v;
+    return DVec3{x, y, 0.25 * x - 0.5 * y + 0.125};
+  };
+  BezierPatch flat =
+      quad(to_f(plane(0, 0)), to_f(plane(1, 0)), to_f(plane(1, 1)), to_f(plane(0, 1)));
+  const std::vector<UV> square{{0, 0}, {1, 0}, {1, 1}, {0, 1}};
+  const std::vector<UV> octagon = ngon(8, 0.45, 0.55, 0.3);
+  const std::vector<UV> half{{0, 0}, {1, 0}, {1, 0.5}, {0, 0.5}};  // three sides on the border
+  std::vector<UV> reversed_octagon(octagon.rbegin(), octagon.rend());
+  struct Case {
+    const char* name;
+    std::vector<std::vector<UV>> loops;
+    std::vector<std::vector<UV>> kept;     // counter-clockwise polygons, added
+    std::vector<std::vector<UV>> removed;  // polygons inside them, subtracted
+    size_t curves;                         // the border's segments
+  };
+  const Case cases[] = {
+      {"disk", {octagon}, {octagon}, {}, 8},
+      {"disk, clockwise loop", {reversed_octagon}, {octagon}, {}, 8},
+      {"ring", {square, octagon}, {square}, {octagon}, 12},
+      {"half", {half}, {half}, {}, 4},
+  };
+  std::mt19937 rng(19);
+  std::uniform_real_distribution<double> coord(-2, 2);
+  for (const Case& c : cases) {
+    SCOPED_TRACE(c.name);
+    PatchSet set;
+    set.patches.push_back(flat);
+    set.trims.push_back(Trim(c.loops));
+    const auto s = PatchSurface::build(set);
+    ASSERT_FALSE(s->has_tessellation());
+    EXPECT_EQ(s->boundary().curves().size(), c.curves);
+    // The polygons' edges in space, for the distance off the region.
+    std::vector<std::pair<DVec3, DVec3>> edges;
+    for (const auto* polys : {&c.kept, &c.removed})
+      for (const std::vector<UV>& poly : *polys)
+        for (size_t i = 0; i < poly.size(); ++i) {
+          const UV a = poly[i], b = poly[(i + 1) % poly.size()];
+          edges.push_back({plane(a.u, a.v), plane(b.u, b.v)});
+        }
+    // The plane's unit normal (Pu x Pv) and the parameters of a point's projection.
+    const DVec3 pu{2, 0, 0.5}, pv{0.25, 2, 0.0625 - 1};
+    DVec3 n{pu.y * pv.z - pu.z * pv.y, pu.z * pv.x - pu.x * pv.z, pu.x * pv.y - pu.y * pv.x};
+    const double nl = std::sqrt(n.x * n.x + n.y * n.y + n.z * n.z);
+    n = {n.x / nl, n.y / nl, n.z / nl};
+    double worst_w = 0, worst_d = 0;
+    int on_plane = 0, off_region = 0;
+    for (int k = 0; k < 1500; ++k) {
+      DVec3 p{coord(rng), coord(rng), coord(rng)};
+      if (k % 3 == 0) {
+        // Just above or below the plane, where the border matters most.
+        const DVec3 q = plane(1.2 * coord(rng) / 2 + 0.5, 1.2 * coord(rng) / 2 + 0.5);
+        const double h = 0.05 * coord(rng);
+        p = {q.x + h * n.x, q.y + h * n.y, q.z + h * n.z};
+      }
+      double want = 0;
+      for (const auto* polys : {&c.kept, &c.removed})
+        for (const std::vector<UV>& poly : *polys)
+          for (size_t i = 1; i + 1 < poly.size(); ++i)
+            want += (polys == &c.kept ? 1 : -1) *
+                    triangle_winding(p, plane(poly[0].u, poly[0].v), plane(poly[i].u, poly[i].v),
+                                     plane(poly[i + 1].u, poly[i + 1].v));
+      // The projection's (u, v): the plane map is affine, solve for it.
+      const DVec3 r{p.x - plane(0, 0).x, p.y - plane(0, 0).y, p.z - plane(0, 0).z};
+      const double h = r.x * n.x + r.y * n.y + r.z * n.z;
+      const DVec3 in{r.x - h * n.x, r.y - h * n.y, r.z - h * n.z};
+      const double a = pu.x * pu.x + pu.y * pu.y + pu.z * pu.z,
+                   b = pu.x * pv.x + pu.y * pv.y + pu.z * pv.z,
+                   cc = pv.x * pv.x + pv.y * pv.y + pv.z * pv.z,
+                   ru = in.x * pu.x + in.y * pu.y + in.z * pu.z,
+                   rv = in.x * pv.x + in.y * pv.y + in.z * pv.z;
+      const double u = (cc * ru - b * rv) / (a * cc - b * b),
+                   v = (a * rv - b * ru) / (a * cc - b * b);
+      // Kept: inside a kept polygon and no removed one (point in convex polygon).
+      auto in_poly = [&](const std::vector<UV>& poly) {
+        for (size_t i = 0; i < poly.size(); ++i) {
+          const UV e0 = poly[i], e1 = poly[(i + 1) % poly.size()];
+          if ((e1.u - e0.u) * (v - e0.v) - (e1.v - e0.v) * (u - e0.u) < 0) return false;
+        }
+        return true;
+      };
+      bool kept = false;
+      for (const auto& poly : c.kept) kept = kept || in_poly(poly);
+      for (const auto& poly : c.removed) kept = kept && !in_poly(poly);
+      double dist = std::abs(h);
+      if (!kept) {
+        dist = std::numeric_limits<double>::infinity();
+        for (const auto& [e0, e1] : edges) dist = std::min(dist, segment_distance(p, e0, e1));
+        ++off_region;
+      } else {
+        ++on_plane;
+      }
+      if (dist < 1e-3) continue;  // on the surface: w jumps
+      worst_w = std::max(worst_w, std::abs(s->winding_number(to_f(p)) - want));
+      worst_d = std::max(worst_d, std::abs(double(std::abs(s->signed_distance(to_f(p)))) - dist));
+    }
+    // The quadrature's 1e-4 at worst near the border; float points (p rounded) for distances.
+    EXPECT_LT(worst_w, 2e-4);
+    EXPECT_LT(worst_d, 2e-6);
+    EXPECT_GT(on_plane, 50);
+    EXPECT_GT(off_region, 50);
+    std::printf("%s: worst |w - w_exact| %.3g, |d - d_exact| %.3g\n", c.name, worst_w, worst_d);
+  }
+}
+
+/// The teapot with a hole in every patch (a 24-gon of radius 0.3 about the centre of the
+/// parameter square).
+PatchSet holed_teapot() {
+  PatchSet set = teapot();
+  std::vector<UV> square{{0, 0}, {1, 0}, {1, 1}, {0, 1}};
+  for (size_t p = 0; p < set.patches.size(); ++p)
+    set.trims.push_back(Trim({square, ngon(24, 0.5, 0.5, 0.3)}));
+  return set;
+}
+
+// Curved patches with holes (trim curves of degree 6 on the bicubic patches): the winding
+// number and the distance against the dense clipped tessellation of the same trimmed set, away
+// from the surface; inside() agrees with the tessellation's exact winding number.
+TEST(BoundaryWinding, TrimmedTeapotAgreesWithItsDenseTessellation) {
+  const PatchSet set = holed_teapot();
+  PatchSurface::Options all_curves;
+  all_curves.max_exact_curves = 1000;
+  const auto exact = PatchSurface::build(set, all_curves);
+  // By default, too many curves for the exact field: the tessellation.
+  EXPECT_TRUE(PatchSurface::build(set)->has_tessellation());
+  PatchSurface::Options options;
+  options.exact_field = false;
+  options.field_tessellation = 64;
+  const auto dense = PatchSurface::build(set, options);
+  ASSERT_FALSE(exact->has_tessellation());
+  ASSERT_TRUE(dense->has_tessellation());
+  // The teapot's 16 open curves plus 24 hole edges per patch.
+  EXPECT_EQ(exact->boundary().curves().size(), 16u + 24u * 32u);
+  const MeshSurface& field = dense->field_mesh();
+  const float err = dense->field_error();
+  std::mt19937 rng(23);
+  const Box box = testing::grown(exact->bounds(), 0.3f);
+  std::uniform_real_distribution<float> ux(box.lo.x, box.hi.x), uy(box.lo.y, box.hi.y),
+      uz(box.lo.z, box.hi.z);
+  double worst_w = 0, worst_d = 0;
+  int tested = 0;
+  for (int k = 0; k < 600; ++k) {
+    const Vec3 p{ux(rng), uy(rng), uz(rng)};
+    const float d_ref = field.closest_point(p).distance;
+    const float d = std::abs(exact->signed_distance(p));
+    worst_d = std::max(worst_d, double(std::abs(d - d_ref)));
+    EXPECT_NEAR(d, d_ref, err + 1e-5f) << p.x << " " << p.y << " " << p.z;
+    if (d_ref < 20 * err) continue;
+    const double w = exact->winding_number(p), ref = field.winding_number_exact(p);
+    worst_w = std::max(worst_w, std::abs(w - ref));
+    EXPECT_EQ(exact->inside(p), ref >= 0.5) << p.x << " " << p.y << " " << p.z << " w " << w;
+    ++tested;
+  }
+  // The tessellation's chords bend the holes' rims by up to its error: w differs by about
+  // that much next to them.
+  EXPECT_LT(worst_w, 1e-3);
+  EXPECT_GT(tested, 300);
+  std::printf(
+      "holed teapot: %d points, worst |w - w_tessellation| %.3g, |d - d_tess| %.3g "
+      "(tessellation error %.3g)\n",
+      tested, worst_w, worst_d, err);
+}
+
 }  // namespace
 }  // namespace hfrt::geom

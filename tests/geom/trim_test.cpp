@@ -477,24 +477,34 @@ TEST(TrimField, FlatDiskDistances) {
 
 TEST(TrimField, CurvedPatchWithinFieldError) {
   const PatchSet set = parse_ok(curved_bpt());
-  const auto s = PatchSurface::build(set);
-  const float err = s->field_error();
-  EXPECT_GT(err, 0.0f);
-  EXPECT_LT(err, 1e-3f);
-  std::mt19937 rng(5);
-  std::uniform_real_distribution<double> unit(0, 1);
-  for (int i = 0; i < 2000; ++i) {
-    const double u = unit(rng), v = unit(rng);
-    const Vec3 p = to_f(set.patches[0].eval(u, v));
-    const float d = std::abs(s->signed_distance(p));
-    if (u > 0.25 && u < 0.75) {
-      // A kept point is on the tessellation, up to its error.
-      EXPECT_LE(d, err + 1e-6f) << "u " << u << " v " << v;
+  for (const bool exact : {true, false}) {
+    SCOPED_TRACE(exact ? "exact field" : "tessellated field");
+    PatchSurface::Options options;
+    options.exact_field = exact;
+    const auto s = PatchSurface::build(set, options);
+    const float err = s->field_error();
+    if (exact) {
+      EXPECT_FALSE(s->has_tessellation());
+      EXPECT_EQ(err, 0.0f);
     } else {
-      // A trimmed-away point is at least as far as the difference in x from the kept part
-      // (x(u) is increasing), less the error.
-      const double gap = u < 0.25 ? curve_x(0.25) - curve_x(u) : curve_x(u) - curve_x(0.75);
-      EXPECT_GE(d, gap - err - 1e-6) << "u " << u << " v " << v;
+      EXPECT_GT(err, 0.0f);
+      EXPECT_LT(err, 1e-3f);
+    }
+    std::mt19937 rng(5);
+    std::uniform_real_distribution<double> unit(0, 1);
+    for (int i = 0; i < 2000; ++i) {
+      const double u = unit(rng), v = unit(rng);
+      const Vec3 p = to_f(set.patches[0].eval(u, v));
+      const float d = std::abs(s->signed_distance(p));
+      if (u > 0.25 && u < 0.75) {
+        // A kept point is on the tessellation, up to its error.
+        EXPECT_LE(d, err + 1e-6f) << "u " << u << " v " << v;
+      } else {
+        // A trimmed-away point is at least as far as the difference in x from the kept part
+        // (x(u) is increasing), less the error.
+        const double gap = u < 0.25 ? curve_x(0.25) - curve_x(u) : curve_x(u) - curve_x(0.75);
+        EXPECT_GE(d, gap - err - 1e-6) << "u " << u << " v " << v;
+      }
     }
   }
 }
@@ -530,13 +540,21 @@ TEST(TrimField, PatchesTrimmedAway) {
 TEST(TrimField, ClosestPointsNearTrimLoopsAreKeptPoints) {
   // A closest-point query within a finite distance is answered on the patches themselves
   // (PatchSurface::closest_point_on_patches), where a trimmed piece's projection counts only
-  // if the trim keeps it. Near a trim loop the kept closest point may lie on the loop, which
-  // that search does not find: it must then leave the answer to the tessellation (clipped to
-  // the kept region) rather than return a farther point. Points around the rim's hole and the
-  // flat disks' edges of the cup: the distance found is the tessellation's within its error.
+  // if the trim keeps it. Near a trim loop the kept closest point may lie on the loop: the
+  // exact field finds it on the loop's curve (NearestOnCurves); the tessellated field's search,
+  // which does not, must leave the answer to the tessellation (clipped to the kept region)
+  // rather than return a farther point. Points around the rim's hole and the flat disks'
+  // edges of the cup: both distances are the tessellation's within its error.
   Result<PatchSet> set = load_bpt(std::string(HFRT_SOURCE_DIR) + "/examples/data/trimmed_cup.bpt");
   ASSERT_TRUE(set.ok()) << set.error().message;
-  const auto s = PatchSurface::build(*set);
+  PatchSurface::Options tessellated;
+  tessellated.exact_field = false;
+  const auto t = PatchSurface::build(*set, tessellated);
+  PatchSurface::Options all_curves;  // the cup has more border curves than the default takes
+  all_curves.max_exact_curves = 1000;
+  const auto e = PatchSurface::build(*set, all_curves);
+  ASSERT_TRUE(t->has_tessellation());
+  ASSERT_FALSE(e->has_tessellation());
   std::mt19937 rng(41);
   std::uniform_real_distribution<float> angle(0, 6.2831853f), off(-0.08f, 0.08f);
   int checked = 0;
@@ -548,11 +566,13 @@ TEST(TrimField, ClosestPointsNearTrimLoopsAreKeptPoints) {
     const int which = k % 3;
     const Vec3 q{(r[which] + off(rng)) * std::cos(a), (r[which] + off(rng)) * std::sin(a),
                  z[which] + off(rng)};
-    const ClosestPoint c = s->closest_point(q, 0.3f);
-    const ClosestPoint f = s->field_mesh().closest_point(q);
-    ASSERT_NE(c.prim, ~0u) << k;
-    EXPECT_NEAR(c.distance, f.distance, s->field_error() + 1e-5f)
-        << k << " at " << q.x << " " << q.y << " " << q.z;
+    const ClosestPoint f = t->field_mesh().closest_point(q);
+    for (const PatchSurface* s : {t.get(), e.get()}) {
+      const ClosestPoint c = s->closest_point(q, 0.3f);
+      ASSERT_NE(c.prim, ~0u) << k;
+      EXPECT_NEAR(c.distance, f.distance, t->field_error() + 1e-5f)
+          << k << " at " << q.x << " " << q.y << " " << q.z;
+    }
     ++checked;
   }
   EXPECT_EQ(checked, 2000);
