@@ -155,45 +155,59 @@ std::vector<std::array<UV, 2>> Trim::border() const {
   std::vector<Edge> segs = edges_;
   const UV corner[4] = {{0, 0}, {1, 0}, {1, 1}, {0, 1}};
   for (int k = 0; k < 4; ++k) segs.push_back({corner[k], corner[(k + 1) % 4]});
-  // Each split where another segment crosses it, or ends on it (a T, or collinear overlap).
+  // Each split where another segment crosses it, or ends on it (a T, or collinear overlap):
+  // the pairs whose u ranges overlap, by a sweep over the segments sorted by their lowest u
+  // (a loop of thousands of edges meets few of them at any u).
+  std::vector<std::vector<double>> ts(segs.size(), std::vector<double>{0, 1});
+  // Where f ends on e's line, or crosses e: e's parameters there, into ts[ie].
+  auto split_by = [&](size_t ie, size_t jf) {
+    const Edge& e = segs[ie];
+    const Edge& f = segs[jf];
+    const UV d1{e.b.u - e.a.u, e.b.v - e.a.v};
+    const double len2 = d1.u * d1.u + d1.v * d1.v;
+    if (!(len2 > 0)) return;
+    if (std::max(f.a.v, f.b.v) < std::min(e.a.v, e.b.v) ||
+        std::min(f.a.v, f.b.v) > std::max(e.a.v, e.b.v))
+      return;
+    auto on_e = [&](UV q) {
+      const UV w{q.u - e.a.u, q.v - e.a.v};
+      if (std::abs(cross(d1, w)) > 1e-12 * std::sqrt(len2)) return;
+      const double t = (w.u * d1.u + w.v * d1.v) / len2;
+      if (t > 0 && t < 1) ts[ie].push_back(t);
+    };
+    on_e(f.a);
+    on_e(f.b);
+    const UV d2{f.b.u - f.a.u, f.b.v - f.a.v};
+    const double den = cross(d1, d2);
+    if (den == 0) return;
+    const UV w{f.a.u - e.a.u, f.a.v - e.a.v};
+    const double t = cross(w, d2) / den, s = cross(w, d1) / den;
+    if (t > 0 && t < 1 && s >= 0 && s <= 1) ts[ie].push_back(t);
+  };
+  std::vector<uint32_t> order(segs.size());
+  for (uint32_t i = 0; i < order.size(); ++i) order[i] = i;
+  auto umin = [&](uint32_t i) { return std::min(segs[i].a.u, segs[i].b.u); };
+  auto umax = [&](uint32_t i) { return std::max(segs[i].a.u, segs[i].b.u); };
+  std::sort(order.begin(), order.end(), [&](uint32_t x, uint32_t y) { return umin(x) < umin(y); });
+  for (size_t k = 0; k < order.size(); ++k) {
+    const uint32_t i = order[k];
+    for (size_t l = k + 1; l < order.size() && umin(order[l]) <= umax(i); ++l) {
+      split_by(i, order[l]);
+      split_by(order[l], i);
+    }
+  }
   std::vector<std::array<UV, 2>> parts;
   for (size_t i = 0; i < segs.size(); ++i) {
     const Edge& e = segs[i];
     const UV d1{e.b.u - e.a.u, e.b.v - e.a.v};
-    const double len2 = d1.u * d1.u + d1.v * d1.v;
-    if (!(len2 > 0)) continue;
-    std::vector<double> ts{0, 1};
-    auto on_e = [&](UV q) {  // q's parameter along e when q lies on e's line
-      const UV w{q.u - e.a.u, q.v - e.a.v};
-      if (std::abs(cross(d1, w)) > 1e-12 * std::sqrt(len2)) return;
-      const double t = (w.u * d1.u + w.v * d1.v) / len2;
-      if (t > 0 && t < 1) ts.push_back(t);
+    if (!(d1.u * d1.u + d1.v * d1.v > 0)) continue;
+    std::vector<double>& t = ts[i];
+    std::sort(t.begin(), t.end());
+    auto at = [&](double x) {
+      return x == 0 ? e.a : x == 1 ? e.b : UV{e.a.u + x * d1.u, e.a.v + x * d1.v};
     };
-    for (size_t j = 0; j < segs.size(); ++j) {
-      if (j == i) continue;
-      const Edge& f = segs[j];
-      if (std::max(f.a.u, f.b.u) < std::min(e.a.u, e.b.u) ||
-          std::min(f.a.u, f.b.u) > std::max(e.a.u, e.b.u) ||
-          std::max(f.a.v, f.b.v) < std::min(e.a.v, e.b.v) ||
-          std::min(f.a.v, f.b.v) > std::max(e.a.v, e.b.v))
-        continue;
-      on_e(f.a);
-      on_e(f.b);
-      const UV d2{f.b.u - f.a.u, f.b.v - f.a.v};
-      const double den = cross(d1, d2);
-      if (den == 0) continue;
-      const UV w{f.a.u - e.a.u, f.a.v - e.a.v};
-      const double t = cross(w, d2) / den, s = cross(w, d1) / den;
-      if (t > 0 && t < 1 && s >= 0 && s <= 1) ts.push_back(t);
-    }
-    std::sort(ts.begin(), ts.end());
-    for (size_t k = 0; k + 1 < ts.size(); ++k) {
-      if (!(ts[k + 1] - ts[k] > 1e-12)) continue;
-      auto at = [&](double t) {
-        return t == 0 ? e.a : t == 1 ? e.b : UV{e.a.u + t * d1.u, e.a.v + t * d1.v};
-      };
-      parts.push_back({at(ts[k]), at(ts[k + 1])});
-    }
+    for (size_t k = 0; k + 1 < t.size(); ++k)
+      if (t[k + 1] - t[k] > 1e-12) parts.push_back({at(t[k]), at(t[k + 1])});
   }
   // Repeats (the same piece from two segments, in either direction): one of each, by the
   // endpoints rounded to 1e-10 in canonical order.

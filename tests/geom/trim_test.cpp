@@ -620,5 +620,62 @@ TEST(TrimExample, TheCupIsASolid) {
   EXPECT_LT(s->field_error(), 1e-3f);
 }
 
+// ---- The kept region's border (Trim::border, the exact field's trim curves) -----------------
+
+// The border's segments run with the kept region on their left, so the shoelace sum over them
+// is the kept area (the even-odd region within the square), and every segment has a kept point
+// just left of its middle and a removed one just right.
+TEST(TrimBorder, EnclosesTheKeptAreaWithItOnTheLeft) {
+  auto loop = [](std::initializer_list<UV> pts) { return std::vector<UV>(pts); };
+  std::vector<UV> circle;
+  for (int k = 0; k < 20000; ++k)
+    circle.push_back(
+        {0.5 + 0.4 * std::cos(2 * kPi * k / 20000), 0.5 + 0.4 * std::sin(2 * kPi * k / 20000)});
+  const struct {
+    const char* name;
+    std::vector<std::vector<UV>> loops;
+    double area;
+  } cases[] = {
+      // Two overlapping squares: their overlap is inside both, so removed.
+      {"overlap",
+       {loop({{0.1, 0.1}, {0.6, 0.1}, {0.6, 0.6}, {0.1, 0.6}}),
+        loop({{0.4, 0.4}, {0.9, 0.4}, {0.9, 0.9}, {0.4, 0.9}})},
+       0.25 + 0.25 - 2 * 0.04},
+      // A bow tie (a loop crossing itself): both lobes, each a triangle of area 0.08 (base 0.4 at u
+      // = 0.1 or 0.9, height 0.4).
+      {"bow tie", {loop({{0.1, 0.1}, {0.9, 0.5}, {0.9, 0.1}, {0.1, 0.5}})}, 2 * 0.5 * 0.4 * 0.4},
+      // Along three sides of the square, clockwise.
+      {"lower half", {loop({{0, 0.5}, {1, 0.5}, {1, 0}, {0, 0}})}, 0.5},
+      // The whole square less a square hole touching its left side.
+      {"notch",
+       {loop({{0, 0}, {1, 0}, {1, 1}, {0, 1}}),
+        loop({{0, 0.25}, {0.5, 0.25}, {0.5, 0.75}, {0, 0.75}})},
+       1 - 0.25},
+      // A polygon of 20000 edges (the sweep over sorted segments keeps this fast).
+      {"circle", {circle}, 0.5 * 20000 * 0.4 * 0.4 * std::sin(2 * kPi / 20000)},
+  };
+  for (const auto& c : cases) {
+    SCOPED_TRACE(c.name);
+    const Trim trim(c.loops);
+    const std::vector<std::array<UV, 2>> border = trim.border();
+    ASSERT_FALSE(border.empty());
+    double area = 0;
+    for (const auto& [a, b] : border) {
+      area += 0.5 * (a.u * b.v - b.u * a.v);
+      const UV m{0.5 * (a.u + b.u), 0.5 * (a.v + b.v)}, d{b.u - a.u, b.v - a.v};
+      const double len = std::hypot(d.u, d.v), h = std::min(1e-7, 0.01 * len) / len;
+      const UV left{m.u - h * d.v, m.v + h * d.u}, right{m.u + h * d.v, m.v - h * d.u};
+      auto kept = [&](UV q) {
+        return q.u >= 0 && q.u <= 1 && q.v >= 0 && q.v <= 1 && trim.contains(q.u, q.v);
+      };
+      EXPECT_TRUE(kept(left) && !kept(right)) << a.u << " " << a.v << " -> " << b.u << " " << b.v;
+    }
+    EXPECT_NEAR(area, c.area, 1e-12);
+  }
+  // Nothing kept (a loop twice): no border.
+  const auto tri = loop({{0, 0}, {1, 0}, {0, 1}});
+  EXPECT_TRUE(Trim({tri, tri}).border().empty());
+}
+
 }  // namespace
 }  // namespace hfrt::geom
