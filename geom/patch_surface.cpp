@@ -247,24 +247,6 @@ PatchSurface::Nearest PatchSurface::nearest_on_patches(Vec3 p, float max_distanc
   if (nodes_.empty()) return best;
   const DVec3 q = to_d(p);
   double best2 = double(max_distance) * max_distance;
-  if (!std::isfinite(best2)) {
-    // No limit (a value off the surface): the corners of the piece whose box is nearest lie
-    // on the patches, so the nearest of them bounds the search (which finds that piece's
-    // point anyway); without it, the first pieces tried far from p set no useful bound.
-    // (A trimmed piece's corners count only where the trim keeps them.)
-    uint32_t k = 0;
-    piece_box_distance2(Box(p, p), &k);
-    const BezierPatch& cp = piece_cp_[k];
-    const Piece& pc = pieces_[k];
-    const int last = cp.num_control_points() - 1;
-    const int corner[4] = {0, cp.du, last - cp.du, last};
-    const float cu[4] = {pc.u0, pc.u1, pc.u0, pc.u1}, cv[4] = {pc.v0, pc.v0, pc.v1, pc.v1};
-    for (int c = 0; c < 4; ++c) {
-      if (pc.trimmed && !set_.trim(pc.patch)->contains(cu[c], cv[c])) continue;
-      const Vec3 e = cp.cp[size_t(corner[c])] - p;
-      best2 = std::min(best2, double(length2(e)) * (1 + 1e-5) + 1e-12);
-    }
-  }
   // The exact field of a trimmed set: the nearest point may lie on a trim loop, or on a kept
   // side of a trimmed patch that a partly trimmed piece's search does not reach (its own
   // nearest point trimmed away). Those borders are searched first (their point bounds the
@@ -304,6 +286,31 @@ PatchSurface::Nearest PatchSurface::nearest_on_patches(Vec3 p, float max_distanc
                                          length2(closest_point_on_triangle(p, c00, c11, c01) - p)));
     const double lower = double(tri) * (1 - 1e-6) - double(pc.delta) * (1 + 1e-6);
     if (lower > 0 && lower * lower > best2) return true;
+    {
+      // The piece's corners lie on the patch: its nearest (kept) one is a candidate itself,
+      // evaluated exactly when its float copy may beat the best so far. Without a limit, the
+      // first pieces tried (the nearest boxes first) bound the rest of the search this way.
+      const float cu[4] = {pc.u0, pc.u1, pc.u0, pc.u1}, cv[4] = {pc.v0, pc.v0, pc.v1, pc.v1};
+      const Vec3 corner[4] = {c00, c10, c01, c11};
+      int nearest = -1;
+      float nearest2 = std::numeric_limits<float>::infinity();
+      for (int c = 0; c < 4; ++c) {
+        const float d2f = length2(corner[c] - p);
+        if (d2f < nearest2 && (!pc.trimmed || set_.trim(pc.patch)->contains(cu[c], cv[c])))
+          nearest = c, nearest2 = d2f;
+      }
+      if (nearest >= 0 && double(nearest2) * (1 - 1e-5) < best2) {
+        const double u = cu[nearest], v = cv[nearest];
+        const DVec3 x = eval_patch(pc.patch, u, v, nullptr, nullptr);
+        const double dx = x.x - q.x, dy = x.y - q.y, dz = x.z - q.z;
+        const double d2 = dx * dx + dy * dy + dz * dz;
+        if (d2 < best2) {
+          // (The normal is normal()'s at (u, v), taken at the end if this point stays best.)
+          best2 = d2, best_piece = k, best_u = u, best_v = v, best_point = x;
+          best_normal = {0, 0, 0}, best.patch = pc.patch, best.on_border = false;
+        }
+      }
+    }
     double u, v;
     DVec3 x;
     Vec3 nrm;
