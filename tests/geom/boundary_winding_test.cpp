@@ -437,5 +437,42 @@ TEST(BoundaryWinding, TrimmedTeapotAgreesWithItsDenseTessellation) {
       tested, worst_w, worst_d, err);
 }
 
+// curve_on_patch is the patch along the segment: at random t, for random segments of random
+// teapot patches (diagonals in all four directions, and segments along u and along v, whose
+// curves have the lower degree), and a whole side gives the border's control points exactly.
+TEST(BoundaryWinding, CurvesOnPatchesFollowThePatch) {
+  std::mt19937 rng(29);
+  std::uniform_real_distribution<double> unit(0, 1);
+  double worst = 0;
+  for (int k = 0; k < 600; ++k) {
+    const BezierPatch& patch = teapot().patches[rng() % teapot().patches.size()];
+    UV a{unit(rng), unit(rng)}, b{unit(rng), unit(rng)};
+    if (k % 3 == 1) b.v = a.v;  // along u
+    if (k % 3 == 2) b.u = a.u;  // along v
+    const BezierCurve c = curve_on_patch(patch, a, b);
+    EXPECT_EQ(c.degree, k % 3 == 1 ? patch.du : k % 3 == 2 ? patch.dv : patch.du + patch.dv);
+    for (int j = 0; j <= 8; ++j) {
+      const double t = j / 8.0;
+      // The curve by de Casteljau.
+      std::array<DVec3, 7> q = c.cp;
+      for (int level = 1; level <= c.degree; ++level)
+        for (int i = 0; i + level <= c.degree; ++i)
+          q[i] = {q[i].x + (q[i + 1].x - q[i].x) * t, q[i].y + (q[i + 1].y - q[i].y) * t,
+                  q[i].z + (q[i + 1].z - q[i].z) * t};
+      const DVec3 want = patch.eval(a.u + t * (b.u - a.u), a.v + t * (b.v - a.v));
+      worst = std::max(
+          {worst, std::abs(q[0].x - want.x), std::abs(q[0].y - want.y), std::abs(q[0].z - want.z)});
+    }
+  }
+  EXPECT_LT(worst, 1e-12);
+  const BezierPatch& p = teapot().patches[3];
+  const BezierCurve side = curve_on_patch(p, {1, 1}, {0, 1});  // v = 1, u from 1 to 0
+  ASSERT_EQ(side.degree, p.du);
+  for (int i = 0; i <= p.du; ++i) {
+    EXPECT_EQ(side.cp[size_t(i)].x, double(p.control(p.du - i, p.dv).x));
+    EXPECT_EQ(side.cp[size_t(i)].z, double(p.control(p.du - i, p.dv).z));
+  }
+}
+
 }  // namespace
 }  // namespace hfrt::geom
