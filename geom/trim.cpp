@@ -231,7 +231,10 @@ std::vector<std::array<UV, 2>> Trim::border() const {
     const std::array<UV, 2>& s = parts[keys[k].second];
     const UV d{s[1].u - s[0].u, s[1].v - s[0].v};
     const double len = std::sqrt(d.u * d.u + d.v * d.v);
-    const double h = std::min(1e-7, 0.01 * len) / len;  // the probes' offset, per unit of d
+    // The probes' offset, per unit of d: 1e-10 in (u, v), far above the rounding of the
+    // crossing test (~1e-16) and below any gap between two edges that matters (a loop edge
+    // 1e-9 from a side of the square must not be jumped over).
+    const double h = std::min(1e-10, 0.01 * len) / len;
     const UV m{0.5 * (s[0].u + s[1].u), 0.5 * (s[0].v + s[1].v)};
     const bool left = kept({m.u - h * d.v, m.v + h * d.u});
     const bool right = kept({m.u + h * d.v, m.v - h * d.u});

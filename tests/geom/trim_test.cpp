@@ -651,6 +651,9 @@ TEST(TrimBorder, EnclosesTheKeptAreaWithItOnTheLeft) {
        {loop({{0, 0}, {1, 0}, {1, 1}, {0, 1}}),
         loop({{0, 0.25}, {0.5, 0.25}, {0.5, 0.75}, {0, 0.75}})},
        1 - 0.25},
+      // A loop edge 1e-9 from the square's left side: the sliver between them is not kept, so
+      // the side is no border (probes 1e-7 apart jumped over the sliver and kept both).
+      {"sliver", {loop({{1e-9, 0.2}, {0.5, 0.2}, {0.5, 0.8}, {1e-9, 0.8}})}, 0.6 * (0.5 - 1e-9)},
       // A polygon of 20000 edges (the sweep over sorted segments keeps this fast).
       {"circle", {circle}, 0.5 * 20000 * 0.4 * 0.4 * std::sin(2 * kPi / 20000)},
   };
@@ -663,7 +666,7 @@ TEST(TrimBorder, EnclosesTheKeptAreaWithItOnTheLeft) {
     for (const auto& [a, b] : border) {
       area += 0.5 * (a.u * b.v - b.u * a.v);
       const UV m{0.5 * (a.u + b.u), 0.5 * (a.v + b.v)}, d{b.u - a.u, b.v - a.v};
-      const double len = std::hypot(d.u, d.v), h = std::min(1e-7, 0.01 * len) / len;
+      const double len = std::hypot(d.u, d.v), h = std::min(1e-11, 0.01 * len) / len;
       const UV left{m.u - h * d.v, m.v + h * d.u}, right{m.u + h * d.v, m.v - h * d.u};
       auto kept = [&](UV q) {
         return q.u >= 0 && q.u <= 1 && q.v >= 0 && q.v <= 1 && trim.contains(q.u, q.v);
@@ -671,6 +674,9 @@ TEST(TrimBorder, EnclosesTheKeptAreaWithItOnTheLeft) {
       EXPECT_TRUE(kept(left) && !kept(right)) << a.u << " " << a.v << " -> " << b.u << " " << b.v;
     }
     EXPECT_NEAR(area, c.area, 1e-12);
+    if (std::string(c.name) == "sliver") {
+      EXPECT_EQ(border.size(), 4u);
+    }
   }
   // Nothing kept (a loop twice): no border.
   const auto tri = loop({{0, 0}, {1, 0}, {0, 1}});
