@@ -85,13 +85,21 @@ class BoundaryCurves {
   double string_term(const DVec3& p, const DVec3& s, bool* reliable) const;
 
   /// A bound on how much the winding number's smooth part (w less its jumps across the
-  /// surface) changes within r of c: r x its gradient's bound, the Biot-Savart field of the
-  /// boundary, |grad w| <= (1 / 4 pi) x the sum over the curves of length / distance^2 (each
-  /// curve's control polygon's length, its distance from the ball bounded through its
-  /// control points' sphere, halved where that is loose). +inf when a piece's sphere still
-  /// meets the ball after 8 halvings (a ball on a curve); 0 without curves (a closed set: w
-  /// is constant off the surface).
+  /// surface) changes within r of c. First order: r x its gradient's bound, the Biot-Savart
+  /// field of the boundary, |grad w| <= (1 / 4 pi) x the sum over the curves of length /
+  /// distance^2 (each curve's control polygon's length, its distance from the ball bounded
+  /// through its control points' sphere, halved where that is loose). Where that exceeds 0.05,
+  /// also second order: r |grad w(c)| (field(), with its quadrature's error) + r^2 / 2 x the
+  /// Hessian's bound (1 / 4 pi) x the sum of 2 length / distance^3; the smaller of the two.
+  /// +inf when a piece's sphere still meets the ball after 8 halvings (a ball on a curve); 0
+  /// without curves (a closed set: w is constant off the surface).
   double smooth_change(const DVec3& c, double r) const;
+
+  /// grad w at p off the curves: the Biot-Savart field of the boundary over 4 pi (the sign
+  /// aside: its magnitude is what smooth_change needs), by halves as string_term (no string).
+  /// *magnitude: the sum of its quadrature terms' magnitudes (the scale of its error);
+  /// *ok false when a curve passes too near p to resolve.
+  DVec3 field(const DVec3& p, double* magnitude, bool* ok) const;
 
   const std::vector<BezierCurve>& curves() const { return curves_; }
   size_t memory_bytes() const {

@@ -474,5 +474,69 @@ TEST(BoundaryWinding, CurvesOnPatchesFollowThePatch) {
   }
 }
 
+// The second-order bound of smooth_change (|grad w(c)| from field(), plus the Hessian's
+// bound) holds: around the teapot and the holed teapot (where trim loops and rims lie close),
+// w at points within r of a ball's centre, less the facings of the segment from the centre,
+// differs from w at the centre by at most the bound (plus w's own quadrature error). And
+// field() is w's gradient (central differences).
+TEST(BoundaryWinding, SmoothChangeBoundsTheChangeOfTheSmoothPart) {
+  PatchSurface::Options all_curves;
+  all_curves.max_exact_curves = 1000;
+  const auto teapot_surface = PatchSurface::build(teapot());
+  const auto holed = PatchSurface::build(holed_teapot(), all_curves);
+  for (const PatchSurface* s : {teapot_surface.get(), holed.get()}) {
+    const BoundaryCurves& b = s->boundary();
+    const Box box = s->bounds();
+    const float r = box.max_extent() / 48;
+    std::mt19937 rng(31);
+    std::uniform_real_distribution<float> ux(box.lo.x, box.hi.x), uy(box.lo.y, box.hi.y),
+        uz(box.lo.z, box.hi.z), unit(-1, 1);
+    int balls = 0;
+    double worst_ratio = 0, worst_gradient = 0;
+    for (int k = 0; k < 4000 && balls < 150; ++k) {
+      const Vec3 c{ux(rng), uy(rng), uz(rng)};
+      const float d = s->closest_point(c).distance;
+      if (d > 3 * r) continue;  // near the surface, where the bound matters
+      const double bound = b.smooth_change(to_d(c), r);
+      if (!std::isfinite(bound) || bound > 0.45) continue;
+      ++balls;
+      const double wc = s->exact_winding_number(c);
+      for (int j = 0; j < 6; ++j) {
+        Vec3 q{unit(rng), unit(rng), unit(rng)};
+        q = c + q * (r / std::max(1.0f, length(q)));
+        std::vector<Crossing> cr;
+        s->crossings_all({c, q - c}, 0, 1, &cr);
+        int facings = 0;
+        for (const Crossing& x : cr) facings += x.facing;
+        const double change = std::abs(s->exact_winding_number(q) - wc - double(facings));
+        EXPECT_LE(change, bound + 5e-4) << c.x << " " << c.y << " " << c.z;
+        worst_ratio = std::max(worst_ratio, change / (bound + 5e-4));
+      }
+      if (d > r) {
+        // field() against central differences of w (no surface within h).
+        double magnitude;
+        bool ok;
+        const DVec3 g = b.field(to_d(c), &magnitude, &ok);
+        ASSERT_TRUE(ok);
+        const float h = 0.05f * r;
+        double fd[3];
+        for (int a = 0; a < 3; ++a) {
+          Vec3 p1 = c, p0 = c;
+          p1[a] += h, p0[a] -= h;
+          fd[a] = (s->exact_winding_number(p1) - s->exact_winding_number(p0)) / (2 * h);
+        }
+        const double gn = std::sqrt(g.x * g.x + g.y * g.y + g.z * g.z);
+        const double fn = std::sqrt(fd[0] * fd[0] + fd[1] * fd[1] + fd[2] * fd[2]);
+        // w's quadrature error (~1e-4) over 2h limits the differences' accuracy.
+        EXPECT_NEAR(gn, fn, 0.02 * fn + 2e-4 / h) << c.x << " " << c.y << " " << c.z;
+        worst_gradient = std::max(worst_gradient, std::abs(gn - fn) / (fn + 1e-9));
+      }
+    }
+    EXPECT_GE(balls, 100);
+    std::printf("%s: %d balls, worst change / bound %.3f, worst relative |grad| error %.3g\n",
+                s == holed.get() ? "holed teapot" : "teapot", balls, worst_ratio, worst_gradient);
+  }
+}
+
 }  // namespace
 }  // namespace hfrt::geom
