@@ -538,5 +538,68 @@ TEST(BoundaryWinding, SmoothChangeBoundsTheChangeOfTheSmoothPart) {
   }
 }
 
+// Random trims (one to three loops of 3 to 7 random points: crossing, overlapping, touching
+// the square's sides) on a tilted flat patch, where the clipped tessellation is exact (the
+// patch is an affine map of the parameter square, and Trim::clip covers the kept region
+// exactly): the exact field's w and distance against the tessellation's exact sums.
+TEST(BoundaryWinding, RandomTrimsOnAFlatPatchAgreeWithTheExactClippedTessellation) {
+  auto plane = [](float u, float v) {
+    const float x = -1 + 2 * u + 0.3f * v, y = -1 + 2 * v;
+    return Vec3{x, y, 0.2f * x + 0.4f * y - 0.1f};
+  };
+  const BezierPatch flat = quad(plane(0, 0), plane(1, 0), plane(1, 1), plane(0, 1));
+  std::mt19937 rng(37);
+  std::uniform_real_distribution<double> unit(0, 1);
+  std::uniform_real_distribution<float> coord(-1.6f, 1.6f);
+  int sets = 0, points = 0;
+  double worst_w = 0, worst_d = 0;
+  for (int trial = 0; trial < 60; ++trial) {
+    std::vector<std::vector<UV>> loops(1 + rng() % 3);
+    for (auto& loop : loops) {
+      const int n = 3 + int(rng() % 5);
+      for (int k = 0; k < n; ++k) {
+        // Now and then on a side of the square or its corner.
+        double u = unit(rng), v = unit(rng);
+        if (rng() % 6 == 0) u = double(rng() % 2);
+        if (rng() % 6 == 0) v = double(rng() % 2);
+        loop.push_back({u, v});
+      }
+    }
+    PatchSet set;
+    set.patches.push_back(flat);
+    set.trims.push_back(Trim(loops));
+    PatchSurface::Options all_curves;  // crossing loops split into many pieces
+    all_curves.max_exact_curves = 1000;
+    const auto exact = PatchSurface::build(set, all_curves);
+    PatchSurface::Options options;
+    options.exact_field = false;
+    options.field_tessellation = 4;
+    const auto tess = PatchSurface::build(set, options);
+    if (!exact->has_field() || !tess->has_tessellation()) {
+      // Nothing kept of positive area: neither has a field.
+      EXPECT_EQ(exact->has_field(), tess->has_field()) << trial;
+      continue;
+    }
+    ASSERT_FALSE(exact->has_tessellation()) << trial;
+    ++sets;
+    const MeshSurface& field = tess->field_mesh();
+    for (int k = 0; k < 60; ++k) {
+      const Vec3 p{coord(rng), coord(rng), 0.5f * coord(rng)};
+      const float d_ref = field.closest_point(p).distance;
+      const float d = std::abs(exact->signed_distance(p));
+      EXPECT_NEAR(d, d_ref, 2e-5f) << trial << " at " << p.x << " " << p.y << " " << p.z;
+      worst_d = std::max(worst_d, double(std::abs(d - d_ref)));
+      if (d_ref < 1e-3f) continue;
+      const double w = exact->winding_number(p), ref = field.winding_number_exact(p);
+      EXPECT_NEAR(w, ref, 2e-4) << trial << " at " << p.x << " " << p.y << " " << p.z;
+      worst_w = std::max(worst_w, std::abs(w - ref));
+      ++points;
+    }
+  }
+  EXPECT_GT(sets, 30);
+  std::printf("%d random trims, %d points: worst |w - w_tessellation| %.3g, |d - d_tess| %.3g\n",
+              sets, points, worst_w, worst_d);
+}
+
 }  // namespace
 }  // namespace hfrt::geom
