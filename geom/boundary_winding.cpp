@@ -37,29 +37,42 @@ constexpr int kMaxDepth = 40;
 /// Levels of halves made once per curve (BoundaryCurves::tree_).
 constexpr int kTreeDepth = 4;
 
-/// De Casteljau at 1/2: the left half's control points are the first of each level, the
-/// right half's the last.
-void halve(const BezierCurve& c, BezierCurve* left, BezierCurve* right) {
-  const int n = c.degree;
-  *left = c, *right = c;
-  std::array<DVec3, 7> q = c.cp;
-  left->cp[0] = q[0];
-  right->cp[n] = q[n];
+/// De Casteljau at t of the degree-n control points q[0], q[stride], ...: the part over
+/// [0, t] into left (the first point of each level), the part over [t, 1] into right (the
+/// last), both contiguous.
+void split_at(int n, const DVec3* q, int stride, double t, DVec3* left, DVec3* right) {
+  std::array<DVec3, 7> r;
+  for (int i = 0; i <= n; ++i) r[size_t(i)] = q[i * stride];
+  left[0] = r[0];
+  right[n] = r[size_t(n)];
   for (int level = 1; level <= n; ++level) {
-    for (int i = 0; i + level <= n; ++i) q[i] = lerp(q[i], q[i + 1], 0.5);
-    left->cp[level] = q[0];
-    right->cp[n - level] = q[n - level];
+    for (int i = 0; i + level <= n; ++i) r[size_t(i)] = lerp(r[size_t(i)], r[size_t(i) + 1], t);
+    left[level] = r[0];
+    right[n - level] = r[size_t(n - level)];
+  }
+}
+
+/// The two halves of a curve (split_at 1/2).
+void halve(const BezierCurve& c, BezierCurve* left, BezierCurve* right) {
+  *left = c, *right = c;
+  split_at(c.degree, c.cp.data(), 1, 0.5, left->cp.data(), right->cp.data());
+}
+
+/// The box of a curve's control points (which holds the curve).
+void control_box(const BezierCurve& c, DVec3* lo, DVec3* hi) {
+  *lo = c.cp[0], *hi = c.cp[0];
+  for (int i = 1; i <= c.degree; ++i) {
+    const DVec3& q = c.cp[size_t(i)];
+    *lo = {std::min(lo->x, q.x), std::min(lo->y, q.y), std::min(lo->z, q.z)};
+    *hi = {std::max(hi->x, q.x), std::max(hi->y, q.y), std::max(hi->z, q.z)};
   }
 }
 
 /// The bounding sphere of a curve's control points (centre: their box's).
 void bounding_sphere(const BezierCurve& c, DVec3* centre, double* radius2) {
   const int n = c.degree;
-  DVec3 lo = c.cp[0], hi = c.cp[0];
-  for (int i = 1; i <= n; ++i) {
-    lo = {std::min(lo.x, c.cp[i].x), std::min(lo.y, c.cp[i].y), std::min(lo.z, c.cp[i].z)};
-    hi = {std::max(hi.x, c.cp[i].x), std::max(hi.y, c.cp[i].y), std::max(hi.z, c.cp[i].z)};
-  }
+  DVec3 lo, hi;
+  control_box(c, &lo, &hi);
   const DVec3 m{0.5 * (lo.x + hi.x), 0.5 * (lo.y + hi.y), 0.5 * (lo.z + hi.z)};
   double rho2 = 0;
   for (int i = 0; i <= n; ++i) {
@@ -176,26 +189,25 @@ void samples_of(const BezierCurve& c, const DVec3& origin, BoundaryCurves::Sampl
   }
 }
 
-/// The integral of A . dc over curve c (string along s from p), by halves (see above).
-double integrate(const BezierCurve& c, const DVec3& p, const DVec3& s, int depth, bool* reliable) {
+/// Curve c (at halving depth `depth`) in halves until accept(centre, radius2) takes a piece's
+/// bounding sphere, each taken piece given to leaf(piece); pieces of no length (a point) are
+/// skipped. False when a piece is still not taken at kMaxDepth (the others are all visited).
+template <typename Accept, typename Leaf>
+bool by_halves(const BezierCurve& c, int depth, const Accept& accept, const Leaf& leaf) {
   DVec3 m;
   double rho2;
   bounding_sphere(c, &m, &rho2);
-  if (rho2 == 0) return 0;  // a point: no length
-  if (!direct(m, rho2, p, s)) {
-    if (depth >= kMaxDepth) {
-      *reliable = false;
-      return 0;
-    }
-    BezierCurve left, right;
-    halve(c, &left, &right);
-    return integrate(left, p, s, depth + 1, reliable) + integrate(right, p, s, depth + 1, reliable);
+  if (rho2 == 0) return true;
+  if (accept(m, rho2)) {
+    leaf(c);
+    return true;
   }
-  // The points relative to p in double, then the float sum (p at the origin: no rounding of
-  // p's coordinates against the points' when the piece is small and near).
-  BoundaryCurves::Samples sm;
-  samples_of(c, p, &sm);
-  return direct_sum(sm, 0, 0, 0, float(s.x), float(s.y), float(s.z));
+  if (depth >= kMaxDepth) return false;
+  BezierCurve left, right;
+  halve(c, &left, &right);
+  const bool a = by_halves(left, depth + 1, accept, leaf);
+  const bool b = by_halves(right, depth + 1, accept, leaf);
+  return a && b;
 }
 
 }  // namespace
@@ -218,23 +230,11 @@ DVec3 point_at(int n, const DVec3* q, double t) {
 /// over [0,1]: de Casteljau at t1, the left part, then at t0 / t1, the right part. [0,1] is left
 /// as it is.
 void restrict_to(int n, DVec3* q, int stride, double t0, double t1) {
-  std::array<DVec3, 7> c;
-  for (int i = 0; i <= n; ++i) c[i] = q[i * stride];
-  auto split = [&](double t, bool keep_left) {
-    std::array<DVec3, 7> r = c, out = c;
-    out[keep_left ? 0 : n] = keep_left ? r[0] : r[n];
-    for (int level = 1; level <= n; ++level) {
-      for (int i = 0; i + level <= n; ++i) r[i] = lerp(r[i], r[i + 1], t);
-      if (keep_left)
-        out[level] = r[0];
-      else
-        out[n - level] = r[n - level];
-    }
-    c = out;
-  };
-  if (t1 < 1) split(t1, true);
-  if (t0 > 0) split(t0 / t1, false);
-  for (int i = 0; i <= n; ++i) q[i * stride] = c[i];
+  std::array<DVec3, 7> c, other;
+  for (int i = 0; i <= n; ++i) c[size_t(i)] = q[i * stride];
+  if (t1 < 1) split_at(n, c.data(), 1, t1, c.data(), other.data());
+  if (t0 > 0) split_at(n, c.data(), 1, t0 / t1, other.data(), c.data());
+  for (int i = 0; i <= n; ++i) q[i * stride] = c[size_t(i)];
 }
 
 double binomial(int n, int k) {
@@ -416,75 +416,70 @@ void field_sum(const BoundaryCurves::Samples& sm, const DVec3& origin, const DVe
   }
 }
 
-/// The Biot-Savart field of curve c at p (by halves, as integrate()): false when a piece
-/// still lies too near p after kMaxDepth halvings.
-bool field_of(const BezierCurve& c, const DVec3& p, int depth, DVec3* g, double* magnitude) {
-  DVec3 m;
-  double rho2;
-  bounding_sphere(c, &m, &rho2);
-  if (rho2 == 0) return true;
-  const DVec3 d = m - p;
-  if (rho2 < kFar * kFar * ddot(d, d)) {
-    BoundaryCurves::Samples sm;
-    samples_of(c, p, &sm);
-    field_sum(sm, p, p, g, magnitude);
-    return true;
-  }
-  if (depth >= kMaxDepth) return false;
-  BezierCurve left, right;
-  halve(c, &left, &right);
-  return field_of(left, p, depth + 1, g, magnitude) && field_of(right, p, depth + 1, g, magnitude);
-}
-
 /// Above this first-order bound, smooth_change tries the second-order one.
 constexpr double kSecondOrderFrom = 0.05;
 
 }  // namespace
 
-DVec3 BoundaryCurves::field(const DVec3& p, double* magnitude, bool* ok) const {
-  DVec3 g{0, 0, 0};
-  *magnitude = 0;
-  *ok = true;
-  const DVec3 zero{0, 0, 0};
+template <typename Accept, typename Node, typename Piece>
+bool BoundaryCurves::for_each_piece(const Accept& accept, const Node& node,
+                                    const Piece& piece) const {
+  bool all = true;
   uint32_t stack[2 * kTreeDepth + 2];
-  for (uint32_t i = 0; i < curves_.size() && *ok; ++i) {
+  for (uint32_t i = 0; i < curves_.size(); ++i) {
     int top = 0;
     stack[top++] = i;
-    while (top > 0 && *ok) {
+    while (top > 0) {
       const uint32_t k = stack[--top];
       const TreeNode& t = tree_[k];
-      if (t.radius2 == 0) continue;
-      const DVec3 d = t.centre - p;
-      if (t.radius2 < kFar * kFar * ddot(d, d)) {
-        field_sum(samples_[k], zero, p, &g, magnitude);
+      if (t.radius2 == 0) continue;  // a point: no length
+      if (accept(t.centre, t.radius2)) {
+        node(samples_[k]);
       } else if (t.children != 0) {
         stack[top++] = t.children + 1;
         stack[top++] = t.children;
       } else {
-        *ok = field_of(pieces_[t.curve], p, kTreeDepth + 1, &g, magnitude);
+        all = by_halves(pieces_[t.curve], kTreeDepth + 1, accept, piece) && all;
       }
     }
   }
+  return all;
+}
+
+DVec3 BoundaryCurves::field(const DVec3& p, double* magnitude, bool* ok) const {
+  DVec3 g{0, 0, 0};
+  *magnitude = 0;
+  const DVec3 zero{0, 0, 0};
+  *ok = for_each_piece(
+      [&](const DVec3& m, double rho2) { return rho2 < kFar * kFar * ddot(m - p, m - p); },
+      [&](const Samples& sm) { field_sum(sm, zero, p, &g, magnitude); },
+      [&](const BezierCurve& c) {
+        Samples sm;
+        samples_of(c, p, &sm);
+        field_sum(sm, p, p, &g, magnitude);
+      });
   const double k = 1 / (4 * std::numbers::pi);
   *magnitude *= k;
   return {g.x * k, g.y * k, g.z * k};
 }
 
 double BoundaryCurves::smooth_change(const DVec3& c, double r) const {
-  double sum = 0;
-  for (size_t i = 0; i < curves_.size() && std::isfinite(sum); ++i)
-    sum += gradient_bound(curves_[i], c, r, 2, 0);
+  // The sum over the curves of length / distance^power (+inf as soon as one is).
+  auto bound_sum = [&](int power) {
+    double sum = 0;
+    for (size_t i = 0; i < curves_.size() && std::isfinite(sum); ++i)
+      sum += gradient_bound(curves_[i], c, r, power, 0);
+    return sum;
+  };
   // Rounding: a little more.
-  const double first = sum * r / (4 * std::numbers::pi) * (1 + 1e-6);
+  const double first = bound_sum(2) * r / (4 * std::numbers::pi) * (1 + 1e-6);
   if (!(first > kSecondOrderFrom)) return first;
   // Second order: |grad w(c)| exactly (its quadrature's error, ~1e-4 of the terms, covered by
   // 1e-3 of their magnitudes) and the Hessian's bound, (1 / 4 pi) x the sum of
   // 2 length / distance^3 (the kernel r / |r|^3 has Jacobian (I - 3 r r^T) / |r|^3, of norm
   // 2 / |r|^3): change <= r |grad w(c)| + r^2 / 2 x that. Much tighter where curves cancel
   // (a trim loop along a wall's rim) or lie far beside the ball.
-  double hessian = 0;
-  for (size_t i = 0; i < curves_.size() && std::isfinite(hessian); ++i)
-    hessian += gradient_bound(curves_[i], c, r, 3, 0);
+  const double hessian = bound_sum(3);
   if (!std::isfinite(hessian)) return first;
   double magnitude;
   bool ok;
@@ -496,28 +491,20 @@ double BoundaryCurves::smooth_change(const DVec3& c, double r) const {
 }
 
 double BoundaryCurves::string_term(const DVec3& p, const DVec3& s, bool* reliable) const {
-  *reliable = true;
   const float px = float(p.x), py = float(p.y), pz = float(p.z);
   const float sx = float(s.x), sy = float(s.y), sz = float(s.z);
   double sum = 0;
-  uint32_t stack[2 * kTreeDepth + 2];
-  for (uint32_t i = 0; i < curves_.size(); ++i) {
-    int top = 0;
-    stack[top++] = i;
-    while (top > 0) {
-      const uint32_t k = stack[--top];
-      const TreeNode& t = tree_[k];
-      if (t.radius2 == 0) continue;  // a point: no length
-      if (direct(t.centre, t.radius2, p, s)) {
-        sum += direct_sum(samples_[k], px, py, pz, sx, sy, sz);
-      } else if (t.children != 0) {
-        stack[top++] = t.children + 1;
-        stack[top++] = t.children;
-      } else {
-        sum += integrate(pieces_[t.curve], p, s, kTreeDepth + 1, reliable);
-      }
-    }
-  }
+  *reliable =
+      for_each_piece([&](const DVec3& m, double rho2) { return direct(m, rho2, p, s); },
+                     [&](const Samples& sm) { sum += direct_sum(sm, px, py, pz, sx, sy, sz); },
+                     [&](const BezierCurve& c) {
+                       // The points relative to p in double, then the float sum (p at the origin:
+                       // no rounding of p's coordinates against the points' when the piece is small
+                       // and near).
+                       Samples sm;
+                       samples_of(c, p, &sm);
+                       sum += direct_sum(sm, 0, 0, 0, sx, sy, sz);
+                     });
   return sum / (4 * std::numbers::pi);
 }
 
@@ -543,11 +530,8 @@ void eval_curve(const BezierCurve& c, double t, DVec3* x, DVec3* d1, DVec3* d2) 
 
 /// The squared distance from p to the box of c's control points (which holds the curve).
 double control_box_distance2(const BezierCurve& c, const DVec3& p) {
-  DVec3 lo = c.cp[0], hi = c.cp[0];
-  for (int i = 1; i <= c.degree; ++i) {
-    lo = {std::min(lo.x, c.cp[i].x), std::min(lo.y, c.cp[i].y), std::min(lo.z, c.cp[i].z)};
-    hi = {std::max(hi.x, c.cp[i].x), std::max(hi.y, c.cp[i].y), std::max(hi.z, c.cp[i].z)};
-  }
+  DVec3 lo, hi;
+  control_box(c, &lo, &hi);
   const double dx = std::max({lo.x - p.x, 0.0, p.x - hi.x});
   const double dy = std::max({lo.y - p.y, 0.0, p.y - hi.y});
   const double dz = std::max({lo.z - p.z, 0.0, p.z - hi.z});

@@ -131,6 +131,12 @@ class BoundaryCurves {
   };
   std::vector<TreeNode> tree_;
   std::vector<BezierCurve> pieces_;
+  /// Every curve's pieces whose bounding spheres accept(centre, radius2) takes: a tree node's
+  /// stored samples to node(samples), a piece halved on the fly below the tree to
+  /// piece(control points). False when some piece was still not taken after kMaxDepth
+  /// halvings (every other piece is visited all the same). What string_term and field share.
+  template <typename Accept, typename Node, typename Piece>
+  bool for_each_piece(const Accept& accept, const Node& node, const Piece& piece) const;
   /// The samples of tree_[k].
   std::vector<Samples> samples_;
 };
