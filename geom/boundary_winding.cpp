@@ -288,11 +288,10 @@ BezierCurve curve_on_patch(const BezierPatch& patch, UV a, UV b) {
   return c;
 }
 
-std::vector<CurveOnPatch> kept_borders(const PatchSet& set, bool trimmed_only) {
+std::vector<CurveOnPatch> kept_borders(const PatchSet& set) {
   std::vector<CurveOnPatch> out;
   for (uint32_t p = 0; p < set.patches.size(); ++p) {
     const Trim* trim = set.trim(p);
-    if (!trim && trimmed_only) continue;
     // The untrimmed square's sides, counter-clockwise: v = 0 (u from 0 to 1), u = 1, v = 1 (u
     // from 1 to 0), u = 0.
     std::vector<std::array<UV, 2>> segments =
@@ -307,9 +306,9 @@ std::vector<CurveOnPatch> kept_borders(const PatchSet& set, bool trimmed_only) {
   return out;
 }
 
-BoundaryCurves BoundaryCurves::build(const PatchSet& set) {
+BoundaryCurves BoundaryCurves::build(const std::vector<CurveOnPatch>& kept) {
   std::vector<BezierCurve> borders;
-  for (CurveOnPatch& c : kept_borders(set, false)) borders.push_back(c.curve);
+  for (const CurveOnPatch& c : kept) borders.push_back(c.curve);
   // Borders by their control points in a canonical direction (the lexicographically smaller
   // of the two): a border and its reverse land together and cancel in pairs.
   using Key = std::vector<double>;

@@ -66,9 +66,8 @@ struct CurveOnPatch {
 
 /// The border of each patch's kept region on the patch, oriented with it on the left
 /// (right-handed about Pu x Pv): an untrimmed patch's four sides, a trimmed one's
-/// Trim::border(). `trimmed_only`: the trimmed patches' only (where a closest point may lie on
-/// a trim loop or on a side that a piece's own search does not reach).
-std::vector<CurveOnPatch> kept_borders(const PatchSet& set, bool trimmed_only);
+/// Trim::border() (none when it keeps nothing of positive area).
+std::vector<CurveOnPatch> kept_borders(const PatchSet& set);
 
 /// The boundary of a set of Bézier patches (trimmed or not), and the string term of its
 /// winding number (see the file comment).
@@ -76,7 +75,9 @@ class BoundaryCurves {
  public:
   /// The oriented borders of `set`'s patches' kept regions (kept_borders) that do not cancel
   /// (see the file comment).
-  static BoundaryCurves build(const PatchSet& set);
+  static BoundaryCurves build(const PatchSet& set) { return build(kept_borders(set)); }
+  /// The same from the kept borders already made.
+  static BoundaryCurves build(const std::vector<CurveOnPatch>& borders);
 
   /// (1 / 4 pi) x the line integral of A (string along the unit vector s from p) around the
   /// curves: w(p) plus the sum of the facings of the ray from p along s. *reliable is set

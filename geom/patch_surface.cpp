@@ -80,6 +80,12 @@ std::unique_ptr<PatchSurface> PatchSurface::build(const PatchSet& set, const Opt
   // The two halves are independent (the pieces and their BVH for rays; the field's
   // tessellation, its BVH and dipoles): built side by side, each on its own thread of TBB.
   int bvh_depth = 0;
+  // Each patch's kept border, made once (Trim::border): which trimmed patches keep anything
+  // (those with a border: the square's own sides are one when all is kept), the exact field's
+  // boundary, and its closest points' trim curves.
+  const std::vector<CurveOnPatch> borders = kept_borders(set);
+  std::vector<uint8_t> keeps(set.patches.size(), 0);
+  for (const CurveOnPatch& c : borders) keeps[c.patch] = 1;
   auto build_pieces = [&] {
     std::vector<Piece> pieces;
     std::vector<BezierPatch> piece_cp;
@@ -87,9 +93,9 @@ std::unique_ptr<PatchSurface> PatchSurface::build(const PatchSet& set, const Opt
       const BezierPatch& patch = set.patches[p];
       const float size = std::max(length(patch.control_bounds().diagonal()), 1e-30f);
       s->patch_size_.push_back(size);
-      // A trim that keeps nothing of positive area (no border: the square's own sides would
-      // be one if it kept everything) leaves no piece, not even where its loops run.
-      if (const Trim* trim = set.trim(p); trim && trim->border().empty()) continue;
+      // A trim that keeps nothing of positive area leaves no piece, not even where its loops
+      // run.
+      if (!keeps[p]) continue;
       // Split in parameter space until flat (quadtree, leaves in any order). Each node's
       // control points are its parent's halved (de Casteljau at 1/2, in double; rounded to
       // float for the piece), not the patch's cut to the node's range: a fifth of the cost.
@@ -175,9 +181,15 @@ std::unique_ptr<PatchSurface> PatchSurface::build(const PatchSet& set, const Opt
     // The exact field needs no tessellation: the pieces, the borders that do not cancel, and
     // for the closest points of trimmed patches their kept regions' borders.
     par::parallel_invoke(build_pieces, [&] {
-      s->boundary_ = BoundaryCurves::build(set);
-      if (s->boundary_.curves().size() <= options.max_exact_curves)
-        s->trim_borders_ = NearestOnCurves::build(kept_borders(set, /*trimmed_only=*/true));
+      s->boundary_ = BoundaryCurves::build(borders);
+      if (s->boundary_.curves().size() <= options.max_exact_curves) {
+        // The trimmed patches' borders (where a closest point may lie on a trim loop, or on a
+        // side that a partly trimmed piece's own search does not reach).
+        std::vector<CurveOnPatch> trimmed;
+        for (const CurveOnPatch& c : borders)
+          if (set.trim(c.patch)) trimmed.push_back(c);
+        s->trim_borders_ = NearestOnCurves::build(std::move(trimmed));
+      }
     });
     curves = s->boundary_.curves().size();
     exact = curves <= options.max_exact_curves;
@@ -290,17 +302,15 @@ PatchSurface::Nearest PatchSurface::nearest_on_patches(Vec3 p, float max_distanc
       // The piece's corners lie on the patch: its nearest (kept) one is a candidate itself,
       // evaluated exactly when its float copy may beat the best so far. Without a limit, the
       // first pieces tried (the nearest boxes first) bound the rest of the search this way.
-      const float cu[4] = {pc.u0, pc.u1, pc.u0, pc.u1}, cv[4] = {pc.v0, pc.v0, pc.v1, pc.v1};
-      const Vec3 corner[4] = {c00, c10, c01, c11};
-      int nearest = -1;
+      Corner nearest{0, 0, {}, false};
       float nearest2 = std::numeric_limits<float>::infinity();
       for (int c = 0; c < 4; ++c) {
-        const float d2f = length2(corner[c] - p);
-        if (d2f < nearest2 && (!pc.trimmed || set_.trim(pc.patch)->contains(cu[c], cv[c])))
-          nearest = c, nearest2 = d2f;
+        const Corner cn = corner(k, c);
+        const float d2f = length2(cn.point - p);
+        if (d2f < nearest2 && cn.kept) nearest = cn, nearest2 = d2f;
       }
-      if (nearest >= 0 && double(nearest2) * (1 - 1e-5) < best2) {
-        const double u = cu[nearest], v = cv[nearest];
+      if (nearest.kept && double(nearest2) * (1 - 1e-5) < best2) {
+        const double u = nearest.u, v = nearest.v;
         const DVec3 x = eval_patch(pc.patch, u, v, nullptr, nullptr);
         const double dx = x.x - q.x, dy = x.y - q.y, dz = x.z - q.z;
         const double d2 = dx * dx + dy * dy + dz * dz;
@@ -999,18 +1009,14 @@ DistanceBounds PatchSurface::exact_distance_bounds(const Box& box) const {
   // is.
   uint32_t near_piece = 0;
   const double apart2 = piece_box_distance2(box, &near_piece);
-  const BezierPatch& cp = piece_cp_[near_piece];
-  const Piece& pc = pieces_[near_piece];
-  const int last = cp.num_control_points() - 1;
-  const int corner[4] = {0, cp.du, last - cp.du, last};
-  const float cu[4] = {pc.u0, pc.u1, pc.u0, pc.u1}, cv[4] = {pc.v0, pc.v0, pc.v1, pc.v1};
   // A corner of the piece on the surface (kept, when the piece is partly trimmed), inside
   // the box if one is.
   Vec3 vertex;
   bool have_vertex = false, vertex_in_box = false;
-  for (int k = 0; k < 4 && !vertex_in_box; ++k) {
-    if (pc.trimmed && !set_.trim(pc.patch)->contains(cu[k], cv[k])) continue;
-    vertex = cp.cp[size_t(corner[k])], have_vertex = true;
+  for (int c = 0; c < 4 && !vertex_in_box; ++c) {
+    const Corner cn = corner(near_piece, c);
+    if (!cn.kept) continue;
+    vertex = cn.point, have_vertex = true;
     vertex_in_box = box.contains(vertex);
   }
   if (!have_vertex) {

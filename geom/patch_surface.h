@@ -144,6 +144,21 @@ class PatchSurface final : public Surface {
     /// A trim loop crosses the piece: its roots are tested with Trim::contains.
     bool trimmed;
   };
+  /// Corner c of piece k (bit 0: at u1 rather than u0; bit 1: at v1 rather than v0): its
+  /// (u, v) in the patch, its control point (on the patch, rounded to float), and whether the
+  /// patch's trim keeps it (always for an untrimmed piece).
+  struct Corner {
+    float u, v;
+    Vec3 point;
+    bool kept;
+  };
+  Corner corner(uint32_t k, int c) const {
+    const Piece& pc = pieces_[k];
+    const BezierPatch& cp = piece_cp_[k];
+    const float u = c & 1 ? pc.u1 : pc.u0, v = c & 2 ? pc.v1 : pc.v0;
+    return {u, v, cp.control(c & 1 ? cp.du : 0, c & 2 ? cp.dv : 0),
+            !pc.trimmed || set_.trim(pc.patch)->contains(u, v)};
+  }
   struct RawHit {
     double t, u, v;
     uint32_t patch;
