@@ -282,7 +282,6 @@ PatchSurface::Nearest PatchSurface::nearest_on_patches(Vec3 p, float max_distanc
     }
     return d2;
   };
-  uint32_t& best_piece = best.piece;
   double &best_u = best.u, &best_v = best.v;
   DVec3& best_point = best.point;
   Vec3& best_normal = best.normal;
@@ -316,7 +315,7 @@ PatchSurface::Nearest PatchSurface::nearest_on_patches(Vec3 p, float max_distanc
         const double d2 = dx * dx + dy * dy + dz * dz;
         if (d2 < best2) {
           // (The normal is normal()'s at (u, v), taken at the end if this point stays best.)
-          best2 = d2, best_piece = k, best_u = u, best_v = v, best_point = x;
+          best2 = d2, best_u = u, best_v = v, best_point = x;
           best_normal = {0, 0, 0}, best.patch = pc.patch, best.on_border = false;
         }
       }
@@ -334,7 +333,7 @@ PatchSurface::Nearest PatchSurface::nearest_on_patches(Vec3 p, float max_distanc
       trimmed_away2 = std::min(trimmed_away2, d2);
       return true;
     }
-    best2 = d2, best_piece = k, best_u = u, best_v = v, best_point = x, best_normal = nrm;
+    best2 = d2, best_u = u, best_v = v, best_point = x, best_normal = nrm;
     best.patch = pc.patch, best.on_border = false;
     return true;
   };

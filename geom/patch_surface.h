@@ -182,7 +182,6 @@ class PatchSurface final : public Surface {
     double d2 = std::numeric_limits<double>::infinity();
     uint32_t patch = ~0u;    ///< the nearest kept point's patch (~0u: none)
     bool on_border = false;  ///< it lies on a trimmed patch's border (trim_borders_)
-    uint32_t piece = ~0u;    ///< else the piece whose search found it
     double u = 0, v = 0;
     DVec3 point;
     Vec3 normal;

@@ -43,9 +43,6 @@ Trim::Trim(std::vector<std::vector<UV>> loops) : loops_(std::move(loops)) {
       edges_.push_back({loop[i], loop[(i + 1) % loop.size()]});
   if (edges_.empty()) return;
   bands_ = static_cast<int>(std::clamp<size_t>(edges_.size() / 4, 1, 64));
-  auto band = [&](double v) {
-    return std::clamp(static_cast<int>(std::floor(v * bands_)), 0, bands_ - 1);
-  };
   std::vector<std::vector<uint32_t>> per_band(bands_);
   for (uint32_t e = 0; e < edges_.size(); ++e) {
     const Edge& ed = edges_[e];
@@ -70,7 +67,7 @@ size_t Trim::memory_bytes() const {
 
 bool Trim::contains(double u, double v) const {
   if (edges_.empty()) return true;
-  const int b = std::clamp(static_cast<int>(std::floor(v * bands_)), 0, bands_ - 1);
+  const int b = band(v);
   bool inside = false;
   for (uint32_t k = band_start_[b]; k < band_start_[b + 1]; ++k) {
     const Edge& e = edges_[band_edges_[k]];
@@ -246,9 +243,6 @@ std::vector<std::array<UV, 2>> Trim::border() const {
 
 bool Trim::near_edge(double u, double v, double eps) const {
   if (edges_.empty()) return false;
-  auto band = [&](double y) {
-    return std::clamp(static_cast<int>(std::floor(y * bands_)), 0, bands_ - 1);
-  };
   for (int b = band(v - eps); b <= band(v + eps); ++b) {
     for (uint32_t k = band_start_[b]; k < band_start_[b + 1]; ++k) {
       const Edge& e = edges_[band_edges_[k]];

@@ -9,7 +9,9 @@
 // classify() lets the pieces that lie entirely on one side skip the test or the BVH) and by
 // the field tessellation (clip(): the kept part of a grid cell, exactly, as triangles).
 
+#include <algorithm>
 #include <array>
+#include <cmath>
 #include <cstddef>
 #include <cstdint>
 #include <vector>
@@ -76,6 +78,10 @@ class Trim {
   std::vector<Edge> edges_;
   // Edges by horizontal band of v (kBands bands over [0,1]): the crossing test along +u at
   // height v only looks at the edges of v's band.
+  /// The band of height v (clamped to the first and last).
+  int band(double v) const {
+    return std::clamp(static_cast<int>(std::floor(v * bands_)), 0, bands_ - 1);
+  }
   std::vector<uint32_t> band_start_;  // kBands + 1 offsets into band_edges_
   std::vector<uint32_t> band_edges_;
   int bands_ = 0;
