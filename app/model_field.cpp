@@ -471,10 +471,14 @@ std::string describe_surfaces(const Model& model) {
     // exact field) the patches' pieces and open borders.
     char what[256];
     if (s.patches > 0 && s.exact_field) {
+      char sealed[96] = "";
+      if (s.sealed_curves > 0)
+        std::snprintf(sealed, sizeof sealed, ", %zu in cracks sealed (up to %.2g wide)",
+                      s.sealed_curves, s.crack_gap);
       std::snprintf(what, sizeof what,
-                    "%zu patches, %zu pieces, exact field (%zu open border curves, no "
+                    "%zu patches, %zu pieces, exact field (%zu open border curves%s, no "
                     "tessellation)",
-                    s.patches, s.pieces, s.boundary_curves);
+                    s.patches, s.pieces, s.boundary_curves, sealed);
     } else if (s.patches > 0) {
       // Tessellated because the boundary has too many curves for the exact field
       // (PatchSurface::Options::max_exact_curves): say how many.

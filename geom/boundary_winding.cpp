@@ -214,6 +214,24 @@ bool by_halves(const BezierCurve& c, int depth, const Accept& accept, const Leaf
 
 namespace {
 
+/// The point of curve c at t and its first two derivatives (de Casteljau: the second
+/// difference of the three points of level n - 2, the difference of the two of level n - 1).
+void eval_curve(const BezierCurve& c, double t, DVec3* x, DVec3* d1, DVec3* d2) {
+  const int n = c.degree;
+  std::array<DVec3, 7> q = c.cp;
+  for (int level = 1; level <= n - 2; ++level)
+    for (int i = 0; i + level <= n; ++i) q[i] = lerp(q[i], q[i + 1], t);
+  *d2 = {0, 0, 0};
+  if (n >= 2) {
+    const double k = double(n) * (n - 1);
+    *d2 = {k * (q[0].x - 2 * q[1].x + q[2].x), k * (q[0].y - 2 * q[1].y + q[2].y),
+           k * (q[0].z - 2 * q[1].z + q[2].z)};
+    q[0] = lerp(q[0], q[1], t), q[1] = lerp(q[1], q[2], t);
+  }
+  *d1 = {n * (q[1].x - q[0].x), n * (q[1].y - q[0].y), n * (q[1].z - q[0].z)};
+  *x = lerp(q[0], q[1], t);
+}
+
 /// The point of the degree-n Bézier curve q at t (de Casteljau; the end control points
 /// themselves at t = 0 and 1).
 DVec3 point_at(int n, const DVec3* q, double t) {
@@ -332,14 +350,20 @@ BoundaryCurves BoundaryCurves::build(const std::vector<CurveOnPatch>& kept) {
     const bool reversed = rev < fwd;
     groups[reversed ? std::move(rev) : std::move(fwd)].push_back({i, reversed});
   }
-  BoundaryCurves out;
+  std::vector<BezierCurve> open;
   for (auto& [key, members] : groups) {
     std::vector<size_t> fwd, rev;
     for (const auto& [i, reversed] : members) (reversed ? rev : fwd).push_back(i);
     const size_t cancelled = std::min(fwd.size(), rev.size());
-    for (size_t k = cancelled; k < fwd.size(); ++k) out.curves_.push_back(borders[fwd[k]]);
-    for (size_t k = cancelled; k < rev.size(); ++k) out.curves_.push_back(borders[rev[k]]);
+    for (size_t k = cancelled; k < fwd.size(); ++k) open.push_back(borders[fwd[k]]);
+    for (size_t k = cancelled; k < rev.size(); ++k) open.push_back(borders[rev[k]]);
   }
+  return of(std::move(open));
+}
+
+BoundaryCurves BoundaryCurves::of(std::vector<BezierCurve> curves) {
+  BoundaryCurves out;
+  out.curves_ = std::move(curves);
   // The pieces' trees, level by level (a curve's root first, so that tree_[i] is curve i).
   auto add_node = [&](const BezierCurve& c) {
     TreeNode t;
@@ -374,6 +398,322 @@ BoundaryCurves BoundaryCurves::build(const std::vector<CurveOnPatch>& kept) {
     out.pieces_.push_back(c);
   }
   return out;
+}
+
+namespace {
+
+/// The nearest point to p of the segment [a, b]'s parameter (clamped to [0, 1]).
+double segment_parameter(const DVec3& a, const DVec3& b, const DVec3& p) {
+  const DVec3 ab = b - a;
+  const double len2 = ddot(ab, ab);
+  return len2 > 0 ? std::clamp(ddot(p - a, ab) / len2, 0.0, 1.0) : 0.0;
+}
+
+/// The squared distance between the segment [a, b] and the segment o + t d, 0 <= t <= tmax
+/// (tmax finite): the closest pair of points, each clamped to its segment (Ericson, Real-Time
+/// Collision Detection 5.1.9).
+double segments_distance2(const DVec3& a, const DVec3& b, const DVec3& o, const DVec3& d,
+                          double tmax) {
+  const DVec3 d1 = b - a, d2{d.x * tmax, d.y * tmax, d.z * tmax}, r = a - o;
+  const double aa = ddot(d1, d1), ee = ddot(d2, d2), f = ddot(d2, r);
+  double s = 0, t = 0;
+  if (aa <= 0 && ee <= 0) {
+    s = t = 0;
+  } else if (aa <= 0) {
+    t = std::clamp(f / ee, 0.0, 1.0);
+  } else {
+    const double c = ddot(d1, r);
+    if (ee <= 0) {
+      s = std::clamp(-c / aa, 0.0, 1.0);
+    } else {
+      const double bb = ddot(d1, d2), denom = aa * ee - bb * bb;
+      s = denom > 0 ? std::clamp((bb * f - c * ee) / denom, 0.0, 1.0) : 0.0;
+      t = (bb * s + f) / ee;
+      if (t < 0) {
+        t = 0, s = std::clamp(-c / aa, 0.0, 1.0);
+      } else if (t > 1) {
+        t = 1, s = std::clamp((bb - c) / aa, 0.0, 1.0);
+      }
+    }
+  }
+  const DVec3 p1{a.x + d1.x * s, a.y + d1.y * s, a.z + d1.z * s};
+  const DVec3 p2{o.x + d2.x * t, o.y + d2.y * t, o.z + d2.z * t};
+  return ddot(p1 - p2, p1 - p2);
+}
+
+/// The arc length of a curve (ten-point Gauss-Legendre on the speed: exact enough for a
+/// comparison within 1 %).
+double arc_length(const BezierCurve& c) {
+  static constexpr double kN[5] = {0.013046735741414128, 0.06746831665550773, 0.16029521585048778,
+                                   0.2833023029353764, 0.4255628305091844};
+  static constexpr double kW[5] = {0.033335672154344034, 0.07472567457529018, 0.109543181257991,
+                                   0.13463335965499826, 0.1477621123573765};
+  double length = 0;
+  for (int g = 0; g < 10; ++g) {
+    const double t = g < 5 ? kN[g] : 1 - kN[9 - g], w = g < 5 ? kW[g] : kW[9 - g];
+    DVec3 x, d1, d2;
+    eval_curve(c, t, &x, &d1, &d2);
+    length += w * std::sqrt(ddot(d1, d1));
+  }
+  return length;
+}
+
+}  // namespace
+
+SealedCracks seal_cracks(const std::vector<BezierCurve>& curves, double tolerance) {
+  SealedCracks out;
+  const size_t n = curves.size();
+  auto first = [&](size_t i) { return curves[i].cp[0]; };
+  auto last = [&](size_t i) { return curves[i].cp[size_t(curves[i].degree)]; };
+  double scale = 0;
+  for (const BezierCurve& c : curves)
+    for (int k = 0; k <= c.degree; ++k)
+      scale = std::max({scale, std::abs(c.cp[k].x), std::abs(c.cp[k].y), std::abs(c.cp[k].z)});
+  const double eps = 1e-9 * std::max(scale, 1e-300);
+  // 1. The curves' ends as vertices: ends within eps of each other are one (sorted by x,
+  // each joined to the first earlier one that coincides).
+  const size_t ne = 2 * n;
+  auto end_point = [&](size_t e) { return e % 2 == 0 ? first(e / 2) : last(e / 2); };
+  std::vector<uint32_t> by_x(ne);
+  for (uint32_t e = 0; e < ne; ++e) by_x[e] = e;
+  std::sort(by_x.begin(), by_x.end(),
+            [&](uint32_t a, uint32_t b) { return end_point(a).x < end_point(b).x; });
+  std::vector<uint32_t> vertex(ne);
+  uint32_t vertices = 0;
+  for (size_t i = 0; i < ne; ++i) {
+    const DVec3 p = end_point(by_x[i]);
+    uint32_t v = ~0u;
+    for (size_t k = i; k-- > 0 && end_point(by_x[k]).x >= p.x - eps;) {
+      const DVec3 q = end_point(by_x[k]);
+      if (std::abs(q.y - p.y) <= eps && std::abs(q.z - p.z) <= eps) {
+        v = vertex[by_x[k]];
+        break;
+      }
+    }
+    vertex[by_x[i]] = v != ~0u ? v : vertices++;
+  }
+  std::vector<uint32_t> in(vertices, 0), out_degree(vertices, 0), out_curve(vertices, ~0u);
+  for (uint32_t i = 0; i < n; ++i) {
+    ++out_degree[vertex[2 * i]], ++in[vertex[2 * i + 1]];
+    out_curve[vertex[2 * i]] = i;
+  }
+  auto simple = [&](uint32_t v) { return in[v] == 1 && out_degree[v] == 1; };
+  // 2. Chains: maximal paths through simple vertices (one curve in, one out), from a junction
+  // to a junction; then the closed loops of simple vertices alone.
+  struct Chain {
+    std::vector<uint32_t> curves;
+    uint32_t from, to;  // vertices (equal for a closed loop)
+  };
+  std::vector<Chain> loops;
+  std::vector<char> seen(n, 0);
+  for (int pass = 0; pass < 2; ++pass) {
+    for (uint32_t i = 0; i < n; ++i) {
+      if (seen[i] || (pass == 0 && simple(vertex[2 * i]))) continue;
+      Chain chain;
+      chain.from = vertex[2 * i];
+      uint32_t k = i;
+      while (true) {
+        seen[k] = 1;
+        chain.curves.push_back(k);
+        const uint32_t v = vertex[2 * k + 1];
+        if (!simple(v) || v == chain.from) {
+          chain.to = v;
+          break;
+        }
+        k = out_curve[v];
+        if (seen[k]) {  // cannot happen: a simple vertex has one curve in
+          chain.to = ~0u;
+          break;
+        }
+      }
+      if (chain.to != ~0u) loops.push_back(std::move(chain));
+    }
+  }
+  // 3. Pairs of loops, by their boxes first.
+  struct LoopInfo {
+    DVec3 lo, hi;
+    double length = 0;
+    NearestOnCurves nearest;
+  };
+  std::vector<LoopInfo> info(loops.size());
+  for (size_t l = 0; l < loops.size(); ++l) {
+    LoopInfo& li = info[l];
+    li.lo = {HUGE_VAL, HUGE_VAL, HUGE_VAL}, li.hi = {-HUGE_VAL, -HUGE_VAL, -HUGE_VAL};
+    std::vector<CurveOnPatch> on;
+    for (uint32_t k : loops[l].curves) {
+      DVec3 a, b;
+      control_box(curves[k], &a, &b);
+      li.lo = {std::min(li.lo.x, a.x), std::min(li.lo.y, a.y), std::min(li.lo.z, a.z)};
+      li.hi = {std::max(li.hi.x, b.x), std::max(li.hi.y, b.y), std::max(li.hi.z, b.z)};
+      li.length += arc_length(curves[k]);
+      on.push_back({curves[k], k, {0, 0}, {1, 1}});
+    }
+    li.nearest = NearestOnCurves::build(std::move(on));
+  }
+  // Every sample of loop a within tolerance of loop b, b running the other way there.
+  auto follows = [&](size_t a, size_t b, double* gap) {
+    for (uint32_t k : loops[a].curves) {
+      const BezierCurve& c = curves[k];
+      double leg = 0;
+      for (int i = 0; i < c.degree; ++i)
+        leg = std::max(leg, std::sqrt(ddot(c.cp[i + 1] - c.cp[i], c.cp[i + 1] - c.cp[i])));
+      // |x'| <= degree x the longest leg: samples at most `tolerance` apart.
+      const int m = int(std::min(1e6, std::ceil(c.degree * leg / tolerance))) + 1;
+      for (int j = 0; j <= m; ++j) {
+        DVec3 x, d1, d2;
+        eval_curve(c, double(j) / m, &x, &d1, &d2);
+        double best2 = tolerance * tolerance;
+        NearestOnCurves::Hit hit;
+        if (!info[b].nearest.nearest(x, &best2, &hit)) return false;
+        *gap = std::max(*gap, std::sqrt(best2));
+        if (hit.t > 1e-6 && hit.t < 1 - 1e-6 && j > 0 && j < m) {
+          DVec3 y, e1, e2;
+          eval_curve(info[b].nearest.curves()[hit.curve].curve, hit.t, &y, &e1, &e2);
+          if (!(ddot(d1, e1) < 0)) return false;
+        }
+      }
+    }
+    return true;
+  };
+  std::vector<char> paired(loops.size(), 0);
+  std::vector<char> sealed(n, 0);
+  for (size_t a = 0; a < loops.size(); ++a) {
+    for (size_t b = a + 1; b < loops.size() && !paired[a]; ++b) {
+      // Two closed loops, or two chains between the same junctions the opposite way.
+      const Chain &ca = loops[a], &cb = loops[b];
+      const bool closed = ca.from == ca.to && cb.from == cb.to;
+      if (paired[b] || !(closed || (ca.from == cb.to && ca.to == cb.from))) continue;
+      const LoopInfo &la = info[a], &lb = info[b];
+      const bool boxes =
+          std::abs(la.lo.x - lb.lo.x) <= tolerance && std::abs(la.lo.y - lb.lo.y) <= tolerance &&
+          std::abs(la.lo.z - lb.lo.z) <= tolerance && std::abs(la.hi.x - lb.hi.x) <= tolerance &&
+          std::abs(la.hi.y - lb.hi.y) <= tolerance && std::abs(la.hi.z - lb.hi.z) <= tolerance;
+      if (!boxes || !(std::abs(la.length - lb.length) <=
+                      0.01 * std::max(la.length, lb.length) + 4 * tolerance))
+        continue;
+      double gap = 0;
+      if (!follows(a, b, &gap) || !follows(b, a, &gap)) continue;
+      paired[a] = paired[b] = 1;
+      ++out.pairs;
+      out.gap = std::max(out.gap, gap);
+      for (uint32_t k : ca.curves) sealed[k] = 1, out.sealed.push_back(curves[k]);
+      for (uint32_t k : cb.curves) sealed[k] = 1;
+      out.sealed_curves += ca.curves.size() + cb.curves.size();
+    }
+  }
+  for (size_t i = 0; i < n; ++i)
+    if (!sealed[i]) out.open.push_back(curves[i]);
+  return out;
+}
+
+CrackSet CrackSet::build(const std::vector<BezierCurve>& loops, double radius) {
+  CrackSet out;
+  out.radius_ = radius;
+  // Each curve halved until its control points lie within radius / 4 of its chord.
+  std::vector<BezierCurve> todo(loops.begin(), loops.end());
+  std::vector<Segment> segments;
+  while (!todo.empty()) {
+    const BezierCurve c = todo.back();
+    todo.pop_back();
+    const DVec3 a = c.cp[0], b = c.cp[size_t(c.degree)];
+    double dev2 = 0;
+    for (int i = 1; i < c.degree; ++i) {
+      const double t = segment_parameter(a, b, c.cp[i]);
+      const DVec3 q{a.x + (b.x - a.x) * t, a.y + (b.y - a.y) * t, a.z + (b.z - a.z) * t};
+      dev2 = std::max(dev2, ddot(c.cp[i] - q, c.cp[i] - q));
+    }
+    if (dev2 <= radius * radius / 16 || segments.size() + todo.size() > 1000000) {
+      segments.push_back({a, b});
+      continue;
+    }
+    BezierCurve left, right;
+    halve(c, &left, &right);
+    todo.push_back(right);
+    todo.push_back(left);
+  }
+  if (segments.empty()) return out;
+  // The boxes in float, grown by the radius and a little (so that they hold the capsules).
+  std::vector<Box> boxes(segments.size());
+  for (size_t i = 0; i < segments.size(); ++i) {
+    const Segment& sg = segments[i];
+    const double far = std::max({std::abs(sg.a.x), std::abs(sg.a.y), std::abs(sg.a.z),
+                                 std::abs(sg.b.x), std::abs(sg.b.y), std::abs(sg.b.z)});
+    const double g = radius * (1 + 1e-6) + 1e-6 * far;
+    boxes[i] = Box(to_f(DVec3{std::min(sg.a.x, sg.b.x) - g, std::min(sg.a.y, sg.b.y) - g,
+                              std::min(sg.a.z, sg.b.z) - g}),
+                   to_f(DVec3{std::max(sg.a.x, sg.b.x) + g, std::max(sg.a.y, sg.b.y) + g,
+                              std::max(sg.a.z, sg.b.z) + g}));
+  }
+  Bvh bvh = build_bvh(boxes, BvhBuildOptions{.max_leaf_size = 2});
+  out.nodes_ = std::move(bvh.nodes);
+  out.segments_.resize(segments.size());
+  for (size_t i = 0; i < segments.size(); ++i) out.segments_[i] = segments[bvh.prim_order[i]];
+  return out;
+}
+
+bool CrackSet::near(const DVec3& o, const DVec3& d, double tmax) const {
+  if (segments_.empty()) return false;
+  // An infinite ray: cut where it leaves the root box (beyond it no capsule is near).
+  if (!std::isfinite(tmax)) {
+    const Box root = nodes_[0].bounds();
+    tmax = 0;
+    const double dv[3] = {d.x, d.y, d.z}, ov[3] = {o.x, o.y, o.z};
+    for (int a = 0; a < 3; ++a) {
+      if (dv[a] == 0) continue;
+      const double lo = (double(root.lo[a]) - ov[a]) / dv[a],
+                   hi = (double(root.hi[a]) - ov[a]) / dv[a];
+      tmax = std::max(tmax, std::max(lo, hi));
+    }
+    if (!(tmax > 0)) return false;
+  }
+  // Slab test of the segment against a node's box (grown by a little: conservative).
+  auto hits = [&](const BvhNode& node) {
+    double t0 = 0, t1 = tmax;
+    const double dv[3] = {d.x, d.y, d.z}, ov[3] = {o.x, o.y, o.z};
+    for (int a = 0; a < 3; ++a) {
+      const double lo = double(node.lo[a]), hi = double(node.hi[a]);
+      if (dv[a] == 0) {
+        if (ov[a] < lo || ov[a] > hi) return false;
+        continue;
+      }
+      double ta = (lo - ov[a]) / dv[a], tb = (hi - ov[a]) / dv[a];
+      if (ta > tb) std::swap(ta, tb);
+      t0 = std::max(t0, ta - 1e-9 * std::abs(ta)), t1 = std::min(t1, tb + 1e-9 * std::abs(tb));
+      if (t0 > t1) return false;
+    }
+    return true;
+  };
+  const double r2 = radius_ * radius_;
+  double bound = 0;
+  bool near = false;
+  walk_nearest(
+      nodes_, [&](const BvhNode& node) { return hits(node) ? 0.0 : 1.0; }, &bound,
+      [&](const BvhNode& node, double) {
+        for (uint32_t k = node.index; k < node.index + node.count && !near; ++k)
+          near = segments_distance2(segments_[k].a, segments_[k].b, o, d, tmax) <= r2;
+        return !near;
+      });
+  return near;
+}
+
+double CrackSet::distance(const DVec3& p, double cap) const {
+  if (segments_.empty()) return cap;
+  const Vec3 pf = to_f(p);
+  double best2 = (cap + radius_) * (cap + radius_);
+  walk_nearest(
+      nodes_, [&](const BvhNode& n) { return double(n.bounds().distance2(pf)) * (1 - 1e-5); },
+      &best2,
+      [&](const BvhNode& n, double) {
+        for (uint32_t k = n.index; k < n.index + n.count; ++k) {
+          const Segment& sg = segments_[k];
+          const double t = segment_parameter(sg.a, sg.b, p);
+          const DVec3 q{sg.a.x + (sg.b.x - sg.a.x) * t, sg.a.y + (sg.b.y - sg.a.y) * t,
+                        sg.a.z + (sg.b.z - sg.a.z) * t};
+          best2 = std::min(best2, ddot(q - p, q - p));
+        }
+        return best2 > 0;
+      });
+  return std::clamp(std::sqrt(best2) - radius_, 0.0, cap);
 }
 
 namespace {
@@ -508,24 +848,6 @@ double BoundaryCurves::string_term(const DVec3& p, const DVec3& s, bool* reliabl
 }
 
 namespace {
-
-/// The point of curve c at t and its first two derivatives (de Casteljau: the second
-/// difference of the three points of level n - 2, the difference of the two of level n - 1).
-void eval_curve(const BezierCurve& c, double t, DVec3* x, DVec3* d1, DVec3* d2) {
-  const int n = c.degree;
-  std::array<DVec3, 7> q = c.cp;
-  for (int level = 1; level <= n - 2; ++level)
-    for (int i = 0; i + level <= n; ++i) q[i] = lerp(q[i], q[i + 1], t);
-  *d2 = {0, 0, 0};
-  if (n >= 2) {
-    const double k = double(n) * (n - 1);
-    *d2 = {k * (q[0].x - 2 * q[1].x + q[2].x), k * (q[0].y - 2 * q[1].y + q[2].y),
-           k * (q[0].z - 2 * q[1].z + q[2].z)};
-    q[0] = lerp(q[0], q[1], t), q[1] = lerp(q[1], q[2], t);
-  }
-  *d1 = {n * (q[1].x - q[0].x), n * (q[1].y - q[0].y), n * (q[1].z - q[0].z)};
-  *x = lerp(q[0], q[1], t);
-}
 
 /// The squared distance from p to the box of c's control points (which holds the curve).
 double control_box_distance2(const BezierCurve& c, const DVec3& p) {

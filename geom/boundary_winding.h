@@ -78,6 +78,9 @@ class BoundaryCurves {
   static BoundaryCurves build(const PatchSet& set) { return build(kept_borders(set)); }
   /// The same from the kept borders already made.
   static BoundaryCurves build(const std::vector<CurveOnPatch>& borders);
+  /// A boundary of these curves as they are (no cancellation): what is left of one after
+  /// seal_cracks.
+  static BoundaryCurves of(std::vector<BezierCurve> curves);
 
   /// (1 / 4 pi) x the line integral of A (string along the unit vector s from p) around the
   /// curves: w(p) plus the sum of the facings of the ray from p along s. *reliable is set
@@ -140,6 +143,59 @@ class BoundaryCurves {
   bool for_each_piece(const Accept& accept, const Node& node, const Piece& piece) const;
   /// The samples of tree_[k].
   std::vector<Samples> samples_;
+};
+
+/// Cracks: loops of a boundary that another loop retraces in the opposite direction within a
+/// tolerance. A trimmed patch whose trim loop follows the rim of the next patch (the cup's base
+/// disk, cut by a polygon, against its wall's cubic rim, ~5e-4 apart) leaves two such loops:
+/// the surfaces meet up to a crack, and its boundary's curves almost cancel. Sealing the
+/// crack (dropping both loops) leaves a closed surface whose winding number is an integer,
+/// with no boundary integral and no smooth part: exact for the surface with the crack filled,
+/// and the same as the open surface's away from the crack save for the crack's own solid
+/// angle (a strip of width <= tolerance: ~ tolerance x length / distance^2 / 4 pi). Rays that
+/// pass near a sealed crack are put in doubt (CrackSet), so that no crossing through the
+/// crack is miscounted.
+struct SealedCracks {
+  std::vector<BezierCurve> open;    ///< the curves in no sealed pair of loops
+  std::vector<BezierCurve> sealed;  ///< the curves of the first loop of each sealed pair
+  size_t pairs = 0;                 ///< pairs of loops sealed
+  size_t sealed_curves = 0;         ///< the curves of both loops of every pair
+  double gap = 0;                   ///< the largest distance measured between partners
+};
+
+/// The loops of `curves` (chains whose ends meet, each curve's end the start of exactly one
+/// other, within 1e-9 of the coordinates' scale) that pair up: every sample of each loop
+/// (spaced at most `tolerance` apart along it) within `tolerance` of the other loop, where the
+/// other runs the opposite way (tangents with a negative dot product, away from curve ends),
+/// and the two loops' lengths within 1 % + 4 tolerance of each other (one loop, not two, along
+/// the other). Every point of one loop is then within 1.5 tolerance of the other.
+SealedCracks seal_cracks(const std::vector<BezierCurve>& curves, double tolerance);
+
+/// The sealed cracks' neighbourhood: the first loops' curves halved until their control
+/// points lie within radius / 4 of their chords, as capsules of `radius` about the chords (a
+/// BVH over their boxes). With radius = 2 tolerance they hold every point within 1.5
+/// tolerance of a loop, so the crack between the two.
+class CrackSet {
+ public:
+  static CrackSet build(const std::vector<BezierCurve>& loops, double radius);
+  bool empty() const { return segments_.empty(); }
+  double radius() const { return radius_; }
+  size_t memory_bytes() const {
+    return segments_.capacity() * sizeof(Segment) + nodes_.capacity() * sizeof(BvhNode);
+  }
+  /// Whether the segment o + t d (0 <= t <= tmax, tmax may be +inf) passes within radius of a
+  /// capsule's axis.
+  bool near(const DVec3& o, const DVec3& d, double tmax) const;
+  /// A lower bound of the distance from p to the capsules (0 inside one), capped at cap.
+  double distance(const DVec3& p, double cap) const;
+
+ private:
+  struct Segment {
+    DVec3 a, b;
+  };
+  std::vector<Segment> segments_;  // in leaf order
+  std::vector<BvhNode> nodes_;
+  double radius_ = 0;
 };
 
 /// The closest point of a set of curves on patches (a trimmed set's kept_borders): a BVH over

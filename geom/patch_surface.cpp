@@ -182,6 +182,22 @@ std::unique_ptr<PatchSurface> PatchSurface::build(const PatchSet& set, const Opt
     // for the closest points of trimmed patches their kept regions' borders.
     par::parallel_invoke(build_pieces, [&] {
       s->boundary_ = BoundaryCurves::build(borders);
+      if (options.seal_tolerance > 0 && !s->boundary_.curves().empty()) {
+        // The crack tolerance from the control points' box (the pieces' bounds are not made
+        // yet).
+        Box box;
+        for (const BezierPatch& patch : set.patches)
+          for (int k = 0; k < patch.num_control_points(); ++k) box.extend(patch.cp[k]);
+        const double tolerance = options.seal_tolerance * double(length(box.hi - box.lo));
+        SealedCracks sealed = seal_cracks(s->boundary_.curves(), tolerance);
+        if (sealed.pairs > 0) {
+          s->stats_.sealed_curves = sealed.sealed_curves;
+          s->stats_.crack_gap = sealed.gap;
+          s->unsealed_ = std::move(s->boundary_);
+          s->boundary_ = BoundaryCurves::of(std::move(sealed.open));
+          s->cracks_ = CrackSet::build(sealed.sealed, 2 * tolerance);
+        }
+      }
       if (s->boundary_.curves().size() <= options.max_exact_curves) {
         // The trimmed patches' borders (where a closest point may lie on a trim loop, or on a
         // side that a partly trimmed piece's own search does not reach).
@@ -198,6 +214,8 @@ std::unique_ptr<PatchSurface> PatchSurface::build(const PatchSet& set, const Opt
       clean = TriangleMesh{};
     } else {
       s->boundary_ = BoundaryCurves{};
+      s->unsealed_ = BoundaryCurves{};
+      s->cracks_ = CrackSet{};
       build_field();
     }
   } else {
@@ -221,7 +239,8 @@ std::unique_ptr<PatchSurface> PatchSurface::build(const PatchSet& set, const Opt
       s->pieces_.capacity() * sizeof(Piece) + s->piece_cp_.capacity() * sizeof(BezierPatch) +
       (s->field_ ? s->field_->memory_bytes() : 0) + s->field_uv_.capacity() * sizeof(TriangleUV);
   for (const Trim& t : s->set_.trims) s->stats_.memory_bytes += sizeof(Trim) + t.memory_bytes();
-  s->stats_.memory_bytes += s->boundary_.memory_bytes() + s->trim_borders_.memory_bytes();
+  s->stats_.memory_bytes += s->boundary_.memory_bytes() + s->unsealed_.memory_bytes() +
+                            s->cracks_.memory_bytes() + s->trim_borders_.memory_bytes();
   return s;
 }
 
@@ -874,7 +893,7 @@ void PatchSurface::crossings_packet(const Ray* rays, int n, const float* tmin, c
   for (int i = 0; i < n; ++i) finish_crossings(rays[i], &roots[i], &out[i]);
 }
 
-bool PatchSurface::ray_facings(const Ray& ray, float tmax, int* facings) const {
+bool PatchSurface::ray_facings(const Ray& ray, float tmax, int* facings, bool check_cracks) const {
   RootBuffer roots;
   float limit = tmax;
   bool doubtful = false;
@@ -895,6 +914,10 @@ bool PatchSurface::ray_facings(const Ray& ray, float tmax, int* facings) const {
       },
       /*split_folds=*/true);
   if (doubtful) return false;
+  // Through or next to a sealed crack: whether the ray passes between the two loops (no
+  // crossing of the open surface, one of the sealed one) is in doubt.
+  if (!cracks_.empty() && check_cracks && cracks_.near(to_d(ray.org), to_d(ray.dir), double(tmax)))
+    return false;
   thread_local std::vector<Crossing> crossings;
   finish_crossings(ray, &roots, &crossings);
   int sum = 0;
@@ -903,7 +926,8 @@ bool PatchSurface::ray_facings(const Ray& ray, float tmax, int* facings) const {
   return true;
 }
 
-double PatchSurface::exact_winding_number(Vec3 p) const {
+double PatchSurface::winding_number_with(const BoundaryCurves& b, bool cracks, Vec3 p,
+                                         bool* settled) const {
   // Directions away from the axes and from each other, so that a point on an axis-aligned
   // grid (the renderer's and the mesher's samples) does not send its ray along a seam.
   static const std::array<DVec3, 8> kDirections = [] {
@@ -932,18 +956,32 @@ double PatchSurface::exact_winding_number(Vec3 p) const {
   }
   std::sort(order.begin(), order.end());
   double w = 0;
+  *settled = false;
   for (const auto& [exit, i] : order) {
     const DVec3& s = kDirections[size_t(i)];
     bool reliable = true;
-    const double term = boundary_.string_term(q, s, &reliable);
+    const double term = b.string_term(q, s, &reliable);
     int facings = 0;
-    const bool clear = ray_facings({p, to_f(s)}, std::numeric_limits<float>::infinity(), &facings);
+    const bool clear =
+        ray_facings({p, to_f(s)}, std::numeric_limits<float>::infinity(), &facings, cracks);
     w = term - facings;
     // Every direction in doubt (a point on a border curve, or on a seam with every ray along
     // the surface): the last answer, as good as any.
-    if (reliable && clear) break;
+    if (reliable && clear) {
+      *settled = true;
+      break;
+    }
   }
   return w;
+}
+
+double PatchSurface::exact_winding_number(Vec3 p) const {
+  bool settled;
+  const double w = winding_number_with(boundary_, true, p, &settled);
+  // Next to a sealed crack in every direction: the open surface's winding number (every
+  // curve, and rays through the crack counted as they are).
+  if (settled || cracks_.empty()) return w;
+  return winding_number_with(unsealed_, false, p, &settled);
 }
 
 double PatchSurface::winding_number(Vec3 p) const {
@@ -959,8 +997,10 @@ bool PatchSurface::inside(Vec3 p) const {
         return float(std::min(boundary_.smooth_change(to_d(c), r), 1e30));
       },
       [this](Vec3 c, float r) {
-        // Farther than r is as good as r: the search stops there.
-        return float(std::sqrt(piece_box_distance2(Box(c, c), nullptr, double(r) * r)));
+        // Farther than r is as good as r: the search stops there. Not past a sealed crack
+        // (the segment from c would not be checked against it).
+        const double d = std::sqrt(piece_box_distance2(Box(c, c), nullptr, double(r) * r));
+        return float(cracks_.empty() ? d : std::min(d, cracks_.distance(to_d(c), d)));
       },
       [this](Vec3 c, Vec3 q, int* sum) {
         return ray_facings({c, q - c}, 1.0f, sum);

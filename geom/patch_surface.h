@@ -24,10 +24,13 @@
 // closest_point_on_patches' (Newton in the pieces near p, and for trimmed patches the nearest
 // point of their kept regions' borders: NearestOnCurves), and the bounds over a box come from
 // the pieces' control-point boxes.
-// A set whose boundary has more than Options::max_exact_curves curves (or Options::exact_field
-// false) goes through a fine tessellation instead (`field_tessellation` quads per patch side,
-// MeshSurface, clipped to the trims), whose error is stats'd as field_error(); the ray queries
-// never use it.
+// Cracks narrower than Options::seal_tolerance (a trim loop retracing the next patch's rim the
+// other way) are sealed first (geom/boundary_winding.h, seal_cracks): their curves leave the
+// boundary, and rays that pass near them are in doubt.
+// A set whose boundary then has more than Options::max_exact_curves curves (or
+// Options::exact_field false) goes through a fine tessellation instead (`field_tessellation`
+// quads per patch side, MeshSurface, clipped to the trims), whose error is stats'd as
+// field_error(); the ray queries never use it.
 // Trimmed patches (PatchSet::trims): each piece is classified against its patch's trim once,
 // at build time; pieces wholly outside the kept region are left out of the BVH, pieces wholly
 // inside it behave as untrimmed, and only the pieces that a trim loop crosses test a root's
@@ -62,6 +65,12 @@ class PatchSurface final : public Surface {
     /// teapot's 16 and ~13 us for the trimmed cup's 528 (its trim polygons and the walls'
     /// rims), where the tessellation's hierarchical one takes ~0.7 us.
     size_t max_exact_curves = 64;
+    /// Cracks narrower than this (relative to the control points' bounding-box diagonal) are
+    /// sealed before the curves are counted (seal_cracks): pairs of boundary loops, or of
+    /// chains between the same two junctions, that retrace each other the opposite way -- a
+    /// trim loop along the next patch's rim. 0: none. The trimmed cup's are ~5e-4 wide
+    /// (1.7e-4 of its diagonal): sealed, its 528 border curves leave none open.
+    double seal_tolerance = 1e-3;
   };
 
   static std::unique_ptr<PatchSurface> build(const PatchSet& set, const Options& options);
@@ -125,7 +134,10 @@ class PatchSurface final : public Surface {
   /// string term minus the facings of the crossings of a ray from p (geom/boundary_winding.h),
   /// along the first of a fixed list of directions for which neither is in doubt (no root
   /// within 1e-5 of a patch's border in (u, v) or grazing the patch, the string not too close
-  /// to a border curve, no root within 1e-5 of a trim loop in (u, v)).
+  /// to a border curve, no root within 1e-5 of a trim loop in (u, v), no ray within reach of
+  /// a sealed crack). Cracks sealed (Options::seal_tolerance): the winding number of the
+  /// surface with them filled; at a point so near a crack that every direction passes by it,
+  /// the open surface's, from every curve.
   double exact_winding_number(Vec3 p) const;
 
   /// The unit normal of patch `prim` at (u, v) (from Pu x Pv; near a collapsed edge, from a
@@ -191,7 +203,7 @@ class PatchSurface final : public Surface {
   /// The sum of the facings of the crossings of `ray` for t in [0, tmax]; false (in doubt)
   /// when a root lies within 1e-5 of its patch's border in (u, v) or the ray grazes the patch
   /// there.
-  bool ray_facings(const Ray& ray, float tmax, int* facings) const;
+  bool ray_facings(const Ray& ray, float tmax, int* facings, bool check_cracks = true) const;
   /// signed_distance_bounds of the exact field: from the pieces' control-point boxes and the
   /// closest point at the box's centre.
   DistanceBounds exact_distance_bounds(const Box& box) const;
@@ -272,9 +284,14 @@ class PatchSurface final : public Surface {
   std::vector<Piece> pieces_;          // in leaf order
   std::vector<BezierPatch> piece_cp_;  // control points of each piece (for on-the-fly refinement)
   bool exact_ = false;                 // the exact field (a set with pieces)
-  BoundaryCurves boundary_;            // its open borders
-  NearestOnCurves trim_borders_;       // its trimmed patches' kept borders, for closest points
-  LazyWindingGrid side_grid_;          // its inside()'s cells
+  BoundaryCurves boundary_;            // its open borders (cracks sealed)
+  BoundaryCurves unsealed_;            // with the sealed cracks' loops (empty when none)
+  CrackSet cracks_;                    // the sealed cracks: rays near them are in doubt
+  /// exact_winding_number with the boundary b; `cracks`: rays near a sealed crack are in
+  /// doubt. *settled: some direction was in no doubt.
+  double winding_number_with(const BoundaryCurves& b, bool cracks, Vec3 p, bool* settled) const;
+  NearestOnCurves trim_borders_;  // its trimmed patches' kept borders, for closest points
+  LazyWindingGrid side_grid_;     // its inside()'s cells
   std::unique_ptr<MeshSurface> field_;
   std::vector<TriangleUV> field_uv_;  // per field triangle: its patch and corners' (u, v)
   float field_error_ = 0;

@@ -39,9 +39,13 @@ struct SurfaceStats {
   std::string source;
   size_t triangles = 0;  ///< triangles (for patches: of the field tessellation, if any)
   size_t patches = 0;
-  size_t pieces = 0;           ///< patches: the flat pieces rays are solved in
-  size_t boundary_curves = 0;  ///< patches: the open borders (boundary_winding.h) when the exact field was asked for
-  bool exact_field = false;    ///< patches: the field from the patches, no tessellation
+  size_t pieces = 0;  ///< patches: the flat pieces rays are solved in
+  size_t boundary_curves =
+      0;  ///< patches: the open borders (boundary_winding.h) when the exact field was asked for
+  bool exact_field = false;  ///< patches: the field from the patches, no tessellation
+  size_t sealed_curves =
+      0;  ///< patches: border curves in cracks sealed (PatchSurface::Options::seal_tolerance)
+  double crack_gap = 0;  ///< patches: the widest sealed crack measured
   size_t degenerate_skipped = 0;
   size_t bvh_nodes = 0;
   int bvh_depth = 0;

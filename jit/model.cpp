@@ -647,6 +647,8 @@ std::vector<SurfaceStats> Model::surface_stats() const {
     s.pieces = st.pieces;
     s.boundary_curves = st.boundary_curves;
     s.exact_field = st.exact_field;
+    s.sealed_curves = st.sealed_curves;
+    s.crack_gap = st.crack_gap;
     s.degenerate_skipped = st.degenerate_skipped;
     s.bvh_nodes = st.bvh_nodes;
     s.bvh_depth = st.bvh_depth;

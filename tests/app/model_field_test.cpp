@@ -297,9 +297,9 @@ TEST(OpenSurfaceWarnings, NameTheOpenMeshAtItsCall) {
 }
 
 TEST(DescribeSurfaces, SaysWhatEachFieldIsMadeOf) {
-  // The teapot's field is exact (its 16 open borders, no tessellation); the trimmed cup's
-  // goes through a tessellation (528 border curves: its trim polygons' edges and the walls'
-  // rims, more than the exact field takes); a mesh's is its triangles.
+  // The teapot's field is exact (its 16 open borders, no tessellation); the trimmed cup's too,
+  // its 528 border curves (its trim polygons' edges and the walls' rims) all in cracks sealed
+  // (PatchSurface::Options::seal_tolerance), none left open; a mesh's is its triangles.
   const struct {
     const char* file;
     const char* says;
@@ -307,8 +307,8 @@ TEST(DescribeSurfaces, SaysWhatEachFieldIsMadeOf) {
       {"/examples/teapot.hf",
        "32 patches, 14216 pieces, exact field (16 open border curves, no tessellation)"},
       {"/examples/trimmed.hf",
-       "22208 triangles (field tessellation), 11 patches, 2051 pieces, 66 degenerate skipped, "
-       "528 open border curves (too many for the exact field)"},
+       "11 patches, 2051 pieces, exact field (0 open border curves, 528 in cracks sealed (up to "
+       "0.00057 wide), no tessellation)"},
       {"/examples/armadillo.hf", "52000 triangles, 0 degenerate skipped"},
   };
   for (const auto& c : cases) {

@@ -601,5 +601,230 @@ TEST(BoundaryWinding, RandomTrimsOnAFlatPatchAgreeWithTheExactClippedTessellatio
               sets, points, worst_w, worst_d);
 }
 
+// ---- Sealed cracks (seal_cracks, CrackSet, PatchSurface::Options::seal_tolerance) -----------
+
+namespace sealing {
+
+/// A circle of radius r at height z as four cubic arcs (the standard quarter-circle cubic,
+/// within 2.7e-4 r of the circle), counter-clockwise about +z unless `clockwise`.
+std::vector<BezierCurve> circle_arcs(double r, double z, bool clockwise) {
+  const double k = 0.5522847498 * r;
+  std::vector<BezierCurve> arcs;
+  for (int q = 0; q < 4; ++q) {
+    const double a = q * std::numbers::pi / 2;
+    const double c = std::cos(a), s = std::sin(a);
+    BezierCurve arc;
+    arc.degree = 3;
+    // From angle a to a + pi / 2 (rotated from (r, 0) -> (0, r)).
+    const double px[4] = {r, r, k, 0}, py[4] = {0, k, r, r};
+    for (int i = 0; i < 4; ++i)
+      arc.cp[size_t(i)] = {c * px[i] - s * py[i], s * px[i] + c * py[i], z};
+    arcs.push_back(arc);
+  }
+  if (clockwise) {
+    std::reverse(arcs.begin(), arcs.end());
+    for (BezierCurve& arc : arcs) std::reverse(arc.cp.begin(), arc.cp.begin() + 4);
+  }
+  return arcs;
+}
+
+/// A regular n-gon inscribed in that circle (starting at angle 0: its vertices at the arcs'
+/// ends where n is a multiple of 4), as lines, `turns` times around.
+std::vector<BezierCurve> polygon(int n, double r, double z, bool clockwise, int turns = 1) {
+  std::vector<BezierCurve> edges;
+  for (int t = 0; t < turns; ++t)
+    for (int i = 0; i < n; ++i) {
+      const double a0 = 2 * std::numbers::pi * i / n, a1 = 2 * std::numbers::pi * (i + 1) / n;
+      BezierCurve e;
+      e.degree = 1;
+      e.cp[0] = {r * std::cos(a0), r * std::sin(a0), z};
+      e.cp[1] = {r * std::cos(a1), r * std::sin(a1), z};
+      if (i + 1 == n) e.cp[1] = {r, 0, z};  // closes exactly
+      if (clockwise) std::swap(e.cp[0], e.cp[1]);
+      edges.push_back(e);
+    }
+  return edges;
+}
+
+std::vector<BezierCurve> joined(std::vector<BezierCurve> a, const std::vector<BezierCurve>& b) {
+  a.insert(a.end(), b.begin(), b.end());
+  return a;
+}
+
+}  // namespace sealing
+
+// A circle of cubic arcs against a 64-gon inscribed in it (sagitta 1 - cos(pi / 64) = 1.2e-3,
+// the cubic within 2.7e-4 outside the circle): the loops retrace each other the opposite way
+// within 1.5e-3, and only that way: the same direction, a polygon lifted off the circle by 5
+// tolerances, a polygon that goes round twice, and a tolerance below the gap are left open.
+TEST(SealCracks, OnlyLoopsThatRetraceEachOtherTheOtherWay) {
+  using namespace sealing;
+  const double tol = 3e-3;
+  const SealedCracks sealed =
+      seal_cracks(joined(circle_arcs(1, 0, false), polygon(64, 1, 0, true)), tol);
+  // The polygon's vertices at the arcs' ends are junctions: four pairs of chains (an arc and
+  // 16 edges), each between the same two of them.
+  EXPECT_EQ(sealed.pairs, 4u);
+  EXPECT_EQ(sealed.sealed_curves, 68u);
+  EXPECT_TRUE(sealed.open.empty());
+  // The widest gap: the polygon's sagitta plus the cubic's excess over the circle, at most.
+  const double sagitta = 1 - std::cos(std::numbers::pi / 64);
+  EXPECT_GT(sealed.gap, 0.9 * sagitta);
+  EXPECT_LT(sealed.gap, sagitta + 2.8e-4);
+  // A pair besides two loops that do not pair: all four loops' curves stay open but the pair's.
+  const SealedCracks mixed =
+      seal_cracks(joined(joined(circle_arcs(1, 0, false), polygon(64, 1, 0, true)),
+                         joined(circle_arcs(2, 1, false), polygon(64, 2, 1, false))),
+                  tol);
+  EXPECT_EQ(mixed.pairs, 4u);
+  EXPECT_EQ(mixed.open.size(), 68u);
+  // A 63-gon meets the arcs at no vertex but the first: two whole loops (closed chains from
+  // that junction), one pair.
+  EXPECT_EQ(seal_cracks(joined(circle_arcs(1, 0, false), polygon(63, 1, 0, true)), tol).pairs, 1u);
+  const struct {
+    const char* name;
+    std::vector<BezierCurve> curves;
+    double tolerance;
+  } open_cases[] = {
+      {"same direction", joined(circle_arcs(1, 0, false), polygon(64, 1, 0, false)), tol},
+      {"lifted", joined(circle_arcs(1, 0, false), polygon(64, 1, 5 * tol, true)), tol},
+      {"twice round", joined(circle_arcs(1, 0, false), polygon(64, 1, 0, true, 2)), tol},
+      {"below the gap", joined(circle_arcs(1, 0, false), polygon(64, 1, 0, true)), 0.5 * sagitta},
+  };
+  for (const auto& c : open_cases) {
+    SCOPED_TRACE(c.name);
+    const SealedCracks s = seal_cracks(c.curves, c.tolerance);
+    EXPECT_EQ(s.pairs, 0u);
+    EXPECT_EQ(s.open.size(), c.curves.size());
+  }
+}
+
+// CrackSet::near and distance against brute force: the distance from random points and
+// random segments to the capsules' axes sampled densely.
+TEST(SealCracks, CrackSetAgreesWithBruteForce) {
+  using namespace sealing;
+  const std::vector<BezierCurve> loop = circle_arcs(1, 0, false);
+  const double radius = 0.05;
+  const CrackSet cracks = CrackSet::build(loop, radius);
+  // The circle densely (the capsules' axes lie within radius / 4 of it).
+  std::vector<DVec3> pts;
+  for (int i = 0; i < 20000; ++i) {
+    const double a = 2 * std::numbers::pi * i / 20000;
+    pts.push_back({std::cos(a), std::sin(a), 0});
+  }
+  auto dist = [](const DVec3& a, const DVec3& b) {
+    return std::sqrt((a.x - b.x) * (a.x - b.x) + (a.y - b.y) * (a.y - b.y) +
+                     (a.z - b.z) * (a.z - b.z));
+  };
+  std::mt19937 rng(7);
+  std::uniform_real_distribution<double> u(-1.3, 1.3), h(-0.2, 0.2);
+  int near = 0, far = 0;
+  for (int k = 0; k < 3000; ++k) {
+    const DVec3 p{u(rng), u(rng), h(rng)};
+    double to_circle = 1e30;
+    for (const DVec3& q : pts) to_circle = std::min(to_circle, dist(p, q));
+    // distance(): a lower bound of the distance to the capsules (the axes are within
+    // radius / 4 of the circle, plus the samples' spacing).
+    const double d = cracks.distance(p, 10);
+    EXPECT_LE(d, std::max(0.0, to_circle - radius) + 0.25 * radius + 1e-3) << k;
+    EXPECT_GE(d, std::max(0.0, to_circle - radius) - 0.25 * radius - 1e-3) << k;
+    // near(): a segment from p to a random end, against the circle's samples' distance to it.
+    const DVec3 e{u(rng), u(rng), h(rng)};
+    const DVec3 dir{e.x - p.x, e.y - p.y, e.z - p.z};
+    double seg = 1e30;
+    for (const DVec3& q : pts) {
+      const double len2 = dir.x * dir.x + dir.y * dir.y + dir.z * dir.z;
+      const double t = std::clamp(
+          ((q.x - p.x) * dir.x + (q.y - p.y) * dir.y + (q.z - p.z) * dir.z) / len2, 0.0, 1.0);
+      seg = std::min(seg, dist(q, {p.x + t * dir.x, p.y + t * dir.y, p.z + t * dir.z}));
+    }
+    if (seg < radius - 0.25 * radius - 1e-3) {
+      EXPECT_TRUE(cracks.near(p, dir, 1.0)) << k;
+      ++near;
+    } else if (seg > radius + 0.25 * radius + 1e-3) {
+      EXPECT_FALSE(cracks.near(p, dir, 1.0)) << k;
+      ++far;
+    }
+    // The same segment as a ray (to infinity) passes at least as near.
+    if (cracks.near(p, dir, 1.0)) {
+      EXPECT_TRUE(cracks.near(p, dir, std::numeric_limits<double>::infinity()));
+    }
+  }
+  EXPECT_GT(near, 300);
+  EXPECT_GT(far, 300);
+}
+
+// The trimmed cup (examples/data/trimmed_cup.bpt): each flat part's trim polygon (128 edges
+// per full circle) retraces a wall's cubic rim the opposite way, so its 528 border curves all
+// seal, in 13 pairs (the rim arcs end at four of each polygon's vertices: chains between
+// those junctions, and one pair of whole loops), and the sealed cup's winding number is the
+// open cup's away from the cracks: equal sides, and w within the cracks' own solid angle
+// (a strip of width g along the four circles: at most g x length / (4 pi d^2) at distance d
+// from them); inside a crack, where every ray passes by it, the open cup's own value. The
+// teapot has no crack to seal.
+TEST(SealCracks, TheCupSealsAndAgreesWithTheOpenCupAwayFromItsCracks) {
+  Result<PatchSet> set = load_bpt(std::string(HFRT_SOURCE_DIR) + "/examples/data/trimmed_cup.bpt");
+  ASSERT_TRUE(set.ok()) << set.error().message;
+  const auto sealed = PatchSurface::build(*set);
+  ASSERT_FALSE(sealed->has_tessellation());
+  EXPECT_TRUE(sealed->boundary().curves().empty());
+  EXPECT_EQ(sealed->stats().sealed_curves, 528u);
+  EXPECT_GT(sealed->stats().crack_gap, 2e-4);
+  EXPECT_LT(sealed->stats().crack_gap, 1e-3);
+  PatchSurface::Options open_options;
+  open_options.seal_tolerance = 0;
+  open_options.max_exact_curves = 1000;
+  const auto open = PatchSurface::build(*set, open_options);
+  ASSERT_FALSE(open->has_tessellation());
+  EXPECT_EQ(open->boundary().curves().size(), 528u);
+  EXPECT_EQ(open->stats().sealed_curves, 0u);
+  const SealedCracks teapot_cracks = seal_cracks(BoundaryCurves::build(teapot()).curves(), 0.05);
+  EXPECT_EQ(teapot_cracks.pairs, 0u);
+
+  // The four circles (radius, height) the cracks run along.
+  const double circles[4][2] = {{1, -1}, {1, 1}, {0.8, 1}, {0.8, -0.6}};
+  const double length = 2 * std::numbers::pi * (1 + 1 + 0.8 + 0.8);
+  const double gap = sealed->stats().crack_gap;
+  std::mt19937 rng(23);
+  std::uniform_real_distribution<float> u(-1.3f, 1.3f), angle(0, 6.2831853f), off(-0.05f, 0.05f);
+  int compared = 0;
+  double worst = 0;
+  for (int k = 0; k < 3000; ++k) {
+    Vec3 p{u(rng), u(rng), u(rng)};
+    if (k % 2 == 1) {  // near a rim
+      const double* c = circles[k / 2 % 4];
+      const float a = angle(rng);
+      p = {float(c[0]) * std::cos(a) + off(rng), float(c[0]) * std::sin(a) + off(rng),
+           float(c[1]) + off(rng)};
+    }
+    double d = 1e30;
+    for (const auto& c : circles) {
+      const double rho = std::hypot(double(p.x), double(p.y));
+      d = std::min(d, std::hypot(rho - c[0], double(p.z) - c[1]));
+    }
+    if (d < 2e-3) continue;
+    const double ws = sealed->exact_winding_number(p), wo = open->exact_winding_number(p);
+    const double bound = gap * length / (4 * std::numbers::pi * d * d) + 2e-4;
+    EXPECT_LE(std::abs(ws - wo), bound) << p.x << " " << p.y << " " << p.z;
+    worst = std::max(worst, std::abs(ws - wo) / bound);
+    EXPECT_EQ(sealed->inside(p), open->inside(p)) << p.x << " " << p.y << " " << p.z;
+    // Sealed, the winding number is an integer (no boundary left) off the cracks.
+    if (d > 0.05) {
+      EXPECT_NEAR(ws, std::round(ws), 1e-9) << p.x << " " << p.y << " " << p.z;
+    }
+    ++compared;
+  }
+  EXPECT_GT(compared, 2500);
+  std::printf("sealed cup: %d points, worst |w change| / bound %.3g\n", compared, worst);
+  // Inside the crack under the base (between the polygon's edge midpoint, at radius
+  // cos(pi / 128), and the cubic rim outside the circle): the open cup's own value.
+  for (int i = 0; i < 8; ++i) {
+    const double a = 2 * std::numbers::pi * (i + 0.5) / 128 + (i / 2) * std::numbers::pi / 2;
+    const double r = 0.5 * (std::cos(std::numbers::pi / 128) + 1);
+    const Vec3 p{float(r * std::cos(a)), float(r * std::sin(a)), -1.0f};
+    EXPECT_EQ(sealed->exact_winding_number(p), open->exact_winding_number(p)) << i;
+  }
+}
+
 }  // namespace
 }  // namespace hfrt::geom
