@@ -26,7 +26,8 @@ std::string check_limits(const Limits& limits) {
         {"max_model_size", limits.max_model_size},
         {"max_source_bytes", limits.max_source_bytes},
         {"max_mesh_bytes", limits.max_mesh_bytes},
-        {"max_mesh_triangles", limits.max_mesh_triangles}}) {
+        {"max_mesh_triangles", limits.max_mesh_triangles},
+        {"max_exact_curves", limits.max_exact_curves}}) {
     std::string e = positive(name, v);
     if (!e.empty()) return e;
   }

@@ -32,6 +32,12 @@ struct Limits {
   /// Triangles, and vertices, of one mesh (hfMesh, hfTriangles); patches times their
   /// tessellation's triangles for hfBezierSurface and hfBezierPatches.
   int64_t max_mesh_triangles = 10'000'000;
+  /// Open border curves of a Bézier patch set (hfBezierSurface, hfBezierPatches: after its
+  /// seams cancel and its cracks seal) up to which its field is exact, from the patches;
+  /// beyond, the field goes through a tessellation instead (not an error: the exact winding
+  /// number visits every curve, ~13 us a point at 528; the tessellation's costs ~1 us and is
+  /// off by its measured error). geom::PatchSurface::Options::max_exact_curves.
+  int64_t max_exact_curves = 64;
 };
 
 /// The largest max_loop_iterations: 2^24, the last integer up to which a single-precision

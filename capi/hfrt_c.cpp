@@ -154,7 +154,7 @@ hfrt_status compile(const char* function, const std::string& source_or_path, boo
     }
     mo.backend =
         options->backend == HFRT_BACKEND_INTERP ? hfrt::Backend::kInterp : hfrt::Backend::kJit;
-    if (options->struct_size >= sizeof(hfrt_compile_options)) {
+    if (options->struct_size >= offsetof(hfrt_compile_options, max_exact_curves)) {
       hfrt::ModelLimits& l = mo.limits;
       l.max_loop_iterations = options->max_loop_iterations;
       l.max_array_size = options->max_array_size;
@@ -163,6 +163,8 @@ hfrt_status compile(const char* function, const std::string& source_or_path, boo
       l.max_source_bytes = options->max_source_bytes;
       l.max_mesh_bytes = options->max_mesh_bytes;
       l.max_mesh_triangles = options->max_mesh_triangles;
+      if (options->struct_size >= sizeof(hfrt_compile_options))
+        l.max_exact_curves = options->max_exact_curves;
       const std::string bad = hfrt::check_model_limits(l);
       if (!bad.empty()) return bad_arg(function, "options->" + bad);
     }
@@ -309,6 +311,7 @@ void hfrt_compile_options_init(hfrt_compile_options* options) {
   options->max_source_bytes = d.max_source_bytes;
   options->max_mesh_bytes = d.max_mesh_bytes;
   options->max_mesh_triangles = d.max_mesh_triangles;
+  options->max_exact_curves = d.max_exact_curves;
 }
 
 hfrt_status hfrt_model_compile_source(const char* source, const char* name,

@@ -41,6 +41,7 @@ Limits to_limits(const ModelLimits& m) {
   l.max_source_bytes = m.max_source_bytes;
   l.max_mesh_bytes = m.max_mesh_bytes;
   l.max_mesh_triangles = m.max_mesh_triangles;
+  l.max_exact_curves = m.max_exact_curves;
   return l;
 }
 
@@ -58,6 +59,7 @@ static_assert(ModelLimits{}.max_model_size == Limits{}.max_model_size);
 static_assert(ModelLimits{}.max_source_bytes == Limits{}.max_source_bytes);
 static_assert(ModelLimits{}.max_mesh_bytes == Limits{}.max_mesh_bytes);
 static_assert(ModelLimits{}.max_mesh_triangles == Limits{}.max_mesh_triangles);
+static_assert(ModelLimits{}.max_exact_curves == Limits{}.max_exact_curves);
 
 SourceDiagnostic convert(const lang::Diagnostic& d, const std::string& file) {
   SourceDiagnostic out;

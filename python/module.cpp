@@ -82,7 +82,8 @@ std::shared_ptr<PyModel> compile(const std::string& text, bool is_file, const st
       {"max_model_size", &ModelLimits::max_model_size},
       {"max_source_bytes", &ModelLimits::max_source_bytes},
       {"max_mesh_bytes", &ModelLimits::max_mesh_bytes},
-      {"max_mesh_triangles", &ModelLimits::max_mesh_triangles}};
+      {"max_mesh_triangles", &ModelLimits::max_mesh_triangles},
+      {"max_exact_curves", &ModelLimits::max_exact_curves}};
   for (const auto& [key, value] : limits) {
     auto it = fields.find(key);
     if (it == fields.end()) throw py::type_error("unknown limit '" + key + "'");

@@ -118,6 +118,15 @@ bool constant_array(Call& c, int i, const char* what, std::vector<double>* out) 
   return true;
 }
 
+/// A patch set's surface options from the limits: the open border curves its exact field
+/// takes (Limits::max_exact_curves).
+static_assert(Limits{}.max_exact_curves == int64_t(geom::PatchSurface::Options{}.max_exact_curves));
+geom::PatchSurface::Options patch_options(const Limits& limits) {
+  geom::PatchSurface::Options o;
+  o.max_exact_curves = size_t(limits.max_exact_curves);
+  return o;
+}
+
 /// An error when the field's tessellation of the patches (PatchSurface) would have more
 /// triangles than limits.max_mesh_triangles.
 std::optional<Error> check_patch_count(const geom::PatchSet& set, const Limits& limits) {
@@ -162,7 +171,8 @@ V lower_surface(Call& c) {
       // The limits are part of the key: a file loaded under larger ones is not reused.
       const std::string key = file_key(mesh ? "mesh" : "bpt", path) + ':' +
                               std::to_string(limits.max_mesh_bytes) + ':' +
-                              std::to_string(limits.max_mesh_triangles);
+                              std::to_string(limits.max_mesh_triangles) +
+                              (mesh ? "" : ':' + std::to_string(limits.max_exact_curves));
       surface = cache().get(key, [&]() -> Built {
         if (mesh) {
           Result<geom::TriangleMesh> m = geom::load_mesh(path.string(), limits);
@@ -172,7 +182,8 @@ V lower_surface(Call& c) {
         Result<geom::PatchSet> p = geom::load_bpt(path.string(), limits);
         if (!p.ok()) return p.error();
         if (auto e = check_patch_count(p.value(), limits)) return *e;
-        return std::shared_ptr<const geom::Surface>(geom::PatchSurface::build(p.value()));
+        return std::shared_ptr<const geom::Surface>(
+            geom::PatchSurface::build(p.value(), patch_options(limits)));
       });
       break;
     }
@@ -193,12 +204,15 @@ V lower_surface(Call& c) {
       std::vector<double> p;
       if (!constant_array(c, 1, "control point", &p)) return c.nan();
       hint = "P holds 48 numbers per bicubic patch: 16 control points, row by row";
-      surface = cache().get(data_key("patches", p, {}), [&]() -> Built {
-        Result<geom::PatchSet> set = geom::patches_from_array(p, name);
-        if (!set.ok()) return set.error();
-        if (auto e = check_patch_count(set.value(), limits)) return *e;
-        return std::shared_ptr<const geom::Surface>(geom::PatchSurface::build(set.value()));
-      });
+      surface =
+          cache().get(data_key("patches", p, {}) + ':' + std::to_string(limits.max_exact_curves),
+                      [&]() -> Built {
+                        Result<geom::PatchSet> set = geom::patches_from_array(p, name);
+                        if (!set.ok()) return set.error();
+                        if (auto e = check_patch_count(set.value(), limits)) return *e;
+                        return std::shared_ptr<const geom::Surface>(
+                            geom::PatchSurface::build(set.value(), patch_options(limits)));
+                      });
       break;
     }
     default:

@@ -66,7 +66,7 @@ def _looks_like_path(text):
 #: The names of the limits on hostile input that Model() takes as keyword arguments
 #: (docs/limits.md; hfrt::ModelLimits).
 LIMITS = ("max_loop_iterations", "max_array_size", "max_slots", "max_model_size",
-          "max_source_bytes", "max_mesh_bytes", "max_mesh_triangles")
+          "max_source_bytes", "max_mesh_bytes", "max_mesh_triangles", "max_exact_curves")
 
 
 class Model:
@@ -80,7 +80,9 @@ class Model:
     errors, FileNotFoundError when the file cannot be read, ValueError on bad arguments.
     `limits` are the limits on hostile input (docs/limits.md), by name: max_loop_iterations,
     max_array_size, max_slots, max_model_size, max_source_bytes, max_mesh_bytes,
-    max_mesh_triangles (positive integers), e.g. Model(src, max_loop_iterations=1000).
+    max_mesh_triangles, max_exact_curves (positive integers), e.g.
+    Model(src, max_loop_iterations=1000). (max_exact_curves is no error: a Bézier patch set
+    with more open border curves gets a tessellated field instead of the exact one.)
     Evaluation is thread-safe; set_params may run concurrently (it waits for evaluations).
     """
 

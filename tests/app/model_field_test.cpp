@@ -317,6 +317,18 @@ TEST(DescribeSurfaces, SaysWhatEachFieldIsMadeOf) {
     const std::string text = describe_surfaces(*r.model);
     EXPECT_NE(text.find(c.says), std::string::npos) << text;
   }
+  // ModelLimits::max_exact_curves below the teapot's 16 open curves: its field is tessellated,
+  // and the text says why.
+  ModelOptions few;
+  few.limits.max_exact_curves = 8;
+  CompileResult r = Model::compile_file(std::string(HFRT_SOURCE_DIR) + "/examples/teapot.hf", few);
+  ASSERT_TRUE(r.ok()) << r.rendered;
+  const std::string text = describe_surfaces(*r.model);
+  EXPECT_NE(text.find("65280 triangles (field tessellation), 32 patches, 14216 pieces"),
+            std::string::npos)
+      << text;
+  EXPECT_NE(text.find("16 open border curves (too many for the exact field)"), std::string::npos)
+      << text;
 }
 
 }  // namespace

@@ -586,6 +586,21 @@ TEST(CApi, LimitsAreOptionsWithTheirDefaults) {
   EXPECT_EQ(opt.max_loop_iterations, 1000000);
   EXPECT_EQ(opt.max_array_size, 8192);
   EXPECT_EQ(opt.max_mesh_bytes, int64_t{256} << 20);
+  EXPECT_EQ(opt.max_exact_curves, 64);
+  // max_exact_curves came after the others: out of range, an error; beyond an older caller's
+  // struct_size, not read (the default).
+  opt.max_exact_curves = 0;
+  hfrt_model* bad = nullptr;
+  EXPECT_EQ(hfrt_model_compile_source(kEndless, "endless.hf", &opt, &bad),
+            HFRT_ERROR_INVALID_ARGUMENT);
+  EXPECT_NE(std::string(hfrt_last_error_message()).find("max_exact_curves must be at least 1"),
+            std::string::npos)
+      << hfrt_last_error_message();
+  opt.struct_size = uint32_t(offsetof(hfrt_compile_options, max_exact_curves));
+  ASSERT_EQ(hfrt_model_compile_source(kEndless, "endless.hf", &opt, &bad), HFRT_OK)
+      << hfrt_last_error_message();
+  hfrt_model_free(bad);
+  hfrt_compile_options_init(&opt);
   opt.max_loop_iterations = 10;
   hfrt_model* m = nullptr;
   ASSERT_EQ(hfrt_model_compile_source(kEndless, "endless.hf", &opt, &m), HFRT_OK)

@@ -175,6 +175,28 @@ TEST_F(EvalCliTest, LoopLimitIsAnOptionAndEndlessLoopsAreNaNWithTheirLocation) {
       << bad.err;
 }
 
+// --max-exact-curves below the teapot's 16 open border curves: its field goes through the
+// tessellation, whose values near the surface are off by up to its measured error (~2e-3);
+// the default is the exact field. 0 is out of range.
+TEST_F(EvalCliTest, MaxExactCurvesPicksTheTessellatedPatchField) {
+  const std::string teapot = std::string(HFRT_SOURCE_DIR) + "/examples/teapot.hf";
+  const std::string points = "1.5 1.0 0.4\n0.5 2.0 0.3\n-1.2 0.8 -0.9\n";
+  CliRun exact = run(teapot, points), tessellated = run(teapot + " --max-exact-curves 8", points);
+  ASSERT_EQ(exact.exit_code, 0) << exact.err;
+  ASSERT_EQ(tessellated.exit_code, 0) << tessellated.err;
+  std::istringstream a(exact.out), b(tessellated.out);
+  double fa, fb, sa, sb, most = 0;
+  int n = 0;
+  while (a >> fa >> sa && b >> fb >> sb) most = std::max(most, std::abs(fa - fb)), ++n;
+  EXPECT_EQ(n, 3);
+  EXPECT_GT(most, 1e-6);
+  EXPECT_LT(most, 3e-3);
+  CliRun bad = run(teapot + " --max-exact-curves 0", points);
+  EXPECT_EQ(bad.exit_code, 2) << bad.err;  // a usage error
+  EXPECT_NE(bad.err.find("--max-exact-curves: Value 0 not in range 1 to"), std::string::npos)
+      << bad.err;
+}
+
 TEST_F(EvalCliTest, HugeArrayAndDevZeroMeshAreLocatedErrors) {
   write("arr.hf", "my_model(x[3], a[1])\n{\n  array v[1000000000];\n  my_model = 1;\n}\n");
   CliRun r = hfrt("eval arr.hf");

@@ -70,6 +70,8 @@ void add_limit_options(CLI::App& app, ModelLimits* limits) {
       "bytes of a mesh or patch file (hfMesh, hfBezierSurface)");
   add("--max-mesh-triangles", &limits->max_mesh_triangles, d.max_mesh_triangles, kNoMax,
       "triangles (and vertices) of one mesh or patch tessellation");
+  add("--max-exact-curves", &limits->max_exact_curves, d.max_exact_curves, kNoMax,
+      "open border curves of a patch set for its exact field; beyond, a tessellated one");
 }
 
 std::optional<LoadedModel> load_model(const ModelRequest& request, bool eager_f32, int* exit_code) {

@@ -118,6 +118,9 @@ typedef struct hfrt_compile_options {
   int64_t max_source_bytes;    /**< bytes of the source file */
   int64_t max_mesh_bytes;      /**< bytes of a mesh or patch file; non-regular files refused */
   int64_t max_mesh_triangles;  /**< triangles (and vertices) of one mesh */
+  /* Added after the limits above: a caller whose struct_size ends before it gets the default. */
+  int64_t max_exact_curves; /**< open border curves of a patch set for its exact field;
+                                 beyond, its field is tessellated (not an error) */
 } hfrt_compile_options;
 
 /** Fills *options with the defaults (no-op for NULL). */

@@ -56,6 +56,9 @@ struct ModelLimits {
   int64_t max_mesh_bytes = int64_t{256} << 20;
   /// Triangles, and vertices, of one mesh; for patches, their tessellation's triangles.
   int64_t max_mesh_triangles = 10'000'000;
+  /// Open border curves of a patch set up to which its field is exact (no tessellation);
+  /// beyond, it goes through a tessellation (faster, off by its measured error), not an error.
+  int64_t max_exact_curves = 64;
 };
 
 /// "" when every limit is in range, else what is wrong ("max_slots must be at least 1 (got
