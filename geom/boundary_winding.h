@@ -79,8 +79,8 @@ class BoundaryCurves {
   /// The same from the kept borders already made.
   static BoundaryCurves build(const std::vector<CurveOnPatch>& borders);
   /// A boundary of these curves as they are (no cancellation): what is left of one after
-  /// seal_cracks.
-  static BoundaryCurves of(std::vector<BezierCurve> curves);
+  /// seal_cracks; `patches`: each curve's patch, or none.
+  static BoundaryCurves of(std::vector<BezierCurve> curves, std::vector<uint32_t> patches = {});
 
   /// (1 / 4 pi) x the line integral of A (string along the unit vector s from p) around the
   /// curves: w(p) plus the sum of the facings of the ray from p along s. *reliable is set
@@ -106,6 +106,8 @@ class BoundaryCurves {
   DVec3 field(const DVec3& p, double* magnitude, bool* ok) const;
 
   const std::vector<BezierCurve>& curves() const { return curves_; }
+  /// Each curve's patch (empty for a boundary made by of() without them).
+  const std::vector<uint32_t>& patches() const { return patches_; }
   size_t memory_bytes() const {
     return (curves_.capacity() + pieces_.capacity()) * sizeof(BezierCurve) +
            tree_.capacity() * sizeof(TreeNode) + samples_.capacity() * sizeof(Samples);
@@ -122,6 +124,7 @@ class BoundaryCurves {
 
  private:
   std::vector<BezierCurve> curves_;
+  std::vector<uint32_t> patches_;
   /// Each curve's halves, quarters, ... down to kTreeDepth levels, made once: a piece's
   /// bounding sphere and its Gauss-Legendre points, which do not depend on p, so a piece
   /// summed directly costs only the vector potential at its points. Curve i's whole is
@@ -130,11 +133,15 @@ class BoundaryCurves {
   struct TreeNode {
     DVec3 centre;
     double radius2;
+    double length;  ///< its control polygon's (smooth_change's bounds)
     uint32_t children;
     uint32_t curve;  ///< the piece's control points in pieces_ (the deepest level's only)
   };
   std::vector<TreeNode> tree_;
   std::vector<BezierCurve> pieces_;
+  /// smooth_change's sum of length / distance^power over tree_[k]'s pieces seen from the
+  /// ball (c, r), from the stored spheres and lengths (gradient_bound below the tree).
+  double tree_bound(uint32_t k, const DVec3& c, double r, int power, int depth) const;
   /// Every curve's pieces whose bounding spheres accept(centre, radius2) takes: a tree node's
   /// stored samples to node(samples), a piece halved on the fly below the tree to
   /// piece(control points). False when some piece was still not taken after kMaxDepth
@@ -169,7 +176,11 @@ struct SealedCracks {
 /// other runs the opposite way (tangents with a negative dot product, away from curve ends),
 /// and the two loops' lengths within 1 % + 4 tolerance of each other (one loop, not two, along
 /// the other). Every point of one loop is then within 1.5 tolerance of the other.
-SealedCracks seal_cracks(const std::vector<BezierCurve>& curves, double tolerance);
+/// `patches` (empty, or each curve's patch): two chains with a patch in common do not pair (a
+/// thin sliver kept, or a slit cut, by one patch's trim is part of that patch, not a crack
+/// between surfaces).
+SealedCracks seal_cracks(const std::vector<BezierCurve>& curves, double tolerance,
+                         const std::vector<uint32_t>& patches = {});
 
 /// The sealed cracks' neighbourhood: the first loops' curves halved until their control
 /// points lie within radius / 4 of their chords, as capsules of `radius` about the chords (a

@@ -189,7 +189,7 @@ std::unique_ptr<PatchSurface> PatchSurface::build(const PatchSet& set, const Opt
         for (const BezierPatch& patch : set.patches)
           for (int k = 0; k < patch.num_control_points(); ++k) box.extend(patch.cp[k]);
         const double tolerance = options.seal_tolerance * double(length(box.hi - box.lo));
-        SealedCracks sealed = seal_cracks(s->boundary_.curves(), tolerance);
+        SealedCracks sealed = seal_cracks(s->boundary_.curves(), tolerance, s->boundary_.patches());
         if (sealed.pairs > 0) {
           s->stats_.sealed_curves = sealed.sealed_curves;
           s->stats_.crack_gap = sealed.gap;
