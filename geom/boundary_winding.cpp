@@ -477,6 +477,11 @@ SealedCracks seal_cracks(const std::vector<BezierCurve>& curves, double toleranc
   for (const BezierCurve& c : curves)
     for (int k = 0; k <= c.degree; ++k)
       scale = std::max({scale, std::abs(c.cp[k].x), std::abs(c.cp[k].y), std::abs(c.cp[k].z)});
+  // Nothing to seal at a tolerance that is no distance, or among coordinates that overflow.
+  if (!(tolerance > 0) || !std::isfinite(tolerance) || !std::isfinite(scale)) {
+    out.open = curves;
+    return out;
+  }
   const double eps = 1e-9 * std::max(scale, 1e-300);
   // 1. The curves' ends as vertices: ends within eps of each other are one (sorted by x,
   // each joined to the first earlier one that coincides).
