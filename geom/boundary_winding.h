@@ -23,7 +23,9 @@
 // (Trim::border: loop edges and the kept parts of its sides, kept region on the left), each
 // segment mapped through the patch: a line in (u, v) is a Bézier curve of degree du + dv on
 // it. The crossings of the ray then count only where the trim keeps them, and the formula
-// holds as it is: a trimmed patch is a surface with that boundary.
+// holds as it is: a trimmed patch is a surface with that boundary. Where a trim loop follows
+// the next patch's rim, the two almost cancel: PatchSurface seals such cracks (seal_cracks,
+// below) before it counts the curves.
 //
 // The integral: each curve is split in de Casteljau halves until every piece is small and far
 // enough, seen from p, both from p and from the string (its control points' bounding sphere's
