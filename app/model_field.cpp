@@ -473,7 +473,7 @@ std::string describe_surfaces(const Model& model) {
     if (s.patches > 0 && s.exact_field) {
       char sealed[96] = "";
       if (s.sealed_curves > 0)
-        std::snprintf(sealed, sizeof sealed, ", %zu in cracks sealed (up to %.2g wide)",
+        std::snprintf(sealed, sizeof sealed, ", %zu sealed in cracks up to %.2g wide",
                       s.sealed_curves, s.crack_gap);
       std::snprintf(what, sizeof what,
                     "%zu patches, %zu pieces, exact field (%zu open border curves%s, no "

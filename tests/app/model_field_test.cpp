@@ -307,8 +307,8 @@ TEST(DescribeSurfaces, SaysWhatEachFieldIsMadeOf) {
       {"/examples/teapot.hf",
        "32 patches, 14216 pieces, exact field (16 open border curves, no tessellation)"},
       {"/examples/trimmed.hf",
-       "11 patches, 2051 pieces, exact field (0 open border curves, 528 in cracks sealed (up to "
-       "0.00057 wide), no tessellation)"},
+       "11 patches, 2051 pieces, exact field (0 open border curves, 528 sealed in cracks up to "
+       "0.00057 wide, no tessellation)"},
       {"/examples/armadillo.hf", "52000 triangles, 0 degenerate skipped"},
   };
   for (const auto& c : cases) {
