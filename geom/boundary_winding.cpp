@@ -910,23 +910,9 @@ double BoundaryCurves::string_term(const DVec3& p, const DVec3& s, bool* reliabl
 
 namespace {
 
-/// The squared distance from p to the box of c's control points (which holds the curve).
-double control_box_distance2(const BezierCurve& c, const DVec3& p) {
-  DVec3 lo, hi;
-  control_box(c, &lo, &hi);
-  const double dx = std::max({lo.x - p.x, 0.0, p.x - hi.x});
-  const double dy = std::max({lo.y - p.y, 0.0, p.y - hi.y});
-  const double dz = std::max({lo.z - p.z, 0.0, p.z - hi.z});
-  return dx * dx + dy * dy + dz * dz;
-}
-
-/// The nearest point to p of `piece`, the part [t0, t1] of `whole`, if nearer than
-/// sqrt(*best2) (then *best2, *best_t and *best_x are set and true is returned). A piece
-/// straight to 1e-3 of its chord (or 30 halvings deep) is solved by Newton on
-/// (x(t) - p) . x'(t) = 0 in the whole curve's parameter, from the chord's nearest point,
-/// clamped to [t0, t1]; its ends are candidates too. Otherwise its halves, nearer first.
-bool nearest_on_piece(const BezierCurve& whole, const BezierCurve& piece, double t0, double t1,
-                      const DVec3& p, int depth, double* best2, double* best_t, DVec3* best_x) {
+/// Whether a piece is straight enough for nearest_on_straight: its inner control points
+/// within 1e-3 of its chord's length of the chord (or 30 halvings deep).
+bool straight_enough(const BezierCurve& piece, int depth) {
   const int n = piece.degree;
   const DVec3 chord = piece.cp[n] - piece.cp[0];
   const double len2 = ddot(chord, chord);
@@ -937,22 +923,18 @@ bool nearest_on_piece(const BezierCurve& whole, const BezierCurve& piece, double
     const DVec3 off = {r.x - along * chord.x, r.y - along * chord.y, r.z - along * chord.z};
     dev2 = std::max(dev2, ddot(off, off));
   }
-  if (depth < 30 && dev2 > 1e-6 * len2) {
-    BezierCurve left, right;
-    halve(piece, &left, &right);
-    const double tm = 0.5 * (t0 + t1);
-    const double dl = control_box_distance2(left, p), dr = control_box_distance2(right, p);
-    bool found = false;
-    const bool left_first = dl <= dr;
-    for (int k = 0; k < 2; ++k) {
-      const bool is_left = (k == 0) == left_first;
-      if (!((is_left ? dl : dr) < *best2)) continue;
-      found |= is_left
-                   ? nearest_on_piece(whole, left, t0, tm, p, depth + 1, best2, best_t, best_x)
-                   : nearest_on_piece(whole, right, tm, t1, p, depth + 1, best2, best_t, best_x);
-    }
-    return found;
-  }
+  return depth >= 30 || !(dev2 > 1e-6 * len2);
+}
+
+/// The nearest point to p of a straight `piece`, the part [t0, t1] of `whole`, if nearer
+/// than sqrt(*best2) (then *best2, *best_t and *best_x are set and true is returned): Newton
+/// on (x(t) - p) . x'(t) = 0 in the whole curve's parameter, from the chord's nearest point,
+/// clamped to [t0, t1]; its ends are candidates too.
+bool nearest_on_straight(const BezierCurve& whole, const BezierCurve& piece, double t0, double t1,
+                         const DVec3& p, double* best2, double* best_t, DVec3* best_x) {
+  const int n = piece.degree;
+  const DVec3 chord = piece.cp[n] - piece.cp[0];
+  const double len2 = ddot(chord, chord);
   bool found = false;
   auto consider = [&](double t, const DVec3& x) {
     const DVec3 r = x - p;
@@ -982,13 +964,37 @@ bool nearest_on_piece(const BezierCurve& whole, const BezierCurve& piece, double
 
 NearestOnCurves NearestOnCurves::build(std::vector<CurveOnPatch> curves) {
   NearestOnCurves out;
-  if (curves.empty()) return out;
-  std::vector<Box> boxes(curves.size());
-  for (size_t i = 0; i < curves.size(); ++i) {
-    const BezierCurve& c = curves[i].curve;
+  out.curves_ = std::move(curves);
+  if (out.curves_.empty()) return out;
+  // Every curve's straight pieces (halves of halves, once here rather than at every query).
+  std::vector<Piece> pieces;
+  for (uint32_t i = 0; i < out.curves_.size(); ++i) {
+    struct Todo {
+      BezierCurve cp;
+      double t0, t1;
+      int depth;
+    };
+    std::vector<Todo> todo{{out.curves_[i].curve, 0.0, 1.0, 0}};
+    while (!todo.empty()) {
+      const Todo t = todo.back();
+      todo.pop_back();
+      if (straight_enough(t.cp, t.depth)) {
+        pieces.push_back({t.cp, t.t0, t.t1, i});
+        continue;
+      }
+      BezierCurve left, right;
+      halve(t.cp, &left, &right);
+      const double tm = 0.5 * (t.t0 + t.t1);
+      todo.push_back({right, tm, t.t1, t.depth + 1});
+      todo.push_back({left, t.t0, tm, t.depth + 1});
+    }
+  }
+  std::vector<Box> boxes(pieces.size());
+  for (size_t i = 0; i < pieces.size(); ++i) {
+    const BezierCurve& c = pieces[i].cp;
     Box b;
     for (int k = 0; k <= c.degree; ++k) b.extend(to_f(c.cp[size_t(k)]));
-    // Rounded to float: grown by a little, so that the box still holds the curve.
+    // Rounded to float: grown by a little, so that the box still holds the piece.
     const float far = std::max({std::abs(b.lo.x), std::abs(b.lo.y), std::abs(b.lo.z),
                                 std::abs(b.hi.x), std::abs(b.hi.y), std::abs(b.hi.z)});
     const float m = 1e-6f * (b.max_extent() + far);
@@ -996,24 +1002,25 @@ NearestOnCurves NearestOnCurves::build(std::vector<CurveOnPatch> curves) {
   }
   Bvh bvh = build_bvh(boxes, BvhBuildOptions{.max_leaf_size = 2});
   out.nodes_ = std::move(bvh.nodes);
-  out.curves_.resize(curves.size());
-  for (size_t i = 0; i < curves.size(); ++i) out.curves_[i] = curves[bvh.prim_order[i]];
+  out.pieces_.resize(pieces.size());
+  for (size_t i = 0; i < pieces.size(); ++i) out.pieces_[i] = pieces[bvh.prim_order[i]];
   return out;
 }
 
 bool NearestOnCurves::nearest(const DVec3& p, double* best2, Hit* hit) const {
-  if (curves_.empty()) return false;
+  if (pieces_.empty()) return false;
   const Vec3 pf = to_f(p);
   // The float box distance, shrunk by a little: a lower bound.
   auto dist2 = [&](const BvhNode& n) { return double(n.bounds().distance2(pf)) * (1 - 1e-5); };
   bool found = false;
   walk_nearest(nodes_, dist2, best2, [&](const BvhNode& n, double) {
     for (uint32_t k = n.index; k < n.index + n.count; ++k) {
-      const BezierCurve& c = curves_[k].curve;
+      const Piece& piece = pieces_[k];
       double t;
       DVec3 x;
-      if (nearest_on_piece(c, c, 0, 1, p, 0, best2, &t, &x)) {
-        *hit = {k, t, x};
+      if (nearest_on_straight(curves_[piece.curve].curve, piece.cp, piece.t0, piece.t1, p, best2,
+                              &t, &x)) {
+        *hit = {piece.curve, t, x};
         found = true;
       }
     }

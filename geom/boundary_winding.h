@@ -211,17 +211,19 @@ class CrackSet {
   double radius_ = 0;
 };
 
-/// The closest point of a set of curves on patches (a trimmed set's kept_borders): a BVH over
-/// the curves' control-point boxes, nearest first, each curve halved (de Casteljau) until its
-/// pieces are straight to 1e-3 of their chord, then Newton on the distance from the chord's
-/// nearest point, clamped to the piece (exact to rounding: a straight piece has one minimum).
+/// The closest point of a set of curves on patches (a trimmed set's kept_borders): each curve
+/// halved (de Casteljau) until its pieces are straight to 1e-3 of their chord, once, at build;
+/// a BVH over the pieces' control-point boxes, nearest first; in each piece Newton on the
+/// distance from the chord's nearest point, clamped to the piece (exact to rounding: a
+/// straight piece has one minimum).
 class NearestOnCurves {
  public:
   static NearestOnCurves build(std::vector<CurveOnPatch> curves);
   bool empty() const { return curves_.empty(); }
   const std::vector<CurveOnPatch>& curves() const { return curves_; }
   size_t memory_bytes() const {
-    return curves_.capacity() * sizeof(CurveOnPatch) + nodes_.capacity() * sizeof(BvhNode);
+    return curves_.capacity() * sizeof(CurveOnPatch) + pieces_.capacity() * sizeof(Piece) +
+           nodes_.capacity() * sizeof(BvhNode);
   }
 
   struct Hit {
@@ -234,7 +236,14 @@ class NearestOnCurves {
   bool nearest(const DVec3& p, double* best2, Hit* hit) const;
 
  private:
-  std::vector<CurveOnPatch> curves_;  // in leaf order
+  /// A straight piece: curve `curve`'s part [t0, t1], its control points.
+  struct Piece {
+    BezierCurve cp;
+    double t0, t1;
+    uint32_t curve;
+  };
+  std::vector<CurveOnPatch> curves_;
+  std::vector<Piece> pieces_;  // in leaf order
   std::vector<BvhNode> nodes_;
 };
 
