@@ -27,7 +27,8 @@ struct ModelRequest {
 
 /// Registers the options of the limits on hostile input (docs/limits.md) on a command that
 /// compiles models: --max-loop-iterations N, --max-array-size N, --max-slots N,
-/// --max-model-size N, --max-source-bytes N, --max-mesh-bytes N, --max-mesh-triangles N.
+/// --max-model-size N, --max-source-bytes N, --max-mesh-bytes N, --max-mesh-triangles N,
+/// --max-exact-curves N.
 void add_limit_options(CLI::App& app, ModelLimits* limits);
 
 /// A compiled model ready for rendering, with its compile time.
