@@ -7,6 +7,7 @@
 #include <limits>
 #include <map>
 #include <numbers>
+#include <unordered_map>
 
 namespace hfrt::geom {
 namespace {
@@ -483,27 +484,43 @@ SealedCracks seal_cracks(const std::vector<BezierCurve>& curves, double toleranc
     return out;
   }
   const double eps = 1e-9 * std::max(scale, 1e-300);
-  // 1. The curves' ends as vertices: ends within eps of each other are one (sorted by x,
-  // each joined to the first earlier one that coincides).
+  // 1. The curves' ends as vertices: an end within eps (on every axis) of an earlier one is
+  // its vertex, found through a hash grid of cells 2 eps wide (the 27 around it), so that
+  // many ends on one plane cost no more than ends anywhere.
   const size_t ne = 2 * n;
   auto end_point = [&](size_t e) { return e % 2 == 0 ? first(e / 2) : last(e / 2); };
-  std::vector<uint32_t> by_x(ne);
-  for (uint32_t e = 0; e < ne; ++e) by_x[e] = e;
-  std::sort(by_x.begin(), by_x.end(),
-            [&](uint32_t a, uint32_t b) { return end_point(a).x < end_point(b).x; });
+  const double cell = 2 * eps;
+  auto cell_of = [&](const DVec3& q) {
+    return std::array<int64_t, 3>{int64_t(std::floor(q.x / cell)), int64_t(std::floor(q.y / cell)),
+                                  int64_t(std::floor(q.z / cell))};
+  };
+  struct CellHash {
+    size_t operator()(const std::array<int64_t, 3>& k) const {
+      return size_t(k[0] * 73856093) ^ size_t(k[1] * 19349663) ^ size_t(k[2] * 83492791);
+    }
+  };
+  std::unordered_map<std::array<int64_t, 3>, std::vector<uint32_t>, CellHash> grid;
   std::vector<uint32_t> vertex(ne);
   uint32_t vertices = 0;
-  for (size_t i = 0; i < ne; ++i) {
-    const DVec3 p = end_point(by_x[i]);
+  for (uint32_t e = 0; e < ne; ++e) {
+    const DVec3 p = end_point(e);
+    const std::array<int64_t, 3> c = cell_of(p);
     uint32_t v = ~0u;
-    for (size_t k = i; k-- > 0 && end_point(by_x[k]).x >= p.x - eps;) {
-      const DVec3 q = end_point(by_x[k]);
-      if (std::abs(q.y - p.y) <= eps && std::abs(q.z - p.z) <= eps) {
-        v = vertex[by_x[k]];
-        break;
+    for (int d = 0; d < 27 && v == ~0u; ++d) {
+      const std::array<int64_t, 3> k{c[0] + d % 3 - 1, c[1] + d / 3 % 3 - 1, c[2] + d / 9 - 1};
+      const auto it = grid.find(k);
+      if (it == grid.end()) continue;
+      for (uint32_t other : it->second) {
+        const DVec3 q = end_point(other);
+        if (std::abs(q.x - p.x) <= eps && std::abs(q.y - p.y) <= eps &&
+            std::abs(q.z - p.z) <= eps) {
+          v = vertex[other];
+          break;
+        }
       }
     }
-    vertex[by_x[i]] = v != ~0u ? v : vertices++;
+    vertex[e] = v != ~0u ? v : vertices++;
+    grid[c].push_back(e);
   }
   std::vector<uint32_t> in(vertices, 0), out_degree(vertices, 0), out_curve(vertices, ~0u);
   for (uint32_t i = 0; i < n; ++i) {

@@ -683,6 +683,14 @@ TEST(SealCracks, OnlyLoopsThatRetraceEachOtherTheOtherWay) {
   // A 63-gon meets the arcs at no vertex but the first: two whole loops (closed chains from
   // that junction), one pair.
   EXPECT_EQ(seal_cracks(joined(circle_arcs(1, 0, false), polygon(63, 1, 0, true)), tol).pairs, 1u);
+  // The same in the plane x = 0 (every end at x = 0: the ends are joined through a grid, not
+  // a sweep along x), with a 4096-gon.
+  std::vector<BezierCurve> upright = joined(circle_arcs(1, 0, false), polygon(4096, 1, 0, true));
+  for (BezierCurve& c : upright)
+    for (DVec3& q : c.cp) q = {q.z, q.x, q.y};
+  const SealedCracks planar = seal_cracks(upright, tol);
+  EXPECT_EQ(planar.pairs, 4u);
+  EXPECT_EQ(planar.sealed_curves, 4100u);
   // With each curve's patch: loops of different patches pair, loops of one patch (a sliver
   // of its trim) do not.
   const std::vector<BezierCurve> two = joined(circle_arcs(1, 0, false), polygon(63, 1, 0, true));
