@@ -448,21 +448,42 @@ double segments_distance2(const DVec3& a, const DVec3& b, const DVec3& o, const 
   return ddot(p1 - p2, p1 - p2);
 }
 
-/// The arc length of a curve (ten-point Gauss-Legendre on the speed: exact enough for a
-/// comparison within 1 %).
+/// The arc length of a curve (the string term's Gauss-Legendre points on the speed: exact
+/// enough for a comparison within 1 %).
 double arc_length(const BezierCurve& c) {
-  static constexpr double kN[5] = {0.013046735741414128, 0.06746831665550773, 0.16029521585048778,
-                                   0.2833023029353764, 0.4255628305091844};
-  static constexpr double kW[5] = {0.033335672154344034, 0.07472567457529018, 0.109543181257991,
-                                   0.13463335965499826, 0.1477621123573765};
   double length = 0;
-  for (int g = 0; g < 10; ++g) {
-    const double t = g < 5 ? kN[g] : 1 - kN[9 - g], w = g < 5 ? kW[g] : kW[9 - g];
+  for (int g = 0; g < kGauss; ++g) {
     DVec3 x, d1, d2;
-    eval_curve(c, t, &x, &d1, &d2);
-    length += w * std::sqrt(ddot(d1, d1));
+    eval_curve(c, kNode[g], &x, &d1, &d2);
+    length += kWeight[g] * std::sqrt(ddot(d1, d1));
   }
   return length;
+}
+
+/// Curve c halved (de Casteljau) until straight(piece, depth) takes each piece; each is given
+/// to emit(piece, t0, t1), left to right, with its parameter range on c. What the crack
+/// capsules and the closest points' pieces share.
+template <typename Straight, typename Emit>
+void straight_pieces(const BezierCurve& c, const Straight& straight, const Emit& emit) {
+  struct Todo {
+    BezierCurve cp;
+    double t0, t1;
+    int depth;
+  };
+  std::vector<Todo> todo{{c, 0.0, 1.0, 0}};
+  while (!todo.empty()) {
+    const Todo t = todo.back();
+    todo.pop_back();
+    if (straight(t.cp, t.depth)) {
+      emit(t.cp, t.t0, t.t1);
+      continue;
+    }
+    BezierCurve left, right;
+    halve(t.cp, &left, &right);
+    const double tm = 0.5 * (t.t0 + t.t1);
+    todo.push_back({right, tm, t.t1, t.depth + 1});
+    todo.push_back({left, t.t0, tm, t.depth + 1});
+  }
 }
 
 }  // namespace
@@ -648,28 +669,25 @@ SealedCracks seal_cracks(const std::vector<BezierCurve>& curves, double toleranc
 CrackSet CrackSet::build(const std::vector<BezierCurve>& loops, double radius) {
   CrackSet out;
   out.radius_ = radius;
-  // Each curve halved until its control points lie within radius / 4 of its chord.
-  std::vector<BezierCurve> todo(loops.begin(), loops.end());
+  // Each curve halved until its control points lie within radius / 4 of its chord (or 20
+  // halvings deep: at most a million pieces a curve).
   std::vector<Segment> segments;
-  while (!todo.empty()) {
-    const BezierCurve c = todo.back();
-    todo.pop_back();
-    const DVec3 a = c.cp[0], b = c.cp[size_t(c.degree)];
-    double dev2 = 0;
-    for (int i = 1; i < c.degree; ++i) {
-      const double t = segment_parameter(a, b, c.cp[i]);
-      const DVec3 q{a.x + (b.x - a.x) * t, a.y + (b.y - a.y) * t, a.z + (b.z - a.z) * t};
-      dev2 = std::max(dev2, ddot(c.cp[i] - q, c.cp[i] - q));
-    }
-    if (dev2 <= radius * radius / 16 || segments.size() + todo.size() > 1000000) {
-      segments.push_back({a, b});
-      continue;
-    }
-    BezierCurve left, right;
-    halve(c, &left, &right);
-    todo.push_back(right);
-    todo.push_back(left);
-  }
+  for (const BezierCurve& curve : loops)
+    straight_pieces(
+        curve,
+        [&](const BezierCurve& c, int depth) {
+          const DVec3 a = c.cp[0], b = c.cp[size_t(c.degree)];
+          double dev2 = 0;
+          for (int i = 1; i < c.degree; ++i) {
+            const double t = segment_parameter(a, b, c.cp[i]);
+            const DVec3 q{a.x + (b.x - a.x) * t, a.y + (b.y - a.y) * t, a.z + (b.z - a.z) * t};
+            dev2 = std::max(dev2, ddot(c.cp[i] - q, c.cp[i] - q));
+          }
+          return depth >= 20 || dev2 <= radius * radius / 16;
+        },
+        [&](const BezierCurve& c, double, double) {
+          segments.push_back({c.cp[0], c.cp[size_t(c.degree)]});
+        });
   if (segments.empty()) return out;
   // The boxes in float, grown by the radius and a little (so that they hold the capsules).
   std::vector<Box> boxes(segments.size());
@@ -985,27 +1003,11 @@ NearestOnCurves NearestOnCurves::build(std::vector<CurveOnPatch> curves) {
   if (out.curves_.empty()) return out;
   // Every curve's straight pieces (halves of halves, once here rather than at every query).
   std::vector<Piece> pieces;
-  for (uint32_t i = 0; i < out.curves_.size(); ++i) {
-    struct Todo {
-      BezierCurve cp;
-      double t0, t1;
-      int depth;
-    };
-    std::vector<Todo> todo{{out.curves_[i].curve, 0.0, 1.0, 0}};
-    while (!todo.empty()) {
-      const Todo t = todo.back();
-      todo.pop_back();
-      if (straight_enough(t.cp, t.depth)) {
-        pieces.push_back({t.cp, t.t0, t.t1, i});
-        continue;
-      }
-      BezierCurve left, right;
-      halve(t.cp, &left, &right);
-      const double tm = 0.5 * (t.t0 + t.t1);
-      todo.push_back({right, tm, t.t1, t.depth + 1});
-      todo.push_back({left, t.t0, tm, t.depth + 1});
-    }
-  }
+  for (uint32_t i = 0; i < out.curves_.size(); ++i)
+    straight_pieces(out.curves_[i].curve, straight_enough,
+                    [&](const BezierCurve& c, double t0, double t1) {
+                      pieces.push_back({c, t0, t1, i});
+                    });
   std::vector<Box> boxes(pieces.size());
   for (size_t i = 0; i < pieces.size(); ++i) {
     const BezierCurve& c = pieces[i].cp;

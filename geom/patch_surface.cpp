@@ -186,8 +186,7 @@ std::unique_ptr<PatchSurface> PatchSurface::build(const PatchSet& set, const Opt
         // The crack tolerance from the control points' box (the pieces' bounds are not made
         // yet).
         Box box;
-        for (const BezierPatch& patch : set.patches)
-          for (int k = 0; k < patch.num_control_points(); ++k) box.extend(patch.cp[k]);
+        for (const BezierPatch& patch : set.patches) box.extend(patch.control_bounds());
         const double tolerance = options.seal_tolerance * double(length(box.hi - box.lo));
         SealedCracks sealed = seal_cracks(s->boundary_.curves(), tolerance, s->boundary_.patches());
         if (sealed.pairs > 0) {

@@ -118,9 +118,11 @@ bool constant_array(Call& c, int i, const char* what, std::vector<double>* out) 
   return true;
 }
 
+// The limit's default is the surface's own.
+static_assert(Limits{}.max_exact_curves == int64_t(geom::PatchSurface::Options{}.max_exact_curves));
+
 /// A patch set's surface options from the limits: the open border curves its exact field
 /// takes (Limits::max_exact_curves).
-static_assert(Limits{}.max_exact_curves == int64_t(geom::PatchSurface::Options{}.max_exact_curves));
 geom::PatchSurface::Options patch_options(const Limits& limits) {
   geom::PatchSurface::Options o;
   o.max_exact_curves = size_t(limits.max_exact_curves);
