@@ -43,14 +43,15 @@ struct SurfaceStats {
   size_t boundary_curves =
       0;  ///< patches: the open borders (boundary_winding.h) when the exact field was asked for
   bool exact_field = false;  ///< patches: the field from the patches, no tessellation
-  size_t sealed_curves =
-      0;  ///< patches: border curves in cracks sealed (PatchSurface::Options::seal_tolerance)
-  double crack_gap = 0;  ///< patches: the widest sealed crack measured
   size_t degenerate_skipped = 0;
   size_t bvh_nodes = 0;
   int bvh_depth = 0;
   double build_seconds = 0;
   size_t memory_bytes = 0;
+  /// Patches: the border curves in cracks sealed (PatchSurface::Options::seal_tolerance),
+  /// and the widest sealed crack measured.
+  size_t sealed_curves = 0;
+  double crack_gap = 0;
 };
 
 /// The closest surface point to a query point.

@@ -187,9 +187,6 @@ struct SurfaceStats {
   size_t pieces = 0;           ///< patches: the flat pieces rays are solved in
   size_t boundary_curves = 0;  ///< patches: its open border curves (exact field asked for)
   bool exact_field = false;    ///< patches: the field from the patches, no tessellation
-  size_t sealed_curves =
-      0;  ///< patches: border curves in cracks sealed (PatchSurface::Options::seal_tolerance)
-  double crack_gap = 0;  ///< patches: the widest sealed crack measured
   size_t degenerate_skipped = 0;
   size_t bvh_nodes = 0;
   int bvh_depth = 0;
@@ -202,6 +199,10 @@ struct SurfaceStats {
   /// their edges are not counted.
   bool closed = false;
   size_t boundary_edges = 0;
+  /// Patches: the border curves in cracks sealed (PatchSurface::Options::seal_tolerance),
+  /// and the widest sealed crack measured.
+  size_t sealed_curves = 0;
+  double crack_gap = 0;
 };
 
 /// A mesh leaf of the analytic root search's skeleton whose mesh is not closed: inside and
