@@ -10,6 +10,10 @@
 #include <limits>
 #include <numeric>
 
+#if defined(__SSE2__)
+#include <emmintrin.h>
+#endif
+
 #include "base/check.h"
 #include "base/memory.h"
 #include "base/parallel.h"
@@ -392,33 +396,12 @@ void eigen_sym3(double a[3][3], double w[3], double v[3][3]) {
   for (int i = 0; i < 3; ++i) w[i] = a[i][i];
 }
 
-/// The point minimising sum (n_i . (x - p_i))^2 nearest the mass point, by the truncated
-/// pseudo-inverse; `rank` receives the number of eigenvalues kept. When the normals are all
-/// valid and within ~6 degrees of their mean (the mass point is the answer), `*flat` is set
-/// to their normalised mean; otherwise it is left alone.
-Vec3 solve_qef(const Vec3* p, const Vec3* nrm, int k, int* rank, Vec3* flat_normal) {
-  double mass[3] = {0, 0, 0};
-  for (int i = 0; i < k; ++i)
-    for (int a = 0; a < 3; ++a) mass[a] += p[i][a];
-  const double inv_k = 1.0 / k;  // one division, not three
-  for (int a = 0; a < 3; ++a) mass[a] *= inv_k;
-  // Fast path: normals within ~6 degrees of their mean span one direction (rank 1), and the
-  // least-squares point nearest the mass point is the mass point itself.
-  {
-    Vec3 mean{0, 0, 0};
-    int valid = 0;
-    for (int i = 0; i < k; ++i) {
-      if (length2(nrm[i]) > 0.5f) mean += nrm[i], ++valid;
-    }
-    const Vec3 u = normalize(mean);
-    bool flat = valid == k && length2(mean) > 0;
-    for (int i = 0; i < k; ++i) flat &= dot(nrm[i], u) > 0.995f;  // no early exit: no branch
-    if (flat) {
-      *rank = 1;
-      *flat_normal = u;
-      return {float(mass[0]), float(mass[1]), float(mass[2])};
-    }
-  }
+/// The point minimising sum (n_i . (p - p_i))^2 nearest the mass point `mass` of the k
+/// points p_i, by the truncated pseudo-inverse; `rank` receives the number of eigenvalues
+/// kept. (Out of line: solve_qef's fast path, inlined where the vertices are placed, is most
+/// cells' whole QEF.)
+[[gnu::noinline]] Vec3 solve_qef_general(const Vec3* p, const Vec3* nrm, int k,
+                                         const double mass[3], int* rank) {
   double ata[3][3] = {{0, 0, 0}, {0, 0, 0}, {0, 0, 0}}, atb[3] = {0, 0, 0};
   for (int i = 0; i < k; ++i) {
     double n[3] = {nrm[i].x, nrm[i].y, nrm[i].z};
@@ -593,6 +576,43 @@ struct EdgeZeros {
   std::vector<Vec3> point, normal;
   ScratchVector<float> slope;
 };
+
+/// The QEF point of the k edges `edge` of `zeros` (their zeros p_i and tangent planes): the
+/// point minimising sum (n_i . (x - p_i))^2 nearest the mass point, by the truncated
+/// pseudo-inverse; `rank` receives the number of eigenvalues kept. When the normals are all
+/// valid and within ~6 degrees of their mean (the mass point is the answer: the fast path,
+/// most cells), `*flat_normal` is set to their normalised mean and `*mean_slope` to the
+/// edges' mean slope; otherwise both are left alone. (The fast path reads the edges where
+/// they are; only the general one copies them out.)
+inline Vec3 solve_qef(const EdgeZeros& zeros, const uint32_t* edge, int k, int* rank,
+                      Vec3* flat_normal, float* mean_slope) {
+  double mass[3] = {0, 0, 0};
+  Vec3 mean{0, 0, 0};
+  int valid = 0;
+  float slope = 0;
+  for (int i = 0; i < k; ++i) {
+    const Vec3 p = zeros.point[edge[i]], n = zeros.normal[edge[i]];
+    for (int a = 0; a < 3; ++a) mass[a] += p[a];
+    if (length2(n) > 0.5f) mean += n, ++valid;
+    slope += zeros.slope[edge[i]];
+  }
+  const double inv_k = 1.0 / k;  // one division, not three
+  for (int a = 0; a < 3; ++a) mass[a] *= inv_k;
+  // Fast path: normals within ~6 degrees of their mean span one direction (rank 1), and the
+  // least-squares point nearest the mass point is the mass point itself.
+  const Vec3 u = normalize(mean);
+  bool flat = valid == k && length2(mean) > 0;
+  for (int i = 0; i < k; ++i) flat &= dot(zeros.normal[edge[i]], u) > 0.995f;  // no branch
+  if (flat) {
+    *rank = 1;
+    *flat_normal = u;
+    *mean_slope = slope / float(k);
+    return {float(mass[0]), float(mass[1]), float(mass[2])};
+  }
+  Vec3 pts[12], nrm[12];
+  for (int i = 0; i < k; ++i) pts[i] = zeros.point[edge[i]], nrm[i] = zeros.normal[edge[i]];
+  return solve_qef_general(pts, nrm, k, mass, rank);
+}
 
 /// Scratch of solve_edges, one per thread. (Passed in: a function-local thread_local in this
 /// shared library costs a __tls_get_addr call per use, ~7 % of the mesher's time.)
@@ -1005,6 +1025,18 @@ class BlockMesher {
     return rb.edge[size_t(rc.l) + size_t(kSide) * (size_t(rc.j) + size_t(kSide) * size_t(rc.k)) +
                    kEdgeSlot[size_t(e)]];
   }
+  /// Step 2 of run() for a whole block (kSide^3 nodes, values fb, node coordinates g*): its
+  /// crossing edges into `edges` and rb->edge, its surface cells into `cells` and out.
+  /// Branch-free where the surface decides: the nodes' sides are one 125-bit number S (bit
+  /// n = x + kSide (y + kSide z)), the crossing edges along x, y and z are S ^ (S >> 1),
+  /// S ^ (S >> kSide), S ^ (S >> kSide^2) and the surface cells the low corners whose eight
+  /// corners' bits are neither all 0 nor all 1; each set of bits is then walked once. (Row
+  /// by row, loops over a row's few bits mispredicted their exits ~30 times a block.) The
+  /// edges go to the batch along x, then y, then z, each by node.
+  void whole_block(const float* fb, const float* gx, const float* gy, const float* gz,
+                   size_t block_in_run, RunBlock* rb, EdgeBatch* edges, std::vector<RunCell>* cells,
+                   RunOut* out) const;
+
   /// Per thread: the run's buffers.
   struct Scratch {
     ScratchVector<float> buf;
@@ -1022,6 +1054,94 @@ class BlockMesher {
   float hmin_;
   mutable par::ThreadLocal<Scratch> scratch_;
 };
+
+void BlockMesher::whole_block(const float* fb, const float* gx, const float* gy, const float* gz,
+                              size_t block_in_run, RunBlock* rb, EdgeBatch* edges,
+                              std::vector<RunCell>* cells, RunOut* out) const {
+  using Bits = unsigned __int128;  // bit n: node n (kNodes = 125 of them)
+  static_assert(kNodes <= 128);
+  constexpr int kS = kSide, kS2 = kSide * kSide;
+  // Per node: its coordinates; and the nodes from which an edge along x, y, z stays in the
+  // block, and the low corners of the block's cells.
+  struct Tables {
+    uint8_t at[kNodes][3];
+    Bits valid[3], cell;
+    uint8_t cell_bit[kNodes];  // a low corner's cell: x + kBlock (y + kBlock z)
+  };
+  static constexpr Tables kT = [] {
+    Tables t{};
+    for (int n = 0; n < int(kNodes); ++n) {
+      const int c[3] = {n % kS, (n / kS) % kS, n / kS2};
+      for (int a = 0; a < 3; ++a) {
+        t.at[n][a] = uint8_t(c[a]);
+        if (c[a] < kBlock) t.valid[a] |= Bits(1) << n;
+      }
+      if (c[0] < kBlock && c[1] < kBlock && c[2] < kBlock) {
+        t.cell |= Bits(1) << n;
+        t.cell_bit[n] = uint8_t(c[0] + kBlock * (c[1] + kBlock * c[2]));
+      }
+    }
+    return t;
+  }();
+  // The sides: four values at a time (fb has room for 128).
+  Bits sides = 0;
+#if defined(__SSE2__)
+  const __m128 zero = _mm_setzero_ps();
+  for (int i = 0; i < 128; i += 4) {
+    const int m = _mm_movemask_ps(_mm_cmpge_ps(_mm_loadu_ps(fb + i), zero));  // inside()
+    sides |= Bits(unsigned(m)) << i;
+  }
+#else
+  for (int i = 0; i < int(kNodes); ++i) sides |= Bits(inside(fb[i])) << i;
+#endif
+  sides &= (Bits(1) << kNodes) - 1;
+  // The crossing edges, axis by axis, node by node.
+  size_t ne = edges->size();
+  edges->grow(ne + 3 * kNodes);
+  const float* g[3] = {gx, gy, gz};
+  constexpr int kStep[3] = {1, kS, kS2};
+  for (int a = 0; a < 3; ++a) {
+    const Bits cross = (sides ^ (sides >> kStep[a])) & kT.valid[a];
+    uint16_t* slot = rb->edge + size_t(a) * kNodes;
+    for (int w = 0; w < 2; ++w) {
+      for (uint64_t bits = uint64_t(cross >> (64 * w)); bits != 0; bits &= bits - 1, ++ne) {
+        const int n = 64 * w + std::countr_zero(bits);
+        const uint8_t* c = kT.at[n];
+        const Vec3 pa{gx[c[0]], gy[c[1]], gz[c[2]]};
+        Vec3 pb = pa;
+        pb[a] = g[a][c[a] + 1];
+        edges->set(ne, pa, pb, fb[n], fb[n + kStep[a]]);
+        slot[n] = uint16_t(ne);
+      }
+    }
+  }
+  edges->set_size(ne);
+  // The surface cells: low corners whose corners (offsets 0, 1, kS, kS + 1 and the same
+  // kS2 up) are not all alike.
+  const Bits any = sides | (sides >> 1), all = sides & (sides >> 1);
+  const Bits any4 = any | (any >> kS), all4 = all & (all >> kS);
+  const Bits surface = (any4 | (any4 >> kS2)) & ~(all4 & (all4 >> kS2)) & kT.cell;
+  static constexpr int kPlace[kBlock] = {0, 1, 1, 2};  // see CubeTable::reach
+  uint64_t cmask = 0;
+  uint32_t reach = 0;
+  for (int w = 0; w < 2; ++w) {
+    for (uint64_t bits = uint64_t(surface >> (64 * w)); bits != 0; bits &= bits - 1) {
+      const int n = 64 * w + std::countr_zero(bits);
+      // Corner c = cx | cy << 1 | cz << 2, as run() numbers them.
+      const int m = int(uint32_t(sides >> n) & 3) | int((uint32_t(sides >> (n + kS)) & 3) << 2) |
+                    int((uint32_t(sides >> (n + kS2)) & 3) << 4) |
+                    int((uint32_t(sides >> (n + kS2 + kS)) & 3) << 6);
+      const uint8_t* c = kT.at[n];
+      cmask |= uint64_t(1) << kT.cell_bit[n];
+      out->masks.push_back(uint8_t(m));
+      reach |= table_.reach[kPlace[c[0]] + 3 * kPlace[c[1]] + 9 * kPlace[c[2]]][m];
+      out->crossing_edges += size_t(table_.owned[m]);
+      cells->push_back({uint16_t(block_in_run), c[0], c[1], c[2], uint8_t(m)});
+    }
+  }
+  out->cmask.push_back(cmask);
+  out->reach.push_back(reach & ~(uint32_t(1) << kSelf));
+}
 
 void BlockMesher::run(const std::vector<BlockPos>& blocks, size_t first, size_t last, RunOut* out,
                       RunClock* clock) const {
@@ -1047,7 +1167,7 @@ void BlockMesher::run(const std::vector<BlockPos>& blocks, size_t first, size_t 
     nodes += size_t(cn[0] + 1) * size_t(cn[1] + 1) * size_t(cn[2] + 1);
   }
   const size_t cap = Capped::padded_size(nodes);
-  buf.resize(4 * cap);
+  buf.resize(4 * cap + 4);  // + 4: whole_block reads a block's values 4 at a time (128 of 125)
   float *x = buf.data(), *y = x + cap, *z = y + cap, *f = z + cap;
   // 1. Sample every block's nodes.
   size_t np = 0;
@@ -1060,9 +1180,12 @@ void BlockMesher::run(const std::vector<BlockPos>& blocks, size_t first, size_t 
       // A whole block (all but the grid's last ones): rows of kSide with the trip counts
       // known, so that the compiler writes them as vectors (the generic loop below was the
       // mesher's costliest line on the 512^3 blend).
+      // (The coordinates in locals first: the stores could alias the grid's arrays.)
+      float lx[kSide], ly[kSide], lz[kSide];
+      for (int l = 0; l < kSide; ++l) lx[l] = gx[l], ly[l] = gy[l], lz[l] = gz[l];
       for (int k = 0; k < kSide; ++k)
         for (int j = 0; j < kSide; ++j, np += kSide)
-          for (int l = 0; l < kSide; ++l) x[np + l] = gx[l], y[np + l] = gy[j], z[np + l] = gz[k];
+          for (int l = 0; l < kSide; ++l) x[np + l] = lx[l], y[np + l] = ly[j], z[np + l] = lz[k];
       continue;
     }
     for (int k = 0; k <= cn[2]; ++k)
@@ -1083,6 +1206,12 @@ void BlockMesher::run(const std::vector<BlockPos>& blocks, size_t first, size_t 
     const float* fb = f + np;
     const float *gx = &grid_.coord[0][size_t(c0[0])], *gy = &grid_.coord[1][size_t(c0[1])],
                 *gz = &grid_.coord[2][size_t(c0[2])];
+    if (nx == kSide && ny == kSide && nz == kSide) {
+      whole_block(fb, gx, gy, gz, bi - first, &rb, &edges, &run_cells, out);
+      np += kNodes;
+      continue;
+    }
+    // A block at the grid's high end (fewer cells): row by row.
     // The nodes' sides as one bit per node of each row along x (bit l: node l inside).
     uint32_t rows[kSide * kSide];
     for (int k = 0, n = 0; k < nz; ++k)
@@ -1155,8 +1284,7 @@ void BlockMesher::run(const std::vector<BlockPos>& blocks, size_t first, size_t 
   const Clock::time_point t2 = Clock::now();
   // 4. One vertex per patch: the QEF point of its edges' tangent planes, clamped to its cell;
   // then onto F = 0 where the patch is smooth (rank 1) or the point is off the surface.
-  Vec3 pts[12], nrm[12];
-  float slp[12];
+  uint32_t cell_edges[12];
   for (size_t i = 0; i < run_cells.size(); ++i) {
     const RunCell& rc = run_cells[i];
     const RunBlock& rb = run_blocks[rc.block];
@@ -1170,25 +1298,17 @@ void BlockMesher::run(const std::vector<BlockPos>& blocks, size_t first, size_t 
       for (unsigned bits = table_.cross[m]; bits != 0; bits &= bits - 1) {
         const int e = std::countr_zero(bits);
         if (ncomp > 1 && table_.comp[m][e] != comp) continue;
-        const size_t s = edge_index(rb, rc, e);
-        pts[k] = zeros.point[s];
-        nrm[k] = zeros.normal[s];
-        slp[k] = zeros.slope[s];
-        ++k;
+        cell_edges[k++] = edge_index(rb, rc, e);
       }
       int rank = 0;
       Vec3 flat{0, 0, 0};
-      Vec3 v = solve_qef(pts, nrm, k, &rank, &flat);
+      float sl = 0;
+      Vec3 v = solve_qef(zeros, cell_edges, k, &rank, &flat, &sl);
       if (!is_finite(v)) v = cell_box.center();
       v = vmin(vmax(v, cell_box.lo), cell_box.hi);
       Placement pl;
       pl.near = cell_box;
-      if (length2(flat) > 0) {
-        float sl = 0;
-        for (int e = 0; e < k; ++e) sl += slp[e];
-        sl /= float(k);
-        if (sl > 0 && std::isfinite(sl)) pl.dir = flat, pl.slope = sl;
-      }
+      if (length2(flat) > 0 && sl > 0 && std::isfinite(sl)) pl.dir = flat, pl.slope = sl;
       vertices.push_back(v);
       placements.push_back(pl);
       if (rank >= 2) ++out->sharp;
