@@ -213,6 +213,45 @@ TEST(ModelFieldTime, ThreeDimensionalModelIgnoresTime) {
   EXPECT_EQ(f, 1.0f);
 }
 
+// The mesher's batches hold x, y, z (and Fc, then the gradient) as consecutive rows of one
+// buffer, the model's own layout, which ModelField evaluates without packing a copy. Both
+// ways must give the same bits, and a model of time (x[4]) must still get its time row.
+TEST(ModelFieldLayout, ConsecutiveRowsGiveTheSameBitsAsSeparateArrays) {
+  for (const char* src :
+       {"my_model(x[3], a[1]) { my_model = 1 - x[1]^2 - sin(x[2]) * x[3]; }",
+        "my_model(x[4], a[1]) { my_model = 1 - (x[1] - x[4])^2 - x[2] * x[3]; }"}) {
+    auto compiled = Model::compile(src);
+    ASSERT_TRUE(compiled.ok()) << compiled.rendered;
+    compiled.model->set_time(0.75);
+    ModelField field(*compiled.model, "layout");
+    constexpr size_t kN = 37;  // not a multiple of any vector width
+    std::vector<float> rows(3 * kN), x(kN), y(kN), z(kN);
+    for (size_t i = 0; i < kN; ++i) {
+      x[i] = rows[i] = -1.5f + 0.08f * float(i);
+      y[i] = rows[kN + i] = 0.3f - 0.05f * float(i);
+      z[i] = rows[2 * kN + i] = 0.01f * float(i * i);
+    }
+    std::vector<float> f_rows(kN), f_sep(kN);
+    field.eval(kN, rows.data(), rows.data() + kN, rows.data() + 2 * kN, f_rows.data());
+    field.eval(kN, x.data(), y.data(), z.data(), f_sep.data());
+    std::vector<float> g_rows(4 * kN), gf(kN), gx(kN), gy(kN), gz(kN);
+    field.eval_gradient(kN, rows.data(), rows.data() + kN, rows.data() + 2 * kN, g_rows.data(),
+                        g_rows.data() + kN, g_rows.data() + 2 * kN, g_rows.data() + 3 * kN);
+    field.eval_gradient(kN, x.data(), y.data(), z.data(), gf.data(), gx.data(), gy.data(),
+                        gz.data());
+    for (size_t i = 0; i < kN; ++i) {
+      const double t = compiled.model->num_inputs() > 3 ? 0.75 : 0.0;
+      const double expect = compiled.model->eval({x[i], y[i], z[i], t}).f;
+      EXPECT_NEAR(f_sep[i], expect, 1e-5 * (1 + std::abs(expect))) << src << " at " << i;
+      EXPECT_EQ(f_rows[i], f_sep[i]) << src << " at " << i;
+      EXPECT_EQ(g_rows[i], gf[i]) << src << " at " << i;
+      EXPECT_EQ(g_rows[kN + i], gx[i]) << src << " at " << i;
+      EXPECT_EQ(g_rows[2 * kN + i], gy[i]) << src << " at " << i;
+      EXPECT_EQ(g_rows[3 * kN + i], gz[i]) << src << " at " << i;
+    }
+  }
+}
+
 /// The old framing: every side by eval() (the distance query of each mesh or patch leaf).
 class SidesByValues final : public render::FieldView {
  public:
