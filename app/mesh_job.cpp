@@ -97,7 +97,7 @@ MeshJobResult run_mesh_job(const MeshJob& job) {
                            " grid nodes (meshed as outside)");
   }
   if (job.simplify > 0 && !out.mesh.triangles.empty()) {
-    mesher::simplify_mesh(&out.mesh, job.simplify, &out.simplified);
+    mesher::simplify_mesh(&out.mesh, job.simplify, &out.simplified, job.simplify_progress);
   }
   if (out.mesh.triangles.empty()) {
     out.status = MeshJobStatus::kNoSurface;

@@ -37,6 +37,8 @@ struct MeshJob {
   /// caller applies the scene's keys (scene::scene_at). run_mesh_job takes the model's own.
   double time = 0;
   std::function<void(size_t done, size_t total)> progress;
+  /// The same for the simplification (simplify_mesh's `progress`).
+  std::function<void(size_t done, size_t total)> simplify_progress;
 };
 
 enum class MeshJobStatus {

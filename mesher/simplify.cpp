@@ -71,6 +71,7 @@ struct Candidate {
 class CandidateHeap {
  public:
   bool empty() const { return h_.empty(); }
+  size_t size() const { return h_.size(); }
   const Candidate& top() const { return h_.front(); }
   void push(const Candidate& c) {
     size_t i = h_.size();
@@ -111,7 +112,8 @@ class CandidateHeap {
 
 }  // namespace
 
-void simplify_mesh(TriMesh* mesh, double max_error, SimplifyStats* stats) {
+void simplify_mesh(TriMesh* mesh, double max_error, SimplifyStats* stats,
+                   const std::function<void(size_t done, size_t total)>& progress) {
   HFRT_CHECK(max_error > 0);
   const auto t0 = std::chrono::steady_clock::now();
   const size_t nv = mesh->vertices.size(), nt = mesh->triangles.size();
@@ -169,9 +171,12 @@ void simplify_mesh(TriMesh* mesh, double max_error, SimplifyStats* stats) {
   }
 
   std::vector<uint32_t> na, nb, shared;
+  size_t looked = 0;
+  constexpr size_t kProgressEvery = size_t(1) << 16;  // candidates
   while (!heap.empty() && alive_tris > 4) {
     const Candidate top = heap.top();
     heap.pop();
+    if (progress && ++looked % kProgressEvery == 0) progress(looked, looked + heap.size());
     const uint32_t a = top.a, b = top.b;
     if (!v_alive[a] || !v_alive[b]) continue;
     Candidate c;
@@ -235,6 +240,7 @@ void simplify_mesh(TriMesh* mesh, double max_error, SimplifyStats* stats) {
     }
   }
 
+  if (progress) progress(looked, looked);
   // Compact: the surviving vertices in their old order, then the surviving triangles.
   std::vector<uint32_t> remap(nv, ~uint32_t(0));
   TriMesh out;

@@ -12,6 +12,8 @@
 // 2-manifold), and no triangle around them may turn over. Deterministic (ties broken by
 // vertex index); single-threaded.
 
+#include <functional>
+
 #include "mesher/mesher.h"
 
 namespace hfrt::mesher {
@@ -25,6 +27,10 @@ struct SimplifyStats {
 
 /// Simplifies `mesh` (a closed oriented manifold, as mesh_field returns) in place with the
 /// error bound `max_error` (> 0, in model units). Colours follow the surviving vertices.
-void simplify_mesh(TriMesh* mesh, double max_error, SimplifyStats* stats = nullptr);
+/// `progress`, when set, is called now and then from the calling thread with the candidate
+/// collapses looked at so far and that number plus those still waiting (which collapses
+/// add to), and last with the two equal.
+void simplify_mesh(TriMesh* mesh, double max_error, SimplifyStats* stats = nullptr,
+                   const std::function<void(size_t done, size_t total)>& progress = {});
 
 }  // namespace hfrt::mesher

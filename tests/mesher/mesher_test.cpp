@@ -411,6 +411,25 @@ TEST(Simplify, BoxKeepsItsShapeWithFewTriangles) {
   EXPECT_LT(worst, 2e-4);
 }
 
+// The progress of a simplification (hfrt mesh's bar): every report has done <= total, done
+// only grows, and the last report is the end (done == total).
+TEST(Simplify, ReportsItsProgressAndItsEnd) {
+  SphereField sphere({0, 0, 0}, 1.0);
+  TriMesh m = mesh_field(sphere, options_for(Box({-1.2f, -1.2f, -1.2f}, {1.2f, 1.2f, 1.2f}), 96));
+  std::vector<std::pair<size_t, size_t>> reports;
+  simplify_mesh(&m, 5e-3, nullptr,
+                [&](size_t done, size_t total) { reports.emplace_back(done, total); });
+  ASSERT_GE(reports.size(), 2u);  // ~300k candidates: reports every 65536, and the end
+  for (size_t i = 0; i < reports.size(); ++i) {
+    EXPECT_LE(reports[i].first, reports[i].second);
+    if (i > 0) {
+      EXPECT_GT(reports[i].first, reports[i - 1].first);
+    }
+  }
+  EXPECT_EQ(reports.back().first, reports.back().second);
+  ASSERT_EQ(check_closed_manifold(m.vertices, m.triangles), "");
+}
+
 TEST(Simplify, SphereStaysWithinTheBound) {
   SphereField sphere({0, 0, 0}, 1.0);
   TriMesh m = mesh_field(sphere, options_for(Box({-1.2f, -1.2f, -1.2f}, {1.2f, 1.2f, 1.2f}), 48));

@@ -100,6 +100,12 @@ int run_mesh(const MeshCli& cli) {
 
   render::ProgressBar bar("meshing", isatty(STDERR_FILENO) != 0);
   job.progress = [&bar](size_t done, size_t total) { bar.update(done, total); };
+  // (The simplification's bar starts when the meshing's is done.)
+  render::ProgressBar simplify_bar("simplifying", isatty(STDERR_FILENO) != 0);
+  job.simplify_progress = [&bar, &simplify_bar](size_t done, size_t total) {
+    bar.finish();
+    simplify_bar.update(done, total);
+  };
   app::MeshJobResult result;
   double compile_ms = 0;
   const std::string& file = cli.model.file;
