@@ -1001,8 +1001,8 @@ class BlockMesher {
   /// (x + kSide (y + kSide z)), the batch index of the crossing edge from n towards +a (unset
   /// where that edge does not cross). Every edge between two of a block's nodes is an edge of
   /// one of its cells, so these are exactly the crossing edges its cells need: a cell finds
-  /// its edges by one load each. (A cell's list of its edges' indices, built by counting the
-  /// rows' bits, was a fifth of the surface cells' bookkeeping on the 512^3 blend.)
+  /// its edges by one load each, instead of a list of 12 indices per cell counted from the
+  /// rows' bits.
   struct RunBlock {
     int c0[3];
     uint16_t edge[3 * kNodes];  // [axis * kNodes + node]; < 65536: a run has ~5000 at most
@@ -1033,9 +1033,10 @@ class BlockMesher {
   /// Branch-free where the surface decides: the nodes' sides are one 125-bit number S (bit
   /// n = x + kSide (y + kSide z)), the crossing edges along x, y and z are S ^ (S >> 1),
   /// S ^ (S >> kSide), S ^ (S >> kSide^2) and the surface cells the low corners whose eight
-  /// corners' bits are neither all 0 nor all 1; each set of bits is then walked once. (Row
-  /// by row, loops over a row's few bits mispredicted their exits ~30 times a block.) The
-  /// edges go to the batch along x, then y, then z, each by node.
+  /// corners' bits are neither all 0 nor all 1; each set of bits is then walked once.
+  /// (Row by row, ~75 loops a block over a row's few bits, whose exits the surface decides,
+  /// the 512^3 blend meshed ~4 % slower.) The edges go to the batch along x, then y, then z,
+  /// each by node.
   void whole_block(const float* fb, const float* gx, const float* gy, const float* gz,
                    size_t block_in_run, RunBlock* rb, EdgeBatch* edges, std::vector<RunCell>* cells,
                    RunOut* out) const;
@@ -1179,18 +1180,6 @@ void BlockMesher::run(const std::vector<BlockPos>& blocks, size_t first, size_t 
     extent(bi, c0, cn);
     const float *gx = &grid_.coord[0][size_t(c0[0])], *gy = &grid_.coord[1][size_t(c0[1])],
                 *gz = &grid_.coord[2][size_t(c0[2])];
-    if (cn[0] == kBlock && cn[1] == kBlock && cn[2] == kBlock) {
-      // A whole block (all but the grid's last ones): rows of kSide with the trip counts
-      // known, so that the compiler writes them as vectors (the generic loop below was the
-      // mesher's costliest line on the 512^3 blend).
-      // (The coordinates in locals first: the stores could alias the grid's arrays.)
-      float lx[kSide], ly[kSide], lz[kSide];
-      for (int l = 0; l < kSide; ++l) lx[l] = gx[l], ly[l] = gy[l], lz[l] = gz[l];
-      for (int k = 0; k < kSide; ++k)
-        for (int j = 0; j < kSide; ++j, np += kSide)
-          for (int l = 0; l < kSide; ++l) x[np + l] = lx[l], y[np + l] = ly[j], z[np + l] = lz[k];
-      continue;
-    }
     for (int k = 0; k <= cn[2]; ++k)
       for (int j = 0; j <= cn[1]; ++j)
         for (int l = 0; l <= cn[0]; ++l, ++np) x[np] = gx[l], y[np] = gy[j], z[np] = gz[k];
@@ -1842,15 +1831,14 @@ TriMesh mesh_field(const render::Field& field, const MeshOptions& options, MeshS
               const Vec3 e1 = (mesh.vertices[poly[1]] - v0) * inv_h,
                          e2 = (mesh.vertices[poly[2]] - v0) * inv_h,
                          e3 = (mesh.vertices[poly[3]] - v0) * inv_h;
-              // The diagonal whose two triangles agree best (a flat quad either way; on a
-              // sharp edge the one along the edge): the larger cosine between the two
+              // The diagonal whose two triangles agree best (a flat quad either way; see
+              // docs/meshing.md "Not yet" for sharp edges across the cells): the larger
+              // cosine between the two
               // triangles' normals, c = d / sqrt(L) (d their dot product, L the product of
               // their squared lengths), compared as c |c| cross-multiplied by the other
-              // split's L: no root, no division, and no branch to mispredict on a smooth
-              // surface, where either split is as good and the choice is a coin toss. (With
-              // two roots and two divisions and a branch, the diagonals took ~40 % of the
-              // faces' time on the 512^3 blend.) Ties keep 0-2; a split with a degenerate
-              // triangle (L = 0) counts as cosine 0.
+              // split's L: no root and no division. (The diagonals are about a third of the
+              // faces' time on the 512^3 blend; this form took ~5 % off the faces.) Ties keep
+              // 0-2; a split with a degenerate triangle (L = 0) counts as cosine 0.
               const Vec3 a02 = cross(e1, e2), b02 = cross(e2, e3);
               const Vec3 a13 = cross(e2 - e1, e3 - e1), b13 = cross(e3 - e1, -e1);
               const float d02 = dot(a02, b02), l02 = length2(a02) * length2(b02);
