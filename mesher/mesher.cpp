@@ -1833,12 +1833,12 @@ TriMesh mesh_field(const render::Field& field, const MeshOptions& options, MeshS
                          e3 = (mesh.vertices[poly[3]] - v0) * inv_h;
               // The diagonal whose two triangles agree best (a flat quad either way; see
               // docs/meshing.md "Not yet" for sharp edges across the cells): the larger
-              // cosine between the two
-              // triangles' normals, c = d / sqrt(L) (d their dot product, L the product of
-              // their squared lengths), compared as c |c| cross-multiplied by the other
-              // split's L: no root and no division. (The diagonals are about a third of the
-              // faces' time on the 512^3 blend; this form took ~5 % off the faces.) Ties keep
-              // 0-2; a split with a degenerate triangle (L = 0) counts as cosine 0.
+              // cosine between the two triangles' normals, c = d / sqrt(L) (d their dot
+              // product, L the product of their squared lengths), compared as c |c|
+              // cross-multiplied by the other split's L: no root and no division. (The
+              // diagonals are about a third of the faces' time on the 512^3 blend; this form
+              // took ~5 % off the faces.) Ties keep 0-2; a split with a degenerate triangle
+              // (L = 0) counts as cosine 0.
               const Vec3 a02 = cross(e1, e2), b02 = cross(e2, e3);
               const Vec3 a13 = cross(e2 - e1, e3 - e1), b13 = cross(e3 - e1, -e1);
               const float d02 = dot(a02, b02), l02 = length2(a02) * length2(b02);
