@@ -41,18 +41,8 @@ constexpr int kNewtonSteps = 10;          // gradient evaluations per vertex at 
 constexpr float kUncheckedStep = 0.005f;  // a flat patch's first step this short (in cells)
                                           // is not checked by a value
 
-// Set bits. (The x86-64 baseline has no popcnt instruction: there std::popcount is a call into
-// libgcc: ~5 % of the blocks' time when it counted the edges of rows and cells.)
-constexpr std::array<uint8_t, 256> kBitCount = [] {
-  std::array<uint8_t, 256> t{};
-  for (int v = 0; v < 256; ++v) t[size_t(v)] = uint8_t((v & 1) + t[size_t(v >> 1)]);
-  return t;
-}();
-/// The set bits of v < 256.
-inline int bit_count8(uint32_t v) {
-  return kBitCount[v];
-}
-/// The set bits of v (SWAR: a dozen instructions, no call).
+/// The set bits of v (SWAR: a dozen instructions, no call; the x86-64 baseline has no popcnt
+/// instruction, and there std::popcount is a call into libgcc).
 inline int bit_count64(uint64_t v) {
   v = v - ((v >> 1) & 0x5555555555555555ull);
   v = (v & 0x3333333333333333ull) + ((v >> 2) & 0x3333333333333333ull);
@@ -1013,6 +1003,36 @@ class BlockMesher {
     uint8_t l, j, k;
     uint8_t mask;
   };
+  /// A block's surface cells as they are found, in order (x fastest): each cell's corners and
+  /// place go to the run (out->masks, cells), its bit to the block's mask of surface cells,
+  /// the blocks around its crossing edges' cells to the block's reach; end() files the
+  /// block's mask and reach. Both ways of finding the cells (whole_block, the row path of
+  /// run()) add them through it.
+  class CellSink {
+   public:
+    CellSink(const CubeTable& table, size_t block_in_run, std::vector<RunCell>* cells, RunOut* out)
+        : table_(table), block_(uint16_t(block_in_run)), cells_(cells), out_(out) {}
+    void add(int l, int j, int k, int m) {
+      static constexpr int kPlace[kBlock] = {0, 1, 1, 2};  // see CubeTable::reach
+      cmask_ |= uint64_t(1) << (l + kBlock * (j + kBlock * k));
+      out_->masks.push_back(uint8_t(m));
+      reach_ |= table_.reach[kPlace[l] + 3 * kPlace[j] + 9 * kPlace[k]][m];
+      out_->crossing_edges += size_t(table_.owned[m]);
+      cells_->push_back({block_, uint8_t(l), uint8_t(j), uint8_t(k), uint8_t(m)});
+    }
+    void end() {
+      out_->cmask.push_back(cmask_);
+      out_->reach.push_back(reach_ & ~(uint32_t(1) << kSelf));
+    }
+
+   private:
+    const CubeTable& table_;
+    uint16_t block_;
+    std::vector<RunCell>* cells_;
+    RunOut* out_;
+    uint64_t cmask_ = 0;
+    uint32_t reach_ = 0;
+  };
   /// Per local edge e: where RunBlock::edge holds it, from the cell's low corner's node.
   static constexpr std::array<uint16_t, 12> kEdgeSlot = [] {
     std::array<uint16_t, 12> t{};
@@ -1070,7 +1090,6 @@ void BlockMesher::whole_block(const float* fb, const float* gx, const float* gy,
   struct Tables {
     uint8_t at[kNodes][3];
     Bits valid[3], cell;
-    uint8_t cell_bit[kNodes];  // a low corner's cell: x + kBlock (y + kBlock z)
   };
   static constexpr Tables kT = [] {
     Tables t{};
@@ -1080,10 +1099,7 @@ void BlockMesher::whole_block(const float* fb, const float* gx, const float* gy,
         t.at[n][a] = uint8_t(c[a]);
         if (c[a] < kBlock) t.valid[a] |= Bits(1) << n;
       }
-      if (c[0] < kBlock && c[1] < kBlock && c[2] < kBlock) {
-        t.cell |= Bits(1) << n;
-        t.cell_bit[n] = uint8_t(c[0] + kBlock * (c[1] + kBlock * c[2]));
-      }
+      if (c[0] < kBlock && c[1] < kBlock && c[2] < kBlock) t.cell |= Bits(1) << n;
     }
     return t;
   }();
@@ -1125,9 +1141,7 @@ void BlockMesher::whole_block(const float* fb, const float* gx, const float* gy,
   const Bits any = sides | (sides >> 1), all = sides & (sides >> 1);
   const Bits any4 = any | (any >> kS), all4 = all & (all >> kS);
   const Bits surface = (any4 | (any4 >> kS2)) & ~(all4 & (all4 >> kS2)) & kT.cell;
-  static constexpr int kPlace[kBlock] = {0, 1, 1, 2};  // see CubeTable::reach
-  uint64_t cmask = 0;
-  uint32_t reach = 0;
+  CellSink sink(table_, block_in_run, cells, out);
   for (int w = 0; w < 2; ++w) {
     for (uint64_t bits = uint64_t(surface >> (64 * w)); bits != 0; bits &= bits - 1) {
       const int n = 64 * w + std::countr_zero(bits);
@@ -1136,15 +1150,10 @@ void BlockMesher::whole_block(const float* fb, const float* gx, const float* gy,
                     int((uint32_t(sides >> (n + kS2)) & 3) << 4) |
                     int((uint32_t(sides >> (n + kS2 + kS)) & 3) << 6);
       const uint8_t* c = kT.at[n];
-      cmask |= uint64_t(1) << kT.cell_bit[n];
-      out->masks.push_back(uint8_t(m));
-      reach |= table_.reach[kPlace[c[0]] + 3 * kPlace[c[1]] + 9 * kPlace[c[2]]][m];
-      out->crossing_edges += size_t(table_.owned[m]);
-      cells->push_back({uint16_t(block_in_run), c[0], c[1], c[2], uint8_t(m)});
+      sink.add(c[0], c[1], c[2], m);
     }
   }
-  out->cmask.push_back(cmask);
-  out->reach.push_back(reach & ~(uint32_t(1) << kSelf));
+  sink.end();
 }
 
 void BlockMesher::run(const std::vector<BlockPos>& blocks, size_t first, size_t last, RunOut* out,
@@ -1186,7 +1195,6 @@ void BlockMesher::run(const std::vector<BlockPos>& blocks, size_t first, size_t 
   }
   capped_.eval(np, x, y, z, f, &out->nan_samples);
   // 2. The crossing edges and the surface cells, block by block.
-  static constexpr int kPlace[kBlock] = {0, 1, 1, 2};  // see CubeTable::reach
   np = 0;
   for (size_t bi = first; bi < last; ++bi) {
     RunBlock& rb = run_blocks[bi - first];
@@ -1243,8 +1251,7 @@ void BlockMesher::run(const std::vector<BlockPos>& blocks, size_t first, size_t 
         if (k + 1 < nz) add_edges.operator()<2>(j, k, r ^ rows[row + kSide]);
       }
     edges.set_size(ne);
-    uint64_t cmask = 0;
-    uint32_t reach = 0;
+    CellSink sink(table_, bi - first, &run_cells, out);
     for (int k = 0; k < cn[2]; ++k)
       for (int j = 0; j < cn[1]; ++j) {
         // The four rows of nodes around this row of cells; all out or all in: no surface.
@@ -1256,17 +1263,10 @@ void BlockMesher::run(const std::vector<BlockPos>& blocks, size_t first, size_t 
           // 4-5 from (j, k + 1), 6-7 from (j + 1, k + 1).
           const int m = int(((r00 >> l) & 3) | (((r10 >> l) & 3) << 2) | (((r01 >> l) & 3) << 4) |
                             (((r11 >> l) & 3) << 6));
-          if (m == 0 || m == 255) continue;
-          cmask |= uint64_t(1) << (l + kBlock * j + kBlock * kBlock * k);
-          out->masks.push_back(uint8_t(m));
-          reach |= table_.reach[kPlace[l] + 3 * kPlace[j] + 9 * kPlace[k]][m];
-          out->crossing_edges += size_t(table_.owned[m]);
-          run_cells.push_back(
-              {uint16_t(bi - first), uint8_t(l), uint8_t(j), uint8_t(k), uint8_t(m)});
+          if (m != 0 && m != 255) sink.add(l, j, k, m);
         }
       }
-    out->cmask.push_back(cmask);
-    out->reach.push_back(reach & ~(uint32_t(1) << kSelf));
+    sink.end();
     np += size_t(nz) * sz;
   }
   HFRT_CHECK_LE(edges.size(), size_t(UINT16_MAX));  // RunCell's edge indices
