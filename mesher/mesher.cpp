@@ -1189,6 +1189,18 @@ void BlockMesher::run(const std::vector<BlockPos>& blocks, size_t first, size_t 
     extent(bi, c0, cn);
     const float *gx = &grid_.coord[0][size_t(c0[0])], *gy = &grid_.coord[1][size_t(c0[1])],
                 *gz = &grid_.coord[2][size_t(c0[2])];
+    if (cn[0] == kBlock && cn[1] == kBlock && cn[2] == kBlock) {
+      // A whole block (all but the grid's last ones): rows of kSide with the trip counts
+      // known, the coordinates in locals (the stores could alias the grid's arrays). 2.0 %
+      // fewer instructions in the whole mesher than the generic loop below (callgrind, 256^3
+      // blend, one thread); no difference in time shows through the VM's noise.
+      float lx[kSide], ly[kSide], lz[kSide];
+      for (int l = 0; l < kSide; ++l) lx[l] = gx[l], ly[l] = gy[l], lz[l] = gz[l];
+      for (int k = 0; k < kSide; ++k)
+        for (int j = 0; j < kSide; ++j, np += kSide)
+          for (int l = 0; l < kSide; ++l) x[np + l] = lx[l], y[np + l] = ly[j], z[np + l] = lz[k];
+      continue;
+    }
     for (int k = 0; k <= cn[2]; ++k)
       for (int j = 0; j <= cn[1]; ++j)
         for (int l = 0; l <= cn[0]; ++l, ++np) x[np] = gx[l], y[np] = gy[j], z[np] = gz[k];
