@@ -64,7 +64,7 @@ void key_cell(uint64_t key, int c[3]) {
 // are the corner's coordinates on the two other axes in increasing order (x: y,z; y: x,z;
 // z: x,y); the edge runs from the corner with coordinate 0 on `axis` to the one with 1.
 
-void other_axes(int a, int* b, int* c) {
+constexpr void other_axes(int a, int* b, int* c) {
   *b = a == 0 ? 1 : 0;
   *c = a == 2 ? 1 : 2;
 }
@@ -1756,7 +1756,8 @@ TriMesh mesh_field(const render::Field& field, const MeshOptions& options, MeshS
       std::array<std::array<int, 4>, 3> t{};
       constexpr int kStride[3] = {1, kLocalSide, kLocalSide * kLocalSide};
       for (int a = 0; a < 3; ++a) {
-        const int b = a == 0 ? 1 : 0, d = a == 2 ? 1 : 2;
+        int b = 0, d = 0;
+        other_axes(a, &b, &d);
         for (int s = 0; s < 4; ++s)
           t[size_t(a)][size_t(s)] = (kCycle[s] & 1) * kStride[b] + (kCycle[s] >> 1) * kStride[d];
       }
