@@ -1106,11 +1106,18 @@ void BlockMesher::whole_block(const float* fb, const float* gx, const float* gy,
   // The sides: four values at a time (fb has room for 128).
   Bits sides = 0;
 #if defined(__SSE2__)
+  // (Into two 64-bit halves, the loops unrolled: constant shifts of one word instead of
+  // variable 128-bit ones, ~1 % of the mesher's instructions.)
   const __m128 zero = _mm_setzero_ps();
-  for (int i = 0; i < 128; i += 4) {
-    const int m = _mm_movemask_ps(_mm_cmpge_ps(_mm_loadu_ps(fb + i), zero));  // inside()
-    sides |= Bits(unsigned(m)) << i;
+  uint64_t half[2] = {0, 0};
+  for (int w = 0; w < 2; ++w) {
+#pragma GCC unroll 16
+    for (int i = 0; i < 64; i += 4) {
+      const int m = _mm_movemask_ps(_mm_cmpge_ps(_mm_loadu_ps(fb + 64 * w + i), zero));  // inside()
+      half[w] |= uint64_t(unsigned(m)) << i;
+    }
   }
+  sides = Bits(half[0]) | (Bits(half[1]) << 64);
 #else
   for (int i = 0; i < int(kNodes); ++i) sides |= Bits(inside(fb[i])) << i;
 #endif
@@ -1120,9 +1127,11 @@ void BlockMesher::whole_block(const float* fb, const float* gx, const float* gy,
   edges->grow(ne + 3 * kNodes);
   const float* g[3] = {gx, gy, gz};
   constexpr int kStep[3] = {1, kS, kS2};
+#pragma GCC unroll 3
   for (int a = 0; a < 3; ++a) {
     const Bits cross = (sides ^ (sides >> kStep[a])) & kT.valid[a];
     uint16_t* slot = rb->edge + size_t(a) * kNodes;
+#pragma GCC unroll 2
     for (int w = 0; w < 2; ++w) {
       for (uint64_t bits = uint64_t(cross >> (64 * w)); bits != 0; bits &= bits - 1, ++ne) {
         const int n = 64 * w + std::countr_zero(bits);
@@ -1142,13 +1151,16 @@ void BlockMesher::whole_block(const float* fb, const float* gx, const float* gy,
   const Bits any4 = any | (any >> kS), all4 = all & (all >> kS);
   const Bits surface = (any4 | (any4 >> kS2)) & ~(all4 & (all4 >> kS2)) & kT.cell;
   CellSink sink(table_, block_in_run, cells, out);
+#pragma GCC unroll 2
   for (int w = 0; w < 2; ++w) {
     for (uint64_t bits = uint64_t(surface >> (64 * w)); bits != 0; bits &= bits - 1) {
       const int n = 64 * w + std::countr_zero(bits);
       // Corner c = cx | cy << 1 | cz << 2, as run() numbers them.
-      const int m = int(uint32_t(sides >> n) & 3) | int((uint32_t(sides >> (n + kS)) & 3) << 2) |
-                    int((uint32_t(sides >> (n + kS2)) & 3) << 4) |
-                    int((uint32_t(sides >> (n + kS2 + kS)) & 3) << 6);
+      // (From one 64-bit window of S at n: a cell's corners lie within kS2 + kS + 2 bits.)
+      static_assert(kS2 + kS + 2 <= 64);
+      const uint64_t win = uint64_t(sides >> n);
+      const int m = int(win & 3) | int(((win >> kS) & 3) << 2) | int(((win >> kS2) & 3) << 4) |
+                    int(((win >> (kS2 + kS)) & 3) << 6);
       const uint8_t* c = kT.at[n];
       sink.add(c[0], c[1], c[2], m);
     }
@@ -1805,8 +1817,11 @@ TriMesh mesh_field(const render::Field& field, const MeshOptions& options, MeshS
           const int l = std::countr_zero(bits);
           const int at = kPlaceOf[0][l];
           const int m = masks[ci];
-          for (int a = 0; a < 3; ++a) {
-            if ((m & 1) == ((m >> (1 << a)) & 1)) continue;
+          // The axes of the crossing edges the cell owns (from corner 0 to corner 1, 2, 4).
+          const unsigned axes = unsigned((m ^ (m >> 1)) & 1) | unsigned(((m ^ (m >> 2)) & 1) << 1) |
+                                unsigned(((m ^ (m >> 4)) & 1) << 2);
+          for (unsigned bits = axes; bits != 0; bits &= bits - 1) {
+            const int a = std::countr_zero(bits);
             // The cells at (u, v) behind the owner, in the cycle (0,0), (1,0), (1,1), (0,1).
             uint32_t poly[8];
             int np = 4;
