@@ -433,109 +433,65 @@ struct BlockPos {
 
 constexpr uint32_t kNone = ~uint32_t(0);
 
-/// A block's key (its position packed as a cell key is).
-uint64_t block_key(const BlockPos& p) {
-  return cell_key(p.b[0], p.b[1], p.b[2]);
-}
+/// Offset d of a block's 27 neighbourhood (bit d of RunOut::reach), kOffset[d]: (d % 3,
+/// d / 3 % 3, d / 9) - 1 on the three axes; kSelf is the block itself.
+constexpr int kSelf = 13;
+constexpr auto kOffset = [] {
+  std::array<std::array<int8_t, 3>, 27> t{};
+  for (int d = 0; d < 27; ++d)
+    t[size_t(d)] = {int8_t(d % 3 - 1), int8_t(d / 3 % 3 - 1), int8_t(d / 9 - 1)};
+  return t;
+}();
 
-/// Offset d of a block's 27 neighbourhood (bit d of RunOut::reach): (d % 3, d / 3 % 3,
-/// d / 9) - 1 on the three axes; kSelf is the block itself.
-constexpr int kNeighbourhood = 27, kSelf = 13;
-int offset_of(int d, int axis) {
-  return (axis == 0 ? d % 3 : (axis == 1 ? d / 3 % 3 : d / 9)) - 1;
-}
-int offset_index(int dx, int dy, int dz) {
-  return (dx + 1) + 3 * (dy + 1) + 9 * (dz + 1);
-}
-
-/// The blocks around each block: at[d][b] is the index of the block at offset d from block b,
-/// kNone where that block was not sampled. By merge joins of the keys in sorted order with
-/// themselves shifted (a shift keeps the order of (z, y, x) keys): linear, no hashing.
-struct BlockNeighbours {
-  /// Neighbour d of block b (kNone: not sampled).
-  uint32_t at(int d, size_t b) const { return all[size_t(d) * n + b]; }
-  uint32_t* row(int d) { return all.data() + size_t(d) * n; }
-  size_t n = 0;
-  /// All 27 rows in one allocation, advised onto huge pages: as 27 arrays of their own, the
-  /// 512^3 gyroid's 89k blocks took 9.6 MB in ~2400 page faults of 4 KiB, and
-  /// block_neighbours 15-24 ms of a fresh process's 512^3 mesh (blend, gyroid), most of it in
-  /// the kernel. Written in full by the merge passes (every entry, kNone or not): not zeroed.
-  std::vector<uint32_t, DefaultInitAllocator<uint32_t>> all;
-};
-
-/// The blocks' indices in (z, y, x) order of their positions: an LSD radix sort of their
-/// positions packed densely (the bits the largest coordinate needs per axis), in passes of
-/// 11 bits. (std::sort of (key, index) pairs took 3.3 ms of the 512^3 gyroid's 89k blocks.)
-std::vector<uint32_t> blocks_in_key_order(const std::vector<BlockPos>& blocks,
-                                          std::vector<uint64_t>* keys_out) {
-  const size_t n = blocks.size();
-  int bits[3] = {0, 0, 0};
-  for (const BlockPos& p : blocks)
-    for (int a = 0; a < 3; ++a) bits[a] = std::max(bits[a], int(std::bit_width(uint32_t(p.b[a]))));
-  auto dense = [&](const BlockPos& p) {
-    return uint64_t(p.b[0]) | (uint64_t(p.b[1]) << bits[0]) |
-           (uint64_t(p.b[2]) << (bits[0] + bits[1]));
-  };
-  std::vector<uint64_t> key(n), key2(n);
-  std::vector<uint32_t> order(n), order2(n);
-  for (size_t i = 0; i < n; ++i) key[i] = dense(blocks[i]), order[i] = uint32_t(i);
-  constexpr int kDigit = 11;
-  const int total = bits[0] + bits[1] + bits[2];
-  for (int shift = 0; shift < total; shift += kDigit) {
-    size_t count[(1 << kDigit) + 1] = {};
-    for (size_t i = 0; i < n; ++i) ++count[((key[i] >> shift) & ((1 << kDigit) - 1)) + 1];
-    for (int d = 0; d < (1 << kDigit); ++d) count[d + 1] += count[d];
-    for (size_t i = 0; i < n; ++i) {
-      const size_t at = count[(key[i] >> shift) & ((1 << kDigit) - 1)]++;
-      key2[at] = key[i], order2[at] = order[i];
+/// The sampled blocks by position: find(x, y, z) is the index in the list of blocks of the
+/// block at (x, y, z), kNone where none was sampled (or outside the grid of blocks). A
+/// two-level grid: a dense grid of tiles of 8^3 blocks, each tile an array allocated where a
+/// block lies in it, so that a lookup is two loads and the memory follows the surface (2 KiB a
+/// tile; the top grid is 4 bytes per 512 blocks of the box). It replaced a table of all 27
+/// neighbours of every block built by merge joins of sorted keys, which was ~4 % of the
+/// mesher's instructions (callgrind, 256^3 blend) and 1.6 ms of the 512^3 blend's 2 threads;
+/// the few lookups the closure and the faces make cost less than building it.
+class BlockIndex {
+ public:
+  explicit BlockIndex(const int nb[3]) {
+    for (int a = 0; a < 3; ++a) {
+      nb_[a] = nb[a];
+      nt_[a] = (nb[a] + kTile - 1) >> kTileBits;
     }
-    key.swap(key2), order.swap(order2);
+    top_.assign(size_t(nt_[0]) * size_t(nt_[1]) * size_t(nt_[2]), 0);
   }
-  keys_out->resize(n);
-  for (size_t i = 0; i < n; ++i) (*keys_out)[i] = block_key(blocks[order[i]]);
-  return order;
-}
-
-BlockNeighbours block_neighbours(const std::vector<BlockPos>& blocks) {
-  std::vector<uint64_t> keys;
-  const std::vector<uint32_t> order = blocks_in_key_order(blocks, &keys);
-  BlockNeighbours nb;
-  nb.n = blocks.size();
-  reserve_huge(nb.all, kNeighbourhood * nb.n);
-  nb.all.resize(kNeighbourhood * nb.n);
-  // One pass per (dy, dz): the three blocks at dx = -1, 0, 1 have consecutive keys, so they
-  // are consecutive in the sorted list where present. Keys are shifted by adding the offsets
-  // to the packed fields (no field leaves its range: a -1 at coordinate 0 is skipped, and a
-  // +1 stays below 2^kKeyBits). Each pass writes all three of its arrays for every block.
-  par::parallel_for(9, 1, [&](size_t yz, size_t) {
-    const int dy = int(yz % 3) - 1, dz = int(yz / 3) - 1;
-    const uint64_t delta =
-        (uint64_t(int64_t(dy)) << kKeyBits) + (uint64_t(int64_t(dz)) << (2 * kKeyBits));
-    uint32_t* out[3];
-    for (int dx = -1; dx <= 1; ++dx) out[dx + 1] = nb.row(offset_index(dx, dy, dz));
-    size_t j = 0;
-    for (size_t r = 0; r < keys.size(); ++r) {
-      const uint64_t key = keys[r];
-      const uint32_t i = order[r];
-      out[0][i] = out[1][i] = out[2][i] = kNone;
-      if ((dy < 0 && ((key >> kKeyBits) & kKeyMask) == 0) ||
-          (dz < 0 && ((key >> (2 * kKeyBits)) & kKeyMask) == 0)) {
-        continue;  // the row below or the slab below would be at -1
-      }
-      const uint64_t centre = key + delta;
-      const int dx0 = (key & kKeyMask) > 0 ? -1 : 0;
-      const uint64_t first = centre + uint64_t(int64_t(dx0));
-      while (j < keys.size() && keys[j] < first) ++j;
-      size_t q = j;
-      for (int dx = dx0; dx <= 1; ++dx) {
-        if (q < keys.size() && keys[q] == centre + uint64_t(int64_t(dx)))
-          out[dx + 1][i] = order[q++];
-      }
+  /// Files block `index` at p (inside the grid of blocks). Serial.
+  void add(const BlockPos& p, uint32_t index) {
+    uint32_t& t = top_[top_at(p.b[0], p.b[1], p.b[2])];
+    if (t == 0) {
+      tiles_.resize(tiles_.size() + kTileSize, kNone);
+      t = uint32_t(tiles_.size() / kTileSize);  // tile number + 1
     }
-  });
-  // (The pass for dy = dz = 0 finds every block itself at dx = 0: at[kSelf][b] = b.)
-  return nb;
-}
+    tiles_[size_t(t - 1) * kTileSize + in_tile(p.b[0], p.b[1], p.b[2])] = index;
+  }
+  uint32_t find(int x, int y, int z) const {
+    if (unsigned(x) >= unsigned(nb_[0]) || unsigned(y) >= unsigned(nb_[1]) ||
+        unsigned(z) >= unsigned(nb_[2]))
+      return kNone;
+    const uint32_t t = top_[top_at(x, y, z)];
+    return t == 0 ? kNone : tiles_[size_t(t - 1) * kTileSize + in_tile(x, y, z)];
+  }
+
+ private:
+  static constexpr int kTileBits = 3, kTile = 1 << kTileBits, kTileMask = kTile - 1;
+  static constexpr size_t kTileSize = size_t(kTile) * kTile * kTile;
+  size_t top_at(int x, int y, int z) const {
+    return size_t(x >> kTileBits) +
+           size_t(nt_[0]) * (size_t(y >> kTileBits) + size_t(nt_[1]) * size_t(z >> kTileBits));
+  }
+  static size_t in_tile(int x, int y, int z) {
+    return size_t(x & kTileMask) | (size_t(y & kTileMask) << kTileBits) |
+           (size_t(z & kTileMask) << (2 * kTileBits));
+  }
+  int nb_[3], nt_[3];
+  std::vector<uint32_t> top_;    // per tile: its number in tiles_ + 1, 0 where none
+  std::vector<uint32_t> tiles_;  // kTileSize entries per tile
+};
 
 /// A scratch array: resize() leaves new entries unset (each is written before it is read).
 template <typename T>
@@ -970,7 +926,7 @@ struct FaceCandidate {
 /// What one run of blocks made, in block order: the surface cells' corner signs (in each block
 /// x fastest), their patch vertices (cell by cell, one per patch, projected onto F = 0 where
 /// smooth), per block its surface cells (bit x + 4 y + 16 z) and the neighbouring blocks the
-/// cells around its crossing edges lie in (bit as offset_index), and the faces that may need a
+/// cells around its crossing edges lie in (bit d: offset kOffset[d]), and the faces that may need a
 /// vertex. A cell's position is its block's and its bit's: nothing more is kept per cell.
 /// Reused from batch to batch (clear() keeps the capacity): the runs' memory stays warm.
 struct RunOut {
@@ -1581,7 +1537,7 @@ TriMesh mesh_field(const render::Field& field, const MeshOptions& options, MeshS
       });
     };
     RunClock clock;
-    BlockNeighbours nbr;  // of the blocks sampled so far
+    BlockIndex index(nb);  // the blocks sampled so far
     // Closure: every crossing edge needs its four cells, and they may lie in a block the
     // octree pruned where the interval and the point evaluators disagree about a node. Such
     // blocks are meshed too, round after round, until no crossing edge reaches an unsampled
@@ -1597,7 +1553,7 @@ TriMesh mesh_field(const render::Field& field, const MeshOptions& options, MeshS
         if (options.progress && first == 0) options.progress(b1, octree_blocks + 1);
       }
       if (first == 0) stats.seconds_blocks = timer.seconds();
-      nbr = block_neighbours(blocks);
+      for (size_t bi = first; bi < last; ++bi) index.add(blocks[bi], uint32_t(bi));
       // The blocks reached but not sampled, per chunk of blocks (almost always none).
       constexpr size_t kCheckGrain = 4096;  // blocks
       std::vector<std::vector<uint64_t>> missing_in((last - first + kCheckGrain - 1) / kCheckGrain);
@@ -1606,10 +1562,10 @@ TriMesh mesh_field(const render::Field& field, const MeshOptions& options, MeshS
         for (size_t bi = first + b; bi < first + e; ++bi) {
           for (uint32_t bits = block_reach[bi]; bits != 0; bits &= bits - 1) {
             const int d = std::countr_zero(bits);
-            if (nbr.at(d, bi) != kNone) continue;
             int q[3];
-            for (int a = 0; a < 3; ++a) q[a] = blocks[bi].b[a] + offset_of(d, a);
+            for (int a = 0; a < 3; ++a) q[a] = blocks[bi].b[a] + kOffset[size_t(d)][size_t(a)];
             HFRT_CHECK(q[0] >= 0 && q[1] >= 0 && q[2] >= 0);
+            if (index.find(q[0], q[1], q[2]) != kNone) continue;
             miss.push_back(cell_key(q[0], q[1], q[2]));
           }
         }
@@ -1666,10 +1622,7 @@ TriMesh mesh_field(const render::Field& field, const MeshOptions& options, MeshS
       cell_pos(ci, bi, c);
       const int q[3] = {c[0] + dx, c[1] + dy, c[2] + dz};
       if (q[0] < 0 || q[1] < 0 || q[2] < 0) return kNone;
-      const BlockPos& own = blocks[bi];
-      const int d = offset_index(q[0] / kBlock - own.b[0], q[1] / kBlock - own.b[1],
-                                 q[2] / kBlock - own.b[2]);
-      const uint32_t bq = nbr.at(d, bi);
+      const uint32_t bq = index.find(q[0] / kBlock, q[1] / kBlock, q[2] / kBlock);
       if (bq == kNone) return kNone;
       const int l = (q[0] % kBlock) + kBlock * (q[1] % kBlock) + kBlock * kBlock * (q[2] % kBlock);
       const uint64_t cm = block_cmask[bq];
@@ -1817,7 +1770,9 @@ TriMesh mesh_field(const render::Field& field, const MeshOptions& options, MeshS
         for (int n = 0; n < 8; ++n) {
           // Neighbour n: -1 on each axis whose bit is set; only its cells at kBlock - 1 on
           // those axes.
-          const uint32_t bq = nbr.at(offset_index(-(n & 1), -((n >> 1) & 1), -(n >> 2)), bi);
+          const BlockPos& own = blocks[bi];
+          const uint32_t bq =
+              index.find(own.b[0] - (n & 1), own.b[1] - ((n >> 1) & 1), own.b[2] - (n >> 2));
           if (bq == kNone) continue;
           const uint64_t cm = block_cmask[bq];
           const uint32_t c0 = block_cell_base[bq], v0 = block_vert_base[bq];
