@@ -867,13 +867,20 @@ size_t project_vertices(const Capped& capped, float hmin, size_t n, Vec3* v,
           state[i] = kDone;
           continue;
         }
-        take_step(i, fs[j], placement[i].dir * (-fs[j] / sl), sl);
+        const Vec3 step = placement[i].dir * (-fs[j] / sl);
         // A short first step is taken without a check: the mass point of a flat patch is
         // within ~h^2 / 8R of the surface (R its radius of curvature), and the step lands
         // within ~2 % of its length (the mean edge slope against the slope here), so a step
         // under kUncheckedStep of a cell ends within ~1e-4 of a cell of F = 0. (On the
         // 512^3 gyroid and blend the value it skips always passed: the files are the same.)
-        if (af <= kUncheckedStep * hmin * sl) state[i] = kDone;
+        // Such a vertex is done: it keeps nothing for a next step (and the step, far below
+        // hmin, is never shortened).
+        if (af <= kUncheckedStep * hmin * sl) {
+          v[i] = v[i] + step;
+          state[i] = kDone;
+          continue;
+        }
+        take_step(i, fs[j], step, sl);
         continue;
       }
       if (!(af < last_f[i])) {
