@@ -1368,6 +1368,45 @@ void warm_up(int threads) {
   par::warm_up(threads);
 }
 
+/// The two splits of a quad (corners 0, e1, e2, e3 relative to corner 0): per split the dot
+/// product d of its two triangles' normals and the product l of their squared lengths
+/// (split 0-2: e1 x e2 and e2 x e3; split 1-3: (e2 - e1) x (e3 - e1) and (e3 - e1) x -e1).
+/// With SSE2 the four cross products, lengths and dots are lane by lane the same operations in
+/// the same order as Vec3's cross, dot and length2 (so the same bits), a third of the
+/// instructions (the faces' diagonals were ~8 % of the mesher's).
+inline void split_products(Vec3 e1, Vec3 e2, Vec3 e3, float* d02, float* l02, float* d13,
+                           float* l13) {
+  const Vec3 u = e2 - e1, w = e3 - e1, ne1 = -e1;
+#if defined(__SSE2__)
+  // Lanes: a02, b02, a13, b13 as A x B (_mm_set_ps lists lanes 3..0).
+  const __m128 ax = _mm_set_ps(w.x, u.x, e2.x, e1.x), ay = _mm_set_ps(w.y, u.y, e2.y, e1.y),
+               az = _mm_set_ps(w.z, u.z, e2.z, e1.z);
+  const __m128 bx = _mm_set_ps(ne1.x, w.x, e3.x, e2.x), by = _mm_set_ps(ne1.y, w.y, e3.y, e2.y),
+               bz = _mm_set_ps(ne1.z, w.z, e3.z, e2.z);
+  const __m128 cx = _mm_sub_ps(_mm_mul_ps(ay, bz), _mm_mul_ps(az, by));
+  const __m128 cy = _mm_sub_ps(_mm_mul_ps(az, bx), _mm_mul_ps(ax, bz));
+  const __m128 cz = _mm_sub_ps(_mm_mul_ps(ax, by), _mm_mul_ps(ay, bx));
+  // Each lane with its partner (0 with 1, 2 with 3).
+  constexpr int kSwap = _MM_SHUFFLE(2, 3, 0, 1);
+  const __m128 sx = _mm_shuffle_ps(cx, cx, kSwap), sy = _mm_shuffle_ps(cy, cy, kSwap),
+               sz = _mm_shuffle_ps(cz, cz, kSwap);
+  const __m128 d =
+      _mm_add_ps(_mm_add_ps(_mm_mul_ps(cx, sx), _mm_mul_ps(cy, sy)), _mm_mul_ps(cz, sz));
+  const __m128 len2 =
+      _mm_add_ps(_mm_add_ps(_mm_mul_ps(cx, cx), _mm_mul_ps(cy, cy)), _mm_mul_ps(cz, cz));
+  const __m128 l = _mm_mul_ps(len2, _mm_shuffle_ps(len2, len2, kSwap));
+  constexpr int kLane2 = _MM_SHUFFLE(2, 2, 2, 2);
+  *d02 = _mm_cvtss_f32(d);
+  *l02 = _mm_cvtss_f32(l);
+  *d13 = _mm_cvtss_f32(_mm_shuffle_ps(d, d, kLane2));
+  *l13 = _mm_cvtss_f32(_mm_shuffle_ps(l, l, kLane2));
+#else
+  const Vec3 a02 = cross(e1, e2), b02 = cross(e2, e3), a13 = cross(u, w), b13 = cross(w, ne1);
+  *d02 = dot(a02, b02), *l02 = length2(a02) * length2(b02);
+  *d13 = dot(a13, b13), *l13 = length2(a13) * length2(b13);
+#endif
+}
+
 TriMesh mesh_field(const render::Field& field, const MeshOptions& options, MeshStats* stats_out) {
   HFRT_CHECK(options.cell > 0 || options.resolution >= 1);
   MeshStats stats;
@@ -1860,10 +1899,8 @@ TriMesh mesh_field(const render::Field& field, const MeshOptions& options, MeshS
               // diagonals are about a third of the faces' time on the 512^3 blend; this form
               // took ~5 % off the faces.) Ties keep 0-2; a split with a degenerate triangle
               // (L = 0) counts as cosine 0.
-              const Vec3 a02 = cross(e1, e2), b02 = cross(e2, e3);
-              const Vec3 a13 = cross(e2 - e1, e3 - e1), b13 = cross(e3 - e1, -e1);
-              const float d02 = dot(a02, b02), l02 = length2(a02) * length2(b02);
-              const float d13 = dot(a13, b13), l13 = length2(a13) * length2(b13);
+              float d02, l02, d13, l13;
+              split_products(e1, e2, e3, &d02, &l02, &d13, &l13);
               bool use13;
               if (l02 > 0 && l13 > 0) {
                 // c13 > c02 + 1e-6, as c |c| with its margin 2e-6 (c near 1 where it matters).
