@@ -180,29 +180,38 @@ struct CubeTable {
       }
       for (int place = 0; place < 27; ++place) {
         reach[place][m] = 0;
-        for (int e = 0; e < 12; ++e) {
-          if (!cross_e[e]) continue;
-          // Edge e's owner is this cell + u e_b + v e_c; the cells around it are the owner
-          // minus 0, e_b, e_c and both. A step of -1 from the low face (or +1 from the high
-          // one) leaves the block.
-          int b, c;
-          other_axes(e / 4, &b, &c);
-          for (int s = 0; s < 2; ++s)
-            for (int t = 0; t < 2; ++t) {
-              int d[3] = {0, 0, 0};
-              d[b] = (e & 1) - s;
-              d[c] = ((e >> 1) & 1) - t;
-              int bit = 0;
-              for (int a = 0, w = 1, pl = place; a < 3; ++a, w *= 3, pl /= 3) {
-                const int o = (pl % 3 == 0 && d[a] < 0) ? -1 : (pl % 3 == 2 && d[a] > 0 ? 1 : 0);
-                bit += w * (o + 1);
-              }
-              reach[place][m] |= uint32_t(1) << bit;
-            }
-        }
+        for (int e = 0; e < 12; ++e)
+          if (cross_e[e]) reach[place][m] |= edge_reach[place][e];
       }
     }
   }
+
+  // Per place in the block (as reach) and local edge e: the blocks the four cells around e
+  // lie in. (Once per edge, not per mask: ~7M instructions less on every process's first
+  // mesh.)
+  static constexpr auto edge_reach = [] {
+    std::array<std::array<uint32_t, 12>, 27> t{};
+    for (int place = 0; place < 27; ++place)
+      for (int e = 0; e < 12; ++e) {
+        // Edge e's owner is this cell + u e_b + v e_c; the cells around it are the owner
+        // minus 0, e_b, e_c and both. A step of -1 from the low face (or +1 from the high
+        // one) leaves the block.
+        const int b = e / 4 == 0 ? 1 : 0, c = e / 4 == 2 ? 1 : 2;  // other_axes
+        for (int s = 0; s < 2; ++s)
+          for (int u = 0; u < 2; ++u) {
+            int d[3] = {0, 0, 0};
+            d[b] = (e & 1) - s;
+            d[c] = ((e >> 1) & 1) - u;
+            int bit = 0;
+            for (int a = 0, w = 1, pl = place; a < 3; ++a, w *= 3, pl /= 3) {
+              const int o = (pl % 3 == 0 && d[a] < 0) ? -1 : (pl % 3 == 2 && d[a] > 0 ? 1 : 0);
+              bit += w * (o + 1);
+            }
+            t[size_t(place)][size_t(e)] |= uint32_t(1) << bit;
+          }
+      }
+    return t;
+  }();
 };
 
 const CubeTable& cube_table() {
