@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cstdio>
 #include <cstdlib>
+#include <optional>
 #include <thread>
 
 #include "app/model_field.h"
@@ -29,6 +30,15 @@ std::string object_error_prefix(const std::string& file, const Model& model) {
   return file + ":" + std::to_string(line) + ":" + std::to_string(col) + ": error: ";
 }
 
+/// The bytes a mesh's main arrays (vertices, triangles, cells) will likely take: ~100 per cell
+/// of the longest side squared (the 512^3 blend's 623k surface cells took ~24 MB; a surface
+/// of more area takes more). Only a hint for HeapPrefault.
+size_t mesh_heap_estimate(const MeshJob& job) {
+  double n = job.resolution;
+  if (job.cell > 0) n = double(job.bbox.max_extent()) / double(job.cell);
+  return size_t(std::clamp(100.0 * n * n, 0.0, 1e12));
+}
+
 }  // namespace
 
 MeshJobResult run_mesh_job(const MeshJob& job) {
@@ -44,10 +54,18 @@ MeshJobResult run_mesh_job(const MeshJob& job) {
     return out;
   }
   ModelField field(model, job.file);
-  // The mesher's once-per-process set-up (tables, TBB's workers) beside the compile.
-  std::thread warm_up([threads = job.threads] { mesher::warm_up(threads); });
+  // The mesher's once-per-process set-up (tables, TBB's workers, and the heap its arrays
+  // will fill) beside the compile. The heap's block is taken here, on the thread that will
+  // allocate the arrays (its arena), and touched on the helper.
+  std::optional<HeapPrefault> heap;
+  if (job.prefault_heap) heap.emplace(mesh_heap_estimate(job));
+  std::thread warm_up([threads = job.threads, &heap] {
+    mesher::warm_up(threads);
+    if (heap) heap->touch();
+  });
   PreparedCode prepared = prepare_render_code(model, /*interval=*/true, /*gradient=*/true);
   warm_up.join();
+  heap.reset();  // back to malloc, its pages kept
   out.prepare_ms = prepared.ms;
   out.warnings = prepared.warnings;
 

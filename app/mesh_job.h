@@ -30,7 +30,11 @@ struct MeshJob {
   int resolution = 128;  ///< cells along the longest side of the region (when cell is 0)
   float cell = 0;        ///< cell size; 0 = by resolution
   int threads = 0;       ///< 0 = all cores
-  bool colors = true;    ///< per-vertex colour from s[1..3] when the model has them
+  /// Fault in the heap the mesh's arrays will likely fill (~100 bytes per cell of the
+  /// resolution squared, HeapPrefault) on a helper thread while the code compiles. Changes
+  /// the process's malloc settings: for processes of their own (hfrt mesh).
+  bool prefault_heap = false;
+  bool colors = true;  ///< per-vertex colour from s[1..3] when the model has them
   /// > 0: simplify the mesh with this error bound (mesher/simplify.h), in model units.
   double simplify = 0;
   /// run_scene_mesh_job only: the time of the scene's models (x[4], Model::set_time); the

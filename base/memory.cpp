@@ -1,5 +1,6 @@
 #include "base/memory.h"
 
+#include <algorithm>
 #include <cstdint>
 #include <cstdlib>
 #include <cstring>
@@ -34,6 +35,7 @@ constexpr std::string_view kHugetlbTunable = "glibc.malloc.hugetlb";
 constexpr std::string_view kMmapThresholdTunable = "glibc.malloc.mmap_threshold";
 constexpr std::string_view kArenaMaxTunable = "glibc.malloc.arena_max";
 constexpr std::string_view kTopPadTunable = "glibc.malloc.top_pad";
+constexpr std::string_view kTrimThresholdTunable = "glibc.malloc.trim_threshold";
 /// The largest block served from malloc's heaps (32 MiB is glibc's own ceiling for its moving
 /// threshold), and the heap's growth step and kept top: for GLIBC_TUNABLES and for mallopt.
 constexpr int kHeapBlockMax = 32 << 20;
@@ -109,6 +111,32 @@ void keep_large_blocks_on_heap() {
   }
   if (now.find(kTopPadTunable) == std::string_view::npos) mallopt(M_TOP_PAD, kHeapTopPad);
 #endif
+}
+
+HeapPrefault::HeapPrefault(size_t bytes) {
+#if defined(__linux__) && defined(__GLIBC__)
+  if (bytes == 0 || !malloc_on_huge_pages()) return;
+  bytes = std::min(bytes, size_t(kHeapBlockMax - (1 << 20)));  // served from the heap
+  // Kept when handed back: by default malloc trims its heap's top down to the top pad as soon
+  // as the top exceeds 128 KiB.
+  const char* tunables = std::getenv("GLIBC_TUNABLES");
+  if (!tunables || std::string_view(tunables).find(kTrimThresholdTunable) == std::string_view::npos)
+    mallopt(M_TRIM_THRESHOLD, int(bytes) + kHeapTopPad + kHeapBlockMax);
+  block_ = static_cast<char*>(std::malloc(bytes));
+  if (block_) bytes_ = bytes;
+#else
+  (void)bytes;
+#endif
+}
+
+void HeapPrefault::touch() const {
+  // (Volatile: the writes are there for the pages they fault in, never read.)
+  volatile char* p = block_;
+  for (size_t at = 0; at < bytes_; at += 4096) p[at] = 0;
+}
+
+HeapPrefault::~HeapPrefault() {
+  std::free(block_);
 }
 
 bool malloc_on_huge_pages() {

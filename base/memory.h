@@ -60,6 +60,35 @@ void reexec_with_huge_page_malloc(char** argv, bool one_arena = false);
 /// 7-8 ms of a c1_gear edit, ~4 ms with this).
 void keep_large_blocks_on_heap();
 
+/// Faults in a block of malloc's heap ahead of a phase that will fill fresh large arrays, so
+/// that they land on pages the kernel has already mapped: the constructor allocates the block
+/// (from the calling thread's arena: call it on the thread that will allocate the arrays),
+/// touch() writes one byte per 4 KiB page (from any thread: one that is otherwise idle, while
+/// the caller compiles), and the destructor hands the block back with malloc's trim
+/// threshold raised, so that malloc keeps its pages for the next allocations. Why: a fresh
+/// process's 512^3 mesh of the blend faulted in ~24 MB of new arrays inside its own time (huge
+/// pages when the kernel has them free, 4 KiB ones otherwise): 0.046-0.049 s, and
+/// 0.042-0.046 s with this beside the compile (bench/README.md). Does nothing (and touch()
+/// nothing) unless malloc is on huge pages (malloc_on_huge_pages(): hfrt's tunables serve
+/// blocks up to 32 MiB from the heap; otherwise the block would be mmap'ed on its own and
+/// unmapped when freed) and glibc on Linux; `bytes` is cut to 31 MiB. The trim threshold
+/// is left as the user set it in GLIBC_TUNABLES, if they did. For processes of their own
+/// (hfrt mesh): it changes the process's malloc settings.
+class HeapPrefault {
+ public:
+  explicit HeapPrefault(size_t bytes);
+  ~HeapPrefault();
+  HeapPrefault(const HeapPrefault&) = delete;
+  HeapPrefault& operator=(const HeapPrefault&) = delete;
+  void touch() const;
+  /// The bytes held (0 where nothing is done).
+  size_t size() const { return bytes_; }
+
+ private:
+  char* block_ = nullptr;
+  size_t bytes_ = 0;
+};
+
 /// Whether this process's malloc was started on huge pages (GLIBC_TUNABLES has
 /// glibc.malloc.hugetlb=1), for --stats.
 bool malloc_on_huge_pages();

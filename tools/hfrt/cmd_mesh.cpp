@@ -95,6 +95,7 @@ int run_mesh(const MeshCli& cli) {
   job.resolution = cli.resolution;
   job.cell = cli.cell;
   job.threads = cli.threads;
+  job.prefault_heap = true;  // a process of its own
   job.colors = !cli.no_color;
   job.simplify = cli.simplify;
 
