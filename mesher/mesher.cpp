@@ -289,12 +289,12 @@ class Capped {
     buf.resize(4 * m);
     float *pf = buf.data(), *gx = pf + m, *gy = gx + m, *gz = gy + m;
     field_.eval_gradient(m, x, y, z, pf, gx, gy, gz);
-    for (size_t i = 0; i < n; ++i) {
+    auto one = [&](size_t i) {
       const float fv = pf[i];
       f[i] = fv;
       if (fv == fv && fv <= box_distance(x[i], y[i], z[i])) {
         g[i] = {gx[i], gy[i], gz[i]};  // the usual case: F, not the cap
-        continue;
+        return;
       }
       Vec3 p{x[i], y[i], z[i]};
       const float d[6] = {p.x - box_.lo.x, box_.hi.x - p.x, p.y - box_.lo.y,
@@ -312,7 +312,40 @@ class Capped {
       } else {
         g[i] = {gx[i], gy[i], gz[i]};
       }
+    };
+    size_t i = 0;
+#if defined(__SSE2__)
+    // Four points at a time where F is not NaN and not above the cap at all four (the usual
+    // case; the test is box_distance's minimum in the same order, and cmple is false for a
+    // NaN): their gradients from the rows to the Vec3s by a 4x4 transpose. (~1.5 % of the
+    // mesher's instructions, scalar.) The fourth row's store spills into g[i + 4].x, which the
+    // loop writes next (i + 4 < n).
+    static_assert(sizeof(Vec3) == 3 * sizeof(float));
+    const __m128 lox = _mm_set1_ps(box_.lo.x), loy = _mm_set1_ps(box_.lo.y),
+                 loz = _mm_set1_ps(box_.lo.z), hix = _mm_set1_ps(box_.hi.x),
+                 hiy = _mm_set1_ps(box_.hi.y), hiz = _mm_set1_ps(box_.hi.z);
+    for (; i + 4 < n; i += 4) {
+      const __m128 fv = _mm_loadu_ps(pf + i);
+      const __m128 px = _mm_loadu_ps(x + i), py = _mm_loadu_ps(y + i), pz = _mm_loadu_ps(z + i);
+      const __m128 d = _mm_min_ps(_mm_min_ps(_mm_min_ps(_mm_sub_ps(px, lox), _mm_sub_ps(hix, px)),
+                                             _mm_min_ps(_mm_sub_ps(py, loy), _mm_sub_ps(hiy, py))),
+                                  _mm_min_ps(_mm_sub_ps(pz, loz), _mm_sub_ps(hiz, pz)));
+      if (_mm_movemask_ps(_mm_cmple_ps(fv, d)) != 15) {
+        for (size_t j = i; j < i + 4; ++j) one(j);
+        continue;
+      }
+      _mm_storeu_ps(f + i, fv);
+      __m128 r0 = _mm_loadu_ps(gx + i), r1 = _mm_loadu_ps(gy + i), r2 = _mm_loadu_ps(gz + i),
+             r3 = _mm_setzero_ps();
+      _MM_TRANSPOSE4_PS(r0, r1, r2, r3);
+      float* const out = &g[i].x;
+      _mm_storeu_ps(out, r0);
+      _mm_storeu_ps(out + 3, r1);
+      _mm_storeu_ps(out + 6, r2);
+      _mm_storeu_ps(out + 9, r3);
     }
+#endif
+    for (; i < n; ++i) one(i);
   }
 
   /// An interval enclosing Fc over each box (NaN ends: unknown), as Field::eval_intervals.
