@@ -730,7 +730,61 @@ void solve_edges(const Capped& capped, const EdgeBatch& in, EdgeZeros* out, Edge
   // bracket [0, 1]), its value and gradient from one evaluation (enough on a plane, where F
   // is affine along the edge).
   rows_for(n);
-  for (size_t i = 0; i < n; ++i) {
+  size_t i0 = 0;
+#if defined(__SSE2__)
+  // Four edges at a time, the same operations lane by lane (the same bits): the ends' Vec3s
+  // turned into rows by shuffles, the points back into Vec3s by a transpose whose fourth
+  // store spills into zpoint[i + 4].x, written next (i + 4 < n). (~2 % of the mesher's
+  // instructions, scalar.)
+  {
+    const __m128 inf = _mm_set1_ps(std::numeric_limits<float>::infinity());
+    const __m128 abs_mask = _mm_castsi128_ps(_mm_set1_epi32(0x7fffffff));
+    const __m128 half = _mm_set1_ps(0.5f), zero = _mm_setzero_ps(), one = _mm_set1_ps(1.0f);
+    // Rows x, y, z of four consecutive Vec3s (12 floats: x0 y0 z0 x1 | y1 z1 x2 y2 | z2 x3 y3 z3).
+    auto rows = [](const Vec3* v, __m128* x, __m128* y, __m128* z) {
+      const float* f = &v->x;
+      const __m128 a = _mm_loadu_ps(f), b = _mm_loadu_ps(f + 4), c = _mm_loadu_ps(f + 8);
+      const __m128 x01 = _mm_shuffle_ps(a, a, _MM_SHUFFLE(3, 3, 3, 0));  // x0 x1 x1 x1
+      const __m128 x23 = _mm_shuffle_ps(b, c, _MM_SHUFFLE(1, 1, 2, 2));  // x2 x2 x3 x3
+      *x = _mm_shuffle_ps(x01, x23, _MM_SHUFFLE(2, 0, 1, 0));            // x0 x1 x2 x3
+      const __m128 y01 = _mm_shuffle_ps(a, b, _MM_SHUFFLE(0, 0, 1, 1));  // y0 y0 y1 y1
+      const __m128 y23 = _mm_shuffle_ps(b, c, _MM_SHUFFLE(2, 2, 3, 3));  // y2 y2 y3 y3
+      *y = _mm_shuffle_ps(y01, y23, _MM_SHUFFLE(2, 0, 2, 0));            // y0 y1 y2 y3
+      const __m128 z01 = _mm_shuffle_ps(a, b, _MM_SHUFFLE(1, 1, 2, 2));  // z0 z0 z1 z1
+      const __m128 z23 = _mm_shuffle_ps(c, c, _MM_SHUFFLE(3, 3, 0, 0));  // z2 z2 z3 z3
+      *z = _mm_shuffle_ps(z01, z23, _MM_SHUFFLE(2, 0, 2, 0));            // z0 z1 z2 z3
+    };
+    for (; i0 + 4 < n; i0 += 4) {
+      const size_t i = i0;
+      const __m128 fa = _mm_loadu_ps(fa_in + i), fb = _mm_loadu_ps(fb_in + i);
+      const __m128 d = _mm_sub_ps(fa, fb);
+      const __m128 finite = _mm_and_ps(_mm_cmplt_ps(_mm_and_ps(fa, abs_mask), inf),
+                                       _mm_cmplt_ps(_mm_and_ps(fb, abs_mask), inf));
+      const __m128 q = _mm_div_ps(fa, d);
+      const __m128 ok = _mm_and_ps(_mm_and_ps(finite, _mm_cmpneq_ps(d, zero)),
+                                   _mm_and_ps(_mm_cmpgt_ps(q, zero), _mm_cmplt_ps(q, one)));
+      const __m128 t = _mm_or_ps(_mm_and_ps(ok, q), _mm_andnot_ps(ok, half));
+      _mm_storeu_ps(tm + i, t);
+      __m128 ax, ay, az, bx, by, bz;
+      rows(pa + i, &ax, &ay, &az);
+      rows(pb + i, &bx, &by, &bz);
+      __m128 px = _mm_add_ps(ax, _mm_mul_ps(_mm_sub_ps(bx, ax), t));
+      __m128 py = _mm_add_ps(ay, _mm_mul_ps(_mm_sub_ps(by, ay), t));
+      __m128 pz = _mm_add_ps(az, _mm_mul_ps(_mm_sub_ps(bz, az), t));
+      _mm_storeu_ps(xs + i, px);
+      _mm_storeu_ps(ys + i, py);
+      _mm_storeu_ps(zs + i, pz);
+      __m128 pw = zero;
+      _MM_TRANSPOSE4_PS(px, py, pz, pw);
+      float* const out = &zpoint[i].x;
+      _mm_storeu_ps(out, px);
+      _mm_storeu_ps(out + 3, py);
+      _mm_storeu_ps(out + 6, pz);
+      _mm_storeu_ps(out + 9, pw);
+    }
+  }
+#endif
+  for (size_t i = i0; i < n; ++i) {
     const float fa = fa_in[i], fb = fb_in[i], d = fa - fb;
     float t = 0.5f;
     if (std::isfinite(fa) && std::isfinite(fb) && d != 0) {
