@@ -240,6 +240,36 @@ struct Grid {
   int cells(int axis) const { return n[axis] + 2; }
 };
 
+#if defined(__SSE2__)
+/// Rows x, y, z of the four Vec3s at v (12 floats: x0 y0 z0 x1 | y1 z1 x2 y2 | z2 x3 y3 z3).
+inline void load_rows(const Vec3* v, __m128* x, __m128* y, __m128* z) {
+  static_assert(sizeof(Vec3) == 3 * sizeof(float));
+  const float* f = &v->x;
+  const __m128 a = _mm_loadu_ps(f), b = _mm_loadu_ps(f + 4), c = _mm_loadu_ps(f + 8);
+  const __m128 x01 = _mm_shuffle_ps(a, a, _MM_SHUFFLE(3, 3, 3, 0));  // x0 x1 x1 x1
+  const __m128 x23 = _mm_shuffle_ps(b, c, _MM_SHUFFLE(1, 1, 2, 2));  // x2 x2 x3 x3
+  *x = _mm_shuffle_ps(x01, x23, _MM_SHUFFLE(2, 0, 1, 0));            // x0 x1 x2 x3
+  const __m128 y01 = _mm_shuffle_ps(a, b, _MM_SHUFFLE(0, 0, 1, 1));  // y0 y0 y1 y1
+  const __m128 y23 = _mm_shuffle_ps(b, c, _MM_SHUFFLE(2, 2, 3, 3));  // y2 y2 y3 y3
+  *y = _mm_shuffle_ps(y01, y23, _MM_SHUFFLE(2, 0, 2, 0));            // y0 y1 y2 y3
+  const __m128 z01 = _mm_shuffle_ps(a, b, _MM_SHUFFLE(1, 1, 2, 2));  // z0 z0 z1 z1
+  const __m128 z23 = _mm_shuffle_ps(c, c, _MM_SHUFFLE(3, 3, 0, 0));  // z2 z2 z3 z3
+  *z = _mm_shuffle_ps(z01, z23, _MM_SHUFFLE(2, 0, 2, 0));            // z0 z1 z2 z3
+}
+
+/// Rows x, y, z into the four Vec3s at v by a 4x4 transpose. The fourth store spills into
+/// v[4].x: v[4] must exist, and be written after (the callers' loops stop at i + 4 < n).
+inline void store_rows(Vec3* v, __m128 x, __m128 y, __m128 z) {
+  __m128 w = _mm_setzero_ps();
+  _MM_TRANSPOSE4_PS(x, y, z, w);
+  float* const out = &v->x;
+  _mm_storeu_ps(out, x);
+  _mm_storeu_ps(out + 3, y);
+  _mm_storeu_ps(out + 6, z);
+  _mm_storeu_ps(out + 9, w);
+}
+#endif
+
 /// Fc = min(F, d) with d the distance inside the box's faces; NaN F is -inf (outside). Batches
 /// are padded to a multiple of kPad with copies of the last point, so that a point's value
 /// does not depend on where it sits in a batch (no scalar tail loop in the evaluator).
@@ -317,10 +347,8 @@ class Capped {
 #if defined(__SSE2__)
     // Four points at a time where F is not NaN and not above the cap at all four (the usual
     // case; the test is box_distance's minimum in the same order, and cmple is false for a
-    // NaN): their gradients from the rows to the Vec3s by a 4x4 transpose. (~1.5 % of the
-    // mesher's instructions, scalar.) The fourth row's store spills into g[i + 4].x, which the
-    // loop writes next (i + 4 < n).
-    static_assert(sizeof(Vec3) == 3 * sizeof(float));
+    // NaN): their gradients from the rows to the Vec3s by store_rows (the loop stops at
+    // i + 4 < n). (~1.5 % of the mesher's instructions, scalar.)
     const __m128 lox = _mm_set1_ps(box_.lo.x), loy = _mm_set1_ps(box_.lo.y),
                  loz = _mm_set1_ps(box_.lo.z), hix = _mm_set1_ps(box_.hi.x),
                  hiy = _mm_set1_ps(box_.hi.y), hiz = _mm_set1_ps(box_.hi.z);
@@ -335,14 +363,7 @@ class Capped {
         continue;
       }
       _mm_storeu_ps(f + i, fv);
-      __m128 r0 = _mm_loadu_ps(gx + i), r1 = _mm_loadu_ps(gy + i), r2 = _mm_loadu_ps(gz + i),
-             r3 = _mm_setzero_ps();
-      _MM_TRANSPOSE4_PS(r0, r1, r2, r3);
-      float* const out = &g[i].x;
-      _mm_storeu_ps(out, r0);
-      _mm_storeu_ps(out + 3, r1);
-      _mm_storeu_ps(out + 6, r2);
-      _mm_storeu_ps(out + 9, r3);
+      store_rows(g + i, _mm_loadu_ps(gx + i), _mm_loadu_ps(gy + i), _mm_loadu_ps(gz + i));
     }
 #endif
     for (; i < n; ++i) one(i);
@@ -733,27 +754,12 @@ void solve_edges(const Capped& capped, const EdgeBatch& in, EdgeZeros* out, Edge
   size_t i0 = 0;
 #if defined(__SSE2__)
   // Four edges at a time, the same operations lane by lane (the same bits): the ends' Vec3s
-  // turned into rows by shuffles, the points back into Vec3s by a transpose whose fourth
-  // store spills into zpoint[i + 4].x, written next (i + 4 < n). (~2 % of the mesher's
-  // instructions, scalar.)
+  // turned into rows (load_rows), the points back into Vec3s (store_rows; the loop stops at
+  // i + 4 < n). (~2 % of the mesher's instructions, scalar.)
   {
     const __m128 inf = _mm_set1_ps(std::numeric_limits<float>::infinity());
     const __m128 abs_mask = _mm_castsi128_ps(_mm_set1_epi32(0x7fffffff));
     const __m128 half = _mm_set1_ps(0.5f), zero = _mm_setzero_ps(), one = _mm_set1_ps(1.0f);
-    // Rows x, y, z of four consecutive Vec3s (12 floats: x0 y0 z0 x1 | y1 z1 x2 y2 | z2 x3 y3 z3).
-    auto rows = [](const Vec3* v, __m128* x, __m128* y, __m128* z) {
-      const float* f = &v->x;
-      const __m128 a = _mm_loadu_ps(f), b = _mm_loadu_ps(f + 4), c = _mm_loadu_ps(f + 8);
-      const __m128 x01 = _mm_shuffle_ps(a, a, _MM_SHUFFLE(3, 3, 3, 0));  // x0 x1 x1 x1
-      const __m128 x23 = _mm_shuffle_ps(b, c, _MM_SHUFFLE(1, 1, 2, 2));  // x2 x2 x3 x3
-      *x = _mm_shuffle_ps(x01, x23, _MM_SHUFFLE(2, 0, 1, 0));            // x0 x1 x2 x3
-      const __m128 y01 = _mm_shuffle_ps(a, b, _MM_SHUFFLE(0, 0, 1, 1));  // y0 y0 y1 y1
-      const __m128 y23 = _mm_shuffle_ps(b, c, _MM_SHUFFLE(2, 2, 3, 3));  // y2 y2 y3 y3
-      *y = _mm_shuffle_ps(y01, y23, _MM_SHUFFLE(2, 0, 2, 0));            // y0 y1 y2 y3
-      const __m128 z01 = _mm_shuffle_ps(a, b, _MM_SHUFFLE(1, 1, 2, 2));  // z0 z0 z1 z1
-      const __m128 z23 = _mm_shuffle_ps(c, c, _MM_SHUFFLE(3, 3, 0, 0));  // z2 z2 z3 z3
-      *z = _mm_shuffle_ps(z01, z23, _MM_SHUFFLE(2, 0, 2, 0));            // z0 z1 z2 z3
-    };
     for (; i0 + 4 < n; i0 += 4) {
       const size_t i = i0;
       const __m128 fa = _mm_loadu_ps(fa_in + i), fb = _mm_loadu_ps(fb_in + i);
@@ -766,21 +772,15 @@ void solve_edges(const Capped& capped, const EdgeBatch& in, EdgeZeros* out, Edge
       const __m128 t = _mm_or_ps(_mm_and_ps(ok, q), _mm_andnot_ps(ok, half));
       _mm_storeu_ps(tm + i, t);
       __m128 ax, ay, az, bx, by, bz;
-      rows(pa + i, &ax, &ay, &az);
-      rows(pb + i, &bx, &by, &bz);
-      __m128 px = _mm_add_ps(ax, _mm_mul_ps(_mm_sub_ps(bx, ax), t));
-      __m128 py = _mm_add_ps(ay, _mm_mul_ps(_mm_sub_ps(by, ay), t));
-      __m128 pz = _mm_add_ps(az, _mm_mul_ps(_mm_sub_ps(bz, az), t));
+      load_rows(pa + i, &ax, &ay, &az);
+      load_rows(pb + i, &bx, &by, &bz);
+      const __m128 px = _mm_add_ps(ax, _mm_mul_ps(_mm_sub_ps(bx, ax), t));
+      const __m128 py = _mm_add_ps(ay, _mm_mul_ps(_mm_sub_ps(by, ay), t));
+      const __m128 pz = _mm_add_ps(az, _mm_mul_ps(_mm_sub_ps(bz, az), t));
       _mm_storeu_ps(xs + i, px);
       _mm_storeu_ps(ys + i, py);
       _mm_storeu_ps(zs + i, pz);
-      __m128 pw = zero;
-      _MM_TRANSPOSE4_PS(px, py, pz, pw);
-      float* const out = &zpoint[i].x;
-      _mm_storeu_ps(out, px);
-      _mm_storeu_ps(out + 3, py);
-      _mm_storeu_ps(out + 6, pz);
-      _mm_storeu_ps(out + 9, pw);
+      store_rows(zpoint + i, px, py, pz);
     }
   }
 #endif
@@ -808,10 +808,10 @@ void solve_edges(const Capped& capped, const EdgeBatch& in, EdgeZeros* out, Edge
   // further false-position steps and a new gradient at the end.
   std::vector<uint32_t>& retry = next_active;
   retry.clear();
-  for (size_t i = 0; i < n; ++i) {
-    set_normal(i, gn[i]);
+  // Edge i after its normal: within tolerance, a Newton step, or further steps (retry).
+  auto after_first = [&](size_t i) {
     const float f = fs[i], fa = fa_in[i], fb = fb_in[i], t0 = tm[i], tl = tolerance(i);
-    if (std::abs(f) <= tl) continue;
+    if (std::abs(f) <= tl) return;
     // The bracket after the first step (as update() leaves it).
     const bool low = inside(f) == inside(fa);
     const float lo_t = low ? t0 : 0.0f, hi_t = low ? 1.0f : t0;
@@ -824,11 +824,81 @@ void solve_edges(const Capped& capped, const EdgeBatch& in, EdgeZeros* out, Edge
     if (std::isfinite(t) && t > lo && t < hi &&
         std::abs(slope_t - secant) <= 0.25f * std::abs(secant)) {
       zpoint[i] = pa[i] + e * t;
-      continue;
+      return;
     }
     tlo[i] = lo_t, thi[i] = hi_t, flo[i] = vlo[i] = lo_v, fhi[i] = vhi[i] = hi_v;
     tol[i] = tl, side[i] = low ? 0 : 1;
     retry.push_back(uint32_t(i));
+  };
+  size_t i1 = 0;
+#if defined(__SSE2__)
+  // Four edges at a time where all four are within tolerance or take their Newton step (the
+  // usual case), lane by lane the operations of set_normal and after_first (the same bits);
+  // any other group edge by edge. (~3 % of the mesher's instructions, scalar.)
+  {
+    const __m128 inf = _mm_set1_ps(std::numeric_limits<float>::infinity());
+    const __m128 abs_mask = _mm_castsi128_ps(_mm_set1_epi32(0x7fffffff));
+    const __m128 zero = _mm_setzero_ps(), one = _mm_set1_ps(1.0f);
+    const __m128 tolerance_k = _mm_set1_ps(kRootTolerance), quarter = _mm_set1_ps(0.25f);
+    for (; i1 + 4 < n; i1 += 4) {
+      const size_t i = i1;
+      __m128 gx, gy, gz;
+      load_rows(gn + i, &gx, &gy, &gz);
+      // set_normal: l = |g|, valid = l > 0 and finite.
+      const __m128 l = _mm_sqrt_ps(
+          _mm_add_ps(_mm_add_ps(_mm_mul_ps(gx, gx), _mm_mul_ps(gy, gy)), _mm_mul_ps(gz, gz)));
+      const __m128 valid = _mm_and_ps(_mm_cmpgt_ps(l, zero), _mm_cmplt_ps(l, inf));
+      store_rows(znormal + i, _mm_and_ps(valid, _mm_div_ps(gx, l)),
+                 _mm_and_ps(valid, _mm_div_ps(gy, l)), _mm_and_ps(valid, _mm_div_ps(gz, l)));
+      _mm_storeu_ps(zslope + i, _mm_and_ps(valid, l));
+      // after_first.
+      const __m128 f = _mm_loadu_ps(fs + i), fa = _mm_loadu_ps(fa_in + i),
+                   fb = _mm_loadu_ps(fb_in + i), t0 = _mm_loadu_ps(tm + i);
+      const __m128 ad = _mm_and_ps(_mm_sub_ps(fa, fb), abs_mask);
+      const __m128 tl = _mm_and_ps(_mm_cmplt_ps(ad, inf), _mm_mul_ps(tolerance_k, ad));
+      const __m128 done = _mm_cmple_ps(_mm_and_ps(f, abs_mask), tl);
+      // low: inside(f) == inside(fa).
+      const __m128 low = _mm_xor_ps(_mm_xor_ps(_mm_cmpge_ps(f, zero), _mm_cmpge_ps(fa, zero)),
+                                    _mm_castsi128_ps(_mm_set1_epi32(-1)));
+      auto pick = [](__m128 m, __m128 a, __m128 b) {
+        return _mm_or_ps(_mm_and_ps(m, a), _mm_andnot_ps(m, b));
+      };
+      const __m128 lo_t = pick(low, t0, zero), hi_t = pick(low, one, t0);
+      const __m128 lo_v = pick(low, f, fa), hi_v = pick(low, fb, f);
+      __m128 ax, ay, az, bx, by, bz;
+      load_rows(pa + i, &ax, &ay, &az);
+      load_rows(pb + i, &bx, &by, &bz);
+      const __m128 ex = _mm_sub_ps(bx, ax), ey = _mm_sub_ps(by, ay), ez = _mm_sub_ps(bz, az);
+      const __m128 slope_t =
+          _mm_add_ps(_mm_add_ps(_mm_mul_ps(gx, ex), _mm_mul_ps(gy, ey)), _mm_mul_ps(gz, ez));
+      const __m128 secant = _mm_div_ps(_mm_sub_ps(hi_v, lo_v), _mm_sub_ps(hi_t, lo_t));
+      const __m128 t = _mm_sub_ps(t0, _mm_div_ps(f, slope_t));
+      // (_mm_min_ps and std::min differ only where the operands are equal or NaN, which
+      // lo_t and hi_t never are: one of them is t0 in (0, 1), the other 0 or 1.)
+      const __m128 lo = _mm_min_ps(lo_t, hi_t), hi = _mm_max_ps(lo_t, hi_t);
+      const __m128 step =
+          _mm_and_ps(_mm_and_ps(_mm_cmplt_ps(_mm_and_ps(t, abs_mask), inf), _mm_cmpgt_ps(t, lo)),
+                     _mm_and_ps(_mm_cmplt_ps(t, hi),
+                                _mm_cmple_ps(_mm_and_ps(_mm_sub_ps(slope_t, secant), abs_mask),
+                                             _mm_mul_ps(quarter, _mm_and_ps(secant, abs_mask)))));
+      if (_mm_movemask_ps(_mm_or_ps(done, step)) != 15) {
+        for (size_t j = i; j < i + 4; ++j) after_first(j);
+        continue;
+      }
+      const int moved = _mm_movemask_ps(_mm_andnot_ps(done, step));
+      if (moved == 0) continue;
+      alignas(16) float px[4], py[4], pz[4];
+      _mm_store_ps(px, _mm_add_ps(ax, _mm_mul_ps(ex, t)));
+      _mm_store_ps(py, _mm_add_ps(ay, _mm_mul_ps(ey, t)));
+      _mm_store_ps(pz, _mm_add_ps(az, _mm_mul_ps(ez, t)));
+      for (int j = 0; j < 4; ++j)
+        if ((moved >> j) & 1) zpoint[i + size_t(j)] = {px[j], py[j], pz[j]};
+    }
+  }
+#endif
+  for (size_t i = i1; i < n; ++i) {
+    set_normal(i, gn[i]);
+    after_first(i);
   }
   if (!retry.empty()) {
     active.swap(retry);
