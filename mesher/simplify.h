@@ -9,8 +9,15 @@
 // ends or their midpoint, whichever has the smaller error, so vertices on sharp edges and
 // corners stay there. A collapse that would break the mesh is refused: the two ends must share
 // exactly the two neighbours of their edge (the link condition: the mesh stays a closed
-// 2-manifold), and no triangle around them may turn over. Deterministic (ties broken by
-// vertex index); single-threaded.
+// 2-manifold), and no triangle around them may turn over.
+//
+// The order: by the error in steps of 1/1024 of the bound (ERROR^2), and within a step the
+// shorter edge first, then by vertex index (deterministic). Why the steps: on a flat region
+// every error is zero up to rounding, and in the order of the bare error one vertex took its
+// neighbours' edges one after another, a fan of hundreds of triangles whose every further
+// collapse looked at all of them: simplifying the corpus csg model at 320 cells took 893 s,
+// and 3.5 s in this order (about as many triangles: 48336 before, 49718 now).
+// Single-threaded.
 
 #include <functional>
 
@@ -22,6 +29,9 @@ namespace hfrt::mesher {
 struct SimplifyStats {
   size_t triangles_before = 0, triangles_after = 0;
   size_t collapses = 0;
+  /// Triangles looked at (around the ends of the edges tried and collapsed): about a constant
+  /// times the triangles when no vertex gathers a large fan.
+  size_t triangle_visits = 0;
   double seconds = 0;
 };
 
