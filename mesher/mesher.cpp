@@ -196,7 +196,8 @@ struct CubeTable {
         // Edge e's owner is this cell + u e_b + v e_c; the cells around it are the owner
         // minus 0, e_b, e_c and both. A step of -1 from the low face (or +1 from the high
         // one) leaves the block.
-        const int b = e / 4 == 0 ? 1 : 0, c = e / 4 == 2 ? 1 : 2;  // other_axes
+        int b = 0, c = 0;
+        other_axes(e / 4, &b, &c);
         for (int s = 0; s < 2; ++s)
           for (int u = 0; u < 2; ++u) {
             int d[3] = {0, 0, 0};
@@ -255,6 +256,17 @@ inline void load_rows(const Vec3* v, __m128* x, __m128* y, __m128* z) {
   const __m128 z01 = _mm_shuffle_ps(a, b, _MM_SHUFFLE(1, 1, 2, 2));  // z0 z0 z1 z1
   const __m128 z23 = _mm_shuffle_ps(c, c, _MM_SHUFFLE(3, 3, 0, 0));  // z2 z2 z3 z3
   *z = _mm_shuffle_ps(z01, z23, _MM_SHUFFLE(2, 0, 2, 0));            // z0 z1 z2 z3
+}
+
+/// |x|, x finite (|x| < inf: false for NaN), and m ? a : b, lane by lane.
+inline __m128 abs4(__m128 x) {
+  return _mm_and_ps(x, _mm_castsi128_ps(_mm_set1_epi32(0x7fffffff)));
+}
+inline __m128 finite4(__m128 x) {
+  return _mm_cmplt_ps(abs4(x), _mm_set1_ps(std::numeric_limits<float>::infinity()));
+}
+inline __m128 select4(__m128 m, __m128 a, __m128 b) {
+  return _mm_or_ps(_mm_and_ps(m, a), _mm_andnot_ps(m, b));
 }
 
 /// Rows x, y, z into the four Vec3s at v by a 4x4 transpose. The fourth store spills into
@@ -757,19 +769,16 @@ void solve_edges(const Capped& capped, const EdgeBatch& in, EdgeZeros* out, Edge
   // turned into rows (load_rows), the points back into Vec3s (store_rows; the loop stops at
   // i + 4 < n). (~2 % of the mesher's instructions, scalar.)
   {
-    const __m128 inf = _mm_set1_ps(std::numeric_limits<float>::infinity());
-    const __m128 abs_mask = _mm_castsi128_ps(_mm_set1_epi32(0x7fffffff));
     const __m128 half = _mm_set1_ps(0.5f), zero = _mm_setzero_ps(), one = _mm_set1_ps(1.0f);
     for (; i0 + 4 < n; i0 += 4) {
       const size_t i = i0;
       const __m128 fa = _mm_loadu_ps(fa_in + i), fb = _mm_loadu_ps(fb_in + i);
       const __m128 d = _mm_sub_ps(fa, fb);
-      const __m128 finite = _mm_and_ps(_mm_cmplt_ps(_mm_and_ps(fa, abs_mask), inf),
-                                       _mm_cmplt_ps(_mm_and_ps(fb, abs_mask), inf));
+      const __m128 finite = _mm_and_ps(finite4(fa), finite4(fb));
       const __m128 q = _mm_div_ps(fa, d);
       const __m128 ok = _mm_and_ps(_mm_and_ps(finite, _mm_cmpneq_ps(d, zero)),
                                    _mm_and_ps(_mm_cmpgt_ps(q, zero), _mm_cmplt_ps(q, one)));
-      const __m128 t = _mm_or_ps(_mm_and_ps(ok, q), _mm_andnot_ps(ok, half));
+      const __m128 t = select4(ok, q, half);
       _mm_storeu_ps(tm + i, t);
       __m128 ax, ay, az, bx, by, bz;
       load_rows(pa + i, &ax, &ay, &az);
@@ -837,7 +846,6 @@ void solve_edges(const Capped& capped, const EdgeBatch& in, EdgeZeros* out, Edge
   // any other group edge by edge. (~3 % of the mesher's instructions, scalar.)
   {
     const __m128 inf = _mm_set1_ps(std::numeric_limits<float>::infinity());
-    const __m128 abs_mask = _mm_castsi128_ps(_mm_set1_epi32(0x7fffffff));
     const __m128 zero = _mm_setzero_ps(), one = _mm_set1_ps(1.0f);
     const __m128 tolerance_k = _mm_set1_ps(kRootTolerance), quarter = _mm_set1_ps(0.25f);
     for (; i1 + 4 < n; i1 += 4) {
@@ -854,17 +862,14 @@ void solve_edges(const Capped& capped, const EdgeBatch& in, EdgeZeros* out, Edge
       // after_first.
       const __m128 f = _mm_loadu_ps(fs + i), fa = _mm_loadu_ps(fa_in + i),
                    fb = _mm_loadu_ps(fb_in + i), t0 = _mm_loadu_ps(tm + i);
-      const __m128 ad = _mm_and_ps(_mm_sub_ps(fa, fb), abs_mask);
+      const __m128 ad = abs4(_mm_sub_ps(fa, fb));
       const __m128 tl = _mm_and_ps(_mm_cmplt_ps(ad, inf), _mm_mul_ps(tolerance_k, ad));
-      const __m128 done = _mm_cmple_ps(_mm_and_ps(f, abs_mask), tl);
+      const __m128 done = _mm_cmple_ps(abs4(f), tl);
       // low: inside(f) == inside(fa).
       const __m128 low = _mm_xor_ps(_mm_xor_ps(_mm_cmpge_ps(f, zero), _mm_cmpge_ps(fa, zero)),
                                     _mm_castsi128_ps(_mm_set1_epi32(-1)));
-      auto pick = [](__m128 m, __m128 a, __m128 b) {
-        return _mm_or_ps(_mm_and_ps(m, a), _mm_andnot_ps(m, b));
-      };
-      const __m128 lo_t = pick(low, t0, zero), hi_t = pick(low, one, t0);
-      const __m128 lo_v = pick(low, f, fa), hi_v = pick(low, fb, f);
+      const __m128 lo_t = select4(low, t0, zero), hi_t = select4(low, one, t0);
+      const __m128 lo_v = select4(low, f, fa), hi_v = select4(low, fb, f);
       __m128 ax, ay, az, bx, by, bz;
       load_rows(pa + i, &ax, &ay, &az);
       load_rows(pb + i, &bx, &by, &bz);
@@ -876,11 +881,10 @@ void solve_edges(const Capped& capped, const EdgeBatch& in, EdgeZeros* out, Edge
       // (_mm_min_ps and std::min differ only where the operands are equal or NaN, which
       // lo_t and hi_t never are: one of them is t0 in (0, 1), the other 0 or 1.)
       const __m128 lo = _mm_min_ps(lo_t, hi_t), hi = _mm_max_ps(lo_t, hi_t);
-      const __m128 step =
-          _mm_and_ps(_mm_and_ps(_mm_cmplt_ps(_mm_and_ps(t, abs_mask), inf), _mm_cmpgt_ps(t, lo)),
-                     _mm_and_ps(_mm_cmplt_ps(t, hi),
-                                _mm_cmple_ps(_mm_and_ps(_mm_sub_ps(slope_t, secant), abs_mask),
-                                             _mm_mul_ps(quarter, _mm_and_ps(secant, abs_mask)))));
+      const __m128 step = _mm_and_ps(
+          _mm_and_ps(finite4(t), _mm_cmpgt_ps(t, lo)),
+          _mm_and_ps(_mm_cmplt_ps(t, hi), _mm_cmple_ps(abs4(_mm_sub_ps(slope_t, secant)),
+                                                       _mm_mul_ps(quarter, abs4(secant)))));
       if (_mm_movemask_ps(_mm_or_ps(done, step)) != 15) {
         for (size_t j = i; j < i + 4; ++j) after_first(j);
         continue;
@@ -1979,10 +1983,10 @@ TriMesh mesh_field(const render::Field& field, const MeshOptions& options, MeshS
         if (block_cmask[bi] == 0) continue;
         std::array<uint32_t, 3>* tris = mesh.triangles.data() + tri_at[bi];
         std::fill(local, local + kLocal, uint64_t(0));
+        const BlockPos& own = blocks[bi];
         for (int n = 0; n < 8; ++n) {
           // Neighbour n: -1 on each axis whose bit is set; only its cells at kBlock - 1 on
           // those axes.
-          const BlockPos& own = blocks[bi];
           const uint32_t bq =
               index.find(own.b[0] - (n & 1), own.b[1] - ((n >> 1) & 1), own.b[2] - (n >> 2));
           if (bq == kNone) continue;
