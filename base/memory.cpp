@@ -40,6 +40,13 @@ constexpr std::string_view kTrimThresholdTunable = "glibc.malloc.trim_threshold"
 /// threshold), and the heap's growth step and kept top: for GLIBC_TUNABLES and for mallopt.
 constexpr int kHeapBlockMax = 32 << 20;
 constexpr int kHeapTopPad = 16 << 20;
+
+/// Whether GLIBC_TUNABLES (the user's, or reexec_with_huge_page_malloc's) sets `name`: such a
+/// setting is kept, not overridden by mallopt.
+[[maybe_unused]] bool tunable_set(std::string_view name) {
+  const char* tunables = std::getenv("GLIBC_TUNABLES");
+  return tunables && std::string_view(tunables).find(name) != std::string_view::npos;
+}
 }  // namespace
 
 std::optional<std::string> huge_page_malloc_tunables(const char* current, std::string_view thp_mode,
@@ -103,13 +110,8 @@ void reexec_with_huge_page_malloc(char** argv, bool one_arena) {
 
 void keep_large_blocks_on_heap() {
 #if defined(__linux__) && defined(__GLIBC__)
-  // A tunable the user (or reexec_with_huge_page_malloc) set is kept.
-  const char* tunables = std::getenv("GLIBC_TUNABLES");
-  const std::string_view now = tunables ? tunables : "";
-  if (now.find(kMmapThresholdTunable) == std::string_view::npos) {
-    mallopt(M_MMAP_THRESHOLD, kHeapBlockMax);
-  }
-  if (now.find(kTopPadTunable) == std::string_view::npos) mallopt(M_TOP_PAD, kHeapTopPad);
+  if (!tunable_set(kMmapThresholdTunable)) mallopt(M_MMAP_THRESHOLD, kHeapBlockMax);
+  if (!tunable_set(kTopPadTunable)) mallopt(M_TOP_PAD, kHeapTopPad);
 #endif
 }
 
@@ -119,8 +121,7 @@ HeapPrefault::HeapPrefault(size_t bytes) {
   bytes = std::min(bytes, size_t(kHeapBlockMax - (1 << 20)));  // served from the heap
   // Kept when handed back: by default malloc trims its heap's top down to the top pad as soon
   // as the top exceeds 128 KiB.
-  const char* tunables = std::getenv("GLIBC_TUNABLES");
-  if (!tunables || std::string_view(tunables).find(kTrimThresholdTunable) == std::string_view::npos)
+  if (!tunable_set(kTrimThresholdTunable))
     mallopt(M_TRIM_THRESHOLD, int(bytes) + kHeapTopPad + kHeapBlockMax);
   block_ = static_cast<char*>(std::malloc(bytes));
   if (block_) bytes_ = bytes;
